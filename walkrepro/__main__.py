@@ -1,0 +1,5 @@
+"""``python -m walkrepro`` is the same as the ``walkrepro`` command."""
+
+from walkrepro.cli import app
+
+app()

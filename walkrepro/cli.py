@@ -1,0 +1,267 @@
+"""The ``walkrepro`` command line: list, run, check, plot, verify, render.
+
+Thin by design: parse arguments, call the library, print. A user error (bad spec, unknown
+name, unwritable directory) prints one paragraph and exits with code 2, no traceback.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import sys
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Annotated, Any, TypeVar
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from walkrepro import results
+from walkrepro.errors import WalkreproError
+
+app = typer.Typer(
+    help="Reproduce published biped-walking controllers in MuJoCo and check the reproduction.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+console = Console()
+err_console = Console(stderr=True)
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+SetOption = Annotated[
+    list[str] | None,
+    typer.Option("--set", help="Override a spec field, e.g. --set controller.params.zeta=0.04"),
+]
+OutOption = Annotated[
+    Path, typer.Option("--out", help="Root directory for run outputs.", show_default=True)
+]
+
+
+def friendly_errors(fn: F) -> F:
+    """Turn user errors into one paragraph on stderr and exit code 2."""
+
+    @functools.wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return fn(*args, **kwargs)
+        except WalkreproError as exc:
+            err_console.print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
+            raise typer.Exit(code=exc.exit_code) from None
+
+    return wrapper  # type: ignore[return-value]
+
+
+@app.command("list")
+@friendly_errors
+def list_cmd() -> None:
+    """List every experiment with its paper, figure, robot and controller."""
+    from walkrepro.spec import experiment_names, load_spec
+
+    table = Table(title="walkrepro experiments")
+    for col in ("experiment", "paper", "figure", "robot", "controller", "description"):
+        table.add_column(col)
+    for name in experiment_names():
+        spec = load_spec(name).spec
+        section = ", ".join(x for x in (spec.paper.section, spec.paper.figure) if x)
+        table.add_row(
+            name, spec.paper.key, section, spec.robot, spec.controller.type, spec.description
+        )
+    console.print(table)
+
+
+@app.command()
+@friendly_errors
+def run(
+    experiment: Annotated[str, typer.Argument(help="Experiment name or path to a spec YAML.")],
+    set_: SetOption = None,
+    out: OutOption = results.DEFAULT_ROOT,
+    figures: Annotated[bool, typer.Option(help="Draw the paper's figures after the run.")] = True,
+) -> None:
+    """Run one experiment headless: log, metrics, verdict and figures in a new run directory."""
+    summary = _run_one(experiment, set_ or [], out, figures, show_progress=True)
+    _print_verdicts([summary.verdict])
+    console.print(f"run directory: [bold]{summary.run_dir}[/]")
+    if summary.result.outcome == "interrupted":
+        raise typer.Exit(code=130)
+    if summary.result.outcome == "error":
+        err_console.print(f"[bold red]error:[/] {summary.result.message}")
+        raise typer.Exit(code=1)
+
+
+@app.command()
+@friendly_errors
+def check(
+    experiments: Annotated[list[str] | None, typer.Argument(help="Experiments to run and check.")] = None,
+    run_dir: Annotated[
+        list[Path] | None, typer.Option("--run", help="Re-check an existing run directory or log.")
+    ] = None,
+    set_: SetOption = None,
+    out: OutOption = results.DEFAULT_ROOT,
+    jobs: Annotated[int, typer.Option(help="Parallel runs (processes).")] = os.cpu_count() or 1,
+    junit: Annotated[Path | None, typer.Option(help="Also write a JUnit XML report.")] = None,
+    figures: Annotated[bool, typer.Option(help="Draw figures for each run.")] = False,
+) -> None:
+    """Run experiments (or re-check runs) and compare them with the papers. Exit 1 on failure."""
+    from walkrepro import checks
+    from walkrepro.experiment import evaluate_log
+    from walkrepro.spec import experiment_names
+
+    verdicts: list[checks.Verdict] = []
+    for path in run_dir or []:
+        directory, log = results.resolve_run(path)
+        verdicts.append(evaluate_log(log, directory)[1])
+    names = list(experiments or [])
+    if not names and not run_dir:
+        names = experiment_names()
+    for name in names:  # validate every spec before running any
+        _resolved(name, set_ or [])
+    if names:
+        console.print(f"running {len(names)} experiment(s) with {min(jobs, len(names))} process(es)…")
+        if jobs > 1 and len(names) > 1:
+            with ProcessPoolExecutor(max_workers=jobs) as pool:
+                futures = [pool.submit(_run_one, n, set_ or [], out, figures, False) for n in names]
+                summaries = [f.result() for f in futures]
+        else:
+            summaries = [_run_one(n, set_ or [], out, figures, False) for n in names]
+        for s in summaries:
+            console.print(f"{s.verdict.experiment}: {s.result.message} → {s.run_dir}")
+        verdicts += [s.verdict for s in summaries]
+    _print_verdicts(verdicts)
+    if junit is not None:
+        checks.write_junit(verdicts, junit)
+    if not all(v.passed for v in verdicts):
+        raise typer.Exit(code=1)
+
+
+@app.command()
+@friendly_errors
+def plot(
+    runs: Annotated[list[Path], typer.Argument(help="Run directory or log (two to compare runs).")],
+    out: Annotated[Path | None, typer.Option(help="Figure directory (default: RUN/figures).")] = None,
+) -> None:
+    """Redraw the paper's figures from one run, or compare two runs."""
+    from walkrepro.figures import plot_compare, plot_run
+
+    if len(runs) > 2:
+        raise WalkreproError("plot takes one run, or two runs to compare.")
+    resolved = [results.resolve_run(r) for r in runs]
+    if len(resolved) == 1:
+        directory, log = resolved[0]
+        written = plot_run(log, out or directory / results.FIGURES_DIR)
+    else:
+        written = plot_compare(resolved[0][1], resolved[1][1], out or resolved[0][0] / results.FIGURES_DIR)
+    for path in written:
+        console.print(f"wrote {path}")
+
+
+@app.command()
+@friendly_errors
+def verify(
+    log: Annotated[Path, typer.Argument(help="A log.mcap (or its run directory).")],
+    tolerance: Annotated[float, typer.Option(help="Largest allowed deviation.")] = 1e-9,
+) -> None:
+    """Re-simulate a log from its scene, initial state and inputs; compare with its states."""
+    from walkrepro.replay import verify_log
+
+    _, log_path = results.resolve_run(log)
+    report = verify_log(log_path, tolerance)
+    status = "[green]OK[/]" if report.ok else "[red]FAILED[/]"
+    console.print(
+        f"{status}: replayed {report.n_steps} steps, compared {report.n_states_compared} states; "
+        f"largest deviation {report.max_deviation:.3g} (step {report.worst_step}, {report.worst_field}); "
+        f"tolerance {report.tolerance:g}"
+    )
+    if not report.ok:
+        raise typer.Exit(code=1)
+
+
+@app.command()
+@friendly_errors
+def render(
+    run_path: Annotated[Path, typer.Argument(help="Run directory or log.")],
+    at: Annotated[str, typer.Option(help="Comma-separated times [s].")] = "0,1,2,3,4",
+    out: Annotated[Path | None, typer.Option(help="PNG path (default: RUN/figures/snapshots.png).")] = None,
+    width: Annotated[int, typer.Option(help="Width of each frame [px].")] = 480,
+    height: Annotated[int, typer.Option(help="Height of each frame [px].")] = 640,
+) -> None:
+    """Render a snapshot strip of a run, headless (MUJOCO_GL=osmesa or egl)."""
+    from walkrepro.render import render_strip
+
+    directory, log = results.resolve_run(run_path)
+    try:
+        times = [float(x) for x in at.split(",") if x.strip()]
+    except ValueError:
+        raise WalkreproError(f"--at {at!r}: expected comma-separated times in seconds, e.g. 0,2,4.") from None
+    path = render_strip(log, times, out or directory / results.FIGURES_DIR / "snapshots.png", width, height)
+    console.print(f"wrote {path}")
+
+
+# --------------------------------------------------------------------------------------
+
+
+def _resolved(name: str, overrides: list[str]):  # noqa: ANN202 - returns ExperimentSpec
+    from walkrepro.spec import load_spec, resolve_spec
+
+    return resolve_spec(load_spec(name, overrides)).spec
+
+
+def _run_one(name: str, overrides: list[str], out: Path, figures: bool, show_progress: bool):  # noqa: ANN202
+    """Resolve and execute one experiment (module-level so a process pool can pickle it)."""
+    from walkrepro.experiment import execute
+
+    spec = _resolved(name, overrides)
+    if not show_progress:
+        return execute(spec, out, None, figures)
+    with Progress(
+        TextColumn(f"[bold]{spec.name}[/]"),
+        BarColumn(),
+        TextColumn("{task.fields[sim]}"),
+        TextColumn("RTF {task.fields[rtf]}"),
+        TimeElapsedColumn(),
+        console=err_console,
+        transient=False,
+    ) as bar:
+        task = bar.add_task("run", total=spec.sim.duration, sim="", rtf="")
+
+        def progress(t: float, duration: float, rtf: float) -> None:
+            bar.update(task, completed=t, sim=f"{t:6.2f}/{duration:.2f} s", rtf=f"{rtf:5.2f}x")
+
+        return execute(spec, out, progress, figures)
+
+
+def _print_verdicts(verdicts: list) -> None:  # list[checks.Verdict]
+    from walkrepro.checks import FAIL, KNOWN, PASS
+
+    colour = {PASS: "green", FAIL: "red", KNOWN: "yellow"}
+    table = Table(title="paper expectations")
+    for col in ("experiment", "metric", "paper", "measured", "band", "result", "source"):
+        table.add_column(col, overflow="fold")
+    for v in verdicts:
+        if v.outcome not in ("complete", "fell"):
+            table.add_row(v.experiment, "run", "", v.outcome, "", "[red]fail[/]", "")
+        for r in v.rows:
+            paper = r.band.split(" ", 1)[-1] if r.op != "between" else r.band
+            table.add_row(
+                v.experiment,
+                r.metric,
+                paper,
+                f"{r.measured:.4g}",
+                r.band,
+                f"[{colour[r.status]}]{r.status}[/]",
+                r.source + (f" — {r.note}" if r.note else ""),
+            )
+    console.print(table)
+    n_fail = sum(not v.passed for v in verdicts)
+    summary = "all expectations hold" if n_fail == 0 else f"{n_fail} experiment(s) failed"
+    console.print(f"[bold]{summary}[/]")
+
+
+def main() -> None:  # pragma: no cover - console entry point alias
+    """Entry point for ``python -m walkrepro``."""
+    app()
+    sys.exit(0)

@@ -1,0 +1,80 @@
+"""Standing posture controller: joint PD plus gravity compensation through the feet.
+
+The sanity controller of the ``stand_*`` experiments. For torque-controlled robots it
+returns
+
+    τ = S (g(q) − J_cᵀ λ) + K_p (q_home − q) − K_d q̇,
+
+where λ (both feet's wrenches) is the minimum-norm solution of the floating-base rows
+J_c,baseᵀ λ = g_base: the feet carry the weight and the joints only hold the posture.
+For position-controlled robots (series-elastic COMAN) it returns the motor targets of the
+``home`` keyframe, i.e. the servos hold the posture.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+from pydantic import Field
+
+from walkrepro.controllers.base import Command, Controller, ControllerParams
+from walkrepro.robot import Robot
+from walkrepro.sensors import SensorSnapshot
+
+SOLE_FRAMES = ("left_sole", "right_sole")
+
+
+class PostureParams(ControllerParams):
+    """Posture gains (torque robots only)."""
+
+    kp: float = Field(300.0, ge=0.0, description="joint stiffness K_p [Nm/rad]")
+    kd: float = Field(20.0, ge=0.0, description="joint damping K_d [Nms/rad]")
+    gravity_compensation: bool = Field(True, description="add S(g − J_cᵀλ)")
+
+
+class PostureController(Controller):
+    """Holds the robot's ``home`` posture."""
+
+    Params = PostureParams
+
+    def reset(self, robot: Robot, params: ControllerParams, control_period: float) -> None:
+        """Cache the home posture and Pinocchio workspace."""
+        assert isinstance(params, PostureParams)
+        self._robot = robot
+        self._params = params
+        self._q_home = robot.home_joint_pos.copy()
+        self._data = robot.pin_model.createData()
+        self._soles = [robot.pin_model.getFrameId(f) for f in SOLE_FRAMES]
+
+    def step(self, t: float, sensors: SensorSnapshot) -> Command:
+        """PD + gravity compensation, or the home motor targets for position servos."""
+        robot, p = self._robot, self._params
+        if robot.control_mode == "position":
+            return Command(ctrl=robot.home_ctrl.copy(), signals={"posture_error": 0.0})
+        error = self._q_home - sensors.joint_pos
+        tau = p.kp * error - p.kd * sensors.joint_vel
+        if p.gravity_compensation:
+            tau += self._gravity_torque(sensors)
+        return Command(ctrl=tau, signals={"posture_error": float(np.max(np.abs(error)))})
+
+    def _gravity_torque(self, sensors: SensorSnapshot) -> np.ndarray:
+        """S (g − J_cᵀ λ) with λ carrying the floating base's gravity load."""
+        if sensors.base_quat is None:
+            raise ValueError("posture controller needs the base state (sensors.base_state: true)")
+        model, data = self._robot.pin_model, self._data
+        q, _ = self._robot.pin_state(
+            sensors.base_pos,
+            sensors.base_quat,
+            sensors.base_linvel,
+            sensors.base_angvel,
+            sensors.joint_pos,
+            sensors.joint_vel,
+        )
+        g = pin.computeGeneralizedGravity(model, data, q)
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        jc = np.vstack(
+            [pin.getFrameJacobian(model, data, f, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED) for f in self._soles]
+        )
+        lam = np.linalg.lstsq(jc[:, :6].T, g[:6], rcond=None)[0]
+        return g[6:] - jc[:, 6:].T @ lam

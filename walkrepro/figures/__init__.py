@@ -1,0 +1,57 @@
+"""Figure registry: which figures a run gets, by the paper its spec reproduces.
+
+Every run gets the generic overview (:mod:`walkrepro.figures.overview`); a paper module
+(``lee2021.py``, ``faraji.py``, ``jo_oh.py``) registers the figures that redraw that
+paper's plots. Figures read only the log.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from importlib import import_module
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # headless: figures are files, never windows
+
+from walkrepro.metrics import LogData  # noqa: E402
+
+#: A figure function draws from one log and returns the written files.
+FigureFn = Callable[[LogData, Path], list[Path]]
+#: A comparison figure draws from two logs (e.g. with and without impedance).
+CompareFn = Callable[[LogData, LogData, Path], list[Path]]
+
+#: paper key -> module holding its FIGURES (and optionally COMPARE) lists
+_PAPER_MODULES: dict[str, str] = {}
+
+
+def _paper_figures(paper: str) -> tuple[list[FigureFn], list[CompareFn]]:
+    if paper not in _PAPER_MODULES:
+        return [], []
+    module = import_module(_PAPER_MODULES[paper])
+    return list(getattr(module, "FIGURES", [])), list(getattr(module, "COMPARE", []))
+
+
+def plot_run(log_path: Path, out_dir: Path) -> list[Path]:
+    """Draw every figure registered for the run's paper, plus the overview."""
+    from walkrepro.figures import overview
+
+    data = LogData.from_path(log_path)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = overview.overview(data, out_dir)
+    for fn in _paper_figures(data.spec.paper.key)[0]:
+        written += fn(data, out_dir)
+    return written
+
+
+def plot_compare(log_a: Path, log_b: Path, out_dir: Path) -> list[Path]:
+    """Draw the paper's comparison figures for two runs (and the overview of both)."""
+    from walkrepro.figures import overview
+
+    a, b = LogData.from_path(log_a), LogData.from_path(log_b)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = overview.compare(a, b, out_dir)
+    for fn in _paper_figures(a.spec.paper.key)[1]:
+        written += fn(a, b, out_dir)
+    return written

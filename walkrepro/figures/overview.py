@@ -1,0 +1,73 @@
+"""The overview every run gets: pelvis motion, foot loads, disturbances and falls.
+
+Not a paper figure; it is the first thing to look at when a reproduction misbehaves.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from walkrepro.figures.style import save
+from walkrepro.metrics import FOOT_BODIES, GRAVITY, LogData
+
+
+def overview(d: LogData, out_dir: Path) -> list[Path]:
+    """Pelvis position, foot normal forces with touchdowns, applied external forces."""
+    fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+    _pelvis(axes[0], d, "")
+    _feet(axes[1], d)
+    _external(axes[2], d)
+    axes[-1].set_xlabel("time [s]")
+    fig.suptitle(f"{d.spec.name}: run overview (outcome: {d.outcome}) — not a paper figure")
+    return save(fig, out_dir / "overview")
+
+
+def compare(a: LogData, b: LogData, out_dir: Path) -> list[Path]:
+    """Pelvis position of two runs on shared axes."""
+    fig, ax = plt.subplots(1, 1, figsize=(8, 4))
+    _pelvis(ax, a, f"{a.spec.name} ")
+    _pelvis(ax, b, f"{b.spec.name} ", linestyle="--")
+    ax.set_xlabel("time [s]")
+    fig.suptitle(f"{a.spec.name} vs {b.spec.name}: pelvis position — not a paper figure")
+    return save(fig, out_dir / f"compare_{a.spec.name}_vs_{b.spec.name}")
+
+
+def _pelvis(ax: plt.Axes, d: LogData, prefix: str, linestyle: str = "-") -> None:
+    for i, axis in enumerate("xyz"):
+        ax.plot(d.t, d.qpos[:, i], linestyle=linestyle, label=f"{prefix}pelvis {axis}")
+    _mark_fall(ax, d)
+    ax.set_ylabel("position [m]")
+    ax.legend(loc="best", fontsize="small")
+    ax.grid(alpha=0.3)
+
+
+def _feet(ax: plt.Axes, d: LogData) -> None:
+    for foot in FOOT_BODIES:
+        ax.plot(d.contact_t, d.foot_normal_force(foot), label=f"{foot} normal force")
+    steps = d.footsteps
+    if steps:
+        ax.plot([s.t for s in steps], np.zeros(len(steps)), "kv", label="touchdown")
+    ax.axhline(d.robot_mass * GRAVITY, color="gray", linestyle=":", label="robot weight")
+    ax.set_ylabel("force [N]")
+    ax.legend(loc="best", fontsize="small")
+    ax.grid(alpha=0.3)
+
+
+def _external(ax: plt.Axes, d: LogData) -> None:
+    xfrc = d.inputs_xfrc
+    dt = d.spec.sim.timestep
+    t = np.arange(len(xfrc)) * dt
+    mag = np.array([sum(float(np.linalg.norm(w[:3])) for w in x.values()) for x in xfrc])
+    ax.plot(t, mag, color="tab:red", label="|external force|")
+    ax.set_ylabel("force [N]")
+    ax.legend(loc="best", fontsize="small")
+    ax.grid(alpha=0.3)
+
+
+def _mark_fall(ax: plt.Axes, d: LogData) -> None:
+    for e in d.events:
+        if e.get("kind") == "fall":
+            ax.axvline(e["t"], color="red", linestyle="--", label="fall")

@@ -1,0 +1,61 @@
+"""Where a run came from: versions, git commit, seed, start time (the log's metadata)."""
+
+from __future__ import annotations
+
+import subprocess
+from datetime import datetime, timezone
+from functools import lru_cache
+from typing import TYPE_CHECKING
+
+import mujoco
+
+from walkrepro import PROJECT_ROOT, __version__
+
+if TYPE_CHECKING:
+    from walkrepro.spec import ExperimentSpec
+
+
+@lru_cache(maxsize=1)
+def git_commit() -> str:
+    """Commit of the checkout walkrepro runs from (``+dirty`` if modified), or ``unknown``."""
+    try:
+        commit = subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=PROJECT_ROOT, capture_output=True, text=True, timeout=5
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            cwd=PROJECT_ROOT,
+            capture_output=True,
+            text=True,
+            timeout=5,
+        ).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    if not commit:
+        return "unknown"
+    return commit + ("+dirty" if dirty else "")
+
+
+def pinocchio_version() -> str:
+    """Pinocchio's version string."""
+    import pinocchio
+
+    return str(pinocchio.__version__)
+
+
+def utc_now() -> datetime:
+    """Now, in UTC."""
+    return datetime.now(timezone.utc)
+
+
+def run_metadata(spec: ExperimentSpec) -> dict[str, str]:
+    """The ``walkrepro`` metadata record of a log (outcome is added when the log closes)."""
+    return {
+        "version": __version__,
+        "git_commit": git_commit(),
+        "mujoco_version": mujoco.__version__,
+        "pinocchio_version": pinocchio_version(),
+        "seed": str(spec.sim.seed),
+        "experiment": spec.name,
+        "start_time": utc_now().isoformat(timespec="seconds"),
+    }

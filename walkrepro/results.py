@@ -1,0 +1,104 @@
+"""Run directories: ``<root>/<experiment>/<UTC timestamp>-<short id>/``.
+
+A run is written into a hidden temporary directory and renamed to its final name when it
+ends, whatever the outcome, so a run never overwrites another and a half-written run is
+never mistaken for a finished one. The outcome is recorded in ``run.json``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+from dataclasses import dataclass
+from pathlib import Path
+
+from walkrepro import RESULTS_DIR
+from walkrepro.errors import WalkreproError
+from walkrepro.provenance import utc_now
+
+DEFAULT_ROOT = RESULTS_DIR / "runs"
+SPEC_FILE, LOG_FILE, METRICS_FILE, CHECK_FILE, RUN_FILE, FIGURES_DIR = (
+    "spec.yaml",
+    "log.mcap",
+    "metrics.json",
+    "check.json",
+    "run.json",
+    "figures",
+)
+
+
+@dataclass(frozen=True)
+class RunDir:
+    """A run directory being written (``work``) and its final name (``final``)."""
+
+    work: Path
+    final: Path
+
+    def finish(self) -> Path:
+        """Move the run to its final name; returns it."""
+        os.replace(self.work, self.final)
+        return self.final
+
+
+def new_run_dir(root: Path, experiment: str) -> RunDir:
+    """Create a fresh working directory for a run of ``experiment`` under ``root``.
+
+    Raises:
+        WalkreproError: if ``root`` cannot be created or written.
+    """
+    parent = root / experiment
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+        stamp = utc_now().strftime("%Y%m%dT%H%M%SZ")
+        for _ in range(100):
+            name = f"{stamp}-{secrets.token_hex(3)}"
+            final = parent / name
+            work = parent / f".{name}.partial"
+            if not final.exists() and not work.exists():
+                work.mkdir()
+                return RunDir(work=work, final=final)
+    except OSError as exc:
+        raise WalkreproError(
+            f"cannot write run outputs under {root}: {exc.strerror or exc}. "
+            "Choose a writable directory with --out DIR."
+        ) from None
+    raise WalkreproError(f"could not find a free run directory name under {parent}")
+
+
+def write_json(path: Path, data: object) -> None:
+    """Write JSON with a trailing newline (NaN written as null)."""
+    path.write_text(json.dumps(_nan_to_none(data), indent=2) + "\n")
+
+
+def _nan_to_none(x: object) -> object:
+    if isinstance(x, float) and x != x:
+        return None
+    if isinstance(x, dict):
+        return {k: _nan_to_none(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_nan_to_none(v) for v in x]
+    return x
+
+
+def resolve_run(path: Path) -> tuple[Path, Path]:
+    """A run directory or a log file -> (run directory, log path).
+
+    Raises:
+        WalkreproError: if neither a run directory with ``log.mcap`` nor a log file.
+    """
+    if path.is_dir():
+        log = path / LOG_FILE
+        if not log.is_file():
+            raise WalkreproError(f"{path}: not a run directory (no {LOG_FILE} inside).")
+        return path, log
+    if path.is_file():
+        return path.parent, path
+    raise WalkreproError(f"{path}: no such run directory or log file.")
+
+
+def latest_run(root: Path, experiment: str) -> Path | None:
+    """The most recent finished run of ``experiment`` under ``root``, if any."""
+    parent = root / experiment
+    runs = sorted(p for p in parent.glob("*") if p.is_dir() and not p.name.startswith("."))
+    return runs[-1] if runs else None

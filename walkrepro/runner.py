@@ -1,0 +1,285 @@
+"""The simulation loop: sensors → controller → actuators → MuJoCo step, with disturbances.
+
+This is the only module that writes ``MjData``. Physics runs at ``sim.timestep``; the
+controller runs every ``sim.control_period`` and its command is held (zero-order hold)
+between ticks. Every physics step's inputs are logged so that ``walkrepro verify`` can
+replay the log bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import traceback
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from walkrepro import record
+from walkrepro.controllers import controller_class
+from walkrepro.disturbances import DisturbanceSchedule
+from walkrepro.provenance import run_metadata
+from walkrepro.robot import Robot, load_robot
+from walkrepro.sensors import SensorModel
+from walkrepro.spec import ExperimentSpec
+from walkrepro.world import FLOOR_NAME, build_scene
+
+#: Called as ``progress(sim_time, duration, real_time_factor)`` a few times per second.
+ProgressCallback = Callable[[float, float, float], None]
+
+FOOT_BODIES = ("left_foot", "right_foot")
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """What a run produced (picklable, so runs can fan out over a process pool).
+
+    Attributes:
+        experiment: spec name.
+        log_path: the MCAP log.
+        outcome: ``complete``, ``fell``, ``interrupted`` or ``error``.
+        sim_time: simulated time reached [s].
+        wall_time: wall-clock duration of the loop [s].
+        fall_time: time of the fall [s], or None.
+        message: one line for humans (why it fell or what went wrong).
+    """
+
+    experiment: str
+    log_path: Path
+    outcome: str
+    sim_time: float
+    wall_time: float
+    fall_time: float | None
+    message: str
+
+    @property
+    def real_time_factor(self) -> float:
+        """Simulated seconds per wall-clock second."""
+        return self.sim_time / self.wall_time if self.wall_time > 0 else math.inf
+
+
+class SimulationError(RuntimeError):
+    """The physics became invalid (NaN, MuJoCo's bad-acceleration reset)."""
+
+
+def run(spec: ExperimentSpec, log_path: Path, progress: ProgressCallback | None = None) -> RunResult:
+    """Simulate ``spec`` and write its log to ``log_path``.
+
+    Ctrl-C ends the loop cleanly: the log is closed and marked ``interrupted``. Any other
+    exception marks the log ``error`` and is re-raised after the log is closed.
+    """
+    robot = load_robot(spec.robot)
+    scene = build_scene(robot, spec)
+    model = scene.model
+    data = mujoco.MjData(model)
+    _set_home(robot, model, data)
+    mujoco.mj_forward(model, data)
+
+    cls = controller_class(spec.controller.type)
+    controller = cls()
+    controller.reset(robot, cls.Params.model_validate(spec.controller.params), spec.sim.control_period)
+    sensors = SensorModel(robot, model, spec.sensors, spec.sim.control_period, spec.sim.seed)
+    disturbances = DisturbanceSchedule(spec.disturbances)
+    contacts = _ContactReader(model)
+    fall = _FallDetector(robot, model, spec)
+
+    writer = record.LogWriter(
+        log_path, scene_xml=scene.xml, spec_yaml=spec.to_yaml(), metadata=run_metadata(spec)
+    )
+    substeps, n_steps = spec.sim.substeps, spec.sim.n_steps
+    ctrl = data.ctrl.copy()
+    outcome, message, fall_time = "complete", "", None
+    wall_start = time.perf_counter()
+    last_report = wall_start
+    step = 0
+    try:
+        for step in range(n_steps):
+            t = data.time
+            if step % substeps == 0:
+                if step > 0:
+                    mujoco.mj_forward(model, data)  # fresh sensors for the new state
+                _check_finite(data, t)
+                writer.write(record.TOPIC_STATE, _state_msg(step, data), t)
+                writer.write(record.TOPIC_CONTACTS, {"step": step, "t": t, "pairs": contacts.read(data)}, t)
+                reason = fall.check(data)
+                if reason:
+                    outcome, fall_time, message = "fell", t, f"fell at t = {t:.3f} s ({reason})"
+                    writer.write(record.TOPIC_EVENTS, {"t": t, "kind": "fall", "reason": reason}, t)
+                    break
+                snapshot = sensors.read(model, data)
+                command = controller.step(t, snapshot)
+                ctrl = _checked_ctrl(command.ctrl, model.nu, t)
+                writer.write(record.TOPIC_SENSORS, snapshot.as_dict(), t)
+                writer.write(record.TOPIC_SIGNALS, {"t": t, **_jsonable(command.signals)}, t)
+                for event in command.events:
+                    writer.write(record.TOPIC_EVENTS, {"t": t, **_jsonable(event)}, t)
+                now = time.perf_counter()
+                if progress is not None and now - last_report > 0.2:
+                    progress(t, spec.sim.duration, t / max(now - wall_start, 1e-9))
+                    last_report = now
+            wrenches, events = disturbances.wrenches(t, controller.frame)
+            for event in events:
+                writer.write(record.TOPIC_EVENTS, {"t": t, **event}, t)
+            data.xfrc_applied[:] = 0.0
+            for body, wrench in wrenches.items():
+                data.xfrc_applied[model.body(body).id] = wrench
+            data.ctrl[:] = ctrl
+            writer.write(
+                record.TOPIC_INPUTS,
+                {"step": step, "ctrl": ctrl.tolist(), "xfrc": {b: w.tolist() for b, w in wrenches.items()}},
+                t,
+            )
+            mujoco.mj_step(model, data)
+            if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
+                raise SimulationError(
+                    f"simulation became unstable at t = {data.time:.4f} s (MuJoCo reported a "
+                    "bad acceleration); the controller's torques or the timestep are too large"
+                )
+        else:
+            step = n_steps
+        if outcome == "complete" or outcome == "fell":
+            # Final state, after the last step taken (or at the fall).
+            _check_finite(data, data.time)
+            writer.write(record.TOPIC_STATE, _state_msg(step, data), data.time)
+    except KeyboardInterrupt:
+        outcome, message = "interrupted", f"interrupted at t = {data.time:.3f} s"
+    except SimulationError as exc:
+        outcome, message = "error", str(exc)
+    except BaseException as exc:
+        writer.close("error", {"error": "".join(traceback.format_exception_only(exc)).strip()})
+        raise
+    wall = time.perf_counter() - wall_start
+    extra = {"sim_time": repr(float(data.time)), "wall_time": f"{wall:.3f}"}
+    if fall_time is not None:
+        extra["fall_time"] = repr(float(fall_time))
+    if message:
+        extra["message"] = message
+    writer.close(outcome, extra)
+    if progress is not None:
+        progress(float(data.time), spec.sim.duration, data.time / max(wall, 1e-9))
+    return RunResult(
+        experiment=spec.name,
+        log_path=log_path,
+        outcome=outcome,
+        sim_time=float(data.time),
+        wall_time=wall,
+        fall_time=fall_time,
+        message=message or f"completed {data.time:.3f} s",
+    )
+
+
+def _set_home(robot: Robot, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    """Start from the robot's ``home`` keyframe; obstacles keep their compiled pose."""
+    data.qpos[: robot.home_qpos.size] = robot.home_qpos
+    data.ctrl[:] = robot.home_ctrl
+
+
+def _state_msg(step: int, data: mujoco.MjData) -> dict:
+    return {
+        "step": step,
+        "t": float(data.time),
+        "qpos": data.qpos.tolist(),
+        "qvel": data.qvel.tolist(),
+        "act": data.act.tolist(),
+    }
+
+
+def _check_finite(data: mujoco.MjData, t: float) -> None:
+    if not (np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))):
+        raise SimulationError(f"simulation state became NaN/inf at t = {t:.4f} s")
+
+
+def _checked_ctrl(ctrl: np.ndarray, nu: int, t: float) -> np.ndarray:
+    ctrl = np.asarray(ctrl, dtype=float)
+    if ctrl.shape != (nu,):
+        raise ValueError(f"controller returned ctrl of shape {ctrl.shape}, expected ({nu},)")
+    if not np.all(np.isfinite(ctrl)):
+        raise SimulationError(f"controller returned a non-finite command at t = {t:.4f} s")
+    return ctrl.copy()
+
+
+def _jsonable(values: object) -> dict:
+    """numpy scalars and arrays to plain Python for the JSON log."""
+    out = {}
+    for key, value in dict(values).items():  # type: ignore[call-overload]
+        if isinstance(value, np.ndarray):
+            value = value.tolist()
+        elif isinstance(value, np.generic):
+            value = value.item()
+        out[key] = value
+    return out
+
+
+class _ContactReader:
+    """Net contact wrench on each robot body from each world geom (floor, obstacles)."""
+
+    def __init__(self, model: mujoco.MjModel) -> None:
+        self._model = model
+        self._world_geom = np.array(
+            [
+                (model.geom(i).name == FLOOR_NAME or model.geom(i).name.startswith("obstacle"))
+                for i in range(model.ngeom)
+            ]
+        )
+        self._geom_name = [model.geom(i).name for i in range(model.ngeom)]
+        self._body_name = [model.body(model.geom_bodyid[i]).name for i in range(model.ngeom)]
+        self._force = np.zeros(6)
+
+    def read(self, data: mujoco.MjData) -> dict[str, list[float]]:
+        """``{"<robot body>/<world geom>": [fx, fy, fz, tx, ty, tz]}`` in the world frame.
+
+        The torque is about the world origin, so a pair's centre of pressure on a
+        horizontal surface is ``(-ty / fz, tx / fz)``.
+        """
+        pairs: dict[str, np.ndarray] = {}
+        for i in range(data.ncon):
+            c = data.contact[i]
+            g1, g2 = c.geom1, c.geom2
+            w1, w2 = self._world_geom[g1], self._world_geom[g2]
+            if w1 == w2:
+                continue  # robot-robot (filtered anyway) or world-world
+            mujoco.mj_contactForce(self._model, data, i, self._force)
+            # mj_contactForce gives the force of geom1 on geom2 in the contact frame.
+            f_on_g2 = c.frame.reshape(3, 3).T @ self._force[:3]
+            robot_geom, world_geom, f = (g2, g1, f_on_g2) if w1 else (g1, g2, -f_on_g2)
+            key = f"{self._body_name[robot_geom]}/{self._geom_name[world_geom]}"
+            wrench = np.concatenate([f, np.cross(c.pos, f)])
+            pairs[key] = pairs[key] + wrench if key in pairs else wrench
+        return {k: v.tolist() for k, v in pairs.items()}
+
+
+class _FallDetector:
+    """TARGETS.md: pelvis below a fraction of nominal height, or a non-foot body on the floor."""
+
+    def __init__(self, robot: Robot, model: mujoco.MjModel, spec: ExperimentSpec) -> None:
+        self._min_z = spec.sim.fall.pelvis_height_ratio * float(robot.home_qpos[2])
+        self._check_contact = spec.sim.fall.non_foot_ground_contact
+        self._pelvis = model.body("pelvis").id
+        self._floor = model.geom(FLOOR_NAME).id
+        feet = {model.body(name).id for name in FOOT_BODIES}
+        # Geoms of the robot's tree other than the feet (obstacles may rest on the floor).
+        self._non_foot_robot_geom = np.array(
+            [
+                model.body_rootid[model.geom_bodyid[g]] == self._pelvis
+                and model.geom_bodyid[g] not in feet
+                for g in range(model.ngeom)
+            ]
+        )
+        self._geom_body = [model.body(model.geom_bodyid[g]).name for g in range(model.ngeom)]
+
+    def check(self, data: mujoco.MjData) -> str:
+        """Reason for a fall, or an empty string."""
+        z = data.xpos[self._pelvis, 2]
+        if z < self._min_z:
+            return f"pelvis height {z:.3f} m below {self._min_z:.3f} m"
+        if self._check_contact:
+            for i in range(data.ncon):
+                c = data.contact[i]
+                if self._floor in (c.geom1, c.geom2):
+                    other = c.geom2 if c.geom1 == self._floor else c.geom1
+                    if self._non_foot_robot_geom[other] and c.dist < 0:
+                        return f"{self._geom_body[other]} touched the floor"
+        return ""

@@ -1,0 +1,161 @@
+"""The sensor snapshot a controller receives, and the model that produces it.
+
+A controller sees only what the robot would sense: link-side joint encoders, the IMU, the
+6-axis force/torque sensors between ankle and sole, and the floating-base state where the
+paper says the simulator provides it. Noise, encoder quantization and delay come from the
+spec's ``sensors`` block and are seeded, so a run is deterministic.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING
+
+import mujoco
+import numpy as np
+
+if TYPE_CHECKING:
+    from walkrepro.robot import Robot
+    from walkrepro.spec import SensorsSpec
+
+FOOT_SIDES = ("left", "right")
+
+
+@dataclass(frozen=True)
+class SensorSnapshot:
+    """One reading of every sensor, as the controller receives it.
+
+    Attributes:
+        t: time the reading was taken [s] (earlier than the control time when delayed).
+        joint_pos: link-side joint angles, shape (n,), actuator order [rad].
+        joint_vel: link-side joint velocities, shape (n,) [rad/s].
+        imu_quat: orientation of the IMU site, world-from-IMU, (w, x, y, z).
+        imu_gyro: angular velocity in the IMU frame, shape (3,) [rad/s].
+        imu_acc: specific force in the IMU frame, shape (3,) [m/s^2] (reads +g at rest).
+        left_ft: left F/T sensor, (fx, fy, fz, tx, ty, tz) in the ``left_foot_ft`` site frame;
+            the wrench the foot applies to the leg, so standing gives fz ≈ +supported weight
+            [N, Nm].
+        right_ft: right F/T sensor, same convention.
+        base_pos: pelvis position in the world [m], or None when not provided.
+        base_quat: pelvis orientation world-from-pelvis (w, x, y, z), or None.
+        base_linvel: pelvis linear velocity in the world frame [m/s], or None.
+        base_angvel: pelvis angular velocity in the pelvis frame [rad/s], or None.
+    """
+
+    t: float
+    joint_pos: np.ndarray
+    joint_vel: np.ndarray
+    imu_quat: np.ndarray
+    imu_gyro: np.ndarray
+    imu_acc: np.ndarray
+    left_ft: np.ndarray
+    right_ft: np.ndarray
+    base_pos: np.ndarray | None = None
+    base_quat: np.ndarray | None = None
+    base_linvel: np.ndarray | None = None
+    base_angvel: np.ndarray | None = None
+
+    def as_dict(self) -> dict[str, float | list[float] | None]:
+        """Plain-JSON view for the log's ``/sensors`` topic."""
+        out: dict[str, float | list[float] | None] = {}
+        for f in fields(self):
+            value = getattr(self, f.name)
+            out[f.name] = value.tolist() if isinstance(value, np.ndarray) else value
+        return out
+
+
+class SensorModel:
+    """Turns simulator state into :class:`SensorSnapshot` with the spec's imperfections.
+
+    This and the runner are the only code that reads ``MjData``; it only reads.
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        model: mujoco.MjModel,
+        spec: SensorsSpec,
+        control_period: float,
+        seed: int,
+    ) -> None:
+        self._spec = spec
+        self._rng = np.random.default_rng(seed)
+        self._qpos_adr = robot.link_joint_qpos_adr(model)
+        self._qvel_adr = robot.link_joint_qvel_adr(model)
+        self._sensor = {
+            name: _sensor_slice(model, name)
+            for name in (
+                "imu_quat",
+                "imu_gyro",
+                "imu_acc",
+                "left_foot_force",
+                "left_foot_torque",
+                "right_foot_force",
+                "right_foot_torque",
+            )
+        }
+        # A delay of d seconds holds back round(d / control_period) readings.
+        self._delay_ticks = int(round(spec.delay / control_period))
+        self._buffer: deque[SensorSnapshot] = deque(maxlen=self._delay_ticks + 1)
+
+    def read(self, model: mujoco.MjModel, data: mujoco.MjData) -> SensorSnapshot:
+        """Read the sensors now (after ``mj_forward``) and return the delayed snapshot."""
+        self._buffer.append(self._measure(data))
+        return self._buffer[0]
+
+    def _measure(self, data: mujoco.MjData) -> SensorSnapshot:
+        spec, rng = self._spec, self._rng
+        # Sum the components of each link joint (motor + spring DoF for series-elastic joints).
+        joint_pos = np.add.reduceat(data.qpos[self._qpos_adr[0]], self._qpos_adr[1])
+        joint_vel = np.add.reduceat(data.qvel[self._qvel_adr[0]], self._qvel_adr[1])
+        joint_pos = joint_pos + spec.joint_position_noise * rng.standard_normal(joint_pos.shape)
+        if spec.joint_position_quantization > 0:
+            step = spec.joint_position_quantization
+            joint_pos = np.round(joint_pos / step) * step
+        joint_vel = joint_vel + spec.joint_velocity_noise * rng.standard_normal(joint_vel.shape)
+
+        s = data.sensordata
+        imu_quat = s[self._sensor["imu_quat"]].copy()
+        imu_gyro = s[self._sensor["imu_gyro"]] + spec.imu_gyro_noise * rng.standard_normal(3)
+        imu_acc = s[self._sensor["imu_acc"]] + spec.imu_acc_noise * rng.standard_normal(3)
+        ft = {}
+        for side in FOOT_SIDES:
+            # MuJoCo's force/torque sensors give the wrench the parent applies to the foot
+            # subtree; the F/T convention here is the reaction (foot on leg), hence the sign.
+            force = -s[self._sensor[f"{side}_foot_force"]]
+            torque = -s[self._sensor[f"{side}_foot_torque"]]
+            force = force + spec.ft_force_noise * rng.standard_normal(3)
+            torque = torque + spec.ft_torque_noise * rng.standard_normal(3)
+            ft[side] = np.concatenate([force, torque])
+
+        base: dict[str, np.ndarray | None] = dict.fromkeys(
+            ("base_pos", "base_quat", "base_linvel", "base_angvel")
+        )
+        if spec.base_state:
+            base = {
+                "base_pos": data.qpos[0:3].copy(),
+                "base_quat": data.qpos[3:7].copy(),
+                "base_linvel": data.qvel[0:3].copy(),
+                "base_angvel": data.qvel[3:6].copy(),
+            }
+        return SensorSnapshot(
+            t=float(data.time),
+            joint_pos=joint_pos,
+            joint_vel=joint_vel,
+            imu_quat=imu_quat,
+            imu_gyro=np.asarray(imu_gyro),
+            imu_acc=np.asarray(imu_acc),
+            left_ft=ft["left"],
+            right_ft=ft["right"],
+            **base,
+        )
+
+
+def _sensor_slice(model: mujoco.MjModel, name: str) -> slice:
+    """Slice of ``sensordata`` that holds the named MuJoCo sensor."""
+    sensor_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, name)
+    if sensor_id < 0:
+        raise ValueError(f"robot model has no sensor named {name!r}")
+    adr = model.sensor_adr[sensor_id]
+    return slice(adr, adr + model.sensor_dim[sensor_id])

@@ -1,0 +1,504 @@
+"""Experiment specs: pydantic models, YAML loading with file:line errors, ``--set`` overrides.
+
+A spec is the whole description of an experiment (robot, controller and its parameters,
+world, disturbances, sensors, duration, and the paper's expectations). Loading happens in
+two stages so every error can name the file, the line and the field:
+
+1. :func:`load_spec` parses YAML (remembering the line of every field), applies ``--set``
+   overrides and validates the schema with pydantic.
+2. :func:`resolve_spec` checks names against the real registries: the robot folder, the
+   controller type and its parameter model, body names in the compiled robot, metric names.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
+
+from walkrepro import EXPERIMENTS_DIR
+from walkrepro.errors import SpecError, UnknownNameError
+
+Vec3 = tuple[float, float, float]
+
+#: Papers walkrepro reproduces (key -> citation); ``walkrepro`` marks our own sanity experiments.
+PAPERS: dict[str, str] = {
+    "lee2021": "Lee et al., Toward Reactive Walking (E-FSM + OS-WBC)",
+    "faraji": "Faraji et al., Push recovery with stepping strategy based on time-projection control",
+    "jo_oh": "Jo & Oh, Impedance control of humanoid walking on uneven terrain with CMD and QP",
+    "walkrepro": "walkrepro sanity experiment (no paper figure)",
+}
+
+
+class _Strict(BaseModel):
+    """Unknown fields are errors: a typo must never be silently ignored."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class PaperRef(_Strict):
+    """Which paper, section and figure an experiment reproduces."""
+
+    key: str = Field(description="paper key, one of PAPERS")
+    section: str = ""
+    figure: str = ""
+
+    @field_validator("key")
+    @classmethod
+    def _known_paper(cls, key: str) -> str:
+        if key not in PAPERS:
+            raise ValueError(f"unknown paper {key!r}; valid papers: {', '.join(sorted(PAPERS))}")
+        return key
+
+
+class ControllerSpec(_Strict):
+    """Controller type (a registry name) and its parameters (validated by the controller)."""
+
+    type: str
+    params: dict[str, Any] = Field(default_factory=dict)
+
+
+class FallSpec(_Strict):
+    """When a run counts as a fall (TARGETS.md: pelvis below 60 % of nominal, or ground contact)."""
+
+    pelvis_height_ratio: float = Field(0.6, gt=0.0, lt=1.0)
+    non_foot_ground_contact: bool = True
+
+
+class SimSpec(_Strict):
+    """Physics and control timing.
+
+    ``timestep`` and ``control_period`` in [s]; the control period must be a whole multiple
+    of the timestep (zero-order hold between control ticks).
+    """
+
+    timestep: float = Field(0.0005, gt=0.0)
+    control_period: float = Field(0.0005, gt=0.0)
+    duration: float = Field(gt=0.0)
+    seed: int = Field(0, ge=0)
+    fall: FallSpec = Field(default_factory=FallSpec)
+
+    @field_validator("control_period")
+    @classmethod
+    def _control_multiple_of_timestep(cls, period: float, info: ValidationInfo) -> float:
+        timestep = info.data.get("timestep")
+        if timestep is None:
+            return period  # the timestep's own error is reported
+        ratio = period / timestep
+        if round(ratio) < 1 or abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
+            raise ValueError(
+                f"must be a whole multiple of sim.timestep ({timestep} s), e.g. "
+                f"{max(1, round(ratio)) * timestep:g} s"
+            )
+        return period
+
+    @property
+    def substeps(self) -> int:
+        """Physics steps per control tick."""
+        return int(round(self.control_period / self.timestep))
+
+    @property
+    def n_steps(self) -> int:
+        """Physics steps in the whole run."""
+        return int(round(self.duration / self.timestep))
+
+
+class ObstacleSpec(_Strict):
+    """A box in the world. ``size`` is the full extent [m]; ``position`` its centre [m]."""
+
+    name: str = Field(pattern=r"^obstacle\w*$", description="geom name, must start with 'obstacle'")
+    size: Vec3
+    position: Vec3
+    tilt_x_deg: float = 0.0
+    tilt_y_deg: float = 0.0
+    fixed: bool = True
+    mass: float | None = Field(None, gt=0.0, description="[kg], required when not fixed")
+    friction: float | None = Field(None, gt=0.0)
+
+    @field_validator("size")
+    @classmethod
+    def _positive_size(cls, size: Vec3) -> Vec3:
+        if min(size) <= 0:
+            raise ValueError("every size component must be > 0 [m]")
+        return size
+
+    @model_validator(mode="after")
+    def _free_needs_mass(self) -> ObstacleSpec:
+        if not self.fixed and self.mass is None:
+            raise ValueError("a movable obstacle (fixed: false) needs a mass [kg]")
+        return self
+
+
+class WorldSpec(_Strict):
+    """Ground and obstacles."""
+
+    floor_friction: float = Field(1.0, gt=0.0)
+    obstacles: list[ObstacleSpec] = Field(default_factory=list)
+
+    @field_validator("obstacles")
+    @classmethod
+    def _unique_names(cls, obstacles: list[ObstacleSpec]) -> list[ObstacleSpec]:
+        names = [o.name for o in obstacles]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"obstacle names must be unique; repeated: {', '.join(dup)}")
+        return obstacles
+
+
+class DisturbanceSpec(_Strict):
+    """A time-windowed external wrench on a named body.
+
+    ``frame`` is ``world`` or a controller frame name (e.g. ``O_w``); a controller frame is
+    frozen at the disturbance onset. ``ramp`` rises linearly over ``ramp_time`` and falls
+    linearly over the last ``ramp_time`` of the window.
+    """
+
+    name: str
+    body: str
+    frame: str = "world"
+    force: Vec3 = (0.0, 0.0, 0.0)
+    torque: Vec3 = (0.0, 0.0, 0.0)
+    start: float = Field(ge=0.0)
+    duration: float = Field(gt=0.0)
+    profile: Literal["constant", "ramp"] = "constant"
+    ramp_time: float = Field(0.0, ge=0.0)
+
+    @model_validator(mode="after")
+    def _ramp_fits(self) -> DisturbanceSpec:
+        if self.profile == "ramp" and not 0 < 2 * self.ramp_time <= self.duration:
+            raise ValueError("a ramp needs 0 < 2 * ramp_time <= duration")
+        return self
+
+
+class SensorsSpec(_Strict):
+    """Sensor imperfections (standard deviations of white noise, quantization step, delay)."""
+
+    joint_position_noise: float = Field(0.0, ge=0.0, description="[rad]")
+    joint_position_quantization: float = Field(0.0, ge=0.0, description="encoder step [rad]")
+    joint_velocity_noise: float = Field(0.0, ge=0.0, description="[rad/s]")
+    imu_gyro_noise: float = Field(0.0, ge=0.0, description="[rad/s]")
+    imu_acc_noise: float = Field(0.0, ge=0.0, description="[m/s^2]")
+    ft_force_noise: float = Field(0.0, ge=0.0, description="[N]")
+    ft_torque_noise: float = Field(0.0, ge=0.0, description="[Nm]")
+    delay: float = Field(0.0, ge=0.0, description="sensor-to-controller delay [s]")
+    base_state: bool = Field(
+        True, description="the simulator provides the floating-base pose and velocity"
+    )
+
+
+Op = Literal["<", "<=", ">", ">=", "==", "between"]
+
+
+class Expectation(_Strict):
+    """One of the paper's expectations: ``metric op value``, with its source in the paper.
+
+    ``known_deviation`` marks an expectation the reproduction is known to miss, with the
+    reason; it is still evaluated and reported, never silently passed.
+    """
+
+    metric: str
+    op: Op
+    value: float | tuple[float, float]
+    source: str
+    note: str = ""
+    known_deviation: str | None = None
+
+    @model_validator(mode="after")
+    def _value_matches_op(self) -> Expectation:
+        if self.op == "between":
+            if not isinstance(self.value, tuple):
+                raise ValueError("op 'between' needs value: [low, high]")
+            if self.value[0] > self.value[1]:
+                raise ValueError("op 'between' needs low <= high")
+        elif isinstance(self.value, tuple):
+            raise ValueError(f"op {self.op!r} needs a single number as value")
+        return self
+
+
+class ExperimentSpec(_Strict):
+    """A whole experiment."""
+
+    name: str = Field(pattern=r"^[A-Za-z0-9_\-]+$")
+    description: str
+    paper: PaperRef
+    robot: str
+    controller: ControllerSpec
+    sim: SimSpec
+    world: WorldSpec = Field(default_factory=WorldSpec)
+    disturbances: list[DisturbanceSpec] = Field(default_factory=list)
+    sensors: SensorsSpec = Field(default_factory=SensorsSpec)
+    expect: list[Expectation] = Field(default_factory=list)
+
+    def to_yaml(self) -> str:
+        """The resolved spec as YAML (every default filled in)."""
+        return yaml.safe_dump(self.model_dump(mode="json"), sort_keys=False)
+
+
+# --------------------------------------------------------------------------------------
+# Loading with line numbers
+
+
+class LoadedSpec(BaseModel):
+    """A validated spec plus where it came from, so later errors can still cite lines."""
+
+    model_config = ConfigDict(arbitrary_types_allowed=True, frozen=True)
+
+    spec: ExperimentSpec
+    source: str  # file path, for messages
+    lines: dict[tuple[Any, ...], int]  # field path -> 1-based line
+    overridden: frozenset[tuple[Any, ...]] = frozenset()
+
+    def where(self, path: Sequence[Any]) -> str:
+        """``file, line N, field a.b.c`` for a field path (nearest known line)."""
+        return _where(self.source, self.lines, tuple(path), self.overridden)
+
+
+def experiment_names() -> list[str]:
+    """Names of the experiments shipped in ``experiments/``."""
+    return sorted(p.stem for p in EXPERIMENTS_DIR.glob("*.yaml"))
+
+
+def find_spec_file(name_or_path: str) -> Path:
+    """An experiment name (``experiments/NAME.yaml``) or a path to any spec file."""
+    looks_like_path = name_or_path.endswith((".yaml", ".yml")) or "/" in name_or_path
+    if looks_like_path:
+        path = Path(name_or_path)
+        if not path.is_file():
+            raise SpecError(f"{name_or_path}: no such spec file.")
+        return path
+    path = EXPERIMENTS_DIR / f"{name_or_path}.yaml"
+    if not path.is_file():
+        raise UnknownNameError("experiment", name_or_path, experiment_names())
+    return path
+
+
+def load_spec(name_or_path: str | Path, overrides: Iterable[str] = ()) -> LoadedSpec:
+    """Parse, override and schema-validate a spec.
+
+    Args:
+        name_or_path: experiment name or spec file path.
+        overrides: ``dotted.path=value`` strings (the value is parsed as YAML).
+
+    Raises:
+        SpecError: naming file, line and field for any problem.
+    """
+    path = find_spec_file(str(name_or_path))
+    source = _display_path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise SpecError(f"{source}: cannot read the spec ({exc.strerror}).") from None
+    data, lines = _parse_yaml(text, source)
+    overridden: set[tuple[Any, ...]] = set()
+    for item in overrides:
+        key_path = _apply_override(data, item)
+        overridden.add(key_path)
+    try:
+        spec = ExperimentSpec.model_validate(data)
+    except ValidationError as exc:
+        raise SpecError(_format_validation(exc, source, lines, overridden)) from None
+    return LoadedSpec(spec=spec, source=source, lines=lines, overridden=frozenset(overridden))
+
+
+def spec_from_yaml_text(text: str, source: str = "<spec>") -> ExperimentSpec:
+    """Validate a spec given as YAML text (e.g. the ``spec.yaml`` attachment of a log)."""
+    data, lines = _parse_yaml(text, source)
+    try:
+        return ExperimentSpec.model_validate(data)
+    except ValidationError as exc:
+        raise SpecError(_format_validation(exc, source, lines, set())) from None
+
+
+def _display_path(path: Path) -> str:
+    """The path as the user would type it: relative to the working directory if inside it."""
+    try:
+        return str(path.resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
+
+
+def _parse_yaml(text: str, source: str) -> tuple[Any, dict[tuple[Any, ...], int]]:
+    """YAML to plain data plus the 1-based line of every mapping key and list item."""
+    try:
+        node = yaml.compose(text, Loader=yaml.SafeLoader)
+        data = yaml.safe_load(text)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        line = f", line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        raise SpecError(
+            f"{source}{line}: YAML syntax error: {exc.problem or exc}. "
+            "Check indentation, colons and quotes there."
+        ) from None
+    except yaml.YAMLError as exc:
+        raise SpecError(f"{source}: YAML syntax error: {exc}.") from None
+    if not isinstance(data, dict):
+        raise SpecError(f"{source}: a spec must be a YAML mapping of fields (name, robot, ...).")
+    lines: dict[tuple[Any, ...], int] = {}
+    _collect_lines(node, (), lines)
+    return data, lines
+
+
+def _collect_lines(node: yaml.Node, path: tuple[Any, ...], out: dict[tuple[Any, ...], int]) -> None:
+    out[path] = node.start_mark.line + 1
+    if isinstance(node, yaml.MappingNode):
+        for key_node, value_node in node.value:
+            key = key_node.value
+            out[(*path, key)] = key_node.start_mark.line + 1
+            _collect_lines(value_node, (*path, key), out)
+            out[(*path, key)] = key_node.start_mark.line + 1
+    elif isinstance(node, yaml.SequenceNode):
+        for i, item in enumerate(node.value):
+            _collect_lines(item, (*path, i), out)
+
+
+def _where(
+    source: str,
+    lines: Mapping[tuple[Any, ...], int],
+    path: tuple[Any, ...],
+    overridden: Iterable[tuple[Any, ...]] = (),
+) -> str:
+    field = ".".join(str(p) for p in path) or "(top level)"
+    for o in overridden:
+        if path[: len(o)] == o:
+            return f"{source}, field {field} (set with --set)"
+    for n in range(len(path), -1, -1):
+        if path[:n] in lines:
+            return f"{source}, line {lines[path[:n]]}, field {field}"
+    return f"{source}, field {field}"
+
+
+def _format_validation(
+    exc: ValidationError,
+    source: str,
+    lines: Mapping[tuple[Any, ...], int],
+    overridden: Iterable[tuple[Any, ...]],
+    prefix: tuple[Any, ...] = (),
+) -> str:
+    parts = []
+    for err in exc.errors():
+        # Drop pydantic's union-branch tags (e.g. 'float', 'tuple[float, float]') from paths.
+        loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and ("[" in p or p in _TYPE_TAGS)))
+        path = (*prefix, *loc)
+        msg = err["msg"]
+        if msg.startswith("Value error, "):
+            msg = msg[len("Value error, ") :]
+        if err["type"] == "extra_forbidden":
+            msg = "unknown field (check the spelling; see the README's spec reference)"
+        elif err["type"] == "missing":
+            msg = "required field is missing"
+        got = err.get("input")
+        if err["type"] not in ("missing", "extra_forbidden") and not isinstance(got, dict | list):
+            msg += f" (got {got!r})"
+        parts.append(f"{_where(source, lines, path, overridden)}: {msg}")
+    # Unions report one error per branch; keep each message once.
+    unique = list(dict.fromkeys(parts))
+    return "; ".join(unique) + "."
+
+
+_TYPE_TAGS = {"float", "int", "str", "bool", "tuple", "list", "dict"}
+
+
+def _apply_override(data: dict[str, Any], item: str) -> tuple[Any, ...]:
+    """Apply one ``a.b.0.c=value`` override in place; returns the key path."""
+    if "=" not in item:
+        raise SpecError(f"--set {item!r}: expected FIELD=VALUE, e.g. sim.duration=3.")
+    key, _, raw = item.partition("=")
+    parts: list[Any] = [int(p) if p.isdigit() else p for p in key.strip().split(".")]
+    if not all(str(p) for p in parts):
+        raise SpecError(f"--set {item!r}: empty field name in {key!r}.")
+    try:
+        value = yaml.safe_load(raw) if raw.strip() else ""
+    except yaml.YAMLError:
+        value = raw
+    node: Any = data
+    for i, part in enumerate(parts[:-1]):
+        nxt = parts[i + 1]
+        if isinstance(node, list):
+            if not isinstance(part, int) or part >= len(node):
+                raise SpecError(f"--set {item!r}: {key} has no list item {part}.")
+            node = node[part]
+        else:
+            if part not in node or node[part] is None:
+                node[part] = [] if isinstance(nxt, int) else {}
+            node = node[part]
+    last = parts[-1]
+    if isinstance(node, list):
+        if not isinstance(last, int) or last >= len(node):
+            raise SpecError(f"--set {item!r}: {key} has no list item {last}.")
+        node[last] = value
+    elif isinstance(node, dict):
+        node[last] = value
+    else:
+        raise SpecError(f"--set {item!r}: {key} does not name a field inside a mapping.")
+    return tuple(parts)
+
+
+# --------------------------------------------------------------------------------------
+# Resolution against registries
+
+
+def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
+    """Check every name in the spec against the real registries and validate params.
+
+    Returns the same spec with ``controller.params`` normalised by the controller's model.
+
+    Raises:
+        SpecError / UnknownNameError: naming file, line, field and the valid names.
+    """
+    # Imported here: the registries import heavy modules (mujoco, pinocchio).
+    from walkrepro.controllers import controller_class, controller_names
+    from walkrepro.metrics import metric_names, split_metric
+    from walkrepro.robot import list_robots, load_robot
+
+    spec = loaded.spec
+    if spec.robot not in list_robots():
+        raise UnknownNameError("robot", spec.robot, list_robots(), loaded.where(("robot",)))
+    if spec.controller.type not in controller_names():
+        raise UnknownNameError(
+            "controller", spec.controller.type, controller_names(), loaded.where(("controller", "type"))
+        )
+    cls = controller_class(spec.controller.type)
+    try:
+        params = cls.Params.model_validate(spec.controller.params)
+    except ValidationError as exc:
+        raise SpecError(
+            _format_validation(exc, loaded.source, loaded.lines, loaded.overridden, ("controller", "params"))
+        ) from None
+
+    robot = load_robot(spec.robot)
+    bodies = robot.body_names()
+    for i, dist in enumerate(spec.disturbances):
+        if dist.body not in bodies:
+            raise UnknownNameError("body", dist.body, bodies, loaded.where(("disturbances", i, "body")))
+        frames = ("world", *cls.FRAMES)
+        if dist.frame not in frames:
+            raise UnknownNameError("frame", dist.frame, frames, loaded.where(("disturbances", i, "frame")))
+    valid_metrics = metric_names()
+    for i, exp in enumerate(spec.expect):
+        base, _ = split_metric(exp.metric)
+        if base not in valid_metrics:
+            raise UnknownNameError("metric", base, valid_metrics, loaded.where(("expect", i, "metric")))
+    if spec.sim.duration < spec.sim.control_period:
+        raise SpecError(f"{loaded.where(('sim', 'duration'))}: duration must cover one control period.")
+    for i, dist in enumerate(spec.disturbances):
+        if dist.start >= spec.sim.duration:
+            raise SpecError(
+                f"{loaded.where(('disturbances', i, 'start'))}: starts after the run ends "
+                f"(duration {spec.sim.duration} s)."
+            )
+    normalised = spec.model_copy(
+        update={"controller": ControllerSpec(type=spec.controller.type, params=params.model_dump(mode="json"))}
+    )
+    return loaded.model_copy(update={"spec": normalised})
+

@@ -1,0 +1,116 @@
+"""Builds the MuJoCo scene: robot MJCF + floor + obstacles + the spec's physics options.
+
+The scene is returned as one self-contained XML string. The runner compiles its model from
+that very string, and the log stores it as ``scene.xml``; replaying a log therefore uses
+the identical model, bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from walkrepro.robot import Robot
+from walkrepro.spec import ExperimentSpec, ObstacleSpec
+
+#: Collision filtering: robot geoms use contype=2/conaffinity=1 (no self-collision); world
+#: geoms use contype=1/conaffinity=3 so they touch the robot and each other.
+WORLD_CONTYPE = 1
+WORLD_CONAFFINITY = 3
+FLOOR_NAME = "floor"
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A compiled scene.
+
+    Attributes:
+        xml: self-contained MJCF of robot, floor and obstacles.
+        model: the model compiled from ``xml``.
+    """
+
+    xml: str
+    model: mujoco.MjModel
+
+
+def build_scene(robot: Robot, spec: ExperimentSpec) -> Scene:
+    """Compose the robot with the spec's world and physics timestep."""
+    mjspec = mujoco.MjSpec.from_file(str(robot.xml_path))
+    mjspec.modelname = f"{spec.name}-{robot.name}"
+    mjspec.option.timestep = spec.sim.timestep
+    # Elliptic cones and the Newton solver: accurate foot friction at the price of a few
+    # more solver iterations; noslip stays off (it would add a non-physical projection).
+    mjspec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    mjspec.option.solver = mujoco.mjtSolver.mjSOL_NEWTON
+    _add_visuals(mjspec)
+    floor = mjspec.worldbody.add_geom()
+    floor.name = FLOOR_NAME
+    floor.type = mujoco.mjtGeom.mjGEOM_PLANE
+    floor.size = [0.0, 0.0, 1.0]  # infinite plane, grid spacing 1 m
+    floor.friction = [spec.world.floor_friction, 0.005, 0.0001]
+    floor.contype = WORLD_CONTYPE
+    floor.conaffinity = WORLD_CONAFFINITY
+    floor.material = "grid"
+    for obstacle in spec.world.obstacles:
+        _add_obstacle(mjspec, obstacle, spec.world.floor_friction)
+    mjspec.compile()  # to_xml() writes the compiled spec
+    xml = mjspec.to_xml()
+    # Compile again from the text: the logged XML is the single source of truth.
+    return Scene(xml=xml, model=mujoco.MjModel.from_xml_string(xml))
+
+
+def _add_obstacle(mjspec: mujoco.MjSpec, obstacle: ObstacleSpec, floor_friction: float) -> None:
+    """A box with its centre at ``position``, tilted about x then y (degrees)."""
+    body = mjspec.worldbody.add_body()
+    body.name = obstacle.name
+    body.pos = list(obstacle.position)
+    body.quat = _quat_xy(math.radians(obstacle.tilt_x_deg), math.radians(obstacle.tilt_y_deg))
+    if not obstacle.fixed:
+        body.add_freejoint()
+    geom = body.add_geom()
+    geom.name = obstacle.name
+    geom.type = mujoco.mjtGeom.mjGEOM_BOX
+    geom.size = [s / 2 for s in obstacle.size]  # MuJoCo box sizes are half-extents
+    friction = obstacle.friction if obstacle.friction is not None else floor_friction
+    geom.friction = [friction, 0.005, 0.0001]
+    geom.contype = WORLD_CONTYPE
+    geom.conaffinity = WORLD_CONAFFINITY
+    geom.rgba = [0.85, 0.45, 0.2, 1.0]
+    if obstacle.mass is not None:
+        geom.mass = obstacle.mass
+
+
+def _quat_xy(rx: float, ry: float) -> list[float]:
+    """Quaternion (w, x, y, z) of a rotation about x by ``rx`` then about the new y by ``ry``."""
+    qx = np.array([math.cos(rx / 2), math.sin(rx / 2), 0.0, 0.0])
+    qy = np.array([math.cos(ry / 2), 0.0, math.sin(ry / 2), 0.0])
+    out = np.zeros(4)
+    mujoco.mju_mulQuat(out, qx, qy)
+    return out.tolist()
+
+
+def _add_visuals(mjspec: mujoco.MjSpec) -> None:
+    """Checkered floor, sky and lights for snapshot rendering (no effect on physics)."""
+    tex = mjspec.add_texture()
+    tex.name = "grid"
+    tex.type = mujoco.mjtTexture.mjTEXTURE_2D
+    tex.builtin = mujoco.mjtBuiltin.mjBUILTIN_CHECKER
+    tex.rgb1 = [0.82, 0.85, 0.88]
+    tex.rgb2 = [0.72, 0.75, 0.78]
+    tex.width = 300
+    tex.height = 300
+    mat = mjspec.add_material()
+    mat.name = "grid"
+    mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "grid"
+    mat.texrepeat = [8, 8]
+    mat.reflectance = 0.1
+    light = mjspec.worldbody.add_light()
+    light.name = "sun"
+    light.pos = [0.0, -1.0, 4.0]
+    light.dir = [0.0, 0.3, -1.0]
+    light.castshadow = True
+    mjspec.visual.global_.offwidth = 1280
+    mjspec.visual.global_.offheight = 960
