@@ -9,6 +9,8 @@ replay the log bit for bit.
 from __future__ import annotations
 
 import math
+import signal
+import threading
 import time
 import traceback
 from collections.abc import Callable
@@ -95,9 +97,12 @@ def run(spec: ExperimentSpec, log_path: Path, progress: ProgressCallback | None 
     wall_start = time.perf_counter()
     last_report = wall_start
     step = 0
+    interrupt = _InterruptFlag()
     try:
         for step in range(n_steps):
             t = data.time
+            if interrupt.requested:
+                raise KeyboardInterrupt
             if step % substeps == 0:
                 if step > 0:
                     mujoco.mj_forward(model, data)  # fresh sensors for the new state
@@ -140,8 +145,8 @@ def run(spec: ExperimentSpec, log_path: Path, progress: ProgressCallback | None 
                 )
         else:
             step = n_steps
-        if outcome == "complete" or outcome == "fell":
-            # Final state, after the last step taken (or at the fall).
+        if outcome == "complete":
+            # The state after the last step (a fall already logged the state it was seen in).
             _check_finite(data, data.time)
             writer.write(record.TOPIC_STATE, _state_msg(step, data), data.time)
     except KeyboardInterrupt:
@@ -151,6 +156,8 @@ def run(spec: ExperimentSpec, log_path: Path, progress: ProgressCallback | None 
     except BaseException as exc:
         writer.close("error", {"error": "".join(traceback.format_exception_only(exc)).strip()})
         raise
+    finally:
+        interrupt.restore()
     wall = time.perf_counter() - wall_start
     extra = {"sim_time": repr(float(data.time)), "wall_time": f"{wall:.3f}"}
     if fall_time is not None:
@@ -169,6 +176,29 @@ def run(spec: ExperimentSpec, log_path: Path, progress: ProgressCallback | None 
         fall_time=fall_time,
         message=message or f"completed {data.time:.3f} s",
     )
+
+
+class _InterruptFlag:
+    """Turns the first Ctrl-C into a flag the loop checks between steps.
+
+    So the log is never cut in the middle of a message; a second Ctrl-C interrupts at once.
+    """
+
+    def __init__(self) -> None:
+        self.requested = False
+        self._previous = None
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._handle)
+
+    def _handle(self, signum: int, frame: object) -> None:
+        self.requested = True
+        signal.signal(signal.SIGINT, self._previous or signal.default_int_handler)
+
+    def restore(self) -> None:
+        """Put back the SIGINT handler that was there before the run."""
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+            self._previous = None
 
 
 def _set_home(robot: Robot, model: mujoco.MjModel, data: mujoco.MjData) -> None:

@@ -1,0 +1,165 @@
+"""The command line as a user meets it: friendly errors, run directories, verify, render."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from walkrepro import record
+from walkrepro.cli import app
+
+runner = CliRunner()
+
+SPEC = """\
+name: tiny_stand
+description: a short standing run
+paper: {key: walkrepro}
+robot: dyros_red
+controller: {type: posture}
+sim: {timestep: 0.0005, control_period: 0.001, duration: 0.3}
+expect:
+  - {metric: fell, op: "==", value: 0, source: test}
+"""
+
+
+def invoke(*args: str) -> tuple[int, str]:
+    result = runner.invoke(app, list(args))
+    return result.exit_code, result.output
+
+
+def assert_friendly(code: int, output: str, *needles: str) -> None:
+    assert code == 2, output
+    assert "Traceback" not in output
+    for needle in needles:
+        assert needle in output, output
+
+
+def test_list_shows_every_experiment_with_its_paper() -> None:
+    """`walkrepro list` shows each experiment with its paper key and robot."""
+    code, out = invoke("list")
+    assert code == 0
+    for name in ("stand_dyros_red", "stand_coman", "stand_kist_humanoid"):
+        assert name in out
+    assert "walkrepro" in out and "posture" in out
+
+
+@pytest.mark.parametrize(
+    ("edit", "needles"),
+    [
+        (("duration: 0.3", "duration: [0.3"), ("YAML syntax error", "line 6")),
+        (("duration: 0.3", "durtion: 0.3"), ("sim.durtion", "unknown field")),
+        (("duration: 0.3", "duration: soon"), ("sim.duration", "'soon'")),
+        (("duration: 0.3", "duration: -0.3"), ("sim.duration", "greater than 0")),
+        (("control_period: 0.001", "control_period: 0.0012"), ("sim.control_period", "multiple")),
+        (("robot: dyros_red", "robot: nao"), ("unknown robot 'nao'", "kist_humanoid")),
+        (("metric: fell", "metric: falls"), ("unknown metric 'falls'", "footsteps")),
+    ],
+)
+def test_bad_spec_gives_one_paragraph_and_exit_2(tmp_path: Path, edit: tuple[str, str], needles: tuple[str, ...]) -> None:
+    """Each kind of bad spec gives exit code 2, no traceback, and names file and field."""
+    path = tmp_path / "bad.yaml"
+    path.write_text(SPEC.replace(*edit))
+    code, out = invoke("run", str(path), "--out", str(tmp_path / "runs"))
+    assert_friendly(code, out, "bad.yaml", *needles)
+    assert not (tmp_path / "runs").exists(), "a rejected spec must not create a run directory"
+
+
+def test_unknown_body_and_missing_file(tmp_path: Path) -> None:
+    """An unknown disturbance body lists bodies; a missing spec file is named."""
+    path = tmp_path / "bad.yaml"
+    path.write_text(SPEC + "disturbances:\n  - {name: p, body: head, force: [1, 0, 0], start: 0, duration: 0.1}\n")
+    assert_friendly(*invoke("run", str(path)), "unknown body 'head'", "pelvis")
+    assert_friendly(*invoke("run", str(tmp_path / "missing.yaml")), "missing.yaml", "no such spec file")
+    assert_friendly(*invoke("run", "no_such_experiment"), "unknown experiment", "stand_coman")
+
+
+def test_unwritable_output_directory(tmp_path: Path) -> None:
+    """An output root that cannot be created is reported before anything runs."""
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    path = tmp_path / "ok.yaml"
+    path.write_text(SPEC)
+    assert_friendly(*invoke("run", str(path), "--out", str(blocker / "runs")), "cannot write run outputs", "--out")
+
+
+def test_run_writes_a_complete_run_directory(tmp_path: Path) -> None:
+    """A run creates a new directory with spec, log, metrics, verdict and figures; runs never collide."""
+    path = tmp_path / "ok.yaml"
+    path.write_text(SPEC)
+    out = tmp_path / "runs"
+    for _ in range(2):
+        code, text = invoke("run", str(path), "--out", str(out))
+        assert code == 0, text
+    runs = sorted((out / "tiny_stand").iterdir())
+    assert len(runs) == 2 and not any(r.name.startswith(".") for r in runs)
+    run = runs[0]
+    for name in ("spec.yaml", "log.mcap", "metrics.json", "check.json", "run.json", "figures/overview.png"):
+        assert (run / name).is_file(), name
+    assert json.loads((run / "check.json").read_text())["passed"] is True
+    log = record.read_log(run / "log.mcap")
+    assert log.metadata["outcome"] == "complete" and log.metadata["experiment"] == "tiny_stand"
+    assert "<mujoco" in log.scene_xml and "tiny_stand" in log.spec_yaml
+
+    code, text = invoke("verify", str(run))
+    assert code == 0 and "OK" in text, text
+    code, text = invoke("check", "--run", str(run))
+    assert code == 0, text
+
+
+def test_determinism_same_spec_same_states(tmp_path: Path) -> None:
+    """Two runs of the same spec and seed log identical /sim/state streams."""
+    from walkrepro.runner import run as simulate
+    from walkrepro.spec import load_spec, resolve_spec
+
+    path = tmp_path / "ok.yaml"
+    path.write_text(SPEC.replace("{key: walkrepro}", "{key: walkrepro}\nsensors: {joint_position_noise: 0.001}"))
+    spec = resolve_spec(load_spec(str(path))).spec
+    a, b = tmp_path / "a.mcap", tmp_path / "b.mcap"
+    simulate(spec, a)
+    simulate(spec, b)
+    sa = record.read_log(a).messages(record.TOPIC_STATE)
+    sb = record.read_log(b).messages(record.TOPIC_STATE)
+    assert len(sa) > 100 and sa == sb
+
+
+@pytest.mark.slow
+def test_sigint_leaves_readable_interrupted_log(tmp_path: Path) -> None:
+    """Ctrl-C during a run leaves a readable log marked 'interrupted' in a finished run directory."""
+    path = tmp_path / "long.yaml"
+    path.write_text(SPEC.replace("duration: 0.3", "duration: 60"))
+    out = tmp_path / "runs"
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "walkrepro", "run", str(path), "--out", str(out), "--no-figures"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        env=env,
+    )
+    # Wait until the log exists and has grown, i.e. the loop is running.
+    deadline = time.monotonic() + 120
+    logs: list[Path] = []
+    while time.monotonic() < deadline:
+        logs = list(out.glob("tiny_stand/*/log.mcap"))
+        if logs and logs[0].stat().st_size > 0:
+            break
+        time.sleep(0.2)
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGINT)
+    output, _ = proc.communicate(timeout=120)
+    text = output.decode()
+    assert proc.returncode == 130, text
+    assert "Traceback" not in text
+    runs = [r for r in (out / "tiny_stand").iterdir() if not r.name.startswith(".")]
+    assert len(runs) == 1
+    log = record.read_log(runs[0] / "log.mcap")
+    assert log.metadata["outcome"] == "interrupted"
+    assert len(log.messages(record.TOPIC_STATE)) > 10
+    assert json.loads((runs[0] / "run.json").read_text())["outcome"] == "interrupted"

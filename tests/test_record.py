@@ -1,0 +1,403 @@
+"""Tests of walkrepro.record: the MCAP log contract, written and read back."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+
+from walkrepro import record
+from walkrepro.errors import UnknownNameError, WalkreproError
+from walkrepro.record import (
+    OUTCOME_NOT_CLOSED,
+    TOPIC_CONTACTS,
+    TOPIC_EVENTS,
+    TOPIC_INPUTS,
+    TOPIC_SENSORS,
+    TOPIC_SIGNALS,
+    TOPIC_STATE,
+    TOPICS,
+    LogWriter,
+    read_log,
+)
+
+# A free box dropped on the floor, next to a 1-link pendulum with a motor.
+SCENE_XML = """
+<mujoco model="tiny">
+  <option timestep="0.002"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="0 0 1"/>
+    <body name="box" pos="0.8 0 0.1">
+      <freejoint/>
+      <geom type="box" size="0.05 0.05 0.05" mass="1"/>
+    </body>
+    <body name="link" pos="0 0 1">
+      <joint name="hinge" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.3" size="0.03"/>
+    </body>
+  </worldbody>
+  <actuator><motor name="m" joint="hinge"/></actuator>
+</mujoco>
+"""
+SPEC_YAML = "name: tiny\nseed: 7\nsim:\n  timestep: 0.002\n"
+METADATA = {"git_commit": "abc1234", "seed": "7", "experiment": "tiny"}
+STEPS = 300
+CONTROL_EVERY = 4  # control ticks every 4 physics steps (500 Hz)
+
+
+def new_writer(path: Path, **kwargs: Any) -> LogWriter:
+    return LogWriter(path, scene_xml=SCENE_XML, spec_yaml=SPEC_YAML, metadata=METADATA, **kwargs)
+
+
+def simulate(log: LogWriter, steps: int = STEPS) -> dict[str, list[dict]]:
+    """Simulates the scene, writing every topic per the contract; returns what it wrote."""
+    model = mujoco.MjModel.from_xml_string(SCENE_XML)
+    data = mujoco.MjData(model)
+    floor = model.geom("floor").id
+    written: dict[str, list[dict]] = {topic: [] for topic in TOPICS}
+
+    def write(topic: str, message: dict, t: float) -> None:
+        log.write(topic, message, t)
+        # What a reader must get back: numpy turned into plain Python numbers.
+        written[topic].append(json.loads(json.dumps(message, default=np.ndarray.tolist)))
+
+    for step in range(steps):
+        t = data.time
+        write(TOPIC_STATE, {"step": step, "t": t, "qpos": data.qpos.copy(),
+                            "qvel": data.qvel.copy(), "act": data.act.copy()}, t)  # fmt: skip
+        if step % CONTROL_EVERY == 0:
+            ctrl = 0.3 * math.sin(10 * t)
+            write(TOPIC_SENSORS, {"q": data.qpos[7:].copy(), "gyro": [0.1, -0.0, 1e-300]}, t)
+            write(TOPIC_SIGNALS, {"t": t, "u": ctrl, "ref": [t / 3, 0.1 + 0.2]}, t)
+        data.ctrl[:] = ctrl
+        xfrc = {"box": [1.0, 0.0, 0.0, 0.0, 0.0, 0.0]} if 50 <= step < 60 else {}
+        data.xfrc_applied[:] = 0.0
+        for name, wrench in xfrc.items():
+            data.xfrc_applied[model.body(name).id] = wrench
+        write(TOPIC_INPUTS, {"step": step, "ctrl": data.ctrl.copy(), "xfrc": xfrc}, t)
+        if step == 50:
+            write(TOPIC_EVENTS, {"t": t, "kind": "push", "body": "box"}, t)
+        mujoco.mj_step(model, data)
+        pairs: dict[str, list[float]] = {}
+        for i in range(data.ncon):
+            contact = data.contact[i]
+            if floor not in (contact.geom1, contact.geom2):
+                continue
+            local = np.zeros(6)
+            mujoco.mj_contactForce(model, data, i, local)  # geom1 on geom2, contact frame
+            sign = 1.0 if contact.geom1 == floor else -1.0
+            force_w = sign * contact.frame.reshape(3, 3).T @ local[:3]  # on the box [N]
+            wrench = np.concatenate([force_w, np.cross(contact.pos, force_w)])  # about O_w
+            pairs["box/floor"] = (np.add(pairs.get("box/floor", 0.0), wrench)).tolist()
+        if pairs:
+            write(TOPIC_CONTACTS, {"step": step, "t": data.time, "pairs": pairs}, data.time)
+    return written
+
+
+def as_bits(obj: Any) -> Any:
+    """Floats as their exact hex spelling, so == compares bit for bit (-0.0 != 0.0)."""
+    if isinstance(obj, dict):
+        return {key: as_bits(value) for key, value in obj.items()}
+    if isinstance(obj, list):
+        return [as_bits(value) for value in obj]
+    if isinstance(obj, float):
+        return obj.hex()
+    return obj
+
+
+def use_encoder(monkeypatch: pytest.MonkeyPatch, name: str) -> None:
+    """Selects the stdlib or the (optional) orjson JSON backend of walkrepro.record."""
+    if name == "orjson":
+        orjson = pytest.importorskip("orjson")
+        monkeypatch.setattr(record, "orjson", orjson)
+        monkeypatch.setattr(record, "_encode", record._encode_orjson)
+        monkeypatch.setattr(record, "_decode", orjson.loads)
+    else:
+        monkeypatch.setattr(record, "_encode", record._encode_stdlib)
+        monkeypatch.setattr(record, "_decode", json.loads)
+
+
+@pytest.fixture(params=["stdlib", "orjson"])
+def encoder(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
+    use_encoder(monkeypatch, request.param)
+    return request.param
+
+
+@pytest.fixture(scope="module", params=["stdlib", "orjson"])
+def written_log(
+    request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
+) -> Iterator[tuple[Path, dict[str, list[dict]]]]:
+    """A 300-step log written (and read back) with each JSON backend."""
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        use_encoder(monkeypatch, request.param)
+        path = tmp_path_factory.mktemp("log") / "run.mcap"
+        with new_writer(path, chunk_size=16 << 10) as log:
+            written = simulate(log)
+            log.close("fell", {"fall_time": "0.5"})
+        yield path, written
+
+
+def test_messages_round_trip_bit_exact(written_log: tuple[Path, dict]) -> None:
+    """Every message on every topic reads back in order with bit-identical floats."""
+    path, written = written_log
+    log = read_log(path)
+    for topic in TOPICS:
+        assert written[topic], topic
+        assert as_bits(log.messages(topic)) == as_bits(written[topic]), topic
+    assert log.topics() == list(TOPICS)
+    assert log.messages(TOPIC_SENSORS)[0]["gyro"][1].hex() == "-0x0.0p+0"
+
+
+def test_attachments_and_metadata_round_trip(written_log: tuple[Path, dict]) -> None:
+    """scene.xml (loadable alone), spec.yaml and the closing metadata read back exactly."""
+    path, _ = written_log
+    log = read_log(path)
+    assert log.scene_xml == SCENE_XML
+    assert log.spec_yaml == SPEC_YAML
+    assert mujoco.MjModel.from_xml_string(log.scene_xml).nq == 8
+    assert not log.truncated
+    meta = log.metadata
+    assert meta["outcome"] == "fell" and meta["fall_time"] == "0.5"
+    assert {key: meta[key] for key in METADATA} == METADATA
+    assert meta["mujoco_version"] == mujoco.__version__
+    for key in ("version", "pinocchio_version", "start_time"):
+        assert meta[key], key
+    assert meta["start_time"].endswith("+00:00")
+
+
+def test_mcap_records_follow_contract(written_log: tuple[Path, dict]) -> None:
+    """Channels use JSON with jsonschema schemas, zstd chunks, sim-time stamps and per-channel sequences."""
+    path, _ = written_log
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        assert summary is not None
+        assert {chunk.compression for chunk in summary.chunk_indexes} == {"zstd"}
+        assert len(summary.chunk_indexes) > 1
+        media = {a.name: a.media_type for a in summary.attachment_indexes}
+        assert media == {"scene.xml": "application/xml", "spec.yaml": "application/yaml"}
+        counters: dict[str, int] = {}
+        for schema, channel, message in reader.iter_messages(log_time_order=False):
+            assert channel.message_encoding == "json"
+            assert schema is not None and schema.encoding == "jsonschema"
+            decoded = json.loads(message.data)
+            if "t" in decoded:
+                assert message.log_time == message.publish_time == round(decoded["t"] * 1e9)
+            assert message.sequence == counters.get(channel.topic, 0)
+            counters[channel.topic] = message.sequence + 1
+
+
+def test_messages_satisfy_their_schemas(written_log: tuple[Path, dict]) -> None:
+    """Each channel's JSON schema is valid and accepts every message written on it."""
+    jsonschema = pytest.importorskip("jsonschema")
+    path, _ = written_log
+    validators: dict[int, Any] = {}
+    with open(path, "rb") as f:
+        for schema, _, message in make_reader(f).iter_messages():
+            if schema.id not in validators:
+                spec = json.loads(schema.data)
+                jsonschema.Draft202012Validator.check_schema(spec)
+                validators[schema.id] = jsonschema.Draft202012Validator(spec)
+            validators[schema.id].validate(json.loads(message.data))
+    assert len(validators) == len(TOPICS)
+    inputs = json.loads(_schema_of(path, TOPIC_INPUTS))
+    with pytest.raises(jsonschema.ValidationError):  # schemas are tight: ctrl has nu entries
+        jsonschema.validate({"step": 0, "ctrl": [1.0, 2.0], "xfrc": {}}, inputs)
+
+
+def _schema_of(path: Path, topic: str) -> bytes:
+    with open(path, "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    channel = next(c for c in summary.channels.values() if c.topic == topic)
+    return summary.schemas[channel.schema_id].data
+
+
+def test_numpy_values_are_written_exactly(tmp_path: Path, encoder: str) -> None:
+    """numpy arrays and scalars become plain JSON numbers with their exact values; null is kept."""
+    path = tmp_path / "np.mcap"
+    with new_writer(path) as log:
+        log.write(
+            TOPIC_SIGNALS,
+            {"t": np.float64(0.25), "a": np.array([[0.1, 2.0], [3.0, 5e-324]]),
+             "f32": np.float32(0.1), "i": np.int64(3), "b": np.bool_(True), "none": None,
+             "s": "null"},
+            0.25,
+        )  # fmt: skip
+    (message,) = read_log(path).messages(TOPIC_SIGNALS)
+    assert message == {"t": 0.25, "a": [[0.1, 2.0], [3.0, 5e-324]], "f32": float(np.float32(0.1)),
+                       "i": 3, "b": True, "none": None, "s": "null"}  # fmt: skip
+
+
+def _cut(path: Path, size: int, tmp_path: Path) -> Path:
+    cut = tmp_path / f"cut-{size}.mcap"
+    cut.write_bytes(path.read_bytes()[:size])
+    return cut
+
+
+def test_truncated_log_keeps_complete_chunks(
+    written_log: tuple[Path, dict], tmp_path: Path
+) -> None:
+    """A file cut anywhere after its attachments reads back a prefix of every topic."""
+    path, written = written_log
+    size = path.stat().st_size
+    n_states = []
+    for fraction in (0.2, 0.5, 0.8):
+        log = read_log(_cut(path, int(size * fraction), tmp_path))
+        assert log.truncated
+        assert log.metadata == {"outcome": OUTCOME_NOT_CLOSED}
+        assert log.scene_xml == SCENE_XML and log.spec_yaml == SPEC_YAML
+        for topic in TOPICS:
+            got = log.messages(topic)
+            assert as_bits(got) == as_bits(written[topic][: len(got)]), topic
+        n_states.append(len(log.messages(TOPIC_STATE)))
+    assert 0 < n_states[0] < n_states[1] < n_states[2] < STEPS
+
+
+def test_log_cut_after_metadata_keeps_outcome(
+    written_log: tuple[Path, dict], tmp_path: Path
+) -> None:
+    """A file that lost only its summary and footer keeps all messages and its outcome."""
+    path, _ = written_log
+    data = path.read_bytes()
+    # Footer: opcode (1) + length (8) + summary_start (8) + ... (20), then the 8-byte magic.
+    footer = len(data) - 8 - 29
+    summary_start = int.from_bytes(data[footer + 9 : footer + 17], "little")
+    assert 0 < summary_start < footer
+    log = read_log(_cut(path, summary_start, tmp_path))
+    assert log.truncated
+    assert log.metadata["outcome"] == "fell"
+    assert len(log.messages(TOPIC_STATE)) == STEPS
+
+
+def test_damaged_chunk_stops_the_read_there(written_log: tuple[Path, dict], tmp_path: Path) -> None:
+    """Garbage inside a chunk is detected; only the messages of the chunks before it are kept."""
+    path, written = written_log
+    with open(path, "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    chunk = sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)[2]
+    data = bytearray(path.read_bytes())
+    middle = chunk.chunk_start_offset + chunk.chunk_length // 2
+    data[middle : middle + 64] = bytes(range(64))
+    damaged = tmp_path / "damaged.mcap"
+    damaged.write_bytes(bytes(data))
+    states = read_log(damaged).messages(TOPIC_STATE)
+    assert 0 < len(states) < STEPS
+    assert as_bits(states) == as_bits(written[TOPIC_STATE][: len(states)])
+
+
+def test_missing_or_foreign_file_is_a_clear_error(tmp_path: Path) -> None:
+    """A missing, empty or non-MCAP file raises WalkreproError naming the problem."""
+    with pytest.raises(WalkreproError, match="cannot read log"):
+        read_log(tmp_path / "nope.mcap")
+    text = tmp_path / "notes.mcap"
+    text.write_text("just some text, not a log\n")
+    with pytest.raises(WalkreproError, match="not an MCAP log"):
+        read_log(text)
+    empty = tmp_path / "empty.mcap"
+    empty.write_bytes(b"")
+    with pytest.raises(WalkreproError, match="not an MCAP log"):
+        read_log(empty)
+
+
+def test_unknown_topic_is_rejected(tmp_path: Path) -> None:
+    """Writing to a topic outside the contract raises ValueError listing the valid topics."""
+    with new_writer(tmp_path / "a.mcap") as log, pytest.raises(ValueError, match="/sim/state"):
+        log.write("/sim/stat", {"t": 0.0}, 0.0)
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_non_finite_numbers_are_rejected(tmp_path: Path, bad: float, encoder: str) -> None:
+    """NaN/inf raise a ValueError naming the entry, and nothing invalid reaches the file."""
+    path = tmp_path / "a.mcap"
+    with new_writer(path) as log:
+        qpos = np.zeros(8)
+        qpos[3] = bad
+        state = {"step": 0, "t": 0.0, "qpos": qpos, "qvel": np.zeros(7), "act": []}
+        with pytest.raises(ValueError, match=r"qpos\[3\]"):
+            log.write(TOPIC_STATE, state, 0.0)
+        with pytest.raises(ValueError, match=r"ref\[1\]"):
+            log.write(TOPIC_SIGNALS, {"t": 0.0, "ref": [0.0, bad]}, 0.0)
+        with pytest.raises(ValueError, match="finite"):
+            log.write(TOPIC_SIGNALS, {"t": 0.0}, bad)
+        log.write(TOPIC_SIGNALS, {"t": 0.0, "ok": 1.0}, 0.0)  # the writer is still usable
+    log_read = read_log(path)
+    assert log_read.messages(TOPIC_STATE) == []
+    assert log_read.messages(TOPIC_SIGNALS) == [{"t": 0.0, "ok": 1.0}]
+    assert log_read.metadata["outcome"] == "complete"
+
+
+def test_malformed_sim_messages_are_rejected(tmp_path: Path) -> None:
+    """State/input vectors must fit the scene and xfrc must name real bodies."""
+    with new_writer(tmp_path / "a.mcap") as log:
+        with pytest.raises(ValueError, match="qvel has 6 entries, the scene has 7"):
+            log.write(TOPIC_STATE, {"step": 0, "t": 0.0, "qpos": [0.0] * 8, "qvel": [0.0] * 6,
+                                    "act": []}, 0.0)  # fmt: skip
+        with pytest.raises(ValueError, match="lacks key"):
+            log.write(TOPIC_INPUTS, {"step": 0, "ctrl": [0.0]}, 0.0)
+        with pytest.raises(UnknownNameError, match="link"):
+            log.write(TOPIC_INPUTS, {"step": 0, "ctrl": [0.0], "xfrc": {"bx": [0.0] * 6}}, 0.0)
+
+
+def test_context_manager_records_error_outcome(tmp_path: Path) -> None:
+    """An exception inside the with-block closes the log with outcome 'error' and the message."""
+    path = tmp_path / "a.mcap"
+    with pytest.raises(RuntimeError, match="solver blew up"), new_writer(path) as log:
+        simulate(log, steps=20)
+        raise RuntimeError("solver blew up")
+    read = read_log(path)
+    assert read.metadata["outcome"] == "error"
+    assert read.metadata["error"] == "RuntimeError: solver blew up"
+    assert len(read.messages(TOPIC_STATE)) == 20
+
+
+def test_close_is_idempotent_and_validated(tmp_path: Path) -> None:
+    """close() rejects unknown outcomes, then writes once; later calls and writes change nothing."""
+    path = tmp_path / "a.mcap"
+    log = new_writer(path)
+    with pytest.raises(ValueError, match="complete, fell, interrupted, error"):
+        log.close("crashed")
+    log.close("interrupted")
+    log.close("complete")
+    assert log.closed
+    with pytest.raises(ValueError, match="closed"):
+        log.write(TOPIC_SIGNALS, {"t": 0.0}, 0.0)
+    assert read_log(path).metadata["outcome"] == "interrupted"
+
+
+def test_writer_validates_metadata_and_scene(tmp_path: Path) -> None:
+    """Missing metadata keys, a reserved 'outcome' key, or a scene that needs files are refused."""
+    path = tmp_path / "a.mcap"
+    with pytest.raises(ValueError, match="git_commit"):
+        LogWriter(
+            path, scene_xml=SCENE_XML, spec_yaml="", metadata={"seed": "1", "experiment": "x"}
+        )
+    with pytest.raises(ValueError, match="outcome"):
+        LogWriter(path, scene_xml=SCENE_XML, spec_yaml="", metadata={**METADATA, "outcome": "x"})
+    with pytest.raises(TypeError, match="str to str"):
+        LogWriter(path, scene_xml=SCENE_XML, spec_yaml="", metadata={**METADATA, "seed": 7})
+    needs_file = SCENE_XML.replace(
+        "<worldbody>", '<asset><mesh name="m" file="foot.stl"/></asset><worldbody>'
+    )
+    with pytest.raises(WalkreproError, match="mesh"):
+        LogWriter(path, scene_xml=needs_file, spec_yaml="", metadata=METADATA)
+    with pytest.raises(WalkreproError, match="does not load"):
+        LogWriter(path, scene_xml="<mujoco><bad/></mujoco>", spec_yaml="", metadata=METADATA)
+    with pytest.raises(WalkreproError, match="cannot write"):
+        LogWriter(tmp_path / "no" / "dir.mcap", scene_xml=SCENE_XML, spec_yaml="",
+                  metadata=METADATA)  # fmt: skip
+
+
+def test_unknown_topic_on_read_lists_topics(written_log: tuple[Path, dict]) -> None:
+    """Asking a log for a topic it cannot have raises UnknownNameError listing real ones."""
+    path, _ = written_log
+    with pytest.raises(UnknownNameError, match="/sim/inputs"):
+        read_log(path).messages("/sim/input")
