@@ -107,8 +107,8 @@ class SensorModel:
     def _measure(self, data: mujoco.MjData) -> SensorSnapshot:
         spec, rng = self._spec, self._rng
         # Sum the components of each link joint (motor + spring DoF for series-elastic joints).
-        joint_pos = np.add.reduceat(data.qpos[self._qpos_adr[0]], self._qpos_adr[1])
-        joint_vel = np.add.reduceat(data.qvel[self._qvel_adr[0]], self._qvel_adr[1])
+        joint_pos = self._qpos_adr.link_values(data.qpos)
+        joint_vel = self._qvel_adr.link_values(data.qvel)
         joint_pos = joint_pos + spec.joint_position_noise * rng.standard_normal(joint_pos.shape)
         if spec.joint_position_quantization > 0:
             step = spec.joint_position_quantization
