@@ -28,8 +28,13 @@ app = typer.Typer(
     add_completion=False,
     pretty_exceptions_enable=False,
 )
-console = Console()
-err_console = Console(stderr=True)
+
+
+def _console(stderr: bool = False) -> Console:
+    """A console for this call; when output is not a terminal (pipes, CI logs), tables get a
+    wide fixed width instead of being squeezed to 80 columns."""
+    stream = sys.stderr if stderr else sys.stdout
+    return Console(stderr=stderr, width=None if stream.isatty() else 200)
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -50,7 +55,7 @@ def friendly_errors(fn: F) -> F:
         try:
             return fn(*args, **kwargs)
         except WalkreproError as exc:
-            err_console.print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
+            _console(stderr=True).print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
             raise typer.Exit(code=exc.exit_code) from None
 
     return wrapper  # type: ignore[return-value]
@@ -63,15 +68,16 @@ def list_cmd() -> None:
     from walkrepro.spec import experiment_names, load_spec
 
     table = Table(title="walkrepro experiments")
-    for col in ("experiment", "paper", "figure", "robot", "controller", "description"):
-        table.add_column(col)
+    for col in ("experiment", "paper", "figure", "robot", "controller"):
+        table.add_column(col, no_wrap=True)
+    table.add_column("description", overflow="fold")
     for name in experiment_names():
         spec = load_spec(name).spec
         section = ", ".join(x for x in (spec.paper.section, spec.paper.figure) if x)
         table.add_row(
             name, spec.paper.key, section, spec.robot, spec.controller.type, spec.description
         )
-    console.print(table)
+    _console().print(table)
 
 
 @app.command()
@@ -85,11 +91,11 @@ def run(
     """Run one experiment headless: log, metrics, verdict and figures in a new run directory."""
     summary = _run_one(experiment, set_ or [], out, figures, show_progress=True)
     _print_verdicts([summary.verdict])
-    console.print(f"run directory: [bold]{summary.run_dir}[/]")
+    _console().print(f"run directory: [bold]{summary.run_dir}[/]")
     if summary.result.outcome == "interrupted":
         raise typer.Exit(code=130)
     if summary.result.outcome == "error":
-        err_console.print(f"[bold red]error:[/] {summary.result.message}")
+        _console(stderr=True).print(f"[bold red]error:[/] {summary.result.message}")
         raise typer.Exit(code=1)
 
 
@@ -121,7 +127,7 @@ def check(
     for name in names:  # validate every spec before running any
         _resolved(name, set_ or [])
     if names:
-        console.print(f"running {len(names)} experiment(s) with {min(jobs, len(names))} process(es)…")
+        _console().print(f"running {len(names)} experiment(s) with {min(jobs, len(names))} process(es)…")
         if jobs > 1 and len(names) > 1:
             with ProcessPoolExecutor(max_workers=jobs) as pool:
                 futures = [pool.submit(_run_one, n, set_ or [], out, figures, False) for n in names]
@@ -129,7 +135,7 @@ def check(
         else:
             summaries = [_run_one(n, set_ or [], out, figures, False) for n in names]
         for s in summaries:
-            console.print(f"{s.verdict.experiment}: {s.result.message} → {s.run_dir}")
+            _console().print(f"{s.verdict.experiment}: {s.result.message} → {s.run_dir}")
         verdicts += [s.verdict for s in summaries]
     _print_verdicts(verdicts)
     if junit is not None:
@@ -156,7 +162,7 @@ def plot(
     else:
         written = plot_compare(resolved[0][1], resolved[1][1], out or resolved[0][0] / results.FIGURES_DIR)
     for path in written:
-        console.print(f"wrote {path}")
+        _console().print(f"wrote {path}")
 
 
 @app.command()
@@ -171,7 +177,7 @@ def verify(
     _, log_path = results.resolve_run(log)
     report = verify_log(log_path, tolerance)
     status = "[green]OK[/]" if report.ok else "[red]FAILED[/]"
-    console.print(
+    _console().print(
         f"{status}: replayed {report.n_steps} steps, compared {report.n_states_compared} states; "
         f"largest deviation {report.max_deviation:.3g} (step {report.worst_step}, {report.worst_field}); "
         f"tolerance {report.tolerance:g}"
@@ -198,7 +204,7 @@ def render(
     except ValueError:
         raise WalkreproError(f"--at {at!r}: expected comma-separated times in seconds, e.g. 0,2,4.") from None
     path = render_strip(log, times, out or directory / results.FIGURES_DIR / "snapshots.png", width, height)
-    console.print(f"wrote {path}")
+    _console().print(f"wrote {path}")
 
 
 # --------------------------------------------------------------------------------------
@@ -223,7 +229,7 @@ def _run_one(name: str, overrides: list[str], out: Path, figures: bool, show_pro
         TextColumn("{task.fields[sim]}"),
         TextColumn("RTF {task.fields[rtf]}"),
         TimeElapsedColumn(),
-        console=err_console,
+        console=_console(stderr=True),
         transient=False,
     ) as bar:
         task = bar.add_task("run", total=spec.sim.duration, sim="", rtf="")
@@ -253,12 +259,12 @@ def _print_verdicts(verdicts: list) -> None:  # list[checks.Verdict]
                 f"{r.measured:.4g}",
                 r.band,
                 f"[{colour[r.status]}]{r.status}[/]",
-                r.source + (f" — {r.note}" if r.note else ""),
+                r.source if r.status != KNOWN else f"{r.source} — {r.note}",
             )
-    console.print(table)
+    _console().print(table)
     n_fail = sum(not v.passed for v in verdicts)
     summary = "all expectations hold" if n_fail == 0 else f"{n_fail} experiment(s) failed"
-    console.print(f"[bold]{summary}[/]")
+    _console().print(f"[bold]{summary}[/]")
 
 
 def main() -> None:  # pragma: no cover - console entry point alias

@@ -1,0 +1,418 @@
+"""A robot: the MuJoCo model and the Pinocchio model of the same MJCF, named frames, the
+actuator layout and the ``home`` posture.
+
+Conventions every ``robots/<name>/robot.xml`` follows (``robots/build_models.py`` writes
+them; :func:`load_robot` checks the ones other modules rely on):
+
+- Root body ``pelvis`` with a free joint ``root``; x forward, y left, z up at home.
+- Feet ``left_foot`` / ``right_foot`` are the bodies after the ankle roll joints and own
+  every sole geom. Sites ``left_sole`` / ``right_sole`` sit at the centre of each sole's
+  bottom face, ``left_foot_ft`` / ``right_foot_ft`` at the force/torque sensors, ``imu`` on
+  the upper body; all sites have z up and x forward at home.
+- One actuator per actuated joint, named after its link-side joint, in the order: left
+  leg, right leg, waist, left arm, right arm.
+- A series-elastic joint ``j`` (COMAN) is two hinges on one axis in one body: the motor
+  DoF ``j_motor`` (armature J_m, back-EMF damping, position servo) then the spring DoF
+  ``j`` (``stiffness`` = spring constant). The link angle is their sum.
+
+State conventions, MuJoCo vs Pinocchio (free-flyer root):
+
+- base pose: MuJoCo ``qpos[0:7]`` = position [m], quaternion (w, x, y, z); Pinocchio
+  ``q[0:7]`` = position [m], quaternion (x, y, z, w).
+- base linear velocity (of the pelvis origin): MuJoCo ``qvel[0:3]`` in the WORLD frame;
+  Pinocchio ``v[0:3]`` in the PELVIS frame. So ``qvel[0:3] = R v[0:3]``, R world-from-pelvis,
+  and likewise MuJoCo's ``qacc[0:3] = R (v̇[0:3] + ω × v[0:3])``.
+- base angular velocity: in the PELVIS frame in both (``qvel[3:6]`` = ``v[3:6]``).
+- joints: MuJoCo has every hinge (COMAN: motor and spring DoFs), Pinocchio the link-side
+  joints only. Both order them left leg, right leg, waist, left arm, right arm, but use
+  :attr:`Robot.pin_q_idx` / :attr:`Robot.pin_v_idx` rather than assuming it.
+
+Force/torque sensors: MuJoCo's ``force``/``torque`` sensors on ``*_foot_ft`` give the wrench
+the leg exerts on the foot body, in the site frame, about the site. The foot body (whole
+foot after the ankle roll joint) lies below the site, so standing still reads
+fz = −(supported load − foot weight); :mod:`walkrepro.sensors` flips the sign.
+
+For COMAN the Pinocchio model is a *rigid twin*: the spring DoFs are removed, each link
+joint is the motor joint made rigid with the spring (angle = motor + spring, range = the
+motor's, armature = J_m, damping = motor + spring damping). Controllers plan with it; the
+springs exist only in MuJoCo, as on the real robot.
+"""
+
+from __future__ import annotations
+
+import functools
+import tempfile
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal, NamedTuple
+
+import mujoco
+import numpy as np
+import pinocchio as pin
+
+from walkrepro import ROBOTS_DIR
+from walkrepro.errors import UnknownNameError
+
+ControlMode = Literal["torque", "position"]
+
+#: Foot bodies (the bodies after the ankle roll joints).
+FOOT_BODIES = ("left_foot", "right_foot")
+#: Sites at the centres of the sole bottoms.
+SOLE_SITES = ("left_sole", "right_sole")
+#: Sites of the 6-axis force/torque sensors between ankle and sole.
+FT_SITES = ("left_foot_ft", "right_foot_ft")
+#: Site of the IMU on the upper body.
+IMU_SITE = "imu"
+#: Frames every robot has in both MuJoCo (bodies/sites) and Pinocchio (BODY/OP_FRAME frames).
+FRAME_NAMES = ("pelvis", *FOOT_BODIES, *SOLE_SITES, *FT_SITES, IMU_SITE)
+#: Sensor names every robot has, and no others.
+SENSOR_NAMES = (
+    "imu_quat",
+    "imu_gyro",
+    "imu_acc",
+    "left_foot_force",
+    "left_foot_torque",
+    "right_foot_force",
+    "right_foot_torque",
+)
+#: Suffix of the motor DoF of a series-elastic joint.
+MOTOR_SUFFIX = "_motor"
+#: Name of the home keyframe.
+HOME_KEY = "home"
+
+
+class LinkAddresses(NamedTuple):
+    """Where the components of each link-side joint live in MuJoCo's ``qpos`` or ``qvel``.
+
+    A rigid joint has one component; a series-elastic joint has two (motor, then spring).
+    The link-side values in actuator order are ``np.add.reduceat(x[adr], starts)``, which
+    :meth:`link_values` computes.
+
+    Attributes:
+        adr: flat ``qpos``/``qvel`` indices grouped joint by joint, shape (n_components,).
+        starts: index into ``adr`` where each joint's group starts, shape (n_joints,).
+    """
+
+    adr: np.ndarray
+    starts: np.ndarray
+
+    def link_values(self, x: np.ndarray) -> np.ndarray:
+        """Link-side values (sum of each joint's components), shape (n_joints,)."""
+        return np.add.reduceat(np.asarray(x)[self.adr], self.starts)
+
+
+@dataclass(frozen=True, eq=False)  # eq=False: compare by identity, arrays have no ==
+class Robot:
+    """One robot, loaded from ``robots/<name>/robot.xml`` into MuJoCo and Pinocchio.
+
+    Instances are shared by :func:`load_robot`'s cache: treat the models and arrays as
+    read-only (the arrays are flagged so) and make a copy to change anything.
+
+    Attributes:
+        name: folder name under ``robots/``.
+        xml_path: the MJCF file.
+        mj_model: MuJoCo model of the robot alone (no floor, no options set).
+        pin_model: Pinocchio model with a free-flyer root (COMAN: the rigid twin).
+        joint_names: actuated link-side joints, in actuator order, shape (n,).
+        control_mode: ``"torque"`` (ctrl = joint torques [Nm]) or ``"position"`` (ctrl =
+            motor-side position targets [rad]).
+        home_qpos: MuJoCo ``qpos`` of the ``home`` keyframe, shape (nq,): knees bent, feet
+            flat with the sole bottoms on z = 0, the midpoint of the sole centres at the
+            world origin and the CoM above it.
+        home_ctrl: MuJoCo ``ctrl`` of the ``home`` keyframe, shape (nu,) (zeros for torque
+            robots, the servo targets that hold home for position robots).
+        home_joint_pos: link-side joint angles at home, actuator order, shape (n,) [rad].
+        total_mass: mass of the whole robot [kg].
+        nominal_pelvis_height: pelvis origin height at home (soles on z = 0) [m].
+        nominal_com_height: whole-body centre of mass height at home [m].
+        sole_size: sole length along x and width along y [m].
+        spring_stiffness: spring constant of each series-elastic joint, shape (n,)
+            [Nm/rad]; None for a rigid robot.
+        pin_q_idx: index in Pinocchio's ``q`` of each actuated joint, shape (n,).
+        pin_v_idx: index in Pinocchio's ``v`` of each actuated joint, shape (n,).
+    """
+
+    name: str
+    xml_path: Path
+    mj_model: mujoco.MjModel
+    pin_model: pin.Model
+    joint_names: tuple[str, ...]
+    control_mode: ControlMode
+    home_qpos: np.ndarray
+    home_ctrl: np.ndarray
+    home_joint_pos: np.ndarray
+    total_mass: float
+    nominal_pelvis_height: float
+    nominal_com_height: float
+    sole_size: tuple[float, float]
+    spring_stiffness: np.ndarray | None
+    pin_q_idx: np.ndarray
+    pin_v_idx: np.ndarray
+    _qpos_adr: LinkAddresses = field(repr=False)
+    _qvel_adr: LinkAddresses = field(repr=False)
+
+    @property
+    def n_joints(self) -> int:
+        """Number of actuated link-side joints."""
+        return len(self.joint_names)
+
+    @property
+    def is_series_elastic(self) -> bool:
+        """True when every actuated joint is a motor DoF + spring DoF pair (COMAN)."""
+        return self.spring_stiffness is not None
+
+    # ---- MuJoCo side ------------------------------------------------------------------
+
+    def link_joint_qpos_adr(self, model: mujoco.MjModel | None = None) -> LinkAddresses:
+        """``qpos`` addresses of each link joint's components, actuator order.
+
+        Args:
+            model: a model that contains this robot (e.g. a compiled scene), looked up by
+                joint name; defaults to :attr:`mj_model`.
+        """
+        if model is None or model is self.mj_model:
+            return self._qpos_adr
+        return _link_addresses(model, self.joint_names, "qposadr")
+
+    def link_joint_qvel_adr(self, model: mujoco.MjModel | None = None) -> LinkAddresses:
+        """``qvel`` addresses of each link joint's components, actuator order (see above)."""
+        if model is None or model is self.mj_model:
+            return self._qvel_adr
+        return _link_addresses(model, self.joint_names, "dofadr")
+
+    def link_joint_pos(self, qpos: np.ndarray) -> np.ndarray:
+        """Link-side joint angles from this robot's MuJoCo ``qpos``, shape (n,) [rad]."""
+        return self._qpos_adr.link_values(qpos)
+
+    def link_joint_vel(self, qvel: np.ndarray) -> np.ndarray:
+        """Link-side joint velocities from this robot's MuJoCo ``qvel``, shape (n,) [rad/s]."""
+        return self._qvel_adr.link_values(qvel)
+
+    def body_names(self) -> tuple[str, ...]:
+        """Names of the robot's MuJoCo bodies (world excluded), tree order."""
+        return tuple(self.mj_model.body(i).name for i in range(1, self.mj_model.nbody))
+
+    # ---- Pinocchio side ---------------------------------------------------------------
+
+    def pin_state(
+        self,
+        base_pos: np.ndarray,
+        base_quat_wxyz: np.ndarray,
+        base_linvel_world: np.ndarray,
+        base_angvel_local: np.ndarray,
+        joint_pos: np.ndarray,
+        joint_vel: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Pinocchio ``(q, v)`` from a base state in MuJoCo's conventions and link joints.
+
+        Args:
+            base_pos: pelvis origin in the world, shape (3,) [m].
+            base_quat_wxyz: world-from-pelvis orientation (w, x, y, z), as in MuJoCo.
+            base_linvel_world: velocity of the pelvis origin in the WORLD frame, shape (3,)
+                [m/s] (MuJoCo's ``qvel[0:3]``).
+            base_angvel_local: pelvis angular velocity in the PELVIS frame, shape (3,)
+                [rad/s] (MuJoCo's ``qvel[3:6]``).
+            joint_pos: link-side joint angles in actuator order, shape (n,) [rad].
+            joint_vel: link-side joint velocities in actuator order, shape (n,) [rad/s].
+
+        Returns:
+            ``q`` (nq,) with the quaternion as (x, y, z, w), and ``v`` (nv,) with the base
+            linear and angular velocity both in the pelvis frame.
+        """
+        model = self.pin_model
+        w, x, y, z = np.asarray(base_quat_wxyz, dtype=float)
+        q = np.zeros(model.nq)
+        q[0:3] = base_pos
+        q[3:7] = (x, y, z, w)
+        rot = pin.Quaternion(w, x, y, z).normalized().toRotationMatrix()  # world-from-pelvis
+        v = np.zeros(model.nv)
+        v[0:3] = rot.T @ np.asarray(base_linvel_world, dtype=float)  # world -> pelvis frame
+        v[3:6] = base_angvel_local
+        q[self.pin_q_idx] = joint_pos
+        v[self.pin_v_idx] = joint_vel
+        return q, v
+
+    def pin_state_from_mujoco(
+        self, qpos: np.ndarray, qvel: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Pinocchio ``(q, v)`` of this robot's MuJoCo state (link joint = sum of components)."""
+        return self.pin_state(
+            qpos[0:3],
+            qpos[3:7],
+            qvel[0:3],
+            qvel[3:6],
+            self.link_joint_pos(qpos),
+            self.link_joint_vel(qvel),
+        )
+
+    def pin_frame_id(self, name: str) -> int:
+        """Pinocchio frame id of a body or site (e.g. ``"left_sole"``; see FRAME_NAMES)."""
+        if not self.pin_model.existFrame(name):
+            raise UnknownNameError("frame", name, [f.name for f in self.pin_model.frames])
+        return int(self.pin_model.getFrameId(name))
+
+    def pin_joint_id(self, name: str) -> int:
+        """Pinocchio joint id of an actuated link-side joint (``"l_knee"``)."""
+        if name not in self.joint_names:
+            raise UnknownNameError("joint", name, self.joint_names)
+        return int(self.pin_model.getJointId(name))
+
+
+def list_robots() -> list[str]:
+    """Names of the robots: the folders of ``robots/`` that hold a ``robot.xml``."""
+    if not ROBOTS_DIR.is_dir():
+        return []
+    return sorted(p.parent.name for p in ROBOTS_DIR.glob("*/robot.xml"))
+
+
+@functools.cache
+def load_robot(name: str) -> Robot:
+    """Load ``robots/<name>/robot.xml`` into MuJoCo and Pinocchio (cached per name).
+
+    Raises:
+        UnknownNameError: ``name`` is not a robot; the message lists the valid ones.
+        ValueError: the MJCF breaks a convention other modules rely on.
+    """
+    robots = list_robots()
+    if name not in robots:
+        raise UnknownNameError("robot", name, robots)
+    xml_path = ROBOTS_DIR / name / "robot.xml"
+    mj_model = mujoco.MjModel.from_xml_path(str(xml_path))
+    joint_names = tuple(mj_model.actuator(i).name for i in range(mj_model.nu))
+    _check_conventions(mj_model, joint_names, xml_path)
+
+    series_elastic = _joint_id(mj_model, joint_names[0] + MOTOR_SUFFIX) >= 0
+    pin_model = _build_pin_model(xml_path, rigid_twin=series_elastic)
+    pin_q_idx = np.array([pin_model.joints[pin_model.getJointId(j)].idx_q for j in joint_names])
+    pin_v_idx = np.array([pin_model.joints[pin_model.getJointId(j)].idx_v for j in joint_names])
+
+    data = mujoco.MjData(mj_model)
+    mujoco.mj_resetDataKeyframe(mj_model, data, mj_model.key(HOME_KEY).id)
+    mujoco.mj_forward(mj_model, data)
+    qpos_adr = _link_addresses(mj_model, joint_names, "qposadr")
+    qvel_adr = _link_addresses(mj_model, joint_names, "dofadr")
+    sole = mj_model.geom("left_foot_sole").size
+    stiffness = None
+    if series_elastic:
+        stiffness = np.array([mj_model.jnt_stiffness[mj_model.joint(j).id] for j in joint_names])
+
+    return Robot(
+        name=name,
+        xml_path=xml_path,
+        mj_model=mj_model,
+        pin_model=pin_model,
+        joint_names=joint_names,
+        control_mode="position" if series_elastic else "torque",
+        home_qpos=_frozen(data.qpos),
+        home_ctrl=_frozen(data.ctrl),
+        home_joint_pos=_frozen(qpos_adr.link_values(data.qpos)),
+        total_mass=float(np.sum(mj_model.body_mass)),
+        nominal_pelvis_height=float(data.qpos[2]),
+        nominal_com_height=float(data.subtree_com[mj_model.body("pelvis").id][2]),
+        sole_size=(2.0 * float(sole[0]), 2.0 * float(sole[1])),
+        spring_stiffness=None if stiffness is None else _frozen(stiffness),
+        pin_q_idx=_frozen(pin_q_idx),
+        pin_v_idx=_frozen(pin_v_idx),
+        _qpos_adr=LinkAddresses(_frozen(qpos_adr.adr), _frozen(qpos_adr.starts)),
+        _qvel_adr=LinkAddresses(_frozen(qvel_adr.adr), _frozen(qvel_adr.starts)),
+    )
+
+
+# ---- helpers ----------------------------------------------------------------------------
+
+
+def _frozen(x: np.ndarray) -> np.ndarray:
+    """A read-only copy: cached robots are shared between callers."""
+    out = np.array(x, copy=True)
+    out.flags.writeable = False
+    return out
+
+
+def _joint_id(model: mujoco.MjModel, name: str) -> int:
+    return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+
+
+def _link_addresses(
+    model: mujoco.MjModel, joint_names: tuple[str, ...], attr: str
+) -> LinkAddresses:
+    """Addresses (``qposadr`` or ``dofadr``) of each joint's motor (if any) then link DoF."""
+    adr: list[int] = []
+    starts: list[int] = []
+    for name in joint_names:
+        starts.append(len(adr))
+        for jname in (name + MOTOR_SUFFIX, name):
+            jid = _joint_id(model, jname)
+            if jid >= 0:
+                adr.append(int(getattr(model, f"jnt_{attr}")[jid]))
+    return LinkAddresses(np.array(adr, dtype=int), np.array(starts, dtype=int))
+
+
+def _check_conventions(model: mujoco.MjModel, joint_names: tuple[str, ...], xml_path: Path) -> None:
+    """Fail early, naming the file, when the MJCF lacks what other modules rely on."""
+    problems = []
+    if (
+        model.nbody < 2
+        or model.body(1).name != "pelvis"
+        or model.jnt_type[0] != mujoco.mjtJoint.mjJNT_FREE
+    ):
+        problems.append("the first body must be 'pelvis' with a free joint")
+    for body in FOOT_BODIES:
+        if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body) < 0:
+            problems.append(f"no body {body!r}")
+    for site in (*SOLE_SITES, *FT_SITES, IMU_SITE):
+        if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site) < 0:
+            problems.append(f"no site {site!r}")
+    sensors = tuple(model.sensor(i).name for i in range(model.nsensor))
+    if sorted(sensors) != sorted(SENSOR_NAMES):
+        problems.append(f"sensors must be exactly {SENSOR_NAMES}, got {sensors}")
+    for i, name in enumerate(joint_names):
+        if _joint_id(model, name) < 0:
+            problems.append(f"actuator {name!r} is not named after a link-side joint")
+        target = model.actuator_trnid[i, 0]
+        if model.joint(target).name not in (name, name + MOTOR_SUFFIX):
+            problems.append(f"actuator {name!r} drives joint {model.joint(target).name!r}")
+    if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, HOME_KEY) < 0:
+        problems.append(f"no keyframe {HOME_KEY!r}")
+    if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "left_foot_sole") < 0:
+        problems.append("no sole geom 'left_foot_sole'")
+    if problems:
+        raise ValueError(f"{xml_path}: " + "; ".join(problems))
+
+
+def _build_pin_model(xml_path: Path, rigid_twin: bool) -> pin.Model:
+    """Pinocchio model of the MJCF; for series-elastic robots, of its rigid twin.
+
+    Pinocchio (checked with 4.1) turns the MJCF free joint into a ``JointModelFreeFlyer`` named ``root``
+    (no root joint must be passed), bodies into BODY frames and sites into OP_FRAMEs, and
+    reads joint ``armature`` into ``model.armature`` (which ``crba`` adds to M) and
+    ``damping`` into ``model.damping``. Two hinges in one body would become one composite
+    joint, hence the rigid twin.
+    """
+    if not rigid_twin:
+        return pin.buildModelFromMJCF(str(xml_path))
+    tree = ET.parse(xml_path)
+    root = tree.getroot()
+    # Only kinematics and inertia matter to Pinocchio; the keyframe has MuJoCo's nq.
+    for tag in ("actuator", "sensor", "keyframe"):
+        for el in root.findall(tag):
+            root.remove(el)
+    for body in root.iter("body"):
+        for motor in [j for j in body.findall("joint") if j.get("name", "").endswith(MOTOR_SUFFIX)]:
+            link = next(
+                j
+                for j in body.findall("joint")
+                if j.get("name") == motor.get("name")[: -len(MOTOR_SUFFIX)]
+            )
+            # Rigid spring: the link moves with the motor, so it gets the motor's range and
+            # both DoFs' inertia and damping; the spring's stiffness disappears.
+            link.set("range", motor.get("range", ""))
+            for attr in ("armature", "damping"):
+                link.set(attr, repr(float(motor.get(attr, 0)) + float(link.get(attr, 0))))
+            link.attrib.pop("stiffness", None)
+            body.remove(motor)
+    # Pinocchio's MJCF parser reads files, not strings: go through a temporary file.
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"{xml_path.parent.name}_rigid_twin.xml"
+        tree.write(path, encoding="unicode")
+        return pin.buildModelFromMJCF(str(path))
