@@ -63,7 +63,9 @@ def test_list_shows_every_experiment_with_its_paper() -> None:
         (("metric: fell", "metric: falls"), ("unknown metric 'falls'", "footsteps")),
     ],
 )
-def test_bad_spec_gives_one_paragraph_and_exit_2(tmp_path: Path, edit: tuple[str, str], needles: tuple[str, ...]) -> None:
+def test_bad_spec_gives_one_paragraph_and_exit_2(
+    tmp_path: Path, edit: tuple[str, str], needles: tuple[str, ...]
+) -> None:
     """Each kind of bad spec gives exit code 2, no traceback, and names file and field."""
     path = tmp_path / "bad.yaml"
     path.write_text(SPEC.replace(*edit))
@@ -75,9 +77,14 @@ def test_bad_spec_gives_one_paragraph_and_exit_2(tmp_path: Path, edit: tuple[str
 def test_unknown_body_and_missing_file(tmp_path: Path) -> None:
     """An unknown disturbance body lists bodies; a missing spec file is named."""
     path = tmp_path / "bad.yaml"
-    path.write_text(SPEC + "disturbances:\n  - {name: p, body: head, force: [1, 0, 0], start: 0, duration: 0.1}\n")
+    path.write_text(
+        SPEC
+        + "disturbances:\n  - {name: p, body: head, force: [1, 0, 0], start: 0, duration: 0.1}\n"
+    )
     assert_friendly(*invoke("run", str(path)), "unknown body 'head'", "pelvis")
-    assert_friendly(*invoke("run", str(tmp_path / "missing.yaml")), "missing.yaml", "no such spec file")
+    assert_friendly(
+        *invoke("run", str(tmp_path / "missing.yaml")), "missing.yaml", "no such spec file"
+    )
     assert_friendly(*invoke("run", "no_such_experiment"), "unknown experiment", "stand_coman")
 
 
@@ -87,7 +94,11 @@ def test_unwritable_output_directory(tmp_path: Path) -> None:
     blocker.write_text("not a directory")
     path = tmp_path / "ok.yaml"
     path.write_text(SPEC)
-    assert_friendly(*invoke("run", str(path), "--out", str(blocker / "runs")), "cannot write run outputs", "--out")
+    assert_friendly(
+        *invoke("run", str(path), "--out", str(blocker / "runs")),
+        "cannot write run outputs",
+        "--out",
+    )
 
 
 def test_run_writes_a_complete_run_directory(tmp_path: Path) -> None:
@@ -101,7 +112,14 @@ def test_run_writes_a_complete_run_directory(tmp_path: Path) -> None:
     runs = sorted((out / "tiny_stand").iterdir())
     assert len(runs) == 2 and not any(r.name.startswith(".") for r in runs)
     run = runs[0]
-    for name in ("spec.yaml", "log.mcap", "metrics.json", "check.json", "run.json", "figures/overview.png"):
+    for name in (
+        "spec.yaml",
+        "log.mcap",
+        "metrics.json",
+        "check.json",
+        "run.json",
+        "figures/overview.png",
+    ):
         assert (run / name).is_file(), name
     assert json.loads((run / "check.json").read_text())["passed"] is True
     log = record.read_log(run / "log.mcap")
@@ -120,7 +138,9 @@ def test_determinism_same_spec_same_states(tmp_path: Path) -> None:
     from walkrepro.spec import load_spec, resolve_spec
 
     path = tmp_path / "ok.yaml"
-    path.write_text(SPEC.replace("{key: walkrepro}", "{key: walkrepro}\nsensors: {joint_position_noise: 0.001}"))
+    path.write_text(
+        SPEC.replace("{key: walkrepro}", "{key: walkrepro}\nsensors: {joint_position_noise: 0.001}")
+    )
     spec = resolve_spec(load_spec(str(path))).spec
     a, b = tmp_path / "a.mcap", tmp_path / "b.mcap"
     simulate(spec, a)

@@ -21,7 +21,9 @@ def test_window_and_ramp_profile() -> None:
 
 def test_controller_frame_is_frozen_at_onset() -> None:
     """A force in a controller frame is rotated by that frame as it was at onset."""
-    spec = DisturbanceSpec(name="push", body="pelvis", frame="O_w", force=(75, 0, 0), start=0.0, duration=1.0)
+    spec = DisturbanceSpec(
+        name="push", body="pelvis", frame="O_w", force=(75, 0, 0), start=0.0, duration=1.0
+    )
     schedule = DisturbanceSchedule([spec])
     rot90 = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
     wrenches, events = schedule.wrenches(0.0, lambda name: rot90)

@@ -68,7 +68,11 @@ class Verdict:
             "outcome": self.outcome,
             "passed": self.passed,
             "rows": [
-                {**asdict(r), "measured": None if math.isnan(r.measured) else r.measured, "band": r.band}
+                {
+                    **asdict(r),
+                    "measured": None if math.isnan(r.measured) else r.measured,
+                    "band": r.band,
+                }
                 for r in self.rows
             ],
         }
@@ -113,7 +117,9 @@ def write_junit(verdicts: list[Verdict], path: Path) -> None:
     """JUnit XML: one test suite per experiment, one test case per expectation."""
     root = ET.Element("testsuites", name="walkrepro check")
     for v in verdicts:
-        failures = sum(r.status == FAIL for r in v.rows) + (0 if v.outcome in ("complete", "fell") else 1)
+        failures = sum(r.status == FAIL for r in v.rows) + (
+            0 if v.outcome in ("complete", "fell") else 1
+        )
         suite = ET.SubElement(
             root, "testsuite", name=v.experiment, tests=str(len(v.rows) + 1), failures=str(failures)
         )
@@ -121,7 +127,9 @@ def write_junit(verdicts: list[Verdict], path: Path) -> None:
         if v.outcome not in ("complete", "fell"):
             ET.SubElement(run_case, "failure", message=f"run outcome: {v.outcome}")
         for r in v.rows:
-            case = ET.SubElement(suite, "testcase", classname=v.experiment, name=f"{r.metric} {r.band}")
+            case = ET.SubElement(
+                suite, "testcase", classname=v.experiment, name=f"{r.metric} {r.band}"
+            )
             text = f"measured {r.measured:g}; source: {r.source}; {r.note}"
             if r.status == FAIL:
                 ET.SubElement(case, "failure", message=text)

@@ -36,6 +36,7 @@ def _console(stderr: bool = False) -> Console:
     stream = sys.stderr if stderr else sys.stdout
     return Console(stderr=stderr, width=None if stream.isatty() else 200)
 
+
 F = TypeVar("F", bound=Callable[..., Any])
 
 SetOption = Annotated[
@@ -55,7 +56,9 @@ def friendly_errors(fn: F) -> F:
         try:
             return fn(*args, **kwargs)
         except WalkreproError as exc:
-            _console(stderr=True).print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
+            _console(stderr=True).print(
+                f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True
+            )
             raise typer.Exit(code=exc.exit_code) from None
 
     return wrapper  # type: ignore[return-value]
@@ -102,7 +105,9 @@ def run(
 @app.command()
 @friendly_errors
 def check(
-    experiments: Annotated[list[str] | None, typer.Argument(help="Experiments to run and check.")] = None,
+    experiments: Annotated[
+        list[str] | None, typer.Argument(help="Experiments to run and check.")
+    ] = None,
     run_dir: Annotated[
         list[Path] | None, typer.Option("--run", help="Re-check an existing run directory or log.")
     ] = None,
@@ -127,7 +132,9 @@ def check(
     for name in names:  # validate every spec before running any
         _resolved(name, set_ or [])
     if names:
-        _console().print(f"running {len(names)} experiment(s) with {min(jobs, len(names))} process(es)…")
+        _console().print(
+            f"running {len(names)} experiment(s) with {min(jobs, len(names))} process(es)…"
+        )
         if jobs > 1 and len(names) > 1:
             with ProcessPoolExecutor(max_workers=jobs) as pool:
                 futures = [pool.submit(_run_one, n, set_ or [], out, figures, False) for n in names]
@@ -148,7 +155,9 @@ def check(
 @friendly_errors
 def plot(
     runs: Annotated[list[Path], typer.Argument(help="Run directory or log (two to compare runs).")],
-    out: Annotated[Path | None, typer.Option(help="Figure directory (default: RUN/figures).")] = None,
+    out: Annotated[
+        Path | None, typer.Option(help="Figure directory (default: RUN/figures).")
+    ] = None,
 ) -> None:
     """Redraw the paper's figures from one run, or compare two runs."""
     from walkrepro.figures import plot_compare, plot_run
@@ -160,7 +169,9 @@ def plot(
         directory, log = resolved[0]
         written = plot_run(log, out or directory / results.FIGURES_DIR)
     else:
-        written = plot_compare(resolved[0][1], resolved[1][1], out or resolved[0][0] / results.FIGURES_DIR)
+        written = plot_compare(
+            resolved[0][1], resolved[1][1], out or resolved[0][0] / results.FIGURES_DIR
+        )
     for path in written:
         _console().print(f"wrote {path}")
 
@@ -191,7 +202,9 @@ def verify(
 def render(
     run_path: Annotated[Path, typer.Argument(help="Run directory or log.")],
     at: Annotated[str, typer.Option(help="Comma-separated times [s].")] = "0,1,2,3,4",
-    out: Annotated[Path | None, typer.Option(help="PNG path (default: RUN/figures/snapshots.png).")] = None,
+    out: Annotated[
+        Path | None, typer.Option(help="PNG path (default: RUN/figures/snapshots.png).")
+    ] = None,
     width: Annotated[int, typer.Option(help="Width of each frame [px].")] = 480,
     height: Annotated[int, typer.Option(help="Height of each frame [px].")] = 640,
 ) -> None:
@@ -202,8 +215,12 @@ def render(
     try:
         times = [float(x) for x in at.split(",") if x.strip()]
     except ValueError:
-        raise WalkreproError(f"--at {at!r}: expected comma-separated times in seconds, e.g. 0,2,4.") from None
-    path = render_strip(log, times, out or directory / results.FIGURES_DIR / "snapshots.png", width, height)
+        raise WalkreproError(
+            f"--at {at!r}: expected comma-separated times in seconds, e.g. 0,2,4."
+        ) from None
+    path = render_strip(
+        log, times, out or directory / results.FIGURES_DIR / "snapshots.png", width, height
+    )
     _console().print(f"wrote {path}")
 
 

@@ -31,7 +31,9 @@ class DisturbanceSchedule:
     def __init__(self, specs: Sequence[DisturbanceSpec]) -> None:
         self._items = [_Active(spec=s) for s in specs]
 
-    def wrenches(self, t: float, frame_lookup: FrameLookup) -> tuple[dict[str, np.ndarray], list[dict]]:
+    def wrenches(
+        self, t: float, frame_lookup: FrameLookup
+    ) -> tuple[dict[str, np.ndarray], list[dict]]:
         """World-frame wrenches per body at time ``t`` [s], and on/off events.
 
         Returns:

@@ -28,6 +28,8 @@ GRAVITY = 9.81  # [m/s^2]
 TOUCHDOWN_WEIGHT_FRACTION = 0.1
 #: ... and has been unloaded below half of that before (hysteresis against chatter).
 LIFTOFF_WEIGHT_FRACTION = 0.05
+#: A sole centre lower than this at the first logged state starts on the ground [m].
+START_CONTACT_HEIGHT = 0.005
 
 
 @dataclass(frozen=True)
@@ -97,7 +99,11 @@ class LogData:
         steps: list[Footstep] = []
         for foot in FOOT_BODIES:
             fz = self.foot_normal_force(foot)
-            loaded = bool(fz[0] > on) if fz.size else True
+            if not fz.size:
+                continue
+            # At the start a foot resting on the ground counts as loaded even before its
+            # contact force builds up, so standing still is not a touchdown.
+            loaded = bool(fz[0] > on) or self._sole(foot, 0)[2] < START_CONTACT_HEIGHT
             for i in range(1, fz.size):
                 if loaded and fz[i] < off:
                     loaded = False
@@ -247,7 +253,9 @@ def _mean_forward_speed(d: LogData, arg: str) -> float:
     return float((d.qpos[i1, 0] - d.qpos[i0, 0]) / (d.t[i1] - d.t[i0]))
 
 
-@metric("peak_contact_force", "largest contact force norm [N] on pairs matching 'body/geom' or 'geom'")
+@metric(
+    "peak_contact_force", "largest contact force norm [N] on pairs matching 'body/geom' or 'geom'"
+)
 def _peak_contact_force(d: LogData, arg: str) -> float:
     pattern = arg if "/" in arg else f"*/{arg or '*'}"
     forces = d.contact_wrench(pattern)[:, :3]

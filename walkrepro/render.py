@@ -43,7 +43,7 @@ def render_strip(log_path: Path, times: list[float], out: Path, width: int, heig
         ) from None
     camera = mujoco.MjvCamera()
     camera.type = mujoco.mjtCamera.mjCAMERA_FREE
-    camera.azimuth, camera.elevation, camera.distance = 90.0, -12.0, 3.2
+    camera.azimuth, camera.elevation, camera.distance = 90.0, -15.0, 3.2
     frames, shown = [], []
     pelvis = model.body("pelvis").id
     for when in times:

@@ -67,7 +67,9 @@ class SimulationError(RuntimeError):
     """The physics became invalid (NaN, MuJoCo's bad-acceleration reset)."""
 
 
-def run(spec: ExperimentSpec, log_path: Path, progress: ProgressCallback | None = None) -> RunResult:
+def run(
+    spec: ExperimentSpec, log_path: Path, progress: ProgressCallback | None = None
+) -> RunResult:
     """Simulate ``spec`` and write its log to ``log_path``.
 
     Ctrl-C ends the loop cleanly: the log is closed and marked ``interrupted``. Any other
@@ -82,7 +84,9 @@ def run(spec: ExperimentSpec, log_path: Path, progress: ProgressCallback | None 
 
     cls = controller_class(spec.controller.type)
     controller = cls()
-    controller.reset(robot, cls.Params.model_validate(spec.controller.params), spec.sim.control_period)
+    controller.reset(
+        robot, cls.Params.model_validate(spec.controller.params), spec.sim.control_period
+    )
     sensors = SensorModel(robot, model, spec.sensors, spec.sim.control_period, spec.sim.seed)
     disturbances = DisturbanceSchedule(spec.disturbances)
     contacts = _ContactReader(model)
@@ -108,7 +112,9 @@ def run(spec: ExperimentSpec, log_path: Path, progress: ProgressCallback | None 
                     mujoco.mj_forward(model, data)  # fresh sensors for the new state
                 _check_finite(data, t)
                 writer.write(record.TOPIC_STATE, _state_msg(step, data), t)
-                writer.write(record.TOPIC_CONTACTS, {"step": step, "t": t, "pairs": contacts.read(data)}, t)
+                writer.write(
+                    record.TOPIC_CONTACTS, {"step": step, "t": t, "pairs": contacts.read(data)}, t
+                )
                 reason = fall.check(data)
                 if reason:
                     outcome, fall_time, message = "fell", t, f"fell at t = {t:.3f} s ({reason})"
@@ -134,7 +140,11 @@ def run(spec: ExperimentSpec, log_path: Path, progress: ProgressCallback | None 
             data.ctrl[:] = ctrl
             writer.write(
                 record.TOPIC_INPUTS,
-                {"step": step, "ctrl": ctrl.tolist(), "xfrc": {b: w.tolist() for b, w in wrenches.items()}},
+                {
+                    "step": step,
+                    "ctrl": ctrl.tolist(),
+                    "xfrc": {b: w.tolist() for b, w in wrenches.items()},
+                },
                 t,
             )
             mujoco.mj_step(model, data)

@@ -388,7 +388,9 @@ def _format_validation(
     parts = []
     for err in exc.errors():
         # Drop pydantic's union-branch tags (e.g. 'float', 'tuple[float, float]') from paths.
-        loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and ("[" in p or p in _TYPE_TAGS)))
+        loc = tuple(
+            p for p in err["loc"] if not (isinstance(p, str) and ("[" in p or p in _TYPE_TAGS))
+        )
         path = (*prefix, *loc)
         msg = err["msg"]
         if msg.startswith("Value error, "):
@@ -466,31 +468,44 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
         raise UnknownNameError("robot", spec.robot, list_robots(), loaded.where(("robot",)))
     if spec.controller.type not in controller_names():
         raise UnknownNameError(
-            "controller", spec.controller.type, controller_names(), loaded.where(("controller", "type"))
+            "controller",
+            spec.controller.type,
+            controller_names(),
+            loaded.where(("controller", "type")),
         )
     cls = controller_class(spec.controller.type)
     try:
         params = cls.Params.model_validate(spec.controller.params)
     except ValidationError as exc:
         raise SpecError(
-            _format_validation(exc, loaded.source, loaded.lines, loaded.overridden, ("controller", "params"))
+            _format_validation(
+                exc, loaded.source, loaded.lines, loaded.overridden, ("controller", "params")
+            )
         ) from None
 
     robot = load_robot(spec.robot)
     bodies = robot.body_names()
     for i, dist in enumerate(spec.disturbances):
         if dist.body not in bodies:
-            raise UnknownNameError("body", dist.body, bodies, loaded.where(("disturbances", i, "body")))
+            raise UnknownNameError(
+                "body", dist.body, bodies, loaded.where(("disturbances", i, "body"))
+            )
         frames = ("world", *cls.FRAMES)
         if dist.frame not in frames:
-            raise UnknownNameError("frame", dist.frame, frames, loaded.where(("disturbances", i, "frame")))
+            raise UnknownNameError(
+                "frame", dist.frame, frames, loaded.where(("disturbances", i, "frame"))
+            )
     valid_metrics = metric_names()
     for i, exp in enumerate(spec.expect):
         base, _ = split_metric(exp.metric)
         if base not in valid_metrics:
-            raise UnknownNameError("metric", base, valid_metrics, loaded.where(("expect", i, "metric")))
+            raise UnknownNameError(
+                "metric", base, valid_metrics, loaded.where(("expect", i, "metric"))
+            )
     if spec.sim.duration < spec.sim.control_period:
-        raise SpecError(f"{loaded.where(('sim', 'duration'))}: duration must cover one control period.")
+        raise SpecError(
+            f"{loaded.where(('sim', 'duration'))}: duration must cover one control period."
+        )
     for i, dist in enumerate(spec.disturbances):
         if dist.start >= spec.sim.duration:
             raise SpecError(
@@ -498,7 +513,10 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
                 f"(duration {spec.sim.duration} s)."
             )
     normalised = spec.model_copy(
-        update={"controller": ControllerSpec(type=spec.controller.type, params=params.model_dump(mode="json"))}
+        update={
+            "controller": ControllerSpec(
+                type=spec.controller.type, params=params.model_dump(mode="json")
+            )
+        }
     )
     return loaded.model_copy(update={"spec": normalised})
-

@@ -102,6 +102,14 @@ def _add_visuals(mjspec: mujoco.MjSpec) -> None:
     tex.rgb2 = [0.72, 0.75, 0.78]
     tex.width = 300
     tex.height = 300
+    sky = mjspec.add_texture()
+    sky.name = "sky"
+    sky.type = mujoco.mjtTexture.mjTEXTURE_SKYBOX
+    sky.builtin = mujoco.mjtBuiltin.mjBUILTIN_GRADIENT
+    sky.rgb1 = [0.55, 0.7, 0.85]
+    sky.rgb2 = [0.95, 0.97, 1.0]
+    sky.width = 64
+    sky.height = 384
     mat = mjspec.add_material()
     mat.name = "grid"
     mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "grid"
@@ -112,5 +120,7 @@ def _add_visuals(mjspec: mujoco.MjSpec) -> None:
     light.pos = [0.0, -1.0, 4.0]
     light.dir = [0.0, 0.3, -1.0]
     light.castshadow = True
+    mjspec.visual.headlight.ambient = [0.35, 0.35, 0.35]
+    mjspec.visual.headlight.diffuse = [0.5, 0.5, 0.5]
     mjspec.visual.global_.offwidth = 1280
     mjspec.visual.global_.offheight = 960

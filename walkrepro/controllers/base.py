@@ -74,4 +74,3 @@ class Controller(ABC):
         frame of that name. The default controller has none.
         """
         return None
-

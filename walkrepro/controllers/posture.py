@@ -74,7 +74,10 @@ class PostureController(Controller):
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
         jc = np.vstack(
-            [pin.getFrameJacobian(model, data, f, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED) for f in self._soles]
+            [
+                pin.getFrameJacobian(model, data, f, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+                for f in self._soles
+            ]
         )
         lam = np.linalg.lstsq(jc[:, :6].T, g[:6], rcond=None)[0]
         return g[6:] - jc[:, 6:].T @ lam
