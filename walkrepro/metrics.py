@@ -297,3 +297,7 @@ def _state_duration_spread(d: LogData, arg: str) -> float:
     if len(durations) < 2:
         return math.nan
     return float(np.std(durations) / np.mean(durations))
+
+
+# Paper-specific metrics register themselves on import (after `metric` exists).
+from walkrepro.paper_metrics import faraji, jo_oh, lee2021  # noqa: E402, F401

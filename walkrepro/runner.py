@@ -274,20 +274,31 @@ class _ContactReader:
         The torque is about the world origin, so a pair's centre of pressure on a
         horizontal surface is ``(-ty / fz, tx / fz)``.
         """
+        n = data.ncon
+        if n == 0:
+            return {}
+        geom1, geom2 = data.contact.geom1[:n], data.contact.geom2[:n]
+        w1, w2 = self._world_geom[geom1], self._world_geom[geom2]
+        idx = np.flatnonzero(w1 != w2)  # robot-world pairs only
+        if idx.size == 0:
+            return {}
+        local = np.empty((idx.size, 3))
+        for row, i in enumerate(idx):
+            mujoco.mj_contactForce(self._model, data, int(i), self._force)
+            local[row] = self._force[:3]
+        # mj_contactForce gives the force of geom1 on geom2 in the contact frame, whose
+        # rows are the frame's axes in world coordinates.
+        frames = data.contact.frame[idx].reshape(-1, 3, 3)
+        f_on_g2 = np.einsum("nji,nj->ni", frames, local)
+        world_first = w1[idx]
+        force = np.where(world_first[:, None], f_on_g2, -f_on_g2)  # force on the robot geom
+        wrench = np.hstack([force, np.cross(data.contact.pos[idx], force)])
+        robot_geom = np.where(world_first, geom2[idx], geom1[idx])
+        world_geom = np.where(world_first, geom1[idx], geom2[idx])
         pairs: dict[str, np.ndarray] = {}
-        for i in range(data.ncon):
-            c = data.contact[i]
-            g1, g2 = c.geom1, c.geom2
-            w1, w2 = self._world_geom[g1], self._world_geom[g2]
-            if w1 == w2:
-                continue  # robot-robot (filtered anyway) or world-world
-            mujoco.mj_contactForce(self._model, data, i, self._force)
-            # mj_contactForce gives the force of geom1 on geom2 in the contact frame.
-            f_on_g2 = c.frame.reshape(3, 3).T @ self._force[:3]
-            robot_geom, world_geom, f = (g2, g1, f_on_g2) if w1 else (g1, g2, -f_on_g2)
-            key = f"{self._body_name[robot_geom]}/{self._geom_name[world_geom]}"
-            wrench = np.concatenate([f, np.cross(c.pos, f)])
-            pairs[key] = pairs[key] + wrench if key in pairs else wrench
+        for row in range(idx.size):
+            key = f"{self._body_name[robot_geom[row]]}/{self._geom_name[world_geom[row]]}"
+            pairs[key] = pairs[key] + wrench[row] if key in pairs else wrench[row]
         return {k: v.tolist() for k, v in pairs.items()}
 
 

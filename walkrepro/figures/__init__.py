@@ -23,7 +23,11 @@ FigureFn = Callable[[LogData, Path], list[Path]]
 CompareFn = Callable[[LogData, LogData, Path], list[Path]]
 
 #: paper key -> module holding its FIGURES (and optionally COMPARE) lists
-_PAPER_MODULES: dict[str, str] = {}
+_PAPER_MODULES: dict[str, str] = {
+    "lee2021": "walkrepro.figures.lee2021",
+    "faraji": "walkrepro.figures.faraji",
+    "jo_oh": "walkrepro.figures.jo_oh",
+}
 
 
 def _paper_figures(paper: str) -> tuple[list[FigureFn], list[CompareFn]]:
