@@ -12,6 +12,8 @@ two stages so every error can name the file, the line and the field:
 
 from __future__ import annotations
 
+import fnmatch
+
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal
@@ -197,6 +199,25 @@ class SensorsSpec(_Strict):
     )
 
 
+class ActuatorsSpec(_Strict):
+    """Per-experiment settings of the robot's actuators (hardware settings, not control).
+
+    ``position_gain`` maps actuator names (or shell-style globs such as ``*ankle*``) to the
+    stiffness of a position servo [Nm/rad]; e.g. Paper II's "stiffest gains" set every
+    COMAN servo to 500 V/rad / β. Later entries win where globs overlap.
+    """
+
+    position_gain: dict[str, float] = Field(default_factory=dict)
+
+    @field_validator("position_gain")
+    @classmethod
+    def _positive(cls, gains: dict[str, float]) -> dict[str, float]:
+        bad = [k for k, v in gains.items() if v <= 0]
+        if bad:
+            raise ValueError(f"gains must be > 0 [Nm/rad]; not so for {', '.join(bad)}")
+        return gains
+
+
 Op = Literal["<", "<=", ">", ">=", "==", "between"]
 
 
@@ -238,6 +259,7 @@ class ExperimentSpec(_Strict):
     world: WorldSpec = Field(default_factory=WorldSpec)
     disturbances: list[DisturbanceSpec] = Field(default_factory=list)
     sensors: SensorsSpec = Field(default_factory=SensorsSpec)
+    actuators: ActuatorsSpec = Field(default_factory=ActuatorsSpec)
     expect: list[Expectation] = Field(default_factory=list)
 
     def to_yaml(self) -> str:
@@ -494,6 +516,21 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
         if dist.frame not in frames:
             raise UnknownNameError(
                 "frame", dist.frame, frames, loaded.where(("disturbances", i, "frame"))
+            )
+    actuator_names = robot.joint_names
+    for pattern in spec.actuators.position_gain:
+        matched = fnmatch.filter(actuator_names, pattern)
+        if not matched:
+            raise UnknownNameError(
+                "actuator",
+                pattern,
+                actuator_names,
+                loaded.where(("actuators", "position_gain", pattern)),
+            )
+        if robot.control_mode != "position":
+            raise SpecError(
+                f"{loaded.where(('actuators', 'position_gain'))}: robot {robot.name!r} has torque "
+                "actuators; position_gain applies to position servos only."
             )
     valid_metrics = metric_names()
     for i, exp in enumerate(spec.expect):

@@ -7,6 +7,7 @@ the identical model, bit for bit.
 
 from __future__ import annotations
 
+import fnmatch
 import math
 from dataclasses import dataclass
 
@@ -56,6 +57,7 @@ def build_scene(robot: Robot, spec: ExperimentSpec) -> Scene:
     floor.material = "grid"
     for obstacle in spec.world.obstacles:
         _add_obstacle(mjspec, obstacle, spec.world.floor_friction)
+    _set_position_gains(mjspec, spec.actuators.position_gain)
     mjspec.compile()  # to_xml() writes the compiled spec
     xml = mjspec.to_xml()
     # Compile again from the text: the logged XML is the single source of truth.
@@ -81,6 +83,16 @@ def _add_obstacle(mjspec: mujoco.MjSpec, obstacle: ObstacleSpec, floor_friction:
     geom.rgba = [0.85, 0.45, 0.2, 1.0]
     if obstacle.mass is not None:
         geom.mass = obstacle.mass
+
+
+def _set_position_gains(mjspec: mujoco.MjSpec, gains: dict[str, float]) -> None:
+    """Set the stiffness kp [Nm/rad] of position servos whose names match the globs."""
+    for pattern, kp in gains.items():
+        for actuator in mjspec.actuators:
+            if fnmatch.fnmatchcase(actuator.name, pattern):
+                # A MuJoCo position servo is force = kp * ctrl - kp * q.
+                actuator.gainprm[0] = kp
+                actuator.biasprm[1] = -kp
 
 
 def _quat_xy(rx: float, ry: float) -> list[float]:

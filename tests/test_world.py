@@ -1,0 +1,59 @@
+"""Scene building: floor, obstacles, physics options, actuator settings."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from walkrepro.robot import load_robot
+from walkrepro.spec import ExperimentSpec
+from walkrepro.world import build_scene
+
+
+def make_spec(**extra: object) -> ExperimentSpec:
+    base = {
+        "name": "t",
+        "description": "d",
+        "paper": {"key": "walkrepro"},
+        "robot": "coman",
+        "controller": {"type": "posture"},
+        "sim": {"duration": 1.0, "timestep": 0.001, "control_period": 0.002},
+    }
+    return ExperimentSpec.model_validate({**base, **extra})
+
+
+def test_scene_has_floor_obstacle_and_timestep() -> None:
+    """The scene adds the floor and a tilted box obstacle, and uses the spec's timestep."""
+    spec = make_spec(
+        world={
+            "obstacles": [
+                {
+                    "name": "obstacle_step",
+                    "size": [0.4, 0.6, 0.05],
+                    "position": [0.3, 0, 0.025],
+                    "tilt_x_deg": 20,
+                }
+            ]
+        }
+    )
+    scene = build_scene(load_robot("coman"), spec)
+    m = scene.model
+    assert m.opt.timestep == 0.001
+    assert m.geom("floor").type == mujoco.mjtGeom.mjGEOM_PLANE
+    box = m.geom("obstacle_step")
+    assert np.allclose(m.geom_size[box.id], [0.2, 0.3, 0.025])
+    quat = m.body("obstacle_step").quat
+    assert np.isclose(2 * np.degrees(np.arccos(quat[0])), 20.0)  # 20 degrees about x
+    again = mujoco.MjModel.from_xml_string(scene.xml)
+    assert again.nbody == m.nbody and again.ngeom == m.ngeom
+
+
+def test_position_gain_override_sets_servo_stiffness() -> None:
+    """actuators.position_gain sets kp of the matching position servos only."""
+    spec = make_spec(actuators={"position_gain": {"*ankle_roll": 500.0}})
+    m = build_scene(load_robot("coman"), spec).model
+    roll = m.actuator("l_ankle_roll").id
+    pitch = m.actuator("l_ankle_pitch").id
+    assert m.actuator_gainprm[roll, 0] == 500.0 and m.actuator_biasprm[roll, 1] == -500.0
+    default = load_robot("coman").mj_model
+    assert m.actuator_gainprm[pitch, 0] == default.actuator_gainprm[pitch, 0]
