@@ -13,7 +13,6 @@ two stages so every error can name the file, the line and the field:
 from __future__ import annotations
 
 import fnmatch
-
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal
