@@ -186,10 +186,14 @@ def default_metric_names(spec: ExperimentSpec) -> list[str]:
         "pelvis_drift",
         "footsteps",
         "mean_step_length",
+        "mean_step_duration",
+        "step_duration_spread",
         "mean_forward_speed",
         "peak_external_force",
     ]
-    names += [f"peak_contact_force:{o.name}" for o in spec.world.obstacles]
+    names += [
+        f"peak_contact_force:{foot}/{o.name}" for o in spec.world.obstacles for foot in FOOT_BODIES
+    ]
     names += [e.metric for e in spec.expect]
     return list(dict.fromkeys(names))
 
@@ -233,6 +237,27 @@ def _mean_step_length(d: LogData, arg: str) -> float:
     if len(xs) < 2:
         return math.nan
     return float(np.mean(np.diff(xs)))
+
+
+def _touchdown_intervals(d: LogData) -> np.ndarray:
+    return np.diff([s.t for s in d.footsteps])
+
+
+@metric("mean_step_duration", "mean time between successive touchdowns [s]")
+def _mean_step_duration(d: LogData, arg: str) -> float:
+    intervals = _touchdown_intervals(d)
+    return float(np.mean(intervals)) if intervals.size else math.nan
+
+
+@metric(
+    "step_duration_spread",
+    "std/mean of the times between successive touchdowns (0 = clock-like stepping) [-]",
+)
+def _step_duration_spread(d: LogData, arg: str) -> float:
+    intervals = _touchdown_intervals(d)
+    if intervals.size < 2:
+        return math.nan
+    return float(np.std(intervals) / np.mean(intervals))
 
 
 @metric(
