@@ -47,6 +47,7 @@ class RunResult:
         wall_time: wall-clock duration of the loop [s].
         fall_time: time of the fall [s], or None.
         message: one line for humans (why it fell or what went wrong).
+        timing: where the wall time went (see :class:`RunTiming`).
     """
 
     experiment: str
@@ -56,11 +57,73 @@ class RunResult:
     wall_time: float
     fall_time: float | None
     message: str
+    timing: RunTiming | None = None
 
     @property
     def real_time_factor(self) -> float:
         """Simulated seconds per wall-clock second."""
         return self.sim_time / self.wall_time if self.wall_time > 0 else math.inf
+
+
+@dataclass(frozen=True)
+class RunTiming:
+    """Where a run's wall time went.
+
+    Attributes:
+        stages: total wall time per stage [s]: ``physics`` (mj_step, mj_forward),
+            ``sensors``, ``controller``, ``logging``, ``bookkeeping`` (contacts, fall
+            detection, disturbances).
+        tick_median: median wall time of one control period, all stages [s].
+        tick_p99: 99th percentile of the same [s].
+        n_ticks: control ticks measured.
+    """
+
+    stages: dict[str, float]
+    tick_median: float
+    tick_p99: float
+    n_ticks: int
+
+
+class StageClock:
+    """Accumulates wall time per stage with one ``perf_counter_ns`` call per lap.
+
+    ``lap(stage)`` charges the time since the previous lap to ``stage``; ``tick()`` marks
+    the start of a control period. Per-tick costs go to a preallocated array, so memory
+    stays flat over a run.
+    """
+
+    STAGES = ("physics", "sensors", "controller", "logging", "bookkeeping")
+
+    def __init__(self, n_ticks: int) -> None:
+        self._totals = dict.fromkeys(self.STAGES, 0)
+        self._last = time.perf_counter_ns()
+        self._tick_start = np.zeros(n_ticks + 1, dtype=np.int64)
+        self._n = 0
+
+    def lap(self, stage: str) -> None:
+        """Charge the time since the previous lap to ``stage``."""
+        now = time.perf_counter_ns()
+        self._totals[stage] += now - self._last
+        self._last = now
+
+    def tick(self) -> None:
+        """Mark the start of a control period."""
+        now = time.perf_counter_ns()
+        self._totals["bookkeeping"] += now - self._last
+        self._last = now
+        if self._n < self._tick_start.size:
+            self._tick_start[self._n] = now
+            self._n += 1
+
+    def summary(self) -> RunTiming:
+        """Totals and per-tick statistics so far."""
+        ticks = np.diff(self._tick_start[: self._n]) * 1e-9
+        return RunTiming(
+            stages={k: v * 1e-9 for k, v in self._totals.items()},
+            tick_median=float(np.median(ticks)) if ticks.size else float("nan"),
+            tick_p99=float(np.percentile(ticks, 99)) if ticks.size else float("nan"),
+            n_ticks=int(ticks.size),
+        )
 
 
 class SimulationError(RuntimeError):
@@ -102,36 +165,45 @@ def run(
     last_report = wall_start
     step = 0
     interrupt = _InterruptFlag()
+    clock = StageClock(n_steps // substeps + 1)
+    lap = clock.lap
     try:
         for step in range(n_steps):
             t = data.time
             if interrupt.requested:
                 raise KeyboardInterrupt
             if step % substeps == 0:
+                clock.tick()
                 if step > 0:
                     mujoco.mj_forward(model, data)  # fresh sensors for the new state
+                lap("physics")
                 _check_finite(data, t)
-                writer.write(record.TOPIC_STATE, _state_msg(step, data), t)
-                writer.write(
-                    record.TOPIC_CONTACTS, {"step": step, "t": t, "pairs": contacts.read(data)}, t
-                )
+                pairs = contacts.read(data)
                 reason = fall.check(data)
+                lap("bookkeeping")
+                writer.write(record.TOPIC_STATE, _state_msg(step, data), t)
+                writer.write(record.TOPIC_CONTACTS, {"step": step, "t": t, "pairs": pairs}, t)
+                lap("logging")
                 if reason:
                     outcome, fall_time, message = "fell", t, f"fell at t = {t:.3f} s ({reason})"
                     writer.write(record.TOPIC_EVENTS, {"t": t, "kind": "fall", "reason": reason}, t)
                     break
                 snapshot = sensors.read(model, data)
+                lap("sensors")
                 command = controller.step(t, snapshot)
                 ctrl = _checked_ctrl(command.ctrl, model.nu, t)
+                lap("controller")
                 writer.write(record.TOPIC_SENSORS, snapshot.as_dict(), t)
                 writer.write(record.TOPIC_SIGNALS, {"t": t, **_jsonable(command.signals)}, t)
                 for event in command.events:
                     writer.write(record.TOPIC_EVENTS, {"t": t, **_jsonable(event)}, t)
+                lap("logging")
                 now = time.perf_counter()
                 if progress is not None and now - last_report > 0.2:
                     progress(t, spec.sim.duration, t / max(now - wall_start, 1e-9))
                     last_report = now
             wrenches, events = disturbances.wrenches(t, controller.frame)
+            lap("bookkeeping")
             for event in events:
                 writer.write(record.TOPIC_EVENTS, {"t": t, **event}, t)
             data.xfrc_applied[:] = 0.0
@@ -147,7 +219,9 @@ def run(
                 },
                 t,
             )
+            lap("logging")
             mujoco.mj_step(model, data)
+            lap("physics")
             if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
                 raise SimulationError(
                     f"simulation became unstable at t = {data.time:.4f} s (MuJoCo reported a "
@@ -185,6 +259,7 @@ def run(
         wall_time=wall,
         fall_time=fall_time,
         message=message or f"completed {data.time:.3f} s",
+        timing=clock.summary(),
     )
 
 
@@ -267,6 +342,7 @@ class _ContactReader:
         self._geom_name = [model.geom(i).name for i in range(model.ngeom)]
         self._body_name = [model.body(model.geom_bodyid[i]).name for i in range(model.ngeom)]
         self._force = np.zeros(6)
+        self._keys: dict[tuple[int, int], str] = {}
 
     def read(self, data: mujoco.MjData) -> dict[str, list[float]]:
         """``{"<robot body>/<world geom>": [fx, fy, fz, tx, ty, tz]}`` in the world frame.
@@ -277,29 +353,42 @@ class _ContactReader:
         n = data.ncon
         if n == 0:
             return {}
-        geom1, geom2 = data.contact.geom1[:n], data.contact.geom2[:n]
-        w1, w2 = self._world_geom[geom1], self._world_geom[geom2]
-        idx = np.flatnonzero(w1 != w2)  # robot-world pairs only
+        contact = data.contact
+        geom1, geom2 = contact.geom1[:n], contact.geom2[:n]
+        world1 = self._world_geom[geom1]
+        idx = np.flatnonzero(world1 != self._world_geom[geom2])  # robot-world pairs only
         if idx.size == 0:
             return {}
         local = np.empty((idx.size, 3))
-        for row, i in enumerate(idx):
-            mujoco.mj_contactForce(self._model, data, int(i), self._force)
+        for row, i in enumerate(idx.tolist()):
+            mujoco.mj_contactForce(self._model, data, i, self._force)
             local[row] = self._force[:3]
-        # mj_contactForce gives the force of geom1 on geom2 in the contact frame, whose
-        # rows are the frame's axes in world coordinates.
-        frames = data.contact.frame[idx].reshape(-1, 3, 3)
-        f_on_g2 = np.einsum("nji,nj->ni", frames, local)
-        world_first = w1[idx]
-        force = np.where(world_first[:, None], f_on_g2, -f_on_g2)  # force on the robot geom
-        wrench = np.hstack([force, np.cross(data.contact.pos[idx], force)])
-        robot_geom = np.where(world_first, geom2[idx], geom1[idx])
-        world_geom = np.where(world_first, geom1[idx], geom2[idx])
+        # mj_contactForce gives the force of geom1 on geom2 in the contact frame, whose rows
+        # are the frame's axes in world coordinates: world force = frameᵀ · local.
+        frames = contact.frame[idx].reshape(-1, 3, 3)
+        force = (local[:, :, None] * frames).sum(axis=1)
+        world_first = world1[idx]
+        force[~world_first] *= -1.0  # the force on the robot geom
+        pos = contact.pos[idx]
+        wrench = np.empty((idx.size, 6))
+        wrench[:, :3] = force
+        wrench[:, 3] = pos[:, 1] * force[:, 2] - pos[:, 2] * force[:, 1]
+        wrench[:, 4] = pos[:, 2] * force[:, 0] - pos[:, 0] * force[:, 2]
+        wrench[:, 5] = pos[:, 0] * force[:, 1] - pos[:, 1] * force[:, 0]
+        robot_geom = np.where(world_first, geom2[idx], geom1[idx]).tolist()
+        world_geom = np.where(world_first, geom1[idx], geom2[idx]).tolist()
         pairs: dict[str, np.ndarray] = {}
-        for row in range(idx.size):
-            key = f"{self._body_name[robot_geom[row]]}/{self._geom_name[world_geom[row]]}"
+        for row, key in enumerate(map(self._key, robot_geom, world_geom)):
             pairs[key] = pairs[key] + wrench[row] if key in pairs else wrench[row]
         return {k: v.tolist() for k, v in pairs.items()}
+
+    def _key(self, robot_geom: int, world_geom: int) -> str:
+        """``"<robot body>/<world geom>"``, cached: the same pairs recur every tick."""
+        key = self._keys.get((robot_geom, world_geom))
+        if key is None:
+            key = f"{self._body_name[robot_geom]}/{self._geom_name[world_geom]}"
+            self._keys[(robot_geom, world_geom)] = key
+        return key
 
 
 class _FallDetector:
@@ -326,11 +415,12 @@ class _FallDetector:
         z = data.xpos[self._pelvis, 2]
         if z < self._min_z:
             return f"pelvis height {z:.3f} m below {self._min_z:.3f} m"
-        if self._check_contact:
-            for i in range(data.ncon):
-                c = data.contact[i]
-                if self._floor in (c.geom1, c.geom2):
-                    other = c.geom2 if c.geom1 == self._floor else c.geom1
-                    if self._non_foot_robot_geom[other] and c.dist < 0:
-                        return f"{self._geom_body[other]} touched the floor"
+        n = data.ncon
+        if self._check_contact and n:
+            geom1, geom2 = data.contact.geom1[:n], data.contact.geom2[:n]
+            other = np.where(geom1 == self._floor, geom2, geom1)
+            on_floor = (geom1 == self._floor) | (geom2 == self._floor)
+            touching = on_floor & self._non_foot_robot_geom[other] & (data.contact.dist[:n] < 0)
+            if touching.any():
+                return f"{self._geom_body[other[np.argmax(touching)]]} touched the floor"
         return ""

@@ -104,29 +104,34 @@ class SensorModel:
         self._buffer.append(self._measure(data))
         return self._buffer[0]
 
+    def _noisy(self, x: np.ndarray, std: float) -> np.ndarray:
+        """``x`` plus seeded white noise of standard deviation ``std`` (a copy either way)."""
+        if std == 0:
+            return np.array(x, dtype=float)
+        return x + std * self._rng.standard_normal(np.shape(x))
+
     def _measure(self, data: mujoco.MjData) -> SensorSnapshot:
         spec, rng = self._spec, self._rng
         # Sum the components of each link joint (motor + spring DoF for series-elastic joints).
         joint_pos = self._qpos_adr.link_values(data.qpos)
         joint_vel = self._qvel_adr.link_values(data.qvel)
-        joint_pos = joint_pos + spec.joint_position_noise * rng.standard_normal(joint_pos.shape)
+        noisy = self._noisy
+        joint_pos = noisy(joint_pos, spec.joint_position_noise)
         if spec.joint_position_quantization > 0:
             step = spec.joint_position_quantization
             joint_pos = np.round(joint_pos / step) * step
-        joint_vel = joint_vel + spec.joint_velocity_noise * rng.standard_normal(joint_vel.shape)
+        joint_vel = noisy(joint_vel, spec.joint_velocity_noise)
 
         s = data.sensordata
         imu_quat = s[self._sensor["imu_quat"]].copy()
-        imu_gyro = s[self._sensor["imu_gyro"]] + spec.imu_gyro_noise * rng.standard_normal(3)
-        imu_acc = s[self._sensor["imu_acc"]] + spec.imu_acc_noise * rng.standard_normal(3)
+        imu_gyro = noisy(s[self._sensor["imu_gyro"]], spec.imu_gyro_noise)
+        imu_acc = noisy(s[self._sensor["imu_acc"]], spec.imu_acc_noise)
         ft = {}
         for side in FOOT_SIDES:
             # MuJoCo's force/torque sensors give the wrench the parent applies to the foot
             # subtree; the F/T convention here is the reaction (foot on leg), hence the sign.
-            force = -s[self._sensor[f"{side}_foot_force"]]
-            torque = -s[self._sensor[f"{side}_foot_torque"]]
-            force = force + spec.ft_force_noise * rng.standard_normal(3)
-            torque = torque + spec.ft_torque_noise * rng.standard_normal(3)
+            force = noisy(-s[self._sensor[f"{side}_foot_force"]], spec.ft_force_noise)
+            torque = noisy(-s[self._sensor[f"{side}_foot_torque"]], spec.ft_torque_noise)
             ft[side] = np.concatenate([force, torque])
 
         base: dict[str, np.ndarray | None] = dict.fromkeys(
