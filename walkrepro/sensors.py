@@ -111,7 +111,7 @@ class SensorModel:
         return x + std * self._rng.standard_normal(np.shape(x))
 
     def _measure(self, data: mujoco.MjData) -> SensorSnapshot:
-        spec, rng = self._spec, self._rng
+        spec = self._spec
         # Sum the components of each link joint (motor + spring DoF for series-elastic joints).
         joint_pos = self._qpos_adr.link_values(data.qpos)
         joint_vel = self._qvel_adr.link_values(data.qvel)
