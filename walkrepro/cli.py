@@ -224,6 +224,56 @@ def render(
     _console().print(f"wrote {path}")
 
 
+@app.command()
+@friendly_errors
+def bench(
+    experiments: Annotated[
+        list[str] | None, typer.Argument(help="Experiments (default: all).")
+    ] = None,
+    set_: SetOption = None,
+    json_out: Annotated[
+        Path | None, typer.Option("--json", help="Also write results as JSON.")
+    ] = None,
+) -> None:
+    """Measure speed: real-time factor, per-stage cost per tick, and the MuJoCo-only floor.
+
+    Runs one experiment at a time (one core), logging on, so the numbers are comparable.
+    """
+    import json
+
+    from walkrepro.bench import bench_experiment, machine_info
+    from walkrepro.spec import experiment_names
+
+    names = list(experiments or experiment_names())
+    specs = [_resolved(n, set_ or []) for n in names]
+    rows = []
+    for spec in specs:
+        _console(stderr=True).print(
+            f"benchmarking {spec.name} ({spec.sim.duration:g} s simulated)…"
+        )
+        rows.append(bench_experiment(spec))
+    stages = sorted({k for r in rows for k in r.per_tick})
+    table = Table(title="walkrepro bench (per-tick costs in µs)")
+    for col in ("experiment", "outcome", "RTF", "floor ×", "tick median", "tick p99", *stages):
+        table.add_column(col, justify="right" if col != "experiment" else "left")
+    for r in rows:
+        table.add_row(
+            r.experiment,
+            r.outcome,
+            f"{r.real_time_factor:.2f}",
+            f"{r.floor_ratio:.1f}",
+            f"{r.tick_median * 1e6:.0f}",
+            f"{r.tick_p99 * 1e6:.0f}",
+            *(f"{r.per_tick.get(k, 0.0) * 1e6:.1f}" for k in stages),
+        )
+    _console().print(table)
+    if json_out is not None:
+        payload = {"machine": machine_info(), "results": [r.to_json() for r in rows]}
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        json_out.write_text(json.dumps(payload, indent=2) + "\n")
+        _console().print(f"wrote {json_out}")
+
+
 # --------------------------------------------------------------------------------------
 
 

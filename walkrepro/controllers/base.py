@@ -74,3 +74,10 @@ class Controller(ABC):
         frame of that name. The default controller has none.
         """
         return None
+
+    def timing(self) -> dict[str, float]:
+        """Optional split of the controller's wall time [s] accumulated over the run.
+
+        E.g. ``{"dynamics": ..., "wbc": ..., "qp": ...}``; ``walkrepro bench`` reports it.
+        """
+        return {}

@@ -1,0 +1,113 @@
+"""Speed measurement: real-time factor, per-stage cost, and the MuJoCo-only floor.
+
+The floor is the same scene stepped by MuJoCo alone for the same duration with zero
+control: the ratio run time / floor time says how far the whole stack (sensors,
+controller, logging) is from the physical limit.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import tempfile
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import mujoco
+
+from walkrepro.robot import load_robot
+from walkrepro.runner import run
+from walkrepro.spec import ExperimentSpec
+from walkrepro.world import build_scene
+
+
+@dataclass(frozen=True)
+class BenchResult:
+    """One experiment's speed.
+
+    Attributes:
+        experiment: spec name.
+        outcome: how the run ended (a benchmark of a fallen run is flagged, not hidden).
+        sim_time: simulated time [s].
+        wall_time: wall time of the simulation loop, logging on [s].
+        real_time_factor: sim_time / wall_time.
+        floor_wall_time: MuJoCo alone, same scene and duration, zero control [s].
+        floor_ratio: wall_time / floor_wall_time.
+        per_tick: mean wall time per control tick of each stage [s].
+        tick_median: median wall time of a control period, all stages [s].
+        tick_p99: 99th percentile of the same [s].
+        control_rate: control ticks per simulated second [Hz].
+    """
+
+    experiment: str
+    outcome: str
+    sim_time: float
+    wall_time: float
+    real_time_factor: float
+    floor_wall_time: float
+    floor_ratio: float
+    per_tick: dict[str, float]
+    tick_median: float
+    tick_p99: float
+    control_rate: float
+
+    def to_json(self) -> dict:
+        """Plain data for ``--json``."""
+        return asdict(self)
+
+
+def bench_experiment(spec: ExperimentSpec) -> BenchResult:
+    """Run ``spec`` once with logging on (to a temporary file) and measure the floor."""
+    with tempfile.TemporaryDirectory(prefix="walkrepro-bench-") as tmp:
+        result = run(spec, Path(tmp) / "log.mcap")
+    timing = result.timing
+    assert timing is not None
+    n_ticks = max(timing.n_ticks, 1)
+    floor = floor_time(spec, result.sim_time)
+    return BenchResult(
+        experiment=spec.name,
+        outcome=result.outcome,
+        sim_time=result.sim_time,
+        wall_time=result.wall_time,
+        real_time_factor=result.real_time_factor,
+        floor_wall_time=floor,
+        floor_ratio=result.wall_time / floor if floor > 0 else float("inf"),
+        per_tick={k: v / n_ticks for k, v in timing.stages.items()},
+        tick_median=timing.tick_median,
+        tick_p99=timing.tick_p99,
+        control_rate=1.0 / spec.sim.control_period,
+    )
+
+
+def floor_time(spec: ExperimentSpec, duration: float) -> float:
+    """Wall time [s] of stepping the experiment's scene with MuJoCo alone for ``duration``."""
+    robot = load_robot(spec.robot)
+    model = build_scene(robot, spec).model
+    data = mujoco.MjData(model)
+    data.qpos[: robot.home_qpos.size] = robot.home_qpos
+    n_steps = int(round(duration / spec.sim.timestep))
+    step = mujoco.mj_step
+    start = time.perf_counter()
+    for _ in range(n_steps):
+        step(model, data)
+    return time.perf_counter() - start
+
+
+def machine_info() -> dict[str, str]:
+    """The machine a benchmark ran on (cores, CPU model, Python and MuJoCo versions)."""
+    cpu = platform.processor() or "unknown"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {
+        "cores": str(os.cpu_count()),
+        "cpu": cpu,
+        "python": platform.python_version(),
+        "mujoco": mujoco.__version__,
+        "platform": platform.platform(),
+    }
