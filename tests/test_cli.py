@@ -130,6 +130,11 @@ def test_run_writes_a_complete_run_directory(tmp_path: Path) -> None:
     assert code == 0 and "OK" in text, text
     code, text = invoke("check", "--run", str(run))
     assert code == 0, text
+    (run / "figures" / "overview.png").unlink()
+    code, text = invoke("plot", str(run))
+    assert code == 0 and (run / "figures" / "overview.png").is_file(), text
+    code, text = invoke("plot", str(run), str(runs[1]), "--out", str(tmp_path / "cmp"))
+    assert code == 0 and list((tmp_path / "cmp").glob("compare_*.png")), text
 
 
 def test_determinism_same_spec_same_states(tmp_path: Path) -> None:

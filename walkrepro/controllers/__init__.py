@@ -13,6 +13,7 @@ from walkrepro.errors import UnknownNameError
 
 _REGISTRY: dict[str, str] = {
     "posture": "walkrepro.controllers.posture:PostureController",
+    "efsm": "walkrepro.controllers.efsm.controller:EfsmController",
 }
 
 
