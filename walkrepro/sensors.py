@@ -15,6 +15,8 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
+from walkrepro.robot import SENSOR_NAMES
+
 if TYPE_CHECKING:
     from walkrepro.robot import Robot
     from walkrepro.spec import SensorsSpec
@@ -83,18 +85,7 @@ class SensorModel:
         self._rng = np.random.default_rng(seed)
         self._qpos_adr = robot.link_joint_qpos_adr(model)
         self._qvel_adr = robot.link_joint_qvel_adr(model)
-        self._sensor = {
-            name: _sensor_slice(model, name)
-            for name in (
-                "imu_quat",
-                "imu_gyro",
-                "imu_acc",
-                "left_foot_force",
-                "left_foot_torque",
-                "right_foot_force",
-                "right_foot_torque",
-            )
-        }
+        self._sensor = {name: _sensor_slice(model, name) for name in SENSOR_NAMES}
         # A delay of d seconds holds back round(d / control_period) readings.
         self._delay_ticks = int(round(spec.delay / control_period))
         self._buffer: deque[SensorSnapshot] = deque(maxlen=self._delay_ticks + 1)
