@@ -61,3 +61,32 @@ def test_junit_report(tmp_path: Path) -> None:
     root = ET.parse(tmp_path / "j.xml").getroot()
     assert root.find("testsuite").get("failures") == "1"
     assert len(root.findall(".//failure")) == 1
+
+
+def test_relative_expectation_takes_value_from_the_other_run() -> None:
+    """A relative expectation compares with scale × the other experiment's metric, and says where it came from."""
+    rel = Expectation.model_validate(
+        {
+            "metric": "footsteps",
+            "op": ">=",
+            "relative_to": {"experiment": "in_place", "scale": 2},
+            "source": "s",
+        }
+    )
+    lookup = lambda experiment, metric: (3.0, f"run of {experiment}")  # noqa: E731
+    v = evaluate(make_spec(rel), {"footsteps": 6.0}, "complete", lookup)
+    assert v.passed and v.rows[0].paper == 6.0 and "in_place" in v.rows[0].source
+    v = evaluate(make_spec(rel), {"footsteps": 5.9}, "complete", lookup)
+    assert not v.passed
+    # Without a run of the other experiment the expectation cannot pass.
+    assert not evaluate(make_spec(rel), {"footsteps": 6.0}, "complete").passed
+
+
+def test_relative_expectation_needs_exactly_one_value() -> None:
+    """An expectation with both or neither of value and relative_to is rejected."""
+    import pydantic
+    import pytest
+
+    for bad in ({}, {"value": 1, "relative_to": {"experiment": "x"}}):
+        with pytest.raises(pydantic.ValidationError, match="exactly one of value and relative_to"):
+            Expectation.model_validate({"metric": "fell", "op": "<", "source": "s", **bad})

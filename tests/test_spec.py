@@ -153,3 +153,13 @@ def test_resolved_spec_round_trips_through_yaml(tmp_path: Path) -> None:
     spec = resolve_spec(load_spec(str(write(tmp_path, GOOD)))).spec
     again = load_spec(str(write(tmp_path, spec.to_yaml(), "again.yaml"))).spec
     assert again == spec
+
+
+def test_relative_expectation_must_name_a_shipped_experiment(tmp_path: Path) -> None:
+    """relative_to names an experiment that exists, or the error lists the valid ones."""
+    text = GOOD.replace(
+        'expect:\n  - {metric: fell, op: "==", value: 0, source: test}',
+        'expect:\n  - {metric: fell, op: "<=", relative_to: {experiment: no_such}, source: test}',
+    )
+    msg = error_of(tmp_path, text)
+    assert "unknown experiment 'no_such'" in msg and "stand_coman" in msg and "line 19" in msg

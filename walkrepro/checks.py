@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -95,14 +96,41 @@ def holds(op: str, measured: float, value: float | tuple[float, float]) -> bool:
     }[op]
 
 
-def evaluate(spec: ExperimentSpec, metrics: dict[str, float], outcome: str) -> Verdict:
-    """Evaluate every expectation of ``spec`` against ``metrics``."""
-    rows = tuple(_row(e, metrics.get(e.metric, math.nan)) for e in spec.expect)
+#: Looks up another experiment's metric: ``(experiment, metric) -> (value, where from)``.
+ReferenceLookup = Callable[[str, str], tuple[float, str]]
+
+
+def no_references(experiment: str, metric: str) -> tuple[float, str]:
+    """A lookup that knows no other runs (relative expectations then fail as unmeasured)."""
+    return math.nan, f"no run of {experiment}"
+
+
+def evaluate(
+    spec: ExperimentSpec,
+    metrics: dict[str, float],
+    outcome: str,
+    references: ReferenceLookup = no_references,
+) -> Verdict:
+    """Evaluate every expectation of ``spec`` against ``metrics``.
+
+    Relative expectations (``relative_to``) take their value from ``references``.
+    """
+    rows = tuple(_row(e, metrics.get(e.metric, math.nan), references) for e in spec.expect)
     return Verdict(experiment=spec.name, outcome=outcome, rows=rows)
 
 
-def _row(e: Expectation, measured: float) -> CheckRow:
-    ok = holds(e.op, measured, e.value)
+def _row(e: Expectation, measured: float, references: ReferenceLookup) -> CheckRow:
+    source = e.source
+    value = e.value
+    if e.relative_to is not None:
+        ref, origin = references(e.relative_to.experiment, e.reference_metric)
+        value = e.relative_to.scale * ref
+        source = (
+            f"{source} [value = {e.relative_to.scale:g} × {e.relative_to.experiment}."
+            f"{e.reference_metric} = {value:.4g}, from {origin}]"
+        )
+    assert value is not None
+    ok = holds(e.op, measured, value)
     note = e.note
     if e.known_deviation:
         status = PASS if ok else KNOWN
@@ -110,7 +138,7 @@ def _row(e: Expectation, measured: float) -> CheckRow:
             note = f"{note} Known deviation: {e.known_deviation}".strip()
     else:
         status = PASS if ok else FAIL
-    return CheckRow(e.metric, e.op, e.value, measured, status, e.source, note)
+    return CheckRow(e.metric, e.op, value, measured, status, source, note)
 
 
 def write_junit(verdicts: list[Verdict], path: Path) -> None:

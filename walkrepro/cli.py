@@ -16,6 +16,7 @@ from typing import Annotated, Any, TypeVar
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
@@ -98,7 +99,7 @@ def run(
     if summary.result.outcome == "interrupted":
         raise typer.Exit(code=130)
     if summary.result.outcome == "error":
-        _console(stderr=True).print(f"[bold red]error:[/] {summary.result.message}")
+        _console(stderr=True).print(f"[bold red]error:[/] {escape(summary.result.message)}")
         raise typer.Exit(code=1)
 
 
@@ -119,13 +120,14 @@ def check(
 ) -> None:
     """Run experiments (or re-check runs) and compare them with the papers. Exit 1 on failure."""
     from walkrepro import checks
-    from walkrepro.experiment import evaluate_log
+    from walkrepro.experiment import References, evaluate_log
     from walkrepro.spec import experiment_names
 
     verdicts: list[checks.Verdict] = []
     for path in run_dir or []:
         directory, log = results.resolve_run(path)
-        verdicts.append(evaluate_log(log, directory)[1])
+        # A run lives in <root>/<experiment>/<run>: compare with other runs under <root>.
+        verdicts.append(evaluate_log(log, directory, References(directory.parent.parent))[1])
     names = list(experiments or [])
     if not names and not run_dir:
         names = experiment_names()
@@ -143,7 +145,12 @@ def check(
             summaries = [_run_one(n, set_ or [], out, figures, False) for n in names]
         for s in summaries:
             _console().print(f"{s.verdict.experiment}: {s.result.message} → {s.run_dir}")
-        verdicts += [s.verdict for s in summaries]
+        # Comparisons between experiments use this batch's runs, now that all are done.
+        batch = References(out, {s.verdict.experiment: s.result.log_path for s in summaries})
+        verdicts += [
+            evaluate_log(s.result.log_path, s.run_dir, batch)[1] if s.relative else s.verdict
+            for s in summaries
+        ]
     _print_verdicts(verdicts)
     if junit is not None:
         checks.write_junit(verdicts, junit)
@@ -326,7 +333,7 @@ def _print_verdicts(verdicts: list) -> None:  # list[checks.Verdict]
                 f"{r.measured:.4g}",
                 r.band,
                 f"[{colour[r.status]}]{r.status}[/]",
-                r.source if r.status != KNOWN else f"{r.source} — {r.note}",
+                escape(r.source if r.status != KNOWN else f"{r.source} — {r.note}"),
             )
     _console().print(table)
     n_fail = sum(not v.passed for v in verdicts)

@@ -220,22 +220,42 @@ class ActuatorsSpec(_Strict):
 Op = Literal["<", "<=", ">", ">=", "==", "between"]
 
 
+class RelativeTo(_Strict):
+    """An expectation value taken from another experiment: ``scale × experiment's metric``.
+
+    For the papers' comparisons between runs ("scatter ≥ 2× the closed-loop spread",
+    "lower peak force with impedance than without").
+    """
+
+    experiment: str
+    metric: str | None = Field(None, description="defaults to the expectation's own metric")
+    scale: float = 1.0
+
+
 class Expectation(_Strict):
     """One of the paper's expectations: ``metric op value``, with its source in the paper.
 
-    ``known_deviation`` marks an expectation the reproduction is known to miss, with the
-    reason; it is still evaluated and reported, never silently passed.
+    The value is either given (``value``) or taken from another experiment's run
+    (``relative_to``). ``known_deviation`` marks an expectation the reproduction is known to
+    miss, with the reason; it is still evaluated and reported, never silently passed.
     """
 
     metric: str
     op: Op
-    value: float | tuple[float, float]
+    value: float | tuple[float, float] | None = None
+    relative_to: RelativeTo | None = None
     source: str
     note: str = ""
     known_deviation: str | None = None
 
     @model_validator(mode="after")
     def _value_matches_op(self) -> Expectation:
+        if (self.value is None) == (self.relative_to is None):
+            raise ValueError("give exactly one of value and relative_to")
+        if self.relative_to is not None:
+            if self.op == "between":
+                raise ValueError("relative_to needs a single-number op (<, <=, >, >=, ==)")
+            return self
         if self.op == "between":
             if not isinstance(self.value, tuple):
                 raise ValueError("op 'between' needs value: [low, high]")
@@ -244,6 +264,12 @@ class Expectation(_Strict):
         elif isinstance(self.value, tuple):
             raise ValueError(f"op {self.op!r} needs a single number as value")
         return self
+
+    @property
+    def reference_metric(self) -> str:
+        """The other experiment's metric a relative expectation compares with."""
+        assert self.relative_to is not None
+        return self.relative_to.metric or self.metric
 
 
 class ExperimentSpec(_Strict):
@@ -538,6 +564,20 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
             raise UnknownNameError(
                 "metric", base, valid_metrics, loaded.where(("expect", i, "metric"))
             )
+        if exp.relative_to is not None:
+            where = ("expect", i, "relative_to")
+            if exp.relative_to.experiment not in experiment_names():
+                raise UnknownNameError(
+                    "experiment",
+                    exp.relative_to.experiment,
+                    experiment_names(),
+                    loaded.where((*where, "experiment")),
+                )
+            ref_base, _ = split_metric(exp.reference_metric)
+            if ref_base not in valid_metrics:
+                raise UnknownNameError(
+                    "metric", ref_base, valid_metrics, loaded.where((*where, "metric"))
+                )
     if spec.sim.duration < spec.sim.control_period:
         raise SpecError(
             f"{loaded.where(('sim', 'duration'))}: duration must cover one control period."
