@@ -13,6 +13,8 @@ from walkrepro.errors import UnknownNameError
 
 _REGISTRY: dict[str, str] = {
     "posture": "walkrepro.controllers.posture:PostureController",
+    "qpimpedance": "walkrepro.controllers.qpimpedance.controller:QPImpedanceController",
+    "timeprojection": "walkrepro.controllers.timeprojection.controller:TimeProjectionController",
     "efsm": "walkrepro.controllers.efsm.controller:EfsmController",
 }
 

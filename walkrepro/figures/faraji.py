@@ -1,10 +1,249 @@
-"""Figures that redraw the faraji paper's plots from a run's log."""
+"""Figures that redraw the faraji paper's plots from a run's log (Paper II, Figs. 13-20).
+
+Each function draws what the run has: a figure that does not apply to a run (e.g. the
+drag figure for a push run) returns no files.
+"""
 
 from __future__ import annotations
 
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+
 from walkrepro.figures import CompareFn, FigureFn
+from walkrepro.figures.style import save
+from walkrepro.metrics import LogData
+from walkrepro.paper_metrics.faraji import _feet_relative, _phase_times, _stride_speed
+
+ERROR_NAMES = ("e₁ = p − f [m]", "e₂ = p − s [m]", "ė₁ [m/s]", "ė₂ [m/s]")
+
+
+def _is_tp(d: LogData) -> bool:
+    return d.spec.controller.type == "timeprojection"
+
+
+def _mark_disturbances(ax: plt.Axes, d: LogData) -> None:
+    for dist in d.spec.disturbances:
+        ax.axvspan(
+            dist.start,
+            dist.start + dist.duration,
+            color="tab:red",
+            alpha=0.15,
+            label=f"{dist.name} ({dist.force[0]:+.0f} N)",
+        )
+
+
+def fig13_gains(d: LogData, out_dir: Path) -> list[Path]:
+    """Fig. 13: time-projection gains over the phase (torque table A, footstep table B)."""
+    if not _is_tp(d):
+        return []
+    from walkrepro.controllers.timeprojection.controller import (
+        TimeProjectionController,
+        TimeProjectionParams,
+    )
+    from walkrepro.robot import load_robot
+
+    ctrl = TimeProjectionController()
+    ctrl.reset(load_robot(d.spec.robot), TimeProjectionParams(**d.spec.controller.params), 0.002)
+    tp = ctrl.tp
+    sag = [0, 2, 4, 6]
+    fig, ax = plt.subplots(1, 3, figsize=(14, 4))
+    n = int(0.9 * len(tp.phases))  # the torque gains blow up near T (note §7)
+    for j, name in zip(sag, ERROR_NAMES, strict=True):
+        ax[0].plot(tp.phases[:n], tp.torque_gains[:n, 0, j], label=name)
+        ax[1].plot(tp.phases, tp.footstep_gains[:, 0, j], label=name)
+        ax[2].plot(tp.phases, ctrl.rel_gains[:, 0, j], label=name)
+    ax[0].set_title("A: hip torque gains K_tp (constant term, x) [Nm/m]")
+    ax[1].set_title("B: footstep gains Δf(T) (stance frame) [m/m]")
+    ax[2].set_title("used: Δ(f − p)(T) gains (attack angle) [m/m]")
+    for a in ax:
+        a.set_xlabel("phase time t [s]")
+        a.grid(alpha=0.3)
+        a.legend(fontsize="small")
+    fig.suptitle(f"{d.spec.name}: time-projection look-up tables (Paper II Fig. 13)")
+    return save(fig, out_dir / "fig13_gains")
+
+
+def fig14_feet(d: LogData, out_dir: Path) -> list[Path]:
+    """Fig. 14: horizontal foot positions relative to the pelvis at phase changes."""
+    phases = _phase_times(d)
+    if not _is_tp(d) or phases.size < 4 or d.spec.disturbances:
+        return []
+    rel = _feet_relative(d, phases)
+    fig, ax = plt.subplots(1, 1, figsize=(5, 5))
+    for j, (name, c) in enumerate((("left", "tab:blue"), ("right", "tab:orange"))):
+        ax.plot(rel[:, j, 1], rel[:, j, 0], "o", color=c, alpha=0.6, label=f"{name} foot")
+    ax.plot(0, 0, "k+", markersize=12, label="pelvis")
+    ax.set_ylim(-0.2, 0.2)
+    ax.set_xlabel("y (lateral) [m]")
+    ax.set_ylabel("x (forward) [m]")
+    ax.set_aspect("equal")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize="small")
+    ax.set_title(f"{d.spec.name}: feet at phase changes (Fig. 14)")
+    return save(fig, out_dir / "fig14_feet")
+
+
+def _footstep_plot(d: LogData, ax: plt.Axes) -> None:
+    ax.plot(d.t, d.qpos[:, 0], "k", label="pelvis x")
+    for foot, c in (("left_foot", "tab:blue"), ("right_foot", "tab:orange")):
+        steps = [s for s in d.footsteps if s.foot == foot]
+        ax.plot(
+            [s.t for s in steps],
+            [s.position[0] for s in steps],
+            "v",
+            color=c,
+            label=f"{foot} touchdown x",
+        )
+    _mark_disturbances(ax, d)
+    ax.set_ylabel("x [m]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize="small", loc="best")
+
+
+def fig16_push(d: LogData, out_dir: Path) -> list[Path]:
+    """Figs. 16-17: sagittal pelvis and footsteps around a push, with the adjustments."""
+    if not _is_tp(d) or not d.spec.disturbances or d.spec.disturbances[0].duration > 1.0:
+        return []
+    fig, ax = plt.subplots(3, 1, figsize=(9, 9), sharex=True)
+    _footstep_plot(d, ax[0])
+    t, v = d.signal("footstep")
+    t_raw, v_raw = d.signal("footstep_raw")
+    ax[1].plot(t_raw, v_raw, color="gray", alpha=0.6, label="footstep adjustment (raw)")
+    ax[1].plot(t, v, label="footstep adjustment (truncated at 15 cm)")
+    ax[1].set_ylabel("[m]")
+    ax[1].grid(alpha=0.3)
+    ax[1].legend(fontsize="small")
+    _errors(ax[2], d)
+    ax[-1].set_xlabel("time [s]")
+    fig.suptitle(f"{d.spec.name}: push recovery (Paper II Figs. 16-17)")
+    return save(fig, out_dir / "fig16_push")
+
+
+def _errors(ax: plt.Axes, d: LogData) -> None:
+    t, raw = d.signal("e_raw")
+    _, dz = d.signal("e_dead_zone")
+    if not t.size:
+        return
+    for j in (0, 1):
+        ax.plot(t, raw[:, j], label=f"{ERROR_NAMES[j]} filtered")
+        ax.plot(t, dz[:, j], "--", label=f"{ERROR_NAMES[j]} dead-zoned")
+    ax.set_ylabel("error [m]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize="small")
+
+
+def fig18_drag(d: LogData, out_dir: Path) -> list[Path]:
+    """Fig. 18: pelvis position and speed under a continuous drag."""
+    if not _is_tp(d) or not d.spec.disturbances or d.spec.disturbances[0].duration <= 1.0:
+        return []
+    fig, ax = plt.subplots(2, 1, figsize=(9, 7), sharex=True)
+    _footstep_plot(d, ax[0])
+    ts, vs = _stride_speed(d)
+    ax[1].plot(ts, vs, label="pelvis speed (stride average)")
+    ax[1].axhline(0.2, color="gray", linestyle=":", label="paper: ±0.2 m/s")
+    ax[1].axhline(-0.2, color="gray", linestyle=":")
+    _mark_disturbances(ax[1], d)
+    ax[1].set_ylabel("speed [m/s]")
+    ax[1].set_xlabel("time [s]")
+    ax[1].grid(alpha=0.3)
+    ax[1].legend(fontsize="small")
+    fig.suptitle(f"{d.spec.name}: emergent walking under a drag (Paper II Fig. 18)")
+    return save(fig, out_dir / "fig18_drag")
+
+
+def fig19_walk(d: LogData, out_dir: Path) -> list[Path]:
+    """Fig. 19: trajectories of walking at a commanded speed."""
+    speed = float(d.spec.controller.params.get("speed", 0.0)) if _is_tp(d) else 0.0
+    if speed == 0.0:
+        return []
+    fig, ax = plt.subplots(2, 1, figsize=(9, 7), sharex=True)
+    _footstep_plot(d, ax[0])
+    ax[0].plot(
+        d.t, speed * np.clip(d.t - 0.5, 0, None), ":", color="gray", label=f"{speed} m/s reference"
+    )
+    ts, vs = _stride_speed(d)
+    ax[1].plot(ts, vs, label="pelvis speed (stride average)")
+    ax[1].axhline(speed, color="gray", linestyle=":", label="command")
+    ax[1].set_ylabel("speed [m/s]")
+    ax[1].set_xlabel("time [s]")
+    ax[1].grid(alpha=0.3)
+    ax[1].legend(fontsize="small")
+    fig.suptitle(f"{d.spec.name}: walking at {speed} m/s (Paper II Fig. 19)")
+    return save(fig, out_dir / "fig19_walk")
+
+
+def fig20_ankle(d: LogData, out_dir: Path) -> list[Path]:
+    """Fig. 20: pull force and pelvis displacement of the standing stiffness test."""
+    if d.spec.name != "ankle_stiffness" and d.spec.controller.type != "posture":
+        return []
+    if not d.spec.disturbances:
+        return []
+    xfrc = d.inputs_xfrc
+    t_in = np.arange(len(xfrc)) * d.spec.sim.timestep
+    force = np.array([sum(w[0] for w in x.values()) for x in xfrc])
+    fig, ax = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    ax[0].plot(t_in, force, color="tab:red", label="pull at the neck, x")
+    ax[0].set_ylabel("force [N]")
+    ax[1].plot(d.t, d.qpos[:, 0] - d.qpos[0, 0], label="pelvis x displacement")
+    ax[1].set_ylabel("[m]")
+    ax[1].set_xlabel("time [s]")
+    for a in ax:
+        a.grid(alpha=0.3)
+        a.legend(fontsize="small")
+    fig.suptitle(f"{d.spec.name}: standing pull test (Paper II Fig. 20)")
+    return save(fig, out_dir / "fig20_ankle")
+
+
+def signals(d: LogData, out_dir: Path) -> list[Path]:
+    """Closed-loop signals: errors raw and dead-zoned, attack angle, adaptive lift."""
+    if not _is_tp(d):
+        return []
+    fig, ax = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
+    _errors(ax[0], d)
+    for name in ("attack_angle", "theta_hat", "pelvis_pitch"):
+        t, v = d.signal(name)
+        ax[1].plot(t, v, label=f"{name} [rad]")
+    ax[1].grid(alpha=0.3)
+    ax[1].legend(fontsize="small")
+    t, v = d.signal("adaptive_lift")
+    ax[2].plot(t, v, label="adaptive lift (Eq. 29) [m]")
+    ax[2].grid(alpha=0.3)
+    ax[2].legend(fontsize="small")
+    ax[-1].set_xlabel("time [s]")
+    fig.suptitle(f"{d.spec.name}: time-projection controller signals")
+    return save(fig, out_dir / "signals")
+
+
+def compare_feet(a: LogData, b: LogData, out_dir: Path) -> list[Path]:
+    """Fig. 14 side by side: feet at phase changes of two in-place runs."""
+    fig, axes = plt.subplots(1, 2, figsize=(10, 5), sharex=True, sharey=True)
+    for ax, d in zip(axes, (a, b), strict=True):
+        phases = _phase_times(d)
+        if phases.size < 4:
+            continue
+        rel = _feet_relative(d, phases)
+        ax.plot(rel[:, 0, 1], rel[:, 0, 0], "o", alpha=0.6, label="left")
+        ax.plot(rel[:, 1, 1], rel[:, 1, 0], "o", alpha=0.6, label="right")
+        ax.set_title(d.spec.name)
+        ax.set_xlabel("y [m]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize="small")
+    axes[0].set_ylabel("x [m]")
+    fig.suptitle("feet relative to the pelvis at phase changes (Paper II Fig. 14)")
+    return save(fig, out_dir / f"fig14_compare_{a.spec.name}_vs_{b.spec.name}")
+
 
 #: Figures drawn from one run.
-FIGURES: list[FigureFn] = []
+FIGURES: list[FigureFn] = [
+    fig13_gains,
+    fig14_feet,
+    fig16_push,
+    fig18_drag,
+    fig19_walk,
+    fig20_ankle,
+    signals,
+]
 #: Figures comparing two runs (`walkrepro plot RUN_A RUN_B`).
-COMPARE: list[CompareFn] = []
+COMPARE: list[CompareFn] = [compare_feet]

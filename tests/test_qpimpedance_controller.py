@@ -1,0 +1,55 @@
+"""Tests of the qpimpedance controller's tick (Jo & Oh §III-D) on the kist_humanoid model."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from walkrepro.controllers import controller_class
+from walkrepro.robot import load_robot
+from walkrepro.sensors import SensorSnapshot
+
+
+def _standing_snapshot() -> SensorSnapshot:
+    robot = load_robot("kist_humanoid")
+    q = robot.home_qpos
+    zero = np.zeros(robot.n_joints)
+    return SensorSnapshot(
+        t=0.0,
+        joint_pos=robot.home_joint_pos.copy(),
+        joint_vel=zero,
+        imu_quat=np.array([1.0, 0, 0, 0]),
+        imu_gyro=np.zeros(3),
+        imu_acc=np.array([0, 0, 9.81]),
+        left_ft=np.array([0, 0, 280.0, 0, 0, 0]),
+        right_ft=np.array([0, 0, 280.0, 0, 0, 0]),
+        base_pos=q[0:3].copy(),
+        base_quat=q[3:7].copy(),
+        base_linvel=np.zeros(3),
+        base_angvel=np.zeros(3),
+    )
+
+
+def test_standing_tick_puts_the_weight_on_both_feet() -> None:
+    """At home in double support the QP's contact forces carry the robot's weight and the torques are finite."""
+    robot = load_robot("kist_humanoid")
+    cls = controller_class("qpimpedance")
+    ctrl = cls()
+    ctrl.reset(robot, cls.Params(), 0.001)
+    cmd = ctrl.step(0.0, _standing_snapshot())
+    assert cmd.ctrl.shape == (robot.n_joints,)
+    assert np.all(np.isfinite(cmd.ctrl))
+    total = cmd.signals["left_fz_qp"] + cmd.signals["right_fz_qp"]
+    assert abs(total - robot.total_mass * 9.81) < 0.05 * robot.total_mass * 9.81
+    assert cmd.signals["swing_foot"] == -1.0
+
+
+def test_unknown_solver_is_rejected_with_the_valid_names() -> None:
+    """A spec naming an unsupported QP solver fails at reset and lists proxqp and osqp."""
+    robot = load_robot("kist_humanoid")
+    cls = controller_class("qpimpedance")
+    try:
+        cls().reset(robot, cls.Params(solver="cvxopt"), 0.001)
+    except ValueError as exc:
+        assert "proxqp" in str(exc) and "osqp" in str(exc)
+    else:  # pragma: no cover
+        raise AssertionError("expected a ValueError")

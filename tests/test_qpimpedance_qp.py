@@ -1,0 +1,115 @@
+"""Tests of the centroidal-momentum QP (Jo & Oh §III): friction pyramid, equality rows, Eq. (9)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from walkrepro.controllers.qpimpedance.centroidal_qp import (
+    SOLVERS,
+    Task,
+    build_qp,
+    contact_wrench_basis,
+    friction_basis,
+    joint_torques,
+)
+from walkrepro.robot import load_robot
+
+MU = 0.6
+
+
+def test_pyramid_forces_lie_in_friction_cone() -> None:
+    """Any U_k β with β ≥ 0 has every point force inside the Coulomb cone |f_t| ≤ μ f_n."""
+    rng = np.random.default_rng(0)
+    basis = friction_basis(MU, 4)
+    rot = pin.rpy.rpyToMatrix(0.3, -0.2, 0.5)
+    corners = np.array([[0.12, 0.065, 0], [0.12, -0.065, 0], [-0.12, 0.065, 0], [-0.12, -0.065, 0]])
+    u = contact_wrench_basis(rot, corners, basis)
+    assert u.shape == (6, 16)
+    for _ in range(200):
+        beta = rng.exponential(size=16)
+        for j in range(4):
+            f = rot.T @ (u[:3, 4 * j : 4 * j + 4] @ beta[4 * j : 4 * j + 4])  # contact frame
+            assert np.hypot(f[0], f[1]) <= MU * f[2] + 1e-12
+    # the torque rows are the moments of those forces about the sole centre
+    beta = rng.exponential(size=16)
+    w = u @ beta
+    moment = sum(
+        np.cross(rot @ corners[j], u[:3, 4 * j : 4 * j + 4] @ beta[4 * j : 4 * j + 4])
+        for j in range(4)
+    )
+    np.testing.assert_allclose(w[3:], moment, atol=1e-12)
+
+
+def _problem(support: tuple[int, ...]):  # noqa: ANN202
+    robot = load_robot("kist_humanoid")
+    model = robot.pin_model
+    data = model.createData()
+    rng = np.random.default_rng(1)
+    q, v = robot.pin_state_from_mujoco(robot.home_qpos, np.zeros(robot.mj_model.nv))
+    v = 0.1 * rng.standard_normal(model.nv)
+    pin.computeAllTerms(model, data, q, v)
+    pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
+    pin.updateFramePlacements(model, data)
+    corners = np.array([[sx * 0.12, sy * 0.065, 0.0] for sx in (1, -1) for sy in (1, -1)])
+    jacs, drifts, maps = [], [], []
+    for side in support:
+        fid = model.getFrameId(("left_sole", "right_sole")[side])
+        jacs.append(pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED))
+        a = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
+        drifts.append(np.concatenate([a.linear, a.angular]))
+        maps.append(contact_wrench_basis(data.oMf[fid].rotation, corners, friction_basis(MU, 4)))
+    posture = Task("posture", np.eye(model.nv)[6:], -v[6:], np.ones(model.nv - 6))
+    b1 = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]) - (data.nle[:6] - data.g[:6])
+    problem = build_qp(
+        data.M, data.nle, b1, np.ones(6), jacs, drifts, maps, support, [posture], 1e-4, 1e-6
+    )
+    return problem, data.M.copy(), data.nle.copy(), jacs, drifts
+
+
+def test_problem_is_inspectable() -> None:
+    """build_qp returns matrices of the documented shapes: 28 accelerations, 16 β per support foot."""
+    problem, *_ = _problem((0, 1))
+    assert problem.P.shape == (28 + 32, 28 + 32)
+    assert problem.A.shape == (6 + 12, 60)
+    assert np.all(problem.lb[28:] == 0) and np.all(np.isneginf(problem.lb[:28]))
+    np.testing.assert_allclose(problem.P, problem.P.T)
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_solution_satisfies_floating_base_dynamics(solver: str) -> None:
+    """The QP solution satisfies the floating-base rows of Eq. (5) and the contact constraints."""
+    problem, mass, nle, jacs, drifts = _problem((0, 1))
+    opts = (
+        {"eps_abs": 1e-10, "eps_rel": 0.0}
+        if solver == "proxqp"
+        else {"eps_abs": 1e-10, "eps_rel": 1e-10, "polishing": True, "max_iter": 100000}
+    )
+    x = problem.solve(solver, **opts)
+    assert x is not None
+    accel, wrenches = problem.split(x)
+    base = (
+        mass[:6] @ accel
+        + nle[:6]
+        - sum(j[:, :6].T @ w for j, w in zip(jacs, wrenches, strict=True))
+    )
+    tol = 1e-8 if solver == "proxqp" else 1e-6
+    assert np.max(np.abs(base)) < tol * max(1.0, np.max(np.abs(nle[:6])))
+    for jac, drift in zip(jacs, drifts, strict=True):
+        assert np.max(np.abs(jac @ accel + drift)) < tol * 10
+    assert np.all(x[problem.nv :] >= -1e-9)
+    # the feet carry the weight (≈ 559 N)
+    assert abs(sum(w[2] for w in wrenches) - 57.0 * 9.81) < 50.0
+
+
+def test_eq9_torques_reproduce_the_joint_rows() -> None:
+    """Eq. (9) torques with the QP's ξ̈ and λ make the whole Eq. (5) hold."""
+    problem, mass, nle, jacs, _ = _problem((1,))
+    x = problem.solve("proxqp", eps_abs=1e-10, eps_rel=0.0)
+    accel, wrenches = problem.split(x)
+    tau = joint_torques(mass, nle, accel, jacs, wrenches)
+    gen = np.concatenate([np.zeros(6), tau]) + sum(
+        j.T @ w for j, w in zip(jacs, wrenches, strict=True)
+    )
+    np.testing.assert_allclose(mass @ accel + nle, gen, atol=1e-6)

@@ -1,0 +1,74 @@
+"""Tests of Paper II's controller on coman, without physics."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from walkrepro.controllers import controller_class
+from walkrepro.controllers.timeprojection.controller import TimeProjectionParams
+from walkrepro.robot import load_robot
+from walkrepro.sensors import SensorSnapshot
+
+
+def _snapshot(robot, t: float) -> SensorSnapshot:
+    weight = robot.total_mass * 9.81 / 2
+    ft = np.array([0, 0, weight, 0, 0, 0], dtype=float)
+    return SensorSnapshot(
+        t=t,
+        joint_pos=robot.home_joint_pos.copy(),
+        joint_vel=np.zeros(robot.n_joints),
+        imu_quat=np.array([1.0, 0, 0, 0]),
+        imu_gyro=np.zeros(3),
+        imu_acc=np.array([0, 0, 9.81]),
+        left_ft=ft,
+        right_ft=ft,
+    )
+
+
+def _controller(**params):
+    robot = load_robot("coman")
+    ctrl = controller_class("timeprojection")()
+    ctrl.reset(robot, TimeProjectionParams(**params), 0.002)
+    return robot, ctrl
+
+
+def test_holds_home_before_walking() -> None:
+    """Before start_time the command is the home keyframe's motor targets."""
+    robot, ctrl = _controller()
+    cmd = ctrl.step(0.0, _snapshot(robot, 0.0))
+    np.testing.assert_allclose(cmd.ctrl, robot.home_ctrl)
+
+
+def test_first_walking_tick_is_close_to_home() -> None:
+    """The IK posture at the first step matches home within a few centiradians (no jump)."""
+    robot, ctrl = _controller(start_time=0.0)
+    cmd = ctrl.step(0.0, _snapshot(robot, 0.0))
+    assert np.max(np.abs(cmd.ctrl[:12] - robot.home_ctrl[:12])) < 0.05
+    assert cmd.events and cmd.events[0]["kind"] == "phase"
+
+
+def test_no_error_gives_no_footstep_adjustment() -> None:
+    """Standing exactly on the in-place gait's nominal relative positions gives no adjustment."""
+    robot, ctrl = _controller(start_time=0.0)
+    cmd = ctrl.step(0.0, _snapshot(robot, 0.0))
+    assert cmd.signals["footstep"] == pytest.approx(0.0, abs=1e-3)
+
+
+def test_stepping_off_gives_zero_attack_angle() -> None:
+    """With stepping off the attack angle stays zero whatever the error."""
+    robot, ctrl = _controller(start_time=0.0, stepping=False)
+    snap = _snapshot(robot, 0.0)
+    q = snap.joint_pos.copy()
+    q[[2, 8]] -= 0.2  # both hips flexed: the pelvis sits behind the feet
+    snap = SensorSnapshot(**{**snap.__dict__, "joint_pos": q})
+    for i in range(20):
+        cmd = ctrl.step(0.002 * i, snap)
+    assert cmd.signals["attack_angle"] == 0.0
+    assert cmd.signals["footstep"] != 0.0
+
+
+def test_relative_footstep_gain_pushes_the_foot_toward_the_fall() -> None:
+    """A pelvis ahead of the stance foot (e₂ > 0) moves the swing foot forward relative to it."""
+    _, ctrl = _controller()
+    assert ctrl.rel_gains[0, 0, 2] > 0 and ctrl.rel_gains[0, 0, 6] > 0

@@ -1,0 +1,88 @@
+"""Tests of Paper II's estimation filters and foot-lift laws (Eqs. 21-30)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from walkrepro.controllers.timeprojection import lift
+from walkrepro.controllers.timeprojection.estimation import (
+    IirFilter,
+    KinematicState,
+    MovingAverageDerivative,
+    smooth_dead_zone,
+)
+from walkrepro.robot import load_robot
+
+
+def test_dead_zone_attenuates_64_percent_at_threshold() -> None:
+    """The smooth dead-zone (Eq. 27) keeps 36 % of the signal at x = a (Fig. 10)."""
+    a = 0.02
+    y = float(smooth_dead_zone(a, a))
+    assert 1.0 - y / a == pytest.approx(0.64, abs=0.005)
+
+
+def test_dead_zone_is_odd_and_shifts_large_signals() -> None:
+    """The dead-zone is odd, and far from the threshold it is a shift by a."""
+    a = np.array([0.01, 0.1])
+    x = np.array([0.005, 10.0])
+    np.testing.assert_allclose(smooth_dead_zone(-x, a), -smooth_dead_zone(x, a))
+    assert float(smooth_dead_zone(10.0, 0.1)) == pytest.approx(10.0 - 0.1, abs=1e-3)
+    assert float(smooth_dead_zone(0.3, 0.0)) == 0.3  # a = 0 disables it
+
+
+def test_iir_filter_converges_with_rate_zeta() -> None:
+    """The IIR of Eq. (26) moves a fraction ζ toward a step input each sample."""
+    f = IirFilter(0.1, 1)
+    f.reset(np.zeros(1))
+    assert f.update(np.ones(1))[0] == pytest.approx(0.1)
+    for _ in range(200):
+        f.update(np.ones(1))
+    assert f.value[0] == pytest.approx(1.0, abs=1e-6)
+
+
+def test_moving_average_derivative_of_a_ramp_is_its_slope() -> None:
+    """Differentiation plus a 30-sample average returns the slope of a ramp."""
+    dt = 0.002
+    d = MovingAverageDerivative(30, 1, dt)
+    out = np.zeros(1)
+    for i in range(100):
+        out = d.update(np.array([0.5 * i * dt]))
+    assert out[0] == pytest.approx(0.5)
+
+
+def test_kinematics_put_the_home_feet_under_the_hips() -> None:
+    """At home with a level IMU, the soles are 0.52 m below the pelvis and 14 cm apart."""
+    robot = load_robot("coman")
+    left, right, roll, pitch = KinematicState(robot).feet(
+        np.array([1.0, 0, 0, 0]), robot.home_joint_pos
+    )
+    assert left[2] == pytest.approx(-robot.nominal_pelvis_height, abs=1e-6)
+    assert left[1] - right[1] == pytest.approx(0.14, abs=1e-6)
+    assert roll == pytest.approx(0.0) and pitch == pytest.approx(0.0)
+
+
+def test_lift_laws_vanish_at_phase_changes() -> None:
+    """Roll (Eq. 22), fixed lift (Eq. 23) and adaptive lift (Eq. 29) are zero at t = 0 and T."""
+    T = 0.4
+    for t in (0.0, T):
+        assert lift.pelvis_roll(t, T, 0.1) == pytest.approx(0.0, abs=1e-12)
+        assert lift.fixed_lift(t, T, 0.01) == pytest.approx(0.0, abs=1e-12)
+        assert lift.adaptive_lift(t, T, 0.3, 0.52) == pytest.approx(0.0, abs=1e-12)
+    assert lift.fixed_lift(T / 2, T, 0.01) == pytest.approx(0.01)
+
+
+def test_hip_switch_hands_over_between_tracking_and_torso() -> None:
+    """γ of Eq. (24) starts at 0 in swing and 1 in stance and swaps by t ≈ 2 t1."""
+    t1 = 0.08
+    assert lift.hip_switch_gamma(0.0, t1, swing=True) == 0.0
+    assert lift.hip_switch_gamma(0.0, t1, swing=False) == 1.0
+    assert lift.hip_switch_gamma(2 * t1, t1, swing=True) == pytest.approx(1 - math.exp(-4))
+
+
+def test_knee_compensation_scales_with_load() -> None:
+    """Eq. (21): the knee offset is μ at full body weight and 0 when unloaded."""
+    assert lift.knee_target_offset(300.0, 300.0, 0.03) == pytest.approx(-0.03)
+    assert lift.knee_target_offset(0.0, 300.0, 0.03) == 0.0

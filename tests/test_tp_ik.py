@@ -1,0 +1,36 @@
+"""Tests of the analytic leg IK and the 3LP parameters derived from coman (Paper II)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from walkrepro.controllers.timeprojection.ik import LegGeometry, forward, leg_ik
+from walkrepro.controllers.timeprojection.openloop import threelp_params_from_robot
+from walkrepro.robot import load_robot
+
+
+@pytest.mark.parametrize("side", ["l", "r"])
+def test_ik_inverts_forward_kinematics(side: str) -> None:
+    """IK of a random reachable sole pose returns the joint angles that produced it."""
+    robot = load_robot("coman")
+    geom = LegGeometry.from_robot(robot, side)
+    rng = np.random.default_rng(1)
+    first = 0 if side == "l" else 6
+    for _ in range(10):
+        q = robot.home_joint_pos.copy()
+        q[first : first + 6] += rng.uniform(-0.25, 0.25, 6)
+        q[first + 3] = abs(q[first + 3]) + 0.1  # knee bent: the IK's branch
+        pos, rot = forward(robot, q, side)
+        np.testing.assert_allclose(leg_ik(geom, pos, rot), q[first : first + 6], atol=1e-9)
+
+
+def test_threelp_params_follow_the_model() -> None:
+    """The 3LP masses add up to the robot and the heights match the home posture."""
+    robot = load_robot("coman")
+    p = threelp_params_from_robot(robot)
+    assert p.m1 + 2 * p.m2 == pytest.approx(robot.total_mass)
+    assert p.m2 / robot.total_mass == pytest.approx(0.225, abs=0.01)  # Paper II: 22.5 %
+    assert p.h1 == pytest.approx(robot.nominal_pelvis_height)
+    assert 0 < p.h2 < p.h1 and p.h3 > 0
+    assert p.pw == pytest.approx(0.07)  # hips 14 cm apart

@@ -1,0 +1,191 @@
+"""Footstep plan, ZMP reference and swing-foot trajectory for flat-ground walking (§IV).
+
+The plan assumes a flat floor, as the paper's walking pattern does ("the given x-direction
+walking pattern assumed with the plane ground"): the controller knows nothing of obstacles.
+Each step is a double-support phase (the ZMP moves from the old to the new support foot)
+followed by a single-support phase (the other foot swings). The first and last steps are
+half strides, so the feet start and end side by side.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+LEFT, RIGHT = 0, 1
+SIDES = ("left", "right")
+
+
+@dataclass(frozen=True)
+class Phase:
+    """One phase of the walk.
+
+    Attributes:
+        t0: start time [s].
+        t1: end time [s].
+        swing: swinging foot (LEFT/RIGHT), or -1 in double support.
+        target: the swing foot's landing sole centre in the world (x, y, 0) [m] (swing only).
+    """
+
+    t0: float
+    t1: float
+    swing: int
+    target: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class FootstepPlan:
+    """Timed phases and the ZMP reference of a straight walk.
+
+    Attributes:
+        phases: phases in time order, covering [0, end].
+        zmp_t: sample times of the ZMP reference [s], shape (N,).
+        zmp_xy: ZMP reference (x, y) [m], shape (N, 2).
+        end: time the last phase ends [s] (the plan then holds the final stance).
+    """
+
+    phases: tuple[Phase, ...]
+    zmp_t: np.ndarray
+    zmp_xy: np.ndarray
+    end: float
+
+    def phase_at(self, t: float) -> Phase:
+        """The phase that contains time ``t`` [s] (the final stance after the plan ends)."""
+        for phase in self.phases:
+            if t < phase.t1:
+                return phase
+        return self.phases[-1]
+
+    def zmp_at(self, t: float) -> np.ndarray:
+        """Reference ZMP (x, y) at time ``t`` [s]."""
+        return np.array(
+            [
+                np.interp(t, self.zmp_t, self.zmp_xy[:, 0]),
+                np.interp(t, self.zmp_t, self.zmp_xy[:, 1]),
+            ]
+        )
+
+
+def plan_walk(
+    foot_y: float,
+    stride: float,
+    n_steps: int,
+    first_swing: int,
+    t_start: float,
+    t_single: float,
+    t_double: float,
+    t_end_hold: float,
+    dt: float,
+) -> FootstepPlan:
+    """Plan ``n_steps`` steps straight ahead along +x (§IV: 0.35 m stride, 0.56 s + 0.14 s).
+
+    Args:
+        foot_y: lateral offset of each sole centre from the midline [m] (left +, right −).
+        stride: distance a swing foot travels per full step [m]; the first and the last
+            step travel half of it.
+        n_steps: number of steps (≥ 2).
+        first_swing: LEFT or RIGHT.
+        t_start: initial double support before the first step [s].
+        t_single: single-support (swing) time [s].
+        t_double: double-support time of every step [s].
+        t_end_hold: double support after the last step, in the plan (the ZMP comes to the
+            middle of the feet) [s].
+        dt: sample time of the ZMP reference [s].
+    """
+    if n_steps < 2:
+        raise ValueError(f"n_steps must be at least 2, got {n_steps}")
+    feet = np.array([[0.0, foot_y], [0.0, -foot_y]])  # sole centres (x, y) [m]
+    phases: list[Phase] = [Phase(0.0, t_start, -1)]
+    # ZMP knots: (time, x, y); linear between knots.
+    knots: list[tuple[float, float, float]] = [(0.0, 0.0, 0.0), (t_start - t_double, 0.0, 0.0)]
+    t = t_start - t_double
+    swing = first_swing
+    for k in range(n_steps):
+        support = 1 - swing
+        # Double support of this step: the ZMP shifts onto the support foot. The first
+        # one is the last t_double of the initial stance.
+        if k > 0:
+            phases.append(Phase(t, t + t_double, -1))
+        t += t_double
+        knots.append((t, *feet[support]))
+        travel = stride / 2 if k in (0, n_steps - 1) else stride
+        target = feet[swing] + np.array([travel, 0.0])
+        phases.append(Phase(t, t + t_single, swing, (float(target[0]), float(target[1]), 0.0)))
+        t += t_single
+        knots.append((t, *feet[support]))
+        feet[swing] = target
+        swing = support
+    phases.append(Phase(t, t + t_double + t_end_hold, -1))
+    mid = feet.mean(axis=0)
+    knots.append((t + t_double, *mid))
+    end = t + t_double + t_end_hold
+    knots.append((end, *mid))
+    kt = np.array([k[0] for k in knots])
+    zmp_t = np.arange(0.0, end + dt / 2, dt)
+    zmp_xy = np.stack(
+        [np.interp(zmp_t, kt, [k[1] for k in knots]), np.interp(zmp_t, kt, [k[2] for k in knots])],
+        axis=1,
+    )
+    return FootstepPlan(tuple(phases), zmp_t, zmp_xy, end)
+
+
+def quintic(s: float, duration: float) -> tuple[float, float, float]:
+    """Minimum-jerk blend b(s) from 0 to 1 and its time derivatives, s ∈ [0, duration] [s].
+
+    Returns:
+        (b, ḃ [1/s], b̈ [1/s²]), with zero velocity and acceleration at both ends.
+    """
+    if duration <= 0:
+        return 1.0, 0.0, 0.0
+    u = min(max(s / duration, 0.0), 1.0)
+    b = u**3 * (10 - 15 * u + 6 * u**2)
+    db = 30 * u**2 * (1 - u) ** 2 / duration
+    ddb = 60 * u * (1 - u) * (1 - 2 * u) / duration**2
+    return b, db, ddb
+
+
+@dataclass(frozen=True)
+class SwingTrajectory:
+    """Swing-foot sole-centre trajectory from lift-off to the planned landing.
+
+    x, y and the roll/pitch angles blend by minimum jerk over the whole swing; z rises
+    from the lift-off height to ``apex`` over the first ``rise_fraction`` of the swing, then
+    descends to the landing height (the flat floor, z = 0) by the end.
+
+    Attributes:
+        t0: lift-off time [s].
+        duration: swing time [s].
+        start: lift-off sole centre (x, y, z) [m] and roll, pitch [rad], shape (5,).
+        target: landing sole centre (x, y, z) [m] and roll, pitch [rad], shape (5,).
+        apex: swing height above the higher of start and target [m].
+        rise_fraction: share of the swing spent rising [-].
+    """
+
+    t0: float
+    duration: float
+    start: np.ndarray
+    target: np.ndarray
+    apex: float
+    rise_fraction: float
+
+    def at(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Desired (x, y, z, roll, pitch), velocities and accelerations at ``t`` [s, rad]."""
+        s = t - self.t0
+        b, db, ddb = quintic(s, self.duration)
+        delta = self.target - self.start
+        pos = self.start + b * delta
+        vel = db * delta
+        acc = ddb * delta
+        top = max(self.start[2], self.target[2]) + self.apex
+        t_rise = self.rise_fraction * self.duration
+        if s < t_rise:
+            bz, dbz, ddbz = quintic(s, t_rise)
+            z0, z1 = self.start[2], top
+        else:
+            bz, dbz, ddbz = quintic(s - t_rise, self.duration - t_rise)
+            z0, z1 = top, self.target[2]
+        pos[2] = z0 + bz * (z1 - z0)
+        vel[2] = dbz * (z1 - z0)
+        acc[2] = ddbz * (z1 - z0)
+        return pos, vel, acc

@@ -1,0 +1,114 @@
+"""Impedance modification of the swing-foot reference (§II, Eqs. 1–3).
+
+The foot is modelled as a mass–spring–damper driven by the contact wrench (Fig. 2):
+
+    M_d (ẍ − ẍ_d) + B_d (ẋ − ẋ_d) + K_d (x − x_d) = λ,                          (1)
+
+over the coordinates x = (z, φ_x, φ_y) of the paper's x_{C_k} = [0 0 z φx φy 0]ᵀ. The
+modified acceleration
+
+    ẍ_m = ẍ_d + M_d⁻¹ (λ + B_d ė + K_d e),   e = x_d − x_m,                     (2)
+
+is integrated (semi-implicit Euler) to the modified velocity and position. Eq. (2) writes
+e with the foot's state; we use the modified state x_m, which equals the foot's state when
+the QP tracks Eq. (3), and makes the modified reference an exact mass–spring–damper of λ
+(no feedback of tracking noise into the integrator). The reference acceleration for the QP
+is Eq. (3):
+
+    ẍ_r = ẍ_m + K_v (ẋ_m − ẋ) + K_p (x_m − x).                                  (3)
+
+The modification switches on in swing, once the foot has been unloaded after lift-off, when |λ_z| exceeds the force threshold or |λ_φx|,
+|λ_φy| the torque threshold (§IV: 10 N, 3 N m), stays on to the end of that swing, and is
+re-initialised (x_m = x_d) in support (§IV).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class ImpedanceFilter:
+    """Eqs. (1)–(3) for one foot over (z [m], φ_x [rad], φ_y [rad]).
+
+    Args:
+        m_d: desired mass / inertia M_d, shape (3,) [kg, kg m², kg m²].
+        b_d: desired damping B_d, shape (3,) [N s/m, N m s/rad, N m s/rad].
+        k_d: desired stiffness K_d, shape (3,) [N/m, N m/rad, N m/rad].
+        force_threshold: |λ_z| that switches the modification on [N].
+        torque_threshold: |λ_φx| or |λ_φy| that switches it on [N m].
+    """
+
+    def __init__(
+        self,
+        m_d: np.ndarray,
+        b_d: np.ndarray,
+        k_d: np.ndarray,
+        force_threshold: float,
+        torque_threshold: float,
+    ) -> None:
+        self.m_d = np.asarray(m_d, dtype=float)
+        self.b_d = np.asarray(b_d, dtype=float)
+        self.k_d = np.asarray(k_d, dtype=float)
+        self.thresholds = np.array([force_threshold, torque_threshold, torque_threshold])
+        self.active = False
+        self.armed = False
+        self.x_m = np.zeros(3)
+        self.v_m = np.zeros(3)
+        self.a_m = np.zeros(3)
+
+    def reset(self, x_d: np.ndarray, v_d: np.ndarray, a_d: np.ndarray) -> None:
+        """Re-initialise in support: the modified reference is the desired one, switched off."""
+        self.active = False
+        self.armed = False
+        self.x_m[:] = x_d
+        self.v_m[:] = v_d
+        self.a_m[:] = a_d
+
+    def update(
+        self,
+        x_d: np.ndarray,
+        v_d: np.ndarray,
+        a_d: np.ndarray,
+        wrench: np.ndarray,
+        dt: float,
+        enabled: bool = True,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Advance one control period and return the modified (x_m, ẋ_m, ẍ_m).
+
+        Args:
+            x_d, v_d, a_d: desired (z, φ_x, φ_y), rates and accelerations.
+            wrench: contact wrench on the foot λ = (f_z [N], μ_x [N m], μ_y [N m]).
+            dt: control period [s].
+            enabled: False runs without impedance (the modified reference is the desired one).
+        """
+        over = bool(np.any(np.abs(wrench) > self.thresholds))
+        if not self.armed and not over:
+            self.armed = True  # the foot has left the ground: a new contact is unexpected
+        if enabled and self.armed and not self.active and over:
+            self.active = True  # start from the desired state: the reference stays continuous
+            self.x_m[:] = x_d
+            self.v_m[:] = v_d
+        if not self.active:
+            self.x_m[:] = x_d
+            self.v_m[:] = v_d
+            self.a_m[:] = a_d
+            return self.x_m, self.v_m, self.a_m
+        e = x_d - self.x_m
+        e_dot = v_d - self.v_m
+        self.a_m[:] = a_d + (wrench + self.b_d * e_dot + self.k_d * e) / self.m_d  # Eq. (2)
+        self.v_m += self.a_m * dt
+        self.x_m += self.v_m * dt
+        return self.x_m, self.v_m, self.a_m
+
+
+def reference_acceleration(
+    x_m: np.ndarray,
+    v_m: np.ndarray,
+    a_m: np.ndarray,
+    x: np.ndarray,
+    v: np.ndarray,
+    k_p: np.ndarray,
+    k_v: np.ndarray,
+) -> np.ndarray:
+    """Eq. (3): ẍ_r = ẍ_m + K_v (ẋ_m − ẋ) + K_p (x_m − x)."""
+    return a_m + k_v * (v_m - v) + k_p * (x_m - x)

@@ -1,0 +1,119 @@
+"""The open-loop layer of Paper II (Fig. 3, A → C): 3LP gait → Cartesian targets → joints.
+
+- the 3LP model's parameters derived from the robot model (note ``3lp.md`` §8);
+- the Cartesian targets of the pelvis and both soles in a level frame attached to the
+  pelvis, with the fixed lift of Eqs. (22)-(23) and the adaptive lift of Eqs. (28)-(30);
+- analytic leg IK (:mod:`.ik`) to link-side joint angles.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from walkrepro.controllers.timeprojection.ik import LegGeometry, leg_ik, rot_rpy
+from walkrepro.controllers.timeprojection.projection import TimeProjection
+from walkrepro.controllers.timeprojection.threelp import (
+    HIP,
+    PELVIS,
+    SWING,
+    Q,
+    ThreeLP,
+    ThreeLPParams,
+    U,
+    reconstruction,
+)
+from walkrepro.robot import Robot
+
+
+def threelp_params_from_robot(robot: Robot) -> ThreeLPParams:
+    """3LP parameters of a robot at its ``home`` posture (note ``3lp.md`` §8).
+
+    - m1: everything but the legs (pelvis, trunk, head, arms) [kg];
+    - m2: one leg, the subtree from the hip yaw link [kg];
+    - h1: pelvis (hip-midpoint) height (:attr:`Robot.nominal_pelvis_height`) [m];
+    - h2: depth of the leg's CoM below the hip [m];
+    - h3: height of the m1 CoM above the pelvis [m];
+    - pw: half the hip spacing [m].
+    """
+    model = robot.mj_model
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    mujoco.mj_forward(model, data)
+    pelvis, leg = model.body("pelvis").id, model.body("l_hip_yaw_link").id
+    total, m2 = float(model.body_subtreemass[pelvis]), float(model.body_subtreemass[leg])
+    m1 = total - 2.0 * m2
+    z_pelvis = float(data.xpos[pelvis, 2])
+    z_leg = float(data.subtree_com[leg, 2])
+    z_upper = (total * float(data.subtree_com[pelvis, 2]) - 2.0 * m2 * z_leg) / m1
+    hip_y = float(abs(data.xpos[leg, 1] - data.xpos[pelvis, 1]))
+    return ThreeLPParams(
+        m1=m1,
+        m2=m2,
+        h1=robot.nominal_pelvis_height,
+        h2=z_pelvis - z_leg,
+        h3=z_upper - z_pelvis,
+        pw=hip_y,
+    )
+
+
+def relative_footstep_gains(model: ThreeLP, tp: TimeProjection) -> np.ndarray:
+    """Gains of the touchdown change of the swing foot *relative to the pelvis*, Δ(f − p)(T).
+
+    Paper II simulates the current error to the end of the phase under the time-projecting
+    controller (posture F of Fig. 3) and takes the attack-angle change with respect to the
+    nominal gait. A position-controlled swing hip sets f − p, so the adjustment that matters
+    is the swing foot's change minus the pelvis's: this table, shape (n, 2, 8), on the same
+    phase grid as ``tp``.
+    """
+    out = np.zeros((len(tp.phases), 2, 8))
+    for i, t in enumerate(tp.phases):
+        phi = model.propagator(float(t), tp.step_time - float(t))
+        end = phi[Q, Q] @ reconstruction() - phi[Q, U][:, HIP] @ tp.torque_gains[i]
+        out[i] = end[SWING] - end[PELVIS]
+    return out
+
+
+@dataclass(frozen=True)
+class LegTargets:
+    """Cartesian targets of one step instant in the level frame at the pelvis origin.
+
+    Attributes:
+        pelvis_roll: pelvis roll about x [rad] (Eq. 22), positive lifts the left hip.
+        left: left sole point, shape (3,) [m]; right: the right one.
+        left_pitch / right_pitch: foot pitch about y in the world [rad].
+    """
+
+    pelvis_roll: float
+    left: np.ndarray
+    right: np.ndarray
+    left_pitch: float
+    right_pitch: float
+
+
+class LegIk:
+    """Both legs' IK from :class:`LegTargets` (feet flat in the world unless pitched)."""
+
+    def __init__(self, robot: Robot) -> None:
+        self.left = LegGeometry.from_robot(robot, "l")
+        self.right = LegGeometry.from_robot(robot, "r")
+
+    def solve(self, targets: LegTargets, pitch: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
+        """Joint angles [left leg (6), right leg (6)] [rad].
+
+        Args:
+            targets: Cartesian targets in the level frame.
+            pitch: pelvis pitch [rad] assumed for the (left, right) leg's IK: 0 for the
+                commanded (level) posture, or the IMU's pitch to place a swing foot in the
+                level frame whatever the torso lean.
+        """
+        legs = []
+        for geom, pos, foot_pitch, pel_pitch in (
+            (self.left, targets.left, targets.left_pitch, pitch[0]),
+            (self.right, targets.right, targets.right_pitch, pitch[1]),
+        ):
+            r_t = rot_rpy(targets.pelvis_roll, pel_pitch).T
+            legs.append(leg_ik(geom, r_t @ pos, r_t @ rot_rpy(0.0, foot_pitch)))
+        return np.concatenate(legs)
