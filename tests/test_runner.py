@@ -1,0 +1,111 @@
+"""The simulation loop: falls, broken controllers, zero-order hold, disturbances in the log."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from walkrepro import record, runner
+from walkrepro.controllers.base import Command, Controller
+from walkrepro.controllers.posture import PostureController
+from walkrepro.metrics import LogData, compute
+from walkrepro.replay import verify_log
+from walkrepro.spec import load_spec, resolve_spec
+
+
+def spec_of(name: str, *overrides: str):  # noqa: ANN201 - ExperimentSpec
+    return resolve_spec(load_spec(name, list(overrides))).spec
+
+
+def test_limp_robot_is_reported_as_fallen(tmp_path: Path) -> None:
+    """With no joint torques the robot collapses, the run stops, and the log says it fell."""
+    spec = spec_of(
+        "stand_dyros_red",
+        "sim.duration=4",
+        "controller.params.kp=0",
+        "controller.params.kd=0",
+        "controller.params.gravity_compensation=false",
+    )
+    result = runner.run(spec, tmp_path / "log.mcap")
+    assert result.outcome == "fell" and result.fall_time is not None
+    assert result.sim_time < 4.0 and "fell at t =" in result.message
+    data = LogData.from_path(tmp_path / "log.mcap")
+    values = compute(data, ["fell", "fall_time"])
+    assert values["fell"] == 1 and values["fall_time"] == pytest.approx(result.fall_time)
+    assert data.log.metadata["outcome"] == "fell"
+    assert verify_log(tmp_path / "log.mcap").ok
+
+
+class _NanController(PostureController):
+    """Returns NaN torques after 0.1 s."""
+
+    def step(self, t: float, sensors) -> Command:  # noqa: ANN001
+        command = super().step(t, sensors)
+        return Command(ctrl=command.ctrl * np.nan) if t > 0.1 else command
+
+
+def test_non_finite_command_is_a_clear_error_and_keeps_the_log(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A controller that returns NaN ends the run with outcome 'error'; the log up to then is readable."""
+    monkeypatch.setattr(runner, "controller_class", lambda name: _NanController)
+    result = runner.run(spec_of("stand_dyros_red", "sim.duration=1"), tmp_path / "log.mcap")
+    assert result.outcome == "error" and "non-finite" in result.message
+    log = record.read_log(tmp_path / "log.mcap")
+    assert log.metadata["outcome"] == "error" and "non-finite" in log.metadata["message"]
+    assert 150 < len(log.messages(record.TOPIC_STATE)) < 400
+
+
+class _CountingController(Controller):
+    """Returns a different constant command at every tick and counts its calls."""
+
+    Params = PostureController.Params  # accepts the stand spec's params
+
+    def reset(self, robot, params, control_period) -> None:  # noqa: ANN001
+        self.calls = 0
+        self.nu = robot.mj_model.nu
+        self.home = robot.home_ctrl.copy()
+
+    def step(self, t: float, sensors) -> Command:  # noqa: ANN001
+        self.calls += 1
+        return Command(ctrl=self.home + 1e-6 * self.calls, signals={"calls": self.calls})
+
+
+def test_zero_order_hold_between_control_ticks(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The command changes only at control ticks and is held for the physics steps between."""
+    monkeypatch.setattr(runner, "controller_class", lambda name: _CountingController)
+    spec = spec_of("stand_coman", "sim.duration=0.1")  # 0.5 ms physics, 2 ms control
+    runner.run(spec, tmp_path / "log.mcap")
+    inputs = record.read_log(tmp_path / "log.mcap").messages(record.TOPIC_INPUTS)
+    assert len(inputs) == 200
+    ctrl = np.array([m["ctrl"][0] for m in inputs])
+    changes = np.flatnonzero(np.diff(ctrl)) + 1
+    assert list(changes) == list(range(4, 200, 4))
+
+
+def test_disturbance_is_applied_logged_and_replayed(tmp_path: Path) -> None:
+    """A spec push appears in /sim/inputs only inside its window, moves the robot, and replays exactly."""
+    spec = spec_of(
+        "stand_dyros_red",
+        "sim.duration=0.6",
+        "disturbances=[{name: shove, body: pelvis, force: [150, 0, 0], start: 0.2, duration: 0.1}]",
+    )
+    runner.run(spec, tmp_path / "log.mcap")
+    log = record.read_log(tmp_path / "log.mcap")
+    pushed = [m["step"] for m in log.messages(record.TOPIC_INPUTS) if m["xfrc"]]
+    assert pushed[0] == 400 and pushed[-1] == 599 and len(pushed) == 200
+    assert all(
+        m["xfrc"]["pelvis"][:3] == [150.0, 0.0, 0.0]
+        for m in log.messages(record.TOPIC_INPUTS)
+        if m["xfrc"]
+    )
+    kinds = [e["kind"] for e in log.messages(record.TOPIC_EVENTS)]
+    assert kinds == ["disturbance_on", "disturbance_off"]
+    data = LogData.from_path(tmp_path / "log.mcap")
+    assert compute(data, ["peak_external_force"])["peak_external_force"] == pytest.approx(150.0)
+    assert data.qvel[-1, 0] != 0.0 or np.ptp(data.qpos[:, 0]) > 1e-4  # the push moved the pelvis
+    assert verify_log(tmp_path / "log.mcap").ok
