@@ -188,3 +188,30 @@ def test_sigint_leaves_readable_interrupted_log(tmp_path: Path) -> None:
     assert log.metadata["outcome"] == "interrupted"
     assert len(log.messages(record.TOPIC_STATE)) > 10
     assert json.loads((runs[0] / "run.json").read_text())["outcome"] == "interrupted"
+
+
+def test_save_reference_copies_metrics_and_figures(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A run's metrics, verdict and PNGs become the experiment's committed reference, replacing old PNGs."""
+    from walkrepro import results
+
+    run = tmp_path / "runs" / "tiny_stand" / "20260101T000000Z-abcdef"
+    (run / "figures").mkdir(parents=True)
+    for name in ("metrics.json", "check.json", "run.json"):
+        (run / name).write_text("{}")
+    (run / "figures" / "overview.png").write_bytes(b"png")
+    (run / "figures" / "overview.svg").write_text("<svg/>")
+    monkeypatch.setattr(results, "RESULTS_DIR", tmp_path / "results")
+    stale = tmp_path / "results" / "tiny_stand" / "figures" / "old.png"
+    stale.parent.mkdir(parents=True)
+    stale.write_bytes(b"old")
+    target = results.save_reference(run)
+    assert target == tmp_path / "results" / "tiny_stand"
+    assert sorted(p.name for p in target.iterdir()) == [
+        "check.json",
+        "figures",
+        "metrics.json",
+        "run.json",
+    ]
+    assert [p.name for p in (target / "figures").iterdir()] == ["overview.png"]

@@ -117,6 +117,13 @@ def check(
     jobs: Annotated[int, typer.Option(help="Parallel runs (processes).")] = os.cpu_count() or 1,
     junit: Annotated[Path | None, typer.Option(help="Also write a JUnit XML report.")] = None,
     figures: Annotated[bool, typer.Option(help="Draw figures for each run.")] = False,
+    update_reference: Annotated[
+        bool,
+        typer.Option(
+            "--update-reference",
+            help="Copy each run's metrics, verdict and PNG figures to results/<experiment>/.",
+        ),
+    ] = False,
 ) -> None:
     """Run experiments (or re-check runs) and compare them with the papers. Exit 1 on failure."""
     from walkrepro import checks
@@ -129,6 +136,7 @@ def check(
         # A run lives in <root>/<experiment>/<run>: compare with other runs under <root>.
         verdicts.append(evaluate_log(log, directory, References(directory.parent.parent))[1])
     names = list(experiments or [])
+    summaries = []
     if not names and not run_dir:
         names = experiment_names()
     for name in names:  # validate every spec before running any
@@ -152,6 +160,21 @@ def check(
             for s in summaries
         ]
     _print_verdicts(verdicts)
+    if update_reference:
+        from walkrepro.render import render_strip
+
+        for s in summaries:
+            # A snapshot strip over the run, like the papers' photo sequences.
+            times = [s.result.sim_time * k / 4 for k in range(5)]
+            render_strip(
+                s.result.log_path,
+                times,
+                s.run_dir / results.FIGURES_DIR / "snapshots.png",
+                480,
+                640,
+            )
+            target = results.save_reference(s.run_dir)
+            _console().print(f"reference updated: {target}")
     if junit is not None:
         checks.write_junit(verdicts, junit)
     if not all(v.passed for v in verdicts):

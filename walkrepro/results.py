@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 import secrets
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -95,6 +96,25 @@ def resolve_run(path: Path) -> tuple[Path, Path]:
     if path.is_file():
         return path.parent, path
     raise WalkreproError(f"{path}: no such run directory or log file.")
+
+
+def save_reference(run_dir: Path) -> Path:
+    """Copy a run's metrics, verdict, run record and PNG figures to ``results/<experiment>/``.
+
+    The committed reference of an experiment (logs stay out of git). Old PNGs are removed
+    first so the reference holds exactly this run's figures.
+    """
+    experiment = run_dir.parent.name
+    target = RESULTS_DIR / experiment
+    (target / FIGURES_DIR).mkdir(parents=True, exist_ok=True)
+    for old in (target / FIGURES_DIR).glob("*.png"):
+        old.unlink()
+    for name in (METRICS_FILE, CHECK_FILE, RUN_FILE):
+        if (run_dir / name).is_file():
+            shutil.copy2(run_dir / name, target / name)
+    for png in (run_dir / FIGURES_DIR).glob("*.png"):
+        shutil.copy2(png, target / FIGURES_DIR / png.name)
+    return target
 
 
 def latest_run(root: Path, experiment: str) -> Path | None:
