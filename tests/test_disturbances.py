@@ -43,3 +43,25 @@ def test_wrenches_on_one_body_add_up() -> None:
     wrenches, _ = DisturbanceSchedule([a, b, z]).wrenches(0.5, lambda n: None)
     assert set(wrenches) == {"pelvis"}
     assert np.allclose(wrenches["pelvis"], [1, 2, 3, 0, 0, 1])
+
+
+def test_hold_is_a_one_sided_capped_spring_damper() -> None:
+    """A hold pushes back toward the onset position along its direction, never pulls, and is capped."""
+    spec = DisturbanceSpec(
+        name="hand", body="pelvis", force=(-1, 0, 0), start=0.0, duration=1.0,
+        profile="hold", stiffness=3000.0, damping=300.0, max_force=150.0,
+    )  # fmt: skip
+    schedule = DisturbanceSchedule([spec])
+    state = {"pos": np.zeros(3), "vel": np.zeros(3)}
+    lookup = lambda body: (state["pos"], state["vel"])  # noqa: E731
+    wrenches, _ = schedule.wrenches(0.0, lambda n: None, lookup)  # grabs at the origin
+    assert wrenches == {}  # no displacement, no force
+    state["pos"] = np.array([0.02, 0.0, 0.0])  # pushed 2 cm against the hand
+    wrenches, _ = schedule.wrenches(0.1, lambda n: None, lookup)
+    assert np.allclose(wrenches["pelvis"], [-60.0, 0, 0, 0, 0, 0])
+    state["vel"] = np.array([0.1, 0.0, 0.0])  # still moving into the hand: damping adds
+    assert np.allclose(schedule.wrenches(0.2, lambda n: None, lookup)[0]["pelvis"][:3], [-90.0, 0, 0])
+    state["pos"], state["vel"] = np.array([-0.02, 0.0, 0.0]), np.zeros(3)  # moved away: no pull
+    assert schedule.wrenches(0.3, lambda n: None, lookup)[0] == {}
+    state["pos"] = np.array([0.5, 0.0, 0.0])  # far into the hand: capped
+    assert np.allclose(schedule.wrenches(0.4, lambda n: None, lookup)[0]["pelvis"][:3], [-150.0, 0, 0])

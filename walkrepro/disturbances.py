@@ -16,12 +16,19 @@ from walkrepro.spec import DisturbanceSpec
 
 #: Looks up a controller frame (world-from-frame rotation) by name, or None if unknown.
 FrameLookup = Callable[[str], "np.ndarray | None"]
+#: World position [m] and linear velocity [m/s] of a body's centre of mass, by body name.
+BodyState = Callable[[str], "tuple[np.ndarray, np.ndarray]"]
+
+
+def _no_body_state(body: str) -> tuple[np.ndarray, np.ndarray]:
+    raise RuntimeError(f"a hold on {body!r} needs the body state")
 
 
 @dataclass
 class _Active:
     spec: DisturbanceSpec
     rotation: np.ndarray | None = None  # world-from-frame, frozen at onset
+    anchor: np.ndarray | None = None  # hold: the body's CoM at onset [m]
     on: bool = False
 
 
@@ -32,7 +39,7 @@ class DisturbanceSchedule:
         self._items = [_Active(spec=s) for s in specs]
 
     def wrenches(
-        self, t: float, frame_lookup: FrameLookup
+        self, t: float, frame_lookup: FrameLookup, body_state: BodyState = _no_body_state
     ) -> tuple[dict[str, np.ndarray], list[dict]]:
         """World-frame wrenches per body at time ``t`` [s], and on/off events.
 
@@ -48,6 +55,8 @@ class DisturbanceSchedule:
             if scale > 0 and not item.on:
                 item.on = True
                 item.rotation = self._frame_rotation(s, frame_lookup)
+                if s.profile == "hold":
+                    item.anchor = body_state(s.body)[0].copy()
                 events.append({"kind": "disturbance_on", "name": s.name, "body": s.body})
             elif scale == 0 and item.on:
                 item.on = False
@@ -55,7 +64,12 @@ class DisturbanceSchedule:
             if scale == 0:
                 continue
             rot = item.rotation if item.rotation is not None else np.eye(3)
-            wrench = scale * np.concatenate([rot @ np.asarray(s.force), rot @ np.asarray(s.torque)])
+            if s.profile == "hold":
+                wrench = scale * _hold_wrench(s, rot, item.anchor, *body_state(s.body))
+            else:
+                wrench = scale * np.concatenate(
+                    [rot @ np.asarray(s.force), rot @ np.asarray(s.torque)]
+                )
             out[s.body] = out.get(s.body, np.zeros(6)) + wrench
         return {b: w for b, w in out.items() if np.any(w)}, events
 
@@ -74,6 +88,19 @@ def profile_scale(s: DisturbanceSpec, t: float) -> float:
     end = s.start + s.duration
     if not s.start <= t < end:
         return 0.0
-    if s.profile == "constant":
+    if s.profile == "constant" or (s.profile == "hold" and s.ramp_time == 0):
         return 1.0
+    if s.profile == "hold":  # grab at once, release over the last ramp_time
+        return float(min(1.0, (end - t) / s.ramp_time))
     return float(min(1.0, (t - s.start) / s.ramp_time, (end - t) / s.ramp_time))
+
+
+def _hold_wrench(
+    s: DisturbanceSpec, rot: np.ndarray, anchor: np.ndarray | None, pos: np.ndarray, vel: np.ndarray
+) -> np.ndarray:
+    """A hand's push along the direction of ``force``: one-sided spring-damper, capped."""
+    assert anchor is not None and s.stiffness is not None and s.max_force is not None
+    u = rot @ np.asarray(s.force, dtype=float)
+    u /= np.linalg.norm(u)
+    push = s.stiffness * float((anchor - pos) @ u) - s.damping * float(vel @ u)
+    return np.concatenate([min(max(push, 0.0), s.max_force) * u, np.zeros(3)])

@@ -156,6 +156,15 @@ def run(
     sensors = SensorModel(robot, model, spec.sensors, spec.sim.control_period, spec.sim.seed)
     disturbances = DisturbanceSchedule(spec.disturbances)
     contacts = _ContactReader(model)
+
+    def body_state(body: str) -> tuple[np.ndarray, np.ndarray]:
+        """A body's CoM position and linear velocity, world frame, as of the last forward
+        pass (at most one physics step old; the resulting force is logged, so replay holds)."""
+        i = model.body(body).id
+        vel = np.zeros(6)
+        mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, i, vel, 0)
+        return data.xipos[i].copy(), vel[3:].copy()
+
     fall = _FallDetector(robot, model, spec)
 
     writer = record.LogWriter(
@@ -205,7 +214,7 @@ def run(
                 if progress is not None and now - last_report > 0.2:
                     progress(t, spec.sim.duration, t / max(now - wall_start, 1e-9))
                     last_report = now
-            wrenches, events = disturbances.wrenches(t, controller.frame)
+            wrenches, events = disturbances.wrenches(t, controller.frame, body_state)
             lap("bookkeeping")
             for event in events:
                 writer.write(record.TOPIC_EVENTS, {"t": t, **event}, t)

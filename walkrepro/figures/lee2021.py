@@ -1,10 +1,230 @@
-"""Figures that redraw the lee2021 paper's plots from a run's log."""
+"""Figures that redraw the lee2021 paper's plots from a run's log.
+
+Frames as in the paper: O_g (global: the midpoint of the feet's initial positions, which
+is walkrepro's world origin at ``home``) for Figs. 7, 10 and 12(c); O_w (support-foot
+frame of the E-FSM) for Figs. 12(b) and (d). Each function returns ``[]`` when the run
+lacks what the figure shows (e.g. Fig. 12 without a push).
+"""
 
 from __future__ import annotations
 
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+
 from walkrepro.figures import CompareFn, FigureFn
+from walkrepro.figures.style import save
+from walkrepro.metrics import LogData
+
+#: Actuator indices of the left leg (hip yaw … ankle roll), as in Fig. 14.
+LEFT_LEG = range(6)
+LEFT_LEG_NAMES = ("hip yaw", "hip roll", "hip pitch", "knee", "ankle pitch", "ankle roll")
+
+
+def _sig(d: LogData, name: str) -> tuple[np.ndarray, np.ndarray]:
+    return d.signal(name)
+
+
+def _swing_only(d: LogData, values: np.ndarray, foot: float | None = None) -> np.ndarray:
+    """Mask (NaN) samples in DS, or where ``foot`` (1 right, −1 left) is not swinging."""
+    _, swing = _sig(d, "swing_foot")
+    keep = swing != 0 if foot is None else swing == foot
+    out = np.array(values, dtype=float)
+    out[~keep] = np.nan
+    return out
+
+
+def _push_span(ax: plt.Axes, d: LogData) -> None:
+    on = [e["t"] for e in d.events if e.get("kind") == "disturbance_on"]
+    off = [e["t"] for e in d.events if e.get("kind") == "disturbance_off"]
+    for i, t0 in enumerate(on):
+        t1 = off[i] if i < len(off) else d.t[-1]
+        ax.axvspan(t0, t1, color="0.85", label="push" if i == 0 else None)
+
+
+def fig7_com_and_feet(d: LogData, out_dir: Path) -> list[Path]:
+    """Fig. 7: CoM, swing and support foot in x (a), y with the reference CoP (b), swing z (c)."""
+    t, com = _sig(d, "com_world")
+    if not t.size:
+        return []
+    _, sw = _sig(d, "swing_pos_world")
+    _, ref = _sig(d, "swing_ref_world")
+    _, sup = _sig(d, "support_pos_world")
+    _, xp = _sig(d, "xp_des_world")
+    fig, axes = plt.subplots(3, 1, figsize=(9, 9), sharex=True)
+    for ax, i, axis in ((axes[0], 0, "x"), (axes[1], 1, "y")):
+        ax.plot(t, com[:, i], label="CoM")
+        ax.plot(t, _swing_only(d, sw[:, i]), label="swing foot")
+        ax.plot(t, sup[:, i], label="supporting foot", linewidth=0.8)
+        ax.plot(t, _swing_only(d, ref[:, i]), "--", label="swing foot reference")
+        ax.set_ylabel(f"{axis}_g [m]")
+    axes[1].plot(t, xp[:, 1], ":", label="reference CoP")
+    axes[2].plot(t, _swing_only(d, sw[:, 2]), label="swing foot")
+    axes[2].plot(t, _swing_only(d, ref[:, 2]), "--", label="swing foot reference")
+    axes[2].set_ylabel("z_g [m]")
+    for ax, tag in zip(axes, "abc", strict=True):
+        ax.set_title(f"({tag})", loc="left", fontsize="small")
+        ax.legend(loc="best", fontsize="small")
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("time [s]")
+    fig.suptitle(f"{d.spec.name}: Fig. 7 — CoM and foot motion in O_g")
+    return save(fig, out_dir / "fig7_com_feet")
+
+
+def fig8_states(d: LogData, out_dir: Path) -> list[Path]:
+    """Fig. 8: E-FSM walking state (−1 right support, 0 DS, 1 left support)."""
+    t, state = _sig(d, "fsm_state")
+    if not t.size:
+        return []
+    fig, ax = plt.subplots(1, 1, figsize=(9, 3))
+    ax.step(t, state, where="post")
+    ax.set_yticks([-1, 0, 1])
+    ax.set_ylabel("walking state")
+    ax.set_xlabel("time [s]")
+    ax.grid(alpha=0.3)
+    fig.suptitle(f"{d.spec.name}: Fig. 8 — E-FSM states")
+    return save(fig, out_dir / "fig8_states")
+
+
+def fig10_right_foot(d: LogData, out_dir: Path) -> list[Path]:
+    """Fig. 10: right-foot x and its reference (only while it swings) in O_g."""
+    if not any(o.name.startswith("obstacle") for o in d.spec.world.obstacles):
+        return []
+    t, sw = _sig(d, "swing_pos_world")
+    _, ref = _sig(d, "swing_ref_world")
+    _, swing = _sig(d, "swing_foot")
+    from walkrepro.paper_metrics.lee2021 import _sole_tracks
+
+    right = _sole_tracks(d)["right"]
+    fig, ax = plt.subplots(1, 1, figsize=(9, 4))
+    ax.plot(d.t, right[:, 0], label="right foot x")
+    ax.plot(t, np.where(swing == 1, ref[:, 0], np.nan), "--", label="reference (swinging)")
+    for o in d.spec.world.obstacles:
+        ax.axhline(o.position[0] - o.size[0] / 2, color="k", linewidth=0.8, label=f"{o.name} face")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("x_g [m]")
+    ax.legend(loc="best", fontsize="small")
+    ax.grid(alpha=0.3)
+    fig.suptitle(f"{d.spec.name}: Fig. 10 — right foot against the obstacle")
+    return save(fig, out_dir / "fig10_right_foot")
+
+
+def fig12_push(d: LogData, out_dir: Path) -> list[Path]:
+    """Fig. 12: states (a), CP and x_s − r in O_w (b), y motion in O_g (c), ẋ_m in O_w (d)."""
+    if not d.spec.disturbances:
+        return []
+    t, state = _sig(d, "fsm_state")
+    _, cp = _sig(d, "cp_w")
+    _, cp_ref = _sig(d, "cp_ref_w")
+    _, com = _sig(d, "com_world")
+    _, sw = _sig(d, "swing_pos_world")
+    _, sup = _sig(d, "support_pos_world")
+    _, ref = _sig(d, "swing_ref_world")
+    _, vel = _sig(d, "com_vel_w")
+    fig, axes = plt.subplots(4, 1, figsize=(9, 11), sharex=True)
+    axes[0].step(t, state, where="post")
+    axes[0].set_yticks([-1, 0, 1])
+    axes[0].set_ylabel("walking state")
+    axes[1].plot(t, cp, label="CP x_CP")
+    axes[1].plot(t, cp_ref, "--", label="reference x_s − r")
+    axes[1].set_ylabel("x_w [m]")
+    axes[2].plot(t, com[:, 1], label="CoM")
+    axes[2].plot(t, _swing_only(d, sw[:, 1]), label="swing foot")
+    axes[2].plot(t, sup[:, 1], label="supporting foot", linewidth=0.8)
+    axes[2].plot(t, _swing_only(d, ref[:, 1]), "--", label="swing foot reference")
+    axes[2].set_ylabel("y_g [m]")
+    axes[3].plot(t, vel[:, 0], label="CoM velocity")
+    axes[3].set_ylabel("ẋ_w [m/s]")
+    for ax, tag in zip(axes, "abcd", strict=True):
+        _push_span(ax, d)
+        ax.set_title(f"({tag})", loc="left", fontsize="small")
+        ax.legend(loc="best", fontsize="small")
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("time [s]")
+    fig.suptitle(f"{d.spec.name}: Fig. 12 — upper body held during walking")
+    return save(fig, out_dir / "fig12_push")
+
+
+def _torques(ax: plt.Axes, d: LogData, t_max: float) -> None:
+    t, tau = _sig(d, "tau_ref")
+    keep = t <= t_max
+    for i in LEFT_LEG:
+        ax.plot(t[keep], tau[keep, i], label=LEFT_LEG_NAMES[i], linewidth=0.9)
+    ax.set_ylabel("reference torque [Nm]")
+    ax.legend(loc="best", fontsize="x-small", ncol=3)
+    ax.grid(alpha=0.3)
+
+
+def fig14_torques(d: LogData, out_dir: Path) -> list[Path]:
+    """Fig. 14 for one run: left-leg reference torques and ε over the first steps."""
+    t, eps = _sig(d, "epsilon")
+    if not t.size:
+        return []
+    t_max = min(float(t[-1]), 3.0)
+    fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    _torques(axes[0], d, t_max)
+    keep = t <= t_max
+    axes[1].plot(t[keep], eps[keep])
+    axes[1].set_ylabel("ε")
+    axes[1].set_xlabel("time [s]")
+    axes[1].grid(alpha=0.3)
+    fig.suptitle(f"{d.spec.name}: Fig. 14 — left-leg reference torques and ε")
+    return save(fig, out_dir / "fig14_torques")
+
+
+def fig14_compare(a: LogData, b: LogData, out_dir: Path) -> list[Path]:
+    """Fig. 14 (a)(b)(c): torques of two runs (e.g. without and with ε) and ε of the second."""
+    t, eps = _sig(b, "epsilon")
+    if not t.size or not _sig(a, "tau_ref")[0].size:
+        return []
+    t_max = 3.0
+    fig, axes = plt.subplots(3, 1, figsize=(9, 9), sharex=True)
+    _torques(axes[0], a, t_max)
+    _torques(axes[1], b, t_max)
+    keep = t <= t_max
+    axes[2].plot(t[keep], eps[keep])
+    axes[2].set_ylabel("ε")
+    axes[2].grid(alpha=0.3)
+    for ax, tag, name in zip(axes, "abc", (a.spec.name, b.spec.name, b.spec.name), strict=True):
+        ax.set_title(f"({tag}) {name}", loc="left", fontsize="small")
+    axes[-1].set_xlabel("time [s]")
+    fig.suptitle("Fig. 14 — reference torques without and with ε")
+    return save(fig, out_dir / f"fig14_{a.spec.name}_vs_{b.spec.name}")
+
+
+def fig15_cop(d: LogData, out_dir: Path) -> list[Path]:
+    """Fig. 15: expected CoP (reference torques, Eqs. 18, 22) and measured CoP (F/T) in O_g."""
+    t, exp = _sig(d, "cop_exp_world")
+    if not t.size:
+        return []
+    _, meas = _sig(d, "cop_meas_world")
+    _, valid = _sig(d, "cop_meas_valid")
+    meas = np.where(valid[:, None] > 0, meas, np.nan)
+    fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
+    for ax, i, axis in ((axes[0], 0, "x"), (axes[1], 1, "y")):
+        ax.plot(t, exp[:, i], label="expected CoP")
+        ax.plot(t, meas[:, i], "--", label="measured CoP (F/T)")
+        ax.set_ylabel(f"{axis}_g [m]")
+    axes[2].plot(t, np.linalg.norm(exp - meas, axis=1), label="|error|")
+    axes[2].set_ylabel("error [m]")
+    axes[2].set_ylim(0.0, 0.1)
+    for ax in axes:
+        ax.legend(loc="best", fontsize="small")
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("time [s]")
+    fig.suptitle(f"{d.spec.name}: Fig. 15 — expected and measured CoP")
+    return save(fig, out_dir / "fig15_cop")
+
 
 #: Figures drawn from one run.
-FIGURES: list[FigureFn] = []
+FIGURES: list[FigureFn] = [
+    fig7_com_and_feet,
+    fig8_states,
+    fig10_right_foot,
+    fig12_push,
+    fig14_torques,
+    fig15_cop,
+]
 #: Figures comparing two runs (`walkrepro plot RUN_A RUN_B`).
-COMPARE: list[CompareFn] = []
+COMPARE: list[CompareFn] = [fig14_compare]

@@ -1,0 +1,112 @@
+"""The E-FSM of Lee et al. 2021 (§III, Table I) and its state-transition parameter ε."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from walkrepro.controllers.efsm.fsm import (
+    EventFsm,
+    FsmInput,
+    FsmParams,
+    Phase,
+    capture_point,
+    desired_cop_double_support,
+    desired_cop_single_support,
+    epsilon,
+    transition_distance,
+)
+
+P = FsmParams()
+
+
+def test_capture_point_eq2() -> None:
+    """x_CP = sqrt(z/g) ẋ + x (Eq. 2)."""
+    assert capture_point(0.1, 0.5, 0.81, 9.81) == pytest.approx(0.1 + math.sqrt(0.81 / 9.81) * 0.5)
+
+
+def test_eq3_support_centre_when_com_is_far() -> None:
+    """Eq. (3): x_p^des is the support centre while x_m > ζ."""
+    assert desired_cop_single_support(0.05, 0.03) == 0.0
+
+
+def test_eq3_zeta_behind_com_when_close() -> None:
+    """Eq. (3): x_p^des = x_m − ζ once x_m ≤ ζ, so the CoP stays ζ behind the CoM."""
+    assert desired_cop_single_support(0.01, 0.03) == pytest.approx(-0.02)
+    assert desired_cop_single_support(-0.04, 0.03) == pytest.approx(-0.07)
+
+
+def test_eq4_steps_then_snaps() -> None:
+    """Eq. (4): x_p^des moves by Δx_p^des toward x_s and snaps onto it when within one step."""
+    assert desired_cop_double_support(0.0, 0.2, 0.0007) == pytest.approx(0.0007)
+    assert desired_cop_double_support(0.3, 0.2, 0.0007) == pytest.approx(0.2993)
+    assert desired_cop_double_support(0.1995, 0.2, 0.0007) == 0.2
+
+
+def test_epsilon_ramp() -> None:
+    """ε is 0 for d ≤ 0, d/d_thr in between and 1 beyond d_thr (§IV-B)."""
+    assert epsilon(-0.01, 0.01) == 0.0
+    assert epsilon(0.0, 0.01) == 0.0
+    assert epsilon(0.005, 0.01) == pytest.approx(0.5)
+    assert epsilon(0.02, 0.01) == 1.0
+
+
+def test_distance_reaches_zero_at_termination() -> None:
+    """d is zero exactly at the SSA (x_CP = x_s − r) and DS (x_p^des = x_s) criteria."""
+    assert transition_distance(Phase.SSA, 0.25, 0.0, 0.25 - P.r, P.r) == pytest.approx(0.0)
+    assert transition_distance(Phase.DS, 0.25, 0.25, 0.0, P.r) == 0.0
+    assert math.isinf(transition_distance(Phase.SSD, 0.25, 0.0, 0.0, P.r))
+
+
+def test_ssd_ends_when_com_stops() -> None:
+    """SSD holds while the CoM moves toward the support foot and ends when ẋ_m ≈ 0."""
+    fsm = EventFsm(P, start=Phase.SSD)
+    assert fsm.step(FsmInput(0.1, -0.2, 0.05, 0.25)).phase is Phase.SSD
+    out = fsm.step(FsmInput(0.08, 0.0, 0.08, 0.25))
+    assert out.phase is Phase.SSA
+    assert out.transitions == ((Phase.SSD, Phase.SSA),)
+
+
+def test_ssa_ends_when_cp_reaches_swing_foot_minus_r() -> None:
+    """SSA holds until x_CP ≥ x_s − r, whatever time passes (no clock)."""
+    fsm = EventFsm(P, start=Phase.SSA)
+    for _ in range(10000):
+        assert fsm.step(FsmInput(0.08, 0.0, 0.08, 0.25)).phase is Phase.SSA
+    out = fsm.step(FsmInput(0.12, 0.2, 0.25 - P.r, 0.25))
+    assert out.phase is Phase.DS
+
+
+def test_ds_moves_cop_and_switches_support() -> None:
+    """DS ramps x_p^des to x_s at Δx_p^des per tick, then switches to SSD of the next step."""
+    fsm = EventFsm(P, start=Phase.DS, xp_start=0.0)
+    x_s = 0.07
+    ticks = 0
+    while True:
+        out = fsm.step(FsmInput(0.1, 0.1, 0.2, x_s))
+        ticks += 1
+        if out.switched_support:
+            break
+        assert out.phase is Phase.DS
+    assert abs(ticks - x_s / P.dxp) <= 1.0
+    assert out.phase is Phase.SSD and out.xp_des == x_s
+
+
+def test_epsilon_falls_to_zero_before_ds_ends() -> None:
+    """With ε, the DS reference wrench fades out over the last d_thr of the CoP ramp."""
+    fsm = EventFsm(P, start=Phase.DS, xp_start=0.0)
+    eps = []
+    while True:
+        out = fsm.step(FsmInput(0.1, 0.1, 0.2, 0.05))
+        eps.append(out.epsilon)
+        if out.switched_support:
+            break
+    assert eps[0] == 1.0 and eps[-1] == 0.0
+    assert all(a >= b for a, b in zip(eps, eps[1:], strict=False))
+
+
+def test_without_epsilon_it_stays_one() -> None:
+    """The ablation (use_epsilon false) keeps ε ≡ 1 (§VI-D1)."""
+    fsm = EventFsm(FsmParams(use_epsilon=False), start=Phase.DS, xp_start=0.0)
+    outs = [fsm.step(FsmInput(0.1, 0.1, 0.2, 0.01)) for _ in range(20)]
+    assert all(o.epsilon == 1.0 for o in outs)

@@ -1,0 +1,1 @@
+"""Paper I (Lee et al. 2021): event-based FSM walking with an operational-space WBC."""
