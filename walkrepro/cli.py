@@ -159,6 +159,8 @@ def check(
             evaluate_log(s.result.log_path, s.run_dir, batch)[1] if s.relative else s.verdict
             for s in summaries
         ]
+        if figures:
+            _plot_comparisons(summaries)
     _print_verdicts(verdicts)
     if update_reference:
         from walkrepro.render import render_strip
@@ -335,6 +337,21 @@ def _run_one(name: str, overrides: list[str], out: Path, figures: bool, show_pro
             bar.update(task, completed=t, sim=f"{t:6.2f}/{duration:.2f} s", rtf=f"{rtf:5.2f}x")
 
         return execute(spec, out, progress, figures)
+
+
+def _plot_comparisons(summaries: list) -> None:  # list[RunSummary]
+    """Comparison figures for each relative expectation whose two runs are in this batch."""
+    from walkrepro.figures import plot_compare
+    from walkrepro.spec import spec_from_yaml_text
+
+    logs = {s.verdict.experiment: s.result.log_path for s in summaries}
+    for s in summaries:
+        if not s.relative:
+            continue
+        spec = spec_from_yaml_text((s.run_dir / results.SPEC_FILE).read_text())
+        others = {e.relative_to.experiment for e in spec.expect if e.relative_to is not None}
+        for other in sorted(others & logs.keys()):
+            plot_compare(s.result.log_path, logs[other], s.run_dir / results.FIGURES_DIR)
 
 
 def _print_verdicts(verdicts: list) -> None:  # list[checks.Verdict]
