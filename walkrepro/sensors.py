@@ -58,6 +58,27 @@ class SensorSnapshot:
     base_linvel: np.ndarray | None = None
     base_angvel: np.ndarray | None = None
 
+    def pinocchio_state(
+        self, robot: Robot, who: str = "this controller"
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Pinocchio ``(q, v)`` of the robot from the base state and the joint encoders.
+
+        Raises:
+            ValueError: the spec does not provide the base state (``sensors.base_state``).
+        """
+        if self.base_pos is None or self.base_quat is None:
+            raise ValueError(
+                f"{who} needs the base state: set sensors.base_state: true in the spec"
+            )
+        return robot.pin_state(
+            self.base_pos,
+            self.base_quat,
+            self.base_linvel,
+            self.base_angvel,
+            self.joint_pos,
+            self.joint_vel,
+        )
+
     def as_dict(self) -> dict[str, float | list[float] | None]:
         """Plain-JSON view for the log's ``/sensors`` topic."""
         out: dict[str, float | list[float] | None] = {}

@@ -59,17 +59,8 @@ class PostureController(Controller):
 
     def _gravity_torque(self, sensors: SensorSnapshot) -> np.ndarray:
         """S (g − J_cᵀ λ) with λ carrying the floating base's gravity load."""
-        if sensors.base_quat is None:
-            raise ValueError("posture controller needs the base state (sensors.base_state: true)")
         model, data = self._robot.pin_model, self._data
-        q, _ = self._robot.pin_state(
-            sensors.base_pos,
-            sensors.base_quat,
-            sensors.base_linvel,
-            sensors.base_angvel,
-            sensors.joint_pos,
-            sensors.joint_vel,
-        )
+        q, _ = sensors.pinocchio_state(self._robot, "the posture controller")
         g = pin.computeGeneralizedGravity(model, data, q)
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)

@@ -280,13 +280,7 @@ class QPImpedanceController(Controller):
     def step(self, t: float, s: SensorSnapshot) -> Command:
         """One tick of §III-D: tasks → QP → Eq. (9)."""
         p, model, data = self._p, self._model, self._data
-        if s.base_quat is None:
-            raise ValueError(
-                "qpimpedance needs the base state (sensors.base_state: true), as in §IV"
-            )
-        q, v = self._robot.pin_state(
-            s.base_pos, s.base_quat, s.base_linvel, s.base_angvel, s.joint_pos, s.joint_vel
-        )
+        q, v = s.pinocchio_state(self._robot, "qpimpedance (as in §IV)")
         pin.computeAllTerms(model, data, q, v)
         mass_matrix, nle = data.M, data.nle.copy()
         # Drift accelerations J̇ ξ̇: forward kinematics with ξ̈ = 0.
