@@ -7,13 +7,13 @@ geom carries a foot (``/sim/contacts``) and the foot's motion (``/sim/state``).
 
 from __future__ import annotations
 
-import fnmatch
 import math
 
 import mujoco
 import numpy as np
 
 from walkrepro.metrics import GRAVITY, TOUCHDOWN_WEIGHT_FRACTION, LogData, metric
+from walkrepro.world import FLOOR_NAME
 
 #: World geoms that are obstacles (spec: names start with "obstacle").
 OBSTACLE_GLOB = "obstacle*"
@@ -37,14 +37,8 @@ def _obstacle_force(d: LogData, foot: str) -> np.ndarray:
 
 
 def _floor_force(d: LogData, foot: str) -> np.ndarray:
-    """Vertical force of the non-obstacle world geoms (the floor) on a foot [N]."""
-    out = np.zeros(len(d.contacts))
-    for i, msg in enumerate(d.contacts):
-        for key, w in msg["pairs"].items():
-            body, _, geom = key.partition("/")
-            if body == foot and not fnmatch.fnmatchcase(geom, OBSTACLE_GLOB):
-                out[i] += w[2]
-    return out
+    """Vertical force of the floor on a foot at each contact message [N]."""
+    return d.contact_wrench(f"{foot}/{FLOOR_NAME}")[:, 2]
 
 
 @metric(
