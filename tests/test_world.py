@@ -57,3 +57,24 @@ def test_position_gain_override_sets_servo_stiffness() -> None:
     assert m.actuator_gainprm[roll, 0] == 500.0 and m.actuator_biasprm[roll, 1] == -500.0
     default = load_robot("coman").mj_model
     assert m.actuator_gainprm[pitch, 0] == default.actuator_gainprm[pitch, 0]
+
+
+def test_obstacle_friction_takes_precedence() -> None:
+    """An obstacle's own friction is the one MuJoCo uses against the robot's feet."""
+    spec = make_spec(
+        world={
+            "obstacles": [
+                {
+                    "name": "obstacle_slick",
+                    "size": [0.2, 0.2, 0.1],
+                    "position": [1, 0, 0.05],
+                    "friction": 0.2,
+                }
+            ]
+        }
+    )
+    m = build_scene(load_robot("coman"), spec).model
+    slick = m.geom("obstacle_slick").id
+    assert m.geom_friction[slick, 0] == 0.2
+    foot_geoms = [g for g in range(m.ngeom) if m.geom_bodyid[g] == m.body("left_foot").id]
+    assert all(m.geom_priority[slick] > m.geom_priority[g] for g in foot_geoms)

@@ -78,6 +78,9 @@ def _add_obstacle(mjspec: mujoco.MjSpec, obstacle: ObstacleSpec, floor_friction:
     geom.size = [s / 2 for s in obstacle.size]  # MuJoCo box sizes are half-extents
     friction = obstacle.friction if obstacle.friction is not None else floor_friction
     geom.friction = [friction, 0.005, 0.0001]
+    # MuJoCo otherwise mixes two geoms' friction by taking the larger; the priority makes
+    # the obstacle's own friction the one that acts on the foot.
+    geom.priority = 1
     geom.contype = WORLD_CONTYPE
     geom.conaffinity = WORLD_CONAFFINITY
     geom.rgba = [0.85, 0.45, 0.2, 1.0]

@@ -282,3 +282,40 @@ def _peak_swing_obstacle_force(d: LogData, arg: str) -> float:
     i = np.clip(np.searchsorted(t, d.contact_t), 0, t.size - 1)
     swinging = swing[i] == code
     return float(np.max(force[swinging])) if np.any(swinging) else 0.0
+
+
+#: A swing foot counts as blocked once its sole centre has moved less than this [m/s]...
+BLOCKED_SPEED = 0.02
+#: ... for this long [s] while touching the obstacle (the impact transient is over).
+BLOCKED_TIME = 0.05
+
+
+@metric(
+    "blocked_swing_obstacle_force",
+    "largest obstacle contact force on the E-FSM swing foot (arg left|right) once it is "
+    "completely blocked: touching the obstacle and its sole slower than BLOCKED_SPEED for "
+    "BLOCKED_TIME (§VI-B; the impact transient before that is left out) [N]",
+)
+def _blocked_swing_obstacle_force(d: LogData, arg: str) -> float:
+    foot = arg or "right"
+    force = np.linalg.norm(d.contact_wrench(f"{foot}_foot/obstacle*")[:, :3], axis=1)
+    t_sig, swing = d.signal("swing_foot")
+    if not t_sig.size or not force.size:
+        return math.nan
+    track = _sole_tracks(d)[foot]
+    speed = np.r_[0.0, np.linalg.norm(np.diff(track[:, :2], axis=0), axis=1) / np.diff(d.t)]
+    code = 1.0 if foot == "right" else -1.0
+    i_sig = np.clip(np.searchsorted(t_sig, d.contact_t), 0, t_sig.size - 1)
+    i_st = np.clip(np.searchsorted(d.t, d.contact_t), 0, d.t.size - 1)
+    # Contact gaps of a few ticks (the foot chattering on the face) do not end a blockage.
+    touching = force > OBSTACLE_CONTACT_FORCE
+    still = (speed[i_st] < BLOCKED_SPEED) & (swing[i_sig] == code)
+    best, since = 0.0, math.nan
+    for k in range(force.size):
+        if still[k] and (touching[k] or not math.isnan(since)):
+            since = d.contact_t[k] if math.isnan(since) else since
+            if d.contact_t[k] - since >= BLOCKED_TIME:
+                best = max(best, float(force[k]))
+        else:
+            since = math.nan
+    return best

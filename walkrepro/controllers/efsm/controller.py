@@ -58,10 +58,20 @@ class EfsmParams(ControllerParams):
     raise_height: float = Field(0.05, description="swing-foot height in SSD [m] (Table II)")
     land_height: float = Field(0.005, description="swing-foot height in SSA [m] (Table II)")
     fs_max_force: float = Field(
-        50.0, gt=0, description="saturation of each F_s force component [N] (§V-B; assumed)"
+        30.0,
+        gt=0,
+        description="saturation of each F_s force component [N]. §V-B gives no value; "
+        "a completely blocked swing foot presses the obstacle with it, and §VI-B measured "
+        "≈ 32 N there. (With 50 N the blocked foot held the CoM still in SSD and the robot "
+        "fell; see experiments/obstacle_collision.yaml)",
     )
     fs_max_moment: float = Field(
         10.0, gt=0, description="saturation of each F_s moment component [Nm] (assumed)"
+    )
+    fs_decoupled_saturation: bool = Field(
+        True,
+        description="saturate F_s's force rows without disturbing the orientation "
+        "acceleration (Λ_s couples them; see _task2_force)",
     )
     step_length: float = Field(0.1, description="forward step length [m] (§VI-A)")
     step_width: float | None = Field(
@@ -367,7 +377,11 @@ class EfsmController(Controller):
         """F_2 = Λ ẍ* (Eq. 6) with the swing-foot wrench F_s saturated and scaled by ε.
 
         Out of DS the last six rows are the swing foot. F_s is bounded component-wise
-        (§V-B) and multiplied by ε in SSA (§IV-C); the CoM/yaw forces are then computed
+        (§V-B) and multiplied by ε in SSA (§IV-C). The force rows are saturated with the
+        orientation acceleration kept (``fs_decoupled_saturation``): clipping the force
+        rows of Λ ẍ* alone leaves in the moment rows the coupling term of an acceleration
+        that is no longer produced, which pitched the swing foot 14° toe-up in free swing
+        and 35° against the obstacle. The CoM/yaw forces are then computed
         with the swing-foot acceleration that this bounded F_s actually produces, so that
         they do not carry the coupling of an unbounded swing acceleration.
         """
@@ -376,6 +390,18 @@ class EfsmController(Controller):
         p = self._p
         c, s = slice(0, 3), slice(3, 9)
         fs = lam[s] @ acc
+        if p.fs_decoupled_saturation:
+            # Λ_s couples the swing foot's linear and angular rows: Λ ẍ* puts into the
+            # moment rows the part Λ_rt ẍ*_t that pairs with the (large) linear
+            # acceleration. Clipping only the force rows would leave that moment and
+            # spin the foot. Instead keep the orientation acceleration ẍ*_r and take
+            # the linear acceleration that the saturated force really produces.
+            t_, r_ = slice(3, 6), slice(6, 9)
+            f_t = np.clip(fs[:3], -p.fs_max_force, p.fs_max_force)
+            rhs = f_t - lam[t_, c] @ acc[c] - lam[t_, r_] @ acc[r_]
+            a_t = np.linalg.solve(lam[t_, t_], rhs)
+            m_r = lam[r_, c] @ acc[c] + lam[r_, t_] @ a_t + lam[r_, r_] @ acc[r_]
+            fs = np.concatenate([f_t, m_r])
         fs[:3] = np.clip(fs[:3], -p.fs_max_force, p.fs_max_force)
         fs[3:] = np.clip(fs[3:], -p.fs_max_moment, p.fs_max_moment)
         fs *= eps if phase is Phase.SSA else 1.0  # ε F_s (§IV-C)
