@@ -142,16 +142,7 @@ class EfsmController(Controller):
     def step(self, t: float, sensors: SensorSnapshot) -> Command:
         """One control period of the E-FSM + OS-WBC."""
         p, model, data = self._p, self._model, self._data
-        if sensors.base_quat is None:
-            raise ValueError("the E-FSM controller needs sensors.base_state: true")
-        q, v = self._robot.pin_state(
-            sensors.base_pos,
-            sensors.base_quat,
-            sensors.base_linvel,
-            sensors.base_angvel,
-            sensors.joint_pos,
-            sensors.joint_vel,
-        )
+        q, v = sensors.pinocchio_state(self._robot, "the E-FSM controller")
         pin.computeAllTerms(model, data, q, v)
         pin.updateFramePlacements(model, data)
         com, vcom = data.com[0].copy(), data.vcom[0].copy()
