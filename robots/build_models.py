@@ -29,6 +29,7 @@ import argparse
 import math
 import sys
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -519,35 +520,73 @@ def coman_leg(side: int, joints: dict[str, JointSpec]) -> Body:
     )
 
 
-def coman_arm(side: int, joints: dict[str, JointSpec]) -> Body:
+@dataclass(frozen=True)
+class ArmDims:
+    """A 4-joint arm (shoulder pitch, roll, yaw, elbow) made of primitives.
+
+    Masses in [kg], lengths in [m]. ``shoulder`` is the shoulder-pitch joint position in the
+    trunk frame for the left arm (y is mirrored for the right arm).
+    """
+
+    shoulder: tuple[float, float]  # (y, z) of the left shoulder
+    shoulder_masses: tuple[float, float]  # pitch link, roll link
+    shoulder_radii: tuple[float, float]
+    upper_mass: float
+    upper: tuple[float, float, float]  # radius, top offset, bottom offset (negative z)
+    elbow_z: float
+    forearm_mass: float
+    forearm: tuple[float, float, float]  # radius, top offset, bottom offset (negative z)
+
+
+def arm(side: int, dims: ArmDims, joint: Callable[[str, str], list[Joint]]) -> Body:
+    """The arm chain shared by coman and kist_humanoid; ``joint(name, base)`` makes its joints."""
     s = side_name(side)
+    r_f, top_f, bottom_f = dims.forearm
     forearm = Body(
         f"{s}_forearm",
-        (0, 0, -0.17),
-        [Shape("capsule", 0.7, (0.025,), fromto=(0, 0, -0.02, 0, 0, -0.17))],
-        sea_joint(joints, f"{s}_elbow", "elbow", side),
+        (0, 0, dims.elbow_z),
+        [Shape("capsule", dims.forearm_mass, (r_f,), fromto=(0, 0, top_f, 0, 0, bottom_f))],
+        joint(f"{s}_elbow", "elbow"),
     )
+    r_u, top_u, bottom_u = dims.upper
     upper = Body(
         f"{s}_upper_arm",
         (0, 0, 0),
-        [Shape("capsule", 0.7, (0.03,), fromto=(0, 0, -0.03, 0, 0, -0.15))],
-        sea_joint(joints, f"{s}_shoulder_yaw", "shoulder_yaw", side),
+        [Shape("capsule", dims.upper_mass, (r_u,), fromto=(0, 0, top_u, 0, 0, bottom_u))],
+        joint(f"{s}_shoulder_yaw", "shoulder_yaw"),
         children=[forearm],
     )
     roll = Body(
         f"{s}_shoulder_roll_link",
         (0, 0, 0),
-        [Shape("sphere", 0.4, (0.03,))],
-        sea_joint(joints, f"{s}_shoulder_roll", "shoulder_roll", side),
+        [Shape("sphere", dims.shoulder_masses[1], (dims.shoulder_radii[1],))],
+        joint(f"{s}_shoulder_roll", "shoulder_roll"),
         children=[upper],
     )
+    y, z = dims.shoulder
     return Body(
         f"{s}_shoulder_pitch_link",
-        (0, side * 0.15, 0.17),
-        [Shape("sphere", 0.4, (0.035,))],
-        sea_joint(joints, f"{s}_shoulder_pitch", "shoulder_pitch", side),
+        (0, side * y, z),
+        [Shape("sphere", dims.shoulder_masses[0], (dims.shoulder_radii[0],))],
+        joint(f"{s}_shoulder_pitch", "shoulder_pitch"),
         children=[roll],
     )
+
+
+COMAN_ARM = ArmDims(
+    shoulder=(0.15, 0.17),
+    shoulder_masses=(0.4, 0.4),
+    shoulder_radii=(0.035, 0.03),
+    upper_mass=0.7,
+    upper=(0.03, -0.03, -0.15),
+    elbow_z=-0.17,
+    forearm_mass=0.7,
+    forearm=(0.025, -0.02, -0.17),
+)
+
+
+def coman_arm(side: int, joints: dict[str, JointSpec]) -> Body:
+    return arm(side, COMAN_ARM, lambda name, base: sea_joint(joints, name, base, side))
 
 
 def sea_joint(joints: dict[str, JointSpec], name: str, base: str, side: int) -> list[Joint]:
@@ -741,35 +780,20 @@ def kist_leg(side: int, joints: dict[str, JointSpec]) -> Body:
     )
 
 
+KIST_ARM = ArmDims(
+    shoulder=(0.21, 0.34),
+    shoulder_masses=(0.8, 0.8),
+    shoulder_radii=(0.05, 0.045),
+    upper_mass=2.2,
+    upper=(0.045, -0.04, -0.22),
+    elbow_z=-0.26,
+    forearm_mass=2.2,
+    forearm=(0.04, -0.03, -0.26),
+)
+
+
 def kist_arm(side: int, joints: dict[str, JointSpec]) -> Body:
-    s = side_name(side)
-    forearm = Body(
-        f"{s}_forearm",
-        (0, 0, -0.26),
-        [Shape("capsule", 2.2, (0.04,), fromto=(0, 0, -0.03, 0, 0, -0.26))],
-        joint_for(joints, f"{s}_elbow", "elbow", side),
-    )
-    upper = Body(
-        f"{s}_upper_arm",
-        (0, 0, 0),
-        [Shape("capsule", 2.2, (0.045,), fromto=(0, 0, -0.04, 0, 0, -0.22))],
-        joint_for(joints, f"{s}_shoulder_yaw", "shoulder_yaw", side),
-        children=[forearm],
-    )
-    roll = Body(
-        f"{s}_shoulder_roll_link",
-        (0, 0, 0),
-        [Shape("sphere", 0.8, (0.045,))],
-        joint_for(joints, f"{s}_shoulder_roll", "shoulder_roll", side),
-        children=[upper],
-    )
-    return Body(
-        f"{s}_shoulder_pitch_link",
-        (0, side * 0.21, 0.34),
-        [Shape("sphere", 0.8, (0.05,))],
-        joint_for(joints, f"{s}_shoulder_pitch", "shoulder_pitch", side),
-        children=[roll],
-    )
+    return arm(side, KIST_ARM, lambda name, base: joint_for(joints, name, base, side))
 
 
 def build_kist() -> RobotDesign:
