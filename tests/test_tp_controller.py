@@ -72,3 +72,21 @@ def test_relative_footstep_gain_pushes_the_foot_toward_the_fall() -> None:
     """A pelvis ahead of the stance foot (e₂ > 0) moves the swing foot forward relative to it."""
     _, ctrl = _controller()
     assert ctrl.rel_gains[0, 0, 2] > 0 and ctrl.rel_gains[0, 0, 6] > 0
+
+
+def test_posture_spring_compensation_matches_home_preload() -> None:
+    """Eq. 21 from the model at the home posture reproduces the keyframe's spring pre-load (half weight per leg)."""
+    import numpy as np
+    import pytest as _pytest
+
+    from walkrepro.controllers.timeprojection.controller import TimeProjectionController
+    from walkrepro.robot import load_robot
+
+    robot = load_robot("coman")
+    controller = TimeProjectionController()
+    controller.reset(robot, controller.Params(), 0.002)
+    half_weight = 0.5 * controller._spring_deflection(robot.home_joint_pos[:12], 0, 0.0)
+    preload = (robot.home_ctrl - robot.home_joint_pos)[:6]  # motor minus link at home
+    for j in (3, 4):  # knee, ankle pitch: the springs that carry the weight
+        assert half_weight[j] == _pytest.approx(preload[j], rel=0.1)
+    assert np.all(half_weight[[0, 1, 5]] == 0.0)  # yaw and roll carry no sagittal load

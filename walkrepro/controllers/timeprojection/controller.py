@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pinocchio as pin
 from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
@@ -51,6 +52,8 @@ SAGITTAL = np.array([0, 2, 4, 6])
 LEG = slice(0, 12)
 HIP_PITCH = {"l": 2, "r": 8}
 KNEE = (3, 9)
+#: Sagittal spring joints of a leg (hip pitch, knee, ankle pitch), indices within the leg.
+SAGITTAL_JOINTS = (2, 3, 4)
 
 
 class TimeProjectionParams(ControllerParams):
@@ -127,6 +130,11 @@ class TimeProjectionController(Controller):
             for i in KNEE:
                 self._leg_offset_full[i] = -p.knee_deflection
         self._waist_roll = robot.joint_names.index("waist_roll")
+        self._pin_data = robot.pin_model.createData()
+        self._pin_q = pin.neutral(robot.pin_model)
+        self._sole_frames = tuple(
+            robot.pin_model.getFrameId(n) for n in ("left_sole", "right_sole")
+        )
         lf, rf, _, _ = self._kin.feet(np.array([1.0, 0, 0, 0]), robot.home_joint_pos)
         self._home_width = float(lf[1] - rf[1])
         self._home_x = 0.5 * float(lf[0] + rf[0])
@@ -233,6 +241,7 @@ class TimeProjectionController(Controller):
             right_pitch=swing_pitch if d < 0 else 0.0,
         )
         q_des = self._ik.solve(targets)
+        q_open = q_des.copy()  # the open-loop posture, before the footstep feedback
         self._last_x = {sw: swing_x, st: stance_x}
         self._last_y = {sw: swing_y, st: stance_y}
 
@@ -251,6 +260,14 @@ class TimeProjectionController(Controller):
         load = forces / self._weight
         ctrl_legs[0:6] += load[0] * self._leg_offset_full[0:6]
         ctrl_legs[6:12] += load[1] * self._leg_offset_full[6:12]
+        if p.knee_deflection is None and self._robot.spring_stiffness is not None:
+            # Eq. 21 with μ from the commanded posture instead of home: the sagittal springs'
+            # static deflection under the body weight at the sole point (the 3LP CoP).
+            for leg in (0, 1):
+                mu = self._spring_deflection(q_open, leg, d * roll_mag)
+                for j in SAGITTAL_JOINTS:
+                    i = 6 * leg + j
+                    ctrl_legs[i] += load[leg] * (mu[j] - self._leg_offset_full[i])
 
         ctrl = self._home_ctrl.copy()
         ctrl[LEG] = ctrl_legs
@@ -275,6 +292,24 @@ class TimeProjectionController(Controller):
             "load": load,
         }
         return Command(ctrl=ctrl, signals=signals, events=events)
+
+    def _spring_deflection(self, q_legs: np.ndarray, leg: int, roll: float) -> np.ndarray:
+        """Motor-minus-link offsets of leg ``leg``'s joints at full body weight [rad], shape (6,).
+
+        τ = Jᵀ (0, 0, m g): the sole-point Jacobian (Pinocchio, rigid twin) in the commanded
+        posture ``q_legs``, the world-vertical weight expressed in the pelvis frame rolled by
+        ``roll``; the offset is −τ / k (the home keyframe's pre-load is this at home).
+        """
+        robot = self._robot
+        model, data, q = robot.pin_model, self._pin_data, self._pin_q
+        q[robot.pin_q_idx[LEG]] = q_legs
+        frame = self._sole_frames[leg]
+        # computeFrameJacobian runs the forward kinematics it needs itself.
+        jac = pin.computeFrameJacobian(model, data, q, frame, pin.LOCAL_WORLD_ALIGNED)
+        sl = slice(6 * leg, 6 * leg + 6)
+        up = np.array([0.0, math.sin(roll), math.cos(roll)])
+        torque = (up @ jac[:3, robot.pin_v_idx[sl]]) * self._weight
+        return -torque / robot.spring_stiffness[sl]
 
     def _sway(self, t_walk: float) -> Command:
         """Lateral sway in double support before the first step (walkrepro start-up).
