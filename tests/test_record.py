@@ -118,9 +118,11 @@ def use_encoder(monkeypatch: pytest.MonkeyPatch, name: str) -> None:
         orjson = pytest.importorskip("orjson")
         monkeypatch.setattr(record, "orjson", orjson)
         monkeypatch.setattr(record, "_encode", record._encode_orjson)
+        monkeypatch.setattr(record, "_encode_float64", record._encode_orjson_float64)
         monkeypatch.setattr(record, "_decode", orjson.loads)
     else:
         monkeypatch.setattr(record, "_encode", record._encode_stdlib)
+        monkeypatch.setattr(record, "_encode_float64", record._encode_stdlib)
         monkeypatch.setattr(record, "_decode", json.loads)
 
 
@@ -401,3 +403,34 @@ def test_unknown_topic_on_read_lists_topics(written_log: tuple[Path, dict]) -> N
     path, _ = written_log
     with pytest.raises(UnknownNameError, match="/sim/inputs"):
         read_log(path).messages("/sim/input")
+
+
+def test_fast_paths_write_the_same_bytes_as_write(tmp_path: Path, encoder: str) -> None:
+    """The simulation loop's fast paths (float64 arrays as they are, ctrl encoded once per
+    tick) give byte for byte the messages :meth:`LogWriter.write` gives, and still check."""
+    model = mujoco.MjModel.from_xml_string(SCENE_XML)
+    rng = np.random.default_rng(0)
+    qpos, qvel, ctrl = rng.standard_normal(8), rng.standard_normal(7), rng.standard_normal(1)
+    xfrc = {"box": rng.standard_normal(6)}
+    state = {"step": 3, "t": 0.006, "qpos": qpos, "qvel": qvel, "act": np.zeros(model.na)}
+    paths = tmp_path / "slow.mcap", tmp_path / "fast.mcap"
+    with new_writer(paths[0]) as slow, new_writer(paths[1]) as fast:
+        slow.write(TOPIC_STATE, state, 0.006)
+        fast.write_float64(TOPIC_STATE, state, 0.006)
+        for step, wrenches in ((3, {}), (4, xfrc)):
+            slow.write(TOPIC_INPUTS, {"step": step, "ctrl": ctrl, "xfrc": wrenches}, 0.006)
+            fast.write_inputs(step, fast.encode_ctrl(ctrl), wrenches, 0.006)
+        with pytest.raises(ValueError, match="ctrl has 2 entries, the scene has 1"):
+            fast.encode_ctrl(np.zeros(2))
+        with pytest.raises(ValueError, match=r"\[0\] = nan"):
+            fast.encode_ctrl(np.array([math.nan]))
+        with pytest.raises(UnknownNameError, match="link"):
+            fast.write_inputs(5, b"[0.0]", {"bx": np.zeros(6)}, 0.008)
+        with pytest.raises(ValueError, match="qvel has 6 entries"):
+            fast.write_float64(TOPIC_STATE, {**state, "qvel": qvel[:6]}, 0.006)
+    raw = []
+    for path in paths:
+        with open(path, "rb") as f:
+            messages = make_reader(f).iter_messages()
+            raw.append([(m.channel_id, m.sequence, m.log_time, m.data) for _, _, m in messages])
+    assert raw[0] == raw[1] and len(raw[0]) == 3

@@ -33,6 +33,8 @@ from walkrepro.world import FLOOR_NAME, build_scene
 ProgressCallback = Callable[[float, float, float], None]
 
 FOOT_BODIES = ("left_foot", "right_foot")
+_XYZ = np.arange(3)
+_YZX, _ZXY = np.array([1, 2, 0]), np.array([2, 0, 1])  # cross product p × f by columns
 
 
 @dataclass(frozen=True)
@@ -172,6 +174,9 @@ def run(
     )
     substeps, n_steps = spec.sim.substeps, spec.sim.n_steps
     ctrl = data.ctrl.copy()
+    ctrl_json = b""
+    wrenches: dict[str, np.ndarray] = {}
+    body_ids = {d.body: model.body(d.body).id for d in spec.disturbances}
     outcome, message, fall_time = "complete", "", None
     wall_start = time.perf_counter()
     last_report = wall_start
@@ -193,8 +198,10 @@ def run(
                 pairs = contacts.read(data)
                 reason = fall.check(data)
                 lap("bookkeeping")
-                writer.write(record.TOPIC_STATE, _state_msg(step, data), t)
-                writer.write(record.TOPIC_CONTACTS, {"step": step, "t": t, "pairs": pairs}, t)
+                writer.write_float64(record.TOPIC_STATE, _state_msg(step, data), t)
+                writer.write_float64(
+                    record.TOPIC_CONTACTS, {"step": step, "t": t, "pairs": pairs}, t
+                )
                 lap("logging")
                 if reason:
                     outcome, fall_time, message = "fell", t, f"fell at t = {t:.3f} s ({reason})"
@@ -205,8 +212,9 @@ def run(
                 command = controller.step(t, snapshot)
                 ctrl = _checked_ctrl(command.ctrl, model.nu, t)
                 lap("controller")
-                writer.write(record.TOPIC_SENSORS, snapshot.as_dict(), t)
-                writer.write(record.TOPIC_SIGNALS, {"t": t, **_jsonable(command.signals)}, t)
+                ctrl_json = writer.encode_ctrl(ctrl)
+                writer.write_float64(record.TOPIC_SENSORS, snapshot.as_message(), t)
+                writer.write_float64(record.TOPIC_SIGNALS, {"t": t, **command.signals}, t)
                 for event in command.events:
                     writer.write(record.TOPIC_EVENTS, {"t": t, **_jsonable(event)}, t)
                 lap("logging")
@@ -214,23 +222,19 @@ def run(
                 if progress is not None and now - last_report > 0.2:
                     progress(t, spec.sim.duration, t / max(now - wall_start, 1e-9))
                     last_report = now
-            wrenches, events = disturbances.wrenches(t, controller.frame, body_state)
+            if disturbances.active_at(t):
+                wrenches, events = disturbances.wrenches(t, controller.frame, body_state)
+                for event in events:
+                    writer.write(record.TOPIC_EVENTS, {"t": t, **event}, t)
+                data.xfrc_applied[:] = 0.0
+                for body, wrench in wrenches.items():
+                    data.xfrc_applied[body_ids[body]] = wrench
+            elif wrenches:
+                wrenches = {}
+                data.xfrc_applied[:] = 0.0
             lap("bookkeeping")
-            for event in events:
-                writer.write(record.TOPIC_EVENTS, {"t": t, **event}, t)
-            data.xfrc_applied[:] = 0.0
-            for body, wrench in wrenches.items():
-                data.xfrc_applied[model.body(body).id] = wrench
             data.ctrl[:] = ctrl
-            writer.write(
-                record.TOPIC_INPUTS,
-                {
-                    "step": step,
-                    "ctrl": ctrl.tolist(),
-                    "xfrc": {b: w.tolist() for b, w in wrenches.items()},
-                },
-                t,
-            )
+            writer.write_inputs(step, ctrl_json, wrenches, t)
             lap("logging")
             mujoco.mj_step(model, data)
             lap("physics")
@@ -244,7 +248,7 @@ def run(
         if outcome == "complete":
             # The state after the last step (a fall already logged the state it was seen in).
             _check_finite(data, data.time)
-            writer.write(record.TOPIC_STATE, _state_msg(step, data), data.time)
+            writer.write_float64(record.TOPIC_STATE, _state_msg(step, data), data.time)
     except KeyboardInterrupt:
         outcome, message = "interrupted", f"interrupted at t = {data.time:.3f} s"
     except SimulationError as exc:
@@ -305,13 +309,8 @@ def _set_home(robot: Robot, model: mujoco.MjModel, data: mujoco.MjData) -> None:
 
 
 def _state_msg(step: int, data: mujoco.MjData) -> dict:
-    return {
-        "step": step,
-        "t": float(data.time),
-        "qpos": data.qpos.tolist(),
-        "qvel": data.qvel.tolist(),
-        "act": data.act.tolist(),
-    }
+    """The ``/sim/state`` message; MjData's float64 arrays go to the encoder as they are."""
+    return {"step": step, "t": data.time, "qpos": data.qpos, "qvel": data.qvel, "act": data.act}
 
 
 def _check_finite(data: mujoco.MjData, t: float) -> None:
@@ -355,9 +354,10 @@ class _ContactReader:
         self._geom_name = [model.geom(i).name for i in range(model.ngeom)]
         self._body_name = [model.body(model.geom_bodyid[i]).name for i in range(model.ngeom)]
         self._force = np.zeros(6)
+        self._elliptic = model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
         self._keys: dict[tuple[int, int], str] = {}
 
-    def read(self, data: mujoco.MjData) -> dict[str, list[float]]:
+    def read(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
         """``{"<robot body>/<world geom>": [fx, fy, fz, tx, ty, tz]}`` in the world frame.
 
         The torque is about the world origin, so a pair's centre of pressure on a
@@ -366,34 +366,50 @@ class _ContactReader:
         n = data.ncon
         if n == 0:
             return {}
-        contact = data.contact
-        geom1, geom2 = contact.geom1[:n], contact.geom2[:n]
-        world1 = self._world_geom[geom1]
-        idx = np.flatnonzero(world1 != self._world_geom[geom2])  # robot-world pairs only
-        if idx.size == 0:
-            return {}
-        local = np.empty((idx.size, 3))
-        for row, i in enumerate(idx.tolist()):
-            mujoco.mj_contactForce(self._model, data, i, self._force)
-            local[row] = self._force[:3]
+        contact = data.contact  # each field access builds a view: read each once
+        geom = contact.geom[:n]
+        world = self._world_geom[geom]
+        robot_world = world[:, 0] != world[:, 1]  # robot-world pairs only
+        if robot_world.all():
+            rows: slice | np.ndarray = slice(0, n)
+        else:
+            rows = np.flatnonzero(robot_world)
+            if rows.size == 0:
+                return {}
+            geom, world = geom[rows], world[rows]
+        local = self._local_forces(data, rows)
         # mj_contactForce gives the force of geom1 on geom2 in the contact frame, whose rows
         # are the frame's axes in world coordinates: world force = frameᵀ · local.
-        frames = contact.frame[idx].reshape(-1, 3, 3)
-        force = (local[:, :, None] * frames).sum(axis=1)
-        world_first = world1[idx]
-        force[~world_first] *= -1.0  # the force on the robot geom
-        pos = contact.pos[idx]
-        wrench = np.empty((idx.size, 6))
+        force = np.einsum("ni,nij->nj", local, contact.frame[rows].reshape(-1, 3, 3))
+        world_first = world[:, 0]
+        force *= np.where(world_first, 1.0, -1.0)[:, None]  # the force on the robot geom
+        pos = contact.pos[rows]
+        wrench = np.empty((force.shape[0], 6))
         wrench[:, :3] = force
-        wrench[:, 3] = pos[:, 1] * force[:, 2] - pos[:, 2] * force[:, 1]
-        wrench[:, 4] = pos[:, 2] * force[:, 0] - pos[:, 0] * force[:, 2]
-        wrench[:, 5] = pos[:, 0] * force[:, 1] - pos[:, 1] * force[:, 0]
-        robot_geom = np.where(world_first, geom2[idx], geom1[idx]).tolist()
-        world_geom = np.where(world_first, geom1[idx], geom2[idx]).tolist()
+        wrench[:, 3:] = pos[:, _YZX] * force[:, _ZXY] - pos[:, _ZXY] * force[:, _YZX]
+        robot_geom = np.where(world_first, geom[:, 1], geom[:, 0]).tolist()
+        world_geom = np.where(world_first, geom[:, 0], geom[:, 1]).tolist()
         pairs: dict[str, np.ndarray] = {}
         for row, key in enumerate(map(self._key, robot_geom, world_geom)):
             pairs[key] = pairs[key] + wrench[row] if key in pairs else wrench[row]
-        return {k: v.tolist() for k, v in pairs.items()}
+        return pairs
+
+    def _local_forces(self, data: mujoco.MjData, rows: slice | np.ndarray) -> np.ndarray:
+        """Force of geom1 on geom2 in each contact's frame, shape (n_rows, 3).
+
+        With elliptic cones and condim >= 3 these are the first three rows of the contact's
+        constraint force, which is all ``mj_contactForce`` copies; read them at once.
+        """
+        contact = data.contact
+        adr, dim = contact.efc_address[rows], contact.dim[rows]
+        if self._elliptic and adr.min() >= 0 and dim.min() >= 3:
+            return data.efc_force[adr[:, None] + _XYZ]
+        index = np.arange(data.ncon)[rows]
+        local = np.empty((index.size, 3))
+        for row, i in enumerate(index.tolist()):
+            mujoco.mj_contactForce(self._model, data, i, self._force)
+            local[row] = self._force[:3]
+        return local
 
     def _key(self, robot_geom: int, world_geom: int) -> str:
         """``"<robot body>/<world geom>"``, cached: the same pairs recur every tick."""

@@ -9,7 +9,7 @@ spec's ``sensors`` block and are seeded, so a run is deterministic.
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import mujoco
@@ -79,13 +79,9 @@ class SensorSnapshot:
             self.joint_vel,
         )
 
-    def as_dict(self) -> dict[str, float | list[float] | None]:
-        """Plain-JSON view for the log's ``/sensors`` topic."""
-        out: dict[str, float | list[float] | None] = {}
-        for f in fields(self):
-            value = getattr(self, f.name)
-            out[f.name] = value.tolist() if isinstance(value, np.ndarray) else value
-        return out
+    def as_message(self) -> dict[str, float | np.ndarray | None]:
+        """The ``/sensors`` log message: every field by name, arrays as they are (float64)."""
+        return dict(vars(self))
 
 
 class SensorModel:
@@ -106,7 +102,32 @@ class SensorModel:
         self._rng = np.random.default_rng(seed)
         self._qpos_adr = robot.link_joint_qpos_adr(model)
         self._qvel_adr = robot.link_joint_qvel_adr(model)
-        self._sensor = {name: _sensor_slice(model, name) for name in SENSOR_NAMES}
+        sensor = {name: _sensor_slice(model, name) for name in SENSOR_NAMES}
+        self._quat = sensor["imu_quat"]
+        # One flat reading per tick: [joint_pos, joint_vel, gyro, acc, left F, left T, right F,
+        # right T]. Its sensordata part is gathered with one index array (F/T negated: see
+        # _measure), and all noise comes from one draw over the noisy segments, in this order,
+        # which gives the same numbers as one draw per segment.
+        n = len(robot.joint_names)
+        segments = [
+            ("joint_pos", n, spec.joint_position_noise),
+            ("joint_vel", n, spec.joint_velocity_noise),
+            ("imu_gyro", 3, spec.imu_gyro_noise),
+            ("imu_acc", 3, spec.imu_acc_noise),
+        ]
+        for side in FOOT_SIDES:
+            segments += [(f"{side}_foot_force", 3, spec.ft_force_noise)]
+            segments += [(f"{side}_foot_torque", 3, spec.ft_torque_noise)]
+        self._size = sum(size for _, size, _ in segments)
+        std = np.concatenate([np.full(size, std, dtype=float) for _, size, std in segments])
+        self._noisy = np.flatnonzero(std != 0)
+        self._noise_std = std[self._noisy]
+        self._n = n
+        self._sensor_rows = np.concatenate(
+            [np.arange(sensor[name].start, sensor[name].stop) for name, _, _ in segments[2:]]
+        )
+        self._sensor_sign = np.ones(self._sensor_rows.size)
+        self._sensor_sign[6:] = -1.0  # the F/T part
         # A delay of d seconds holds back round(d / control_period) readings.
         self._delay_ticks = int(round(spec.delay / control_period))
         self._buffer: deque[SensorSnapshot] = deque(maxlen=self._delay_ticks + 1)
@@ -116,55 +137,43 @@ class SensorModel:
         self._buffer.append(self._measure(data))
         return self._buffer[0]
 
-    def _noisy(self, x: np.ndarray, std: float) -> np.ndarray:
-        """``x`` plus seeded white noise of standard deviation ``std`` (a copy either way)."""
-        if std == 0:
-            return np.array(x, dtype=float)
-        return x + std * self._rng.standard_normal(np.shape(x))
-
     def _measure(self, data: mujoco.MjData) -> SensorSnapshot:
-        spec = self._spec
+        spec, n = self._spec, self._n
+        reading = np.empty(self._size)
         # Sum the components of each link joint (motor + spring DoF for series-elastic joints).
-        joint_pos = self._qpos_adr.link_values(data.qpos)
-        joint_vel = self._qvel_adr.link_values(data.qvel)
-        noisy = self._noisy
-        joint_pos = noisy(joint_pos, spec.joint_position_noise)
+        reading[:n] = self._qpos_adr.link_values(data.qpos)
+        reading[n : 2 * n] = self._qvel_adr.link_values(data.qvel)
+        # MuJoCo's force/torque sensors give the wrench the parent applies to the foot
+        # subtree; the F/T convention here is the reaction (foot on leg), hence the sign.
+        np.multiply(data.sensordata[self._sensor_rows], self._sensor_sign, out=reading[2 * n :])
+        if self._noisy.size:
+            noise = self._noise_std * self._rng.standard_normal(self._noisy.size)
+            reading[self._noisy] += noise
+        joint_pos = reading[:n]
         if spec.joint_position_quantization > 0:
             step = spec.joint_position_quantization
             joint_pos = np.round(joint_pos / step) * step
-        joint_vel = noisy(joint_vel, spec.joint_velocity_noise)
-
-        s = data.sensordata
-        imu_quat = s[self._sensor["imu_quat"]].copy()
-        imu_gyro = noisy(s[self._sensor["imu_gyro"]], spec.imu_gyro_noise)
-        imu_acc = noisy(s[self._sensor["imu_acc"]], spec.imu_acc_noise)
-        ft = {}
-        for side in FOOT_SIDES:
-            # MuJoCo's force/torque sensors give the wrench the parent applies to the foot
-            # subtree; the F/T convention here is the reaction (foot on leg), hence the sign.
-            force = noisy(-s[self._sensor[f"{side}_foot_force"]], spec.ft_force_noise)
-            torque = noisy(-s[self._sensor[f"{side}_foot_torque"]], spec.ft_torque_noise)
-            ft[side] = np.concatenate([force, torque])
-
+        i = 2 * n
         base: dict[str, np.ndarray | None] = dict.fromkeys(
             ("base_pos", "base_quat", "base_linvel", "base_angvel")
         )
         if spec.base_state:
+            qpos, qvel = data.qpos[:7].copy(), data.qvel[:6].copy()
             base = {
-                "base_pos": data.qpos[0:3].copy(),
-                "base_quat": data.qpos[3:7].copy(),
-                "base_linvel": data.qvel[0:3].copy(),
-                "base_angvel": data.qvel[3:6].copy(),
+                "base_pos": qpos[0:3],
+                "base_quat": qpos[3:7],
+                "base_linvel": qvel[0:3],
+                "base_angvel": qvel[3:6],
             }
         return SensorSnapshot(
-            t=float(data.time),
+            t=data.time,
             joint_pos=joint_pos,
-            joint_vel=joint_vel,
-            imu_quat=imu_quat,
-            imu_gyro=np.asarray(imu_gyro),
-            imu_acc=np.asarray(imu_acc),
-            left_ft=ft["left"],
-            right_ft=ft["right"],
+            joint_vel=reading[n:i],
+            imu_quat=data.sensordata[self._quat].copy(),
+            imu_gyro=reading[i : i + 3],
+            imu_acc=reading[i + 3 : i + 6],
+            left_ft=reading[i + 6 : i + 12],
+            right_ft=reading[i + 12 : i + 18],
             **base,
         )
 

@@ -1,0 +1,123 @@
+"""The sensor model: what the controller reads, its seeded imperfections, and its delay."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from walkrepro.robot import load_robot
+from walkrepro.runner import _ContactReader, _set_home
+from walkrepro.sensors import SensorModel
+from walkrepro.spec import SensorsSpec, load_spec, resolve_spec
+from walkrepro.world import build_scene
+
+G = 9.81
+
+
+def standing(robot_name: str, experiment: str):  # noqa: ANN201 - (robot, model, data)
+    """A robot settled on the floor for 0.2 s with its home servo targets / zero torques."""
+    spec = resolve_spec(load_spec(experiment)).spec
+    robot = load_robot(robot_name)
+    model = build_scene(robot, spec).model
+    data = mujoco.MjData(model)
+    _set_home(robot, model, data)
+    for _ in range(400):
+        mujoco.mj_step(model, data)
+    mujoco.mj_forward(model, data)
+    return robot, model, data
+
+
+@pytest.fixture(scope="module")
+def coman():  # noqa: ANN201
+    return standing("coman", "stand_coman")
+
+
+def test_exact_reading_matches_the_simulator(coman) -> None:  # noqa: ANN001
+    """Without imperfections the snapshot is the simulator's state: link-side encoders (motor +
+    spring for series-elastic joints), IMU, base state, and F/T as the foot pushes on the leg."""
+    robot, model, data = coman
+    snap = SensorModel(robot, model, SensorsSpec(base_state=True), 0.002, 0).read(model, data)
+    link = robot.link_joint_qpos_adr(model)
+    assert np.array_equal(snap.joint_pos, link.link_values(data.qpos))
+    assert np.array_equal(snap.base_pos, data.qpos[:3]) and snap.t == data.time
+    assert np.array_equal(snap.base_angvel, data.qvel[3:6])
+    assert snap.imu_quat == pytest.approx(data.qpos[3:7], abs=0.05)  # IMU sits in the pelvis
+    # Standing still: the soles carry the weight and the accelerometer reads +g upward.
+    support = snap.left_ft[2] + snap.right_ft[2]
+    assert support == pytest.approx(robot.total_mass * G, rel=0.1)
+    assert np.linalg.norm(snap.imu_acc) == pytest.approx(G, rel=0.05)
+
+
+def test_no_base_state_unless_the_spec_provides_it(coman) -> None:  # noqa: ANN001
+    robot, model, data = coman
+    snap = SensorModel(robot, model, SensorsSpec(base_state=False), 0.002, 0).read(model, data)
+    assert snap.base_pos is None and snap.base_quat is None
+    with pytest.raises(ValueError, match="base_state"):
+        snap.pinocchio_state(robot)
+    assert set(snap.as_message()) >= {"joint_pos", "left_ft", "base_pos"}
+
+
+def test_noise_is_seeded_has_the_given_spread_and_leaves_exact_channels_alone(coman) -> None:  # noqa: ANN001
+    robot, model, data = coman
+    spec = SensorsSpec(joint_velocity_noise=0.01, ft_force_noise=2.0, imu_acc_noise=0.0)
+    exact = SensorModel(robot, model, SensorsSpec(), 0.002, 0).read(model, data)
+
+    def readings(seed: int) -> list:
+        sensors = SensorModel(robot, model, spec, 0.002, seed)
+        return [sensors.read(model, data) for _ in range(300)]
+
+    a, b, c = readings(1), readings(1), readings(2)
+    assert all(np.array_equal(x.joint_vel, y.joint_vel) for x, y in zip(a, b, strict=True))
+    assert not np.array_equal(a[0].joint_vel, c[0].joint_vel)
+    dv = np.array([r.joint_vel - exact.joint_vel for r in a])
+    df = np.array([r.left_ft[:3] - exact.left_ft[:3] for r in a])
+    assert dv.std() == pytest.approx(0.01, rel=0.1) and df.std() == pytest.approx(2.0, rel=0.1)
+    for r in a[:5]:  # channels without noise stay exact
+        assert np.array_equal(r.joint_pos, exact.joint_pos)
+        assert np.array_equal(r.imu_acc, exact.imu_acc)
+        assert np.array_equal(r.left_ft[3:], exact.left_ft[3:])
+
+
+def test_quantization_rounds_encoders_to_the_step(coman) -> None:  # noqa: ANN001
+    robot, model, data = coman
+    step = 0.001534
+    snap = SensorModel(robot, model, SensorsSpec(joint_position_quantization=step), 0.002, 0).read(
+        model, data
+    )
+    exact = SensorModel(robot, model, SensorsSpec(), 0.002, 0).read(model, data)
+    assert np.allclose(snap.joint_pos / step, np.round(snap.joint_pos / step))
+    assert np.abs(snap.joint_pos - exact.joint_pos).max() <= step / 2 + 1e-12
+
+
+def test_delay_holds_back_whole_control_periods(coman) -> None:  # noqa: ANN001
+    robot, model, data = coman
+    sensors = SensorModel(robot, model, SensorsSpec(delay=0.004), 0.002, 0)
+    seen = []
+    for _ in range(5):
+        seen.append(sensors.read(model, data).t)
+        mujoco.mj_step(model, data)
+        mujoco.mj_forward(model, data)
+    t0 = seen[0]
+    assert seen[:3] == [t0, t0, t0]  # two readings held back, then one per tick
+    assert seen[3] > t0 and seen[4] > seen[3]
+
+
+def test_contact_wrenches_carry_the_weight_and_match_mj_contact_force(coman) -> None:  # noqa: ANN001
+    """The fast read of the constraint forces equals MuJoCo's own ``mj_contactForce``."""
+    robot, model, data = coman
+    reader = _ContactReader(model)
+    pairs = reader.read(data)
+    assert set(pairs) == {"left_foot/floor", "right_foot/floor"}
+    total = sum(pairs.values())
+    assert total[2] == pytest.approx(robot.total_mass * G, rel=0.05)
+    # Centre of pressure of each foot lies under that foot.
+    for side in ("left", "right"):
+        w = pairs[f"{side}_foot/floor"]
+        cop_y = w[3] / w[2]
+        foot_y = data.xpos[model.body(f"{side}_foot").id][1]
+        assert cop_y == pytest.approx(foot_y, abs=0.05)
+    reader._elliptic = False  # force the per-contact mj_contactForce path
+    slow = reader.read(data)
+    for key, wrench in pairs.items():
+        assert np.allclose(slow[key], wrench, rtol=1e-12, atol=1e-9)
