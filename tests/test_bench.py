@@ -29,3 +29,39 @@ def test_machine_info_names_cores_and_cpu() -> None:
     """The machine description carries the core count and CPU model."""
     info = machine_info()
     assert int(info["cores"]) >= 1 and info["cpu"]
+
+
+@pytest.mark.slow
+def test_bench_json_keeps_the_earlier_results_it_compares_with(tmp_path) -> None:  # noqa: ANN001
+    """`bench --compare OLD --json NEW` shows both factors and keeps OLD under `before`."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from walkrepro.cli import app
+
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps({"machine": {}, "results": [
+        {"experiment": "stand_coman", "real_time_factor": 0.123}]}))  # fmt: skip
+    new = tmp_path / "new.json"
+    args = ["bench", "stand_coman", "--set", "sim.duration=0.1", "--compare", str(old)]
+    result = CliRunner().invoke(app, [*args, "--json", str(new)])
+    assert result.exit_code == 0, result.output
+    assert "RTF before" in result.output and "0.12" in result.output
+    payload = json.loads(new.read_text())
+    assert payload["before"]["results"][0]["real_time_factor"] == 0.123
+    (row,) = payload["results"]
+    assert 0 < row["logging_share"] < 1 and row["memory_growth"] == row["memory_growth"]
+
+
+def test_bench_compare_with_a_wrong_file_is_a_clear_error(tmp_path) -> None:  # noqa: ANN001
+    from typer.testing import CliRunner
+
+    from walkrepro.cli import app
+
+    bad = tmp_path / "bad.json"
+    bad.write_text("{}")
+    result = CliRunner().invoke(app, ["bench", "stand_coman", "--compare", str(bad)])
+    assert result.exit_code == 2
+    assert "not a `walkrepro bench --json` file" in result.output
+    assert "Traceback" not in result.output

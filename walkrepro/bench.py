@@ -7,6 +7,7 @@ controller, logging) is from the physical limit.
 
 from __future__ import annotations
 
+import json
 import os
 import platform
 import tempfile
@@ -16,6 +17,7 @@ from pathlib import Path
 
 import mujoco
 
+from walkrepro.errors import WalkreproError
 from walkrepro.robot import load_robot
 from walkrepro.runner import run
 from walkrepro.spec import ExperimentSpec
@@ -38,6 +40,9 @@ class BenchResult:
         tick_median: median wall time of a control period, all stages [s].
         tick_p99: 99th percentile of the same [s].
         control_rate: control ticks per simulated second [Hz].
+        logging_share: fraction of the wall time spent writing the log.
+        memory_growth: growth of resident memory from a tenth of the run to its end [bytes]
+            (flat memory: about zero).
     """
 
     experiment: str
@@ -51,6 +56,8 @@ class BenchResult:
     tick_median: float
     tick_p99: float
     control_rate: float
+    logging_share: float
+    memory_growth: float
 
     def to_json(self) -> dict:
         """Plain data for ``--json``."""
@@ -77,6 +84,8 @@ def bench_experiment(spec: ExperimentSpec) -> BenchResult:
         tick_median=timing.tick_median,
         tick_p99=timing.tick_p99,
         control_rate=1.0 / spec.sim.control_period,
+        logging_share=timing.stages["logging"] / result.wall_time,
+        memory_growth=timing.memory_growth,
     )
 
 
@@ -92,6 +101,21 @@ def floor_time(spec: ExperimentSpec, duration: float) -> float:
     for _ in range(n_steps):
         step(model, data)
     return time.perf_counter() - start
+
+
+def load_bench(path: Path) -> dict[str, dict]:
+    """An earlier ``walkrepro bench --json`` file's results, by experiment name.
+
+    Raises:
+        WalkreproError: the file is missing or is not a bench result.
+    """
+    try:
+        results = json.loads(Path(path).read_text())["results"]
+        return {r["experiment"]: r for r in results}
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise WalkreproError(
+            f"{path}: not a `walkrepro bench --json` file ({type(exc).__name__}: {exc})."
+        ) from None
 
 
 def machine_info() -> dict[str, str]:

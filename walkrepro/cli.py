@@ -266,6 +266,14 @@ def bench(
     json_out: Annotated[
         Path | None, typer.Option("--json", help="Also write results as JSON.")
     ] = None,
+    compare: Annotated[
+        Path | None,
+        typer.Option(
+            "--compare",
+            help="An earlier `bench --json` file: show its real-time factors next to these "
+            "and keep its results under `before` in --json.",
+        ),
+    ] = None,
 ) -> None:
     """Measure speed: real-time factor, per-stage cost per tick, and the MuJoCo-only floor.
 
@@ -273,11 +281,12 @@ def bench(
     """
     import json
 
-    from walkrepro.bench import bench_experiment, machine_info
+    from walkrepro.bench import bench_experiment, load_bench, machine_info
     from walkrepro.spec import experiment_names
 
     names = list(experiments or experiment_names())
     specs = [_resolved(n, set_ or []) for n in names]
+    before = load_bench(compare) if compare is not None else None
     rows = []
     for spec in specs:
         _console(stderr=True).print(
@@ -286,21 +295,30 @@ def bench(
         rows.append(bench_experiment(spec))
     stages = sorted({k for r in rows for k in r.per_tick})
     table = Table(title="walkrepro bench (per-tick costs in µs)")
-    for col in ("experiment", "outcome", "RTF", "floor ×", "tick median", "tick p99", *stages):
+    columns = ["experiment", "outcome", "RTF", *(["RTF before"] if before else [])]
+    columns += ["floor ×", "tick median", "tick p99", "log %", "mem Δ MB", *stages]
+    for col in columns:
         table.add_column(col, justify="right" if col != "experiment" else "left")
     for r in rows:
+        earlier = (before or {}).get(r.experiment)
         table.add_row(
             r.experiment,
             r.outcome,
             f"{r.real_time_factor:.2f}",
+            *([f"{earlier['real_time_factor']:.2f}" if earlier else "–"] if before else []),
             f"{r.floor_ratio:.1f}",
             f"{r.tick_median * 1e6:.0f}",
             f"{r.tick_p99 * 1e6:.0f}",
+            f"{r.logging_share * 100:.0f}",
+            f"{r.memory_growth / 1e6:.1f}",
             *(f"{r.per_tick.get(k, 0.0) * 1e6:.1f}" for k in stages),
         )
     _console().print(table)
     if json_out is not None:
-        payload = {"machine": machine_info(), "results": [r.to_json() for r in rows]}
+        payload: dict = {"machine": machine_info(), "results": [r.to_json() for r in rows]}
+        if compare is not None:
+            payload["before"] = json.loads(compare.read_text())
+            payload["before"].pop("before", None)  # one level of history is enough
         json_out.parent.mkdir(parents=True, exist_ok=True)
         json_out.write_text(json.dumps(payload, indent=2) + "\n")
         _console().print(f"wrote {json_out}")

@@ -9,7 +9,9 @@ replay the log bit for bit.
 from __future__ import annotations
 
 import math
+import os
 import signal
+import sys
 import threading
 import time
 import traceback
@@ -79,12 +81,15 @@ class RunTiming:
         tick_median: median wall time of one control period, all stages [s].
         tick_p99: 99th percentile of the same [s].
         n_ticks: control ticks measured.
+        memory_growth: growth of the process's resident memory from a tenth of the run to its
+            end [bytes]; near zero when memory stays flat (NaN where the platform cannot tell).
     """
 
     stages: dict[str, float]
     tick_median: float
     tick_p99: float
     n_ticks: int
+    memory_growth: float = math.nan
 
 
 class StageClock:
@@ -102,6 +107,10 @@ class StageClock:
         self._last = time.perf_counter_ns()
         self._tick_start = np.zeros(n_ticks + 1, dtype=np.int64)
         self._n = 0
+        # Memory is sampled once after a tenth of the run (past the warm-up: imports, first
+        # log chunks, caches) and compared with the end.
+        self._memory_tick = max(n_ticks // 10, 1)
+        self._memory_warm = math.nan
 
     def lap(self, stage: str) -> None:
         """Charge the time since the previous lap to ``stage``."""
@@ -117,6 +126,8 @@ class StageClock:
         if self._n < self._tick_start.size:
             self._tick_start[self._n] = now
             self._n += 1
+        if self._n == self._memory_tick:
+            self._memory_warm = _resident_memory()
 
     def summary(self, controller_split: dict[str, float] | None = None) -> RunTiming:
         """Totals and per-tick statistics so far, with the controller's own split if given."""
@@ -128,7 +139,27 @@ class StageClock:
             tick_median=float(np.median(ticks)) if ticks.size else float("nan"),
             tick_p99=float(np.percentile(ticks, 99)) if ticks.size else float("nan"),
             n_ticks=int(ticks.size),
+            memory_growth=_resident_memory() - self._memory_warm,
         )
+
+
+def _resident_memory() -> float:
+    """Resident memory of this process now [bytes] (Linux), else its peak so far; NaN where
+    neither is known."""
+    try:
+        with open("/proc/self/statm", "rb") as statm:
+            return float(int(statm.read().split()[1]) * _PAGE_SIZE)
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        import resource
+    except ImportError:  # Windows
+        return math.nan
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return float(peak if sys.platform == "darwin" else peak * 1024)  # bytes on macOS, else KiB
+
+
+_PAGE_SIZE = os.sysconf("SC_PAGE_SIZE") if hasattr(os, "sysconf") else 4096
 
 
 class SimulationError(RuntimeError):
