@@ -434,3 +434,49 @@ def test_fast_paths_write_the_same_bytes_as_write(tmp_path: Path, encoder: str) 
             messages = make_reader(f).iter_messages()
             raw.append([(m.channel_id, m.sequence, m.log_time, m.data) for _, _, m in messages])
     assert raw[0] == raw[1] and len(raw[0]) == 3
+
+
+def test_summary_statistics_and_indexes_point_at_the_messages(
+    written_log: tuple[Path, dict],
+) -> None:
+    """The summary's statistics count every message, each chunk index points at its chunk,
+    and each message index entry points at a message of that channel and time."""
+    import struct
+
+    import zstandard
+
+    path, written = written_log
+    raw = path.read_bytes()
+    with open(path, "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None and summary.statistics is not None
+    stats = summary.statistics
+    assert stats.message_count == sum(len(m) for m in written.values())
+    by_topic = {summary.channels[i].topic: n for i, n in stats.channel_message_counts.items()}
+    assert by_topic == {topic: len(m) for topic, m in written.items() if m}
+    assert stats.chunk_count == len(summary.chunk_indexes)
+    assert stats.attachment_count == 2 and stats.metadata_count == 1
+    indexed = 0
+    for chunk_index in summary.chunk_indexes:
+        start = chunk_index.chunk_start_offset
+        assert raw[start] == 0x06  # a Chunk record
+        (record_length,) = struct.unpack_from("<Q", raw, start + 1)
+        assert chunk_index.chunk_length == 9 + record_length
+        # Chunk body: start, end, uncompressed size, crc, compression string, records.
+        body = start + 9 + 8 + 8 + 8 + 4
+        (n,) = struct.unpack_from("<I", raw, body)
+        (size,) = struct.unpack_from("<Q", raw, body + 4 + n)
+        records = zstandard.ZstdDecompressor().decompress(
+            raw[body + 12 + n : body + 12 + n + size],
+            max_output_size=chunk_index.uncompressed_size,
+        )
+        for channel_id, offset in chunk_index.message_index_offsets.items():
+            assert raw[offset] == 0x07  # a MessageIndex record
+            (count_bytes,) = struct.unpack_from("<I", raw, offset + 11)
+            entries = struct.unpack_from(f"<{count_bytes // 8}Q", raw, offset + 15)
+            for log_time, at in zip(entries[::2], entries[1::2], strict=True):
+                opcode, _, channel, _, stamp = struct.unpack_from("<BQHIQ", records, at)
+                assert (opcode, channel, stamp) == (0x05, channel_id, log_time)
+                assert chunk_index.message_start_time <= stamp <= chunk_index.message_end_time
+                indexed += 1
+    assert indexed == stats.message_count

@@ -41,10 +41,10 @@ import mujoco
 import numpy as np
 from mcap.records import Attachment, Channel, Footer, Message, Metadata
 from mcap.stream_reader import StreamReader
-from mcap.writer import CompressionType, Writer
 
 import walkrepro
 from walkrepro.errors import UnknownNameError, WalkreproError
+from walkrepro.mcapfile import McapFile
 
 try:
     import orjson
@@ -365,8 +365,9 @@ class LogWriter:
             self._file = open(self.path, "wb")  # noqa: SIM115 - closed in close()
         except OSError as exc:
             raise WalkreproError(f"cannot write log {self.path}: {exc.strerror}") from exc
-        self._writer = Writer(self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD)
-        self._writer.start()
+        self._writer = McapFile(
+            self._file, chunk_size, library=f"walkrepro/{walkrepro.__version__}"
+        )
         now_ns = time.time_ns()
         # Attachments first: they then survive any truncation of the file.
         for name, media_type, text in (
@@ -376,10 +377,8 @@ class LogWriter:
             self._writer.add_attachment(now_ns, 0, name, media_type, text.encode())
         self._channels: dict[str, int] = {}
         for topic, (name, schema) in _schemas(model).items():
-            schema_id = self._writer.register_schema(
-                name, "jsonschema", json.dumps(schema).encode()
-            )
-            self._channels[topic] = self._writer.register_channel(topic, "json", schema_id)
+            schema_id = self._writer.add_schema(name, "jsonschema", json.dumps(schema).encode())
+            self._channels[topic] = self._writer.add_channel(topic, "json", schema_id)
         self._sequence = dict.fromkeys(self._channels, 0)
         self._closed = False
 
@@ -480,7 +479,7 @@ class LogWriter:
         stamp = _ns(t)
         sequence = self._sequence[topic]
         self._sequence[topic] = sequence + 1
-        self._writer.add_message(self._channels[topic], stamp, data, stamp, sequence)
+        self._writer.add_message(self._channels[topic], stamp, data, sequence)
 
     def _check_sizes(self, topic: str, message: Mapping[str, Any]) -> None:
         """Vector sizes and body names of the replay-critical topics, so ``verify`` can work."""
