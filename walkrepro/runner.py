@@ -4,6 +4,11 @@ This is the only module that writes ``MjData``. Physics runs at ``sim.timestep``
 controller runs every ``sim.control_period`` and its command is held (zero-order hold)
 between ticks. Every physics step's inputs are logged so that ``walkrepro verify`` can
 replay the log bit for bit.
+
+Each physics step is MuJoCo's ``mj_step`` split in two: ``mj_step1`` (kinematics, collisions,
+position and velocity sensors of the current state), then the sensors and the controller,
+then ``mj_step2`` (actuation, constraint forces, acceleration sensors, integration). One
+forward pass per step: the controller never costs the physics a second one.
 """
 
 from __future__ import annotations
@@ -74,7 +79,7 @@ class RunTiming:
     """Where a run's wall time went.
 
     Attributes:
-        stages: total wall time per stage [s]: ``physics`` (mj_step, mj_forward),
+        stages: total wall time per stage [s]: ``physics`` (mj_step1, mj_step2),
             ``sensors``, ``controller``, ``logging``, ``bookkeeping`` (contacts, fall
             detection, disturbances), and ``controller.<part>`` entries for the
             controller's own split (part of ``controller``).
@@ -191,8 +196,8 @@ def run(
     contacts = _ContactReader(model)
 
     def body_state(body: str) -> tuple[np.ndarray, np.ndarray]:
-        """A body's CoM position and linear velocity, world frame, as of the last forward
-        pass (at most one physics step old; the resulting force is logged, so replay holds)."""
+        """A body's CoM position and linear velocity, world frame, in the current state
+        (``mj_step1`` has run; the resulting force is logged, so replay holds)."""
         i = model.body(body).id
         vel = np.zeros(6)
         mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, i, vel, 0)
@@ -214,25 +219,25 @@ def run(
     step = 0
     interrupt = _InterruptFlag()
     clock = StageClock(n_steps // substeps + 1)
+    bad_qacc = data.warning[mujoco.mjtWarning.mjWARN_BADQACC]  # a live view of the counter
     lap = clock.lap
     try:
         for step in range(n_steps):
-            t = data.time
             if interrupt.requested:
                 raise KeyboardInterrupt
-            if step % substeps == 0:
+            tick = step % substeps == 0
+            if tick:
                 clock.tick()
-                if step > 0:
-                    mujoco.mj_forward(model, data)  # fresh sensors for the new state
-                lap("physics")
-                _check_finite(data, t)
-                pairs = contacts.read(data)
+                _check_finite(data, data.time)
+            # Positions, velocities, collisions and their sensors for this state; the
+            # acceleration stage (constraint forces, F/T, accelerometer) comes after the command.
+            mujoco.mj_step1(model, data)
+            lap("physics")
+            t = data.time
+            if tick:
                 reason = fall.check(data)
                 lap("bookkeeping")
                 writer.write_float64(record.TOPIC_STATE, _state_msg(step, data), t)
-                writer.write_float64(
-                    record.TOPIC_CONTACTS, {"step": step, "t": t, "pairs": pairs}, t
-                )
                 lap("logging")
                 if reason:
                     outcome, fall_time, message = "fell", t, f"fell at t = {t:.3f} s ({reason})"
@@ -267,13 +272,24 @@ def run(
             data.ctrl[:] = ctrl
             writer.write_inputs(step, ctrl_json, wrenches, t)
             lap("logging")
-            mujoco.mj_step(model, data)
+            # Actuation, constraint forces and acceleration-stage sensors, then integration:
+            # mj_step1 + mj_step2 is mj_step, so `walkrepro verify` replays it bit for bit.
+            mujoco.mj_step2(model, data)
             lap("physics")
-            if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
+            if bad_qacc.number > 0:
                 raise SimulationError(
-                    f"simulation became unstable at t = {data.time:.4f} s (MuJoCo reported a "
+                    f"simulation became unstable at t = {t:.4f} s (MuJoCo reported a "
                     "bad acceleration); the controller's torques or the timestep are too large"
                 )
+            if tick:
+                # The contact forces that acted during this step (data.contact is still this
+                # step's, efc_force was just solved with the new command).
+                pairs = contacts.read(data)
+                lap("bookkeeping")
+                writer.write_float64(
+                    record.TOPIC_CONTACTS, {"step": step, "t": t, "pairs": pairs}, t
+                )
+                lap("logging")
         else:
             step = n_steps
         if outcome == "complete":

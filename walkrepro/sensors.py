@@ -133,7 +133,13 @@ class SensorModel:
         self._buffer: deque[SensorSnapshot] = deque(maxlen=self._delay_ticks + 1)
 
     def read(self, model: mujoco.MjModel, data: mujoco.MjData) -> SensorSnapshot:
-        """Read the sensors now (after ``mj_forward``) and return the delayed snapshot."""
+        """Read the sensors now (after ``mj_step1``) and return the delayed snapshot.
+
+        Encoders, IMU orientation and gyro are of the current state. The F/T sensors and the
+        accelerometer need the constraint forces, which MuJoCo solves after the command is
+        applied: they read what acted during the last physics step (a sample-and-hold of
+        one timestep, as a real sensor's sampling would give).
+        """
         self._buffer.append(self._measure(data))
         return self._buffer[0]
 
