@@ -45,6 +45,7 @@ class PostureController(Controller):
         self._q_home = robot.home_joint_pos.copy()
         self._data = robot.pin_model.createData()
         self._soles = [robot.pin_model.getFrameId(f) for f in SOLE_FRAMES]
+        self._jc = np.zeros((6 * len(SOLE_FRAMES), robot.pin_model.nv))  # both soles' Jacobians
 
     def step(self, t: float, sensors: SensorSnapshot) -> Command:
         """PD + gravity compensation, or the home motor targets for position servos."""
@@ -59,16 +60,17 @@ class PostureController(Controller):
 
     def _gravity_torque(self, sensors: SensorSnapshot) -> np.ndarray:
         """S (g − J_cᵀ λ) with λ carrying the floating base's gravity load."""
-        model, data = self._robot.pin_model, self._data
+        model, data, jc = self._robot.pin_model, self._data, self._jc
         q, _ = sensors.pinocchio_state(self._robot, "the posture controller")
         g = pin.computeGeneralizedGravity(model, data, q)
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
-        jc = np.vstack(
-            [
-                pin.getFrameJacobian(model, data, f, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
-                for f in self._soles
-            ]
-        )
-        lam = np.linalg.lstsq(jc[:, :6].T, g[:6], rcond=None)[0]
+        for rows, frame in zip((slice(0, 6), slice(6, 12)), self._soles, strict=True):
+            jc[rows] = pin.getFrameJacobian(
+                model, data, frame, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+            )
+        # Minimum-norm λ of the base rows A λ = g_base, A = J_c,baseᵀ (6 × 12, full row rank
+        # with both feet down): λ = Aᵀ (A Aᵀ)⁻¹ g_base, a 6 × 6 solve instead of an SVD.
+        a = jc[:, :6].T
+        lam = a.T @ np.linalg.solve(a @ jc[:, :6], g[:6])
         return g[6:] - jc[:, 6:].T @ lam
