@@ -90,3 +90,57 @@ def test_posture_spring_compensation_matches_home_preload() -> None:
     for j in (3, 4):  # knee, ankle pitch: the springs that carry the weight
         assert half_weight[j] == _pytest.approx(preload[j], rel=0.1)
     assert np.all(half_weight[[0, 1, 5]] == 0.0)  # yaw and roll carry no sagittal load
+
+
+def _walking_snapshots(robot, n: int) -> list[SensorSnapshot]:
+    """A tick sequence with a tilted IMU and uneven loads, so every branch of step runs."""
+    rng = np.random.default_rng(4)
+    out = []
+    for i in range(n):
+        snap = _snapshot(robot, 0.002 * i)
+        q = snap.joint_pos + rng.normal(0.0, 0.01, robot.n_joints)
+        ft = snap.left_ft * np.array([1, 1, 1.5 - i / n, 1, 1, 1])
+        quat = np.array([1.0, 0.01, -0.02, 0.3]) / np.linalg.norm([1.0, 0.01, -0.02, 0.3])
+        out.append(
+            SensorSnapshot(**{**snap.__dict__, "joint_pos": q, "left_ft": ft, "imu_quat": quat})
+        )
+    return out
+
+
+def test_same_snapshots_give_the_same_commands() -> None:
+    """Two fresh controllers fed the same ticks return identical commands and signals."""
+    robot = load_robot("coman")
+    snaps = _walking_snapshots(robot, 400)
+    runs = []
+    for _ in range(2):
+        ctrl = controller_class("timeprojection")()
+        ctrl.reset(robot, TimeProjectionParams(start_time=0.1, speed=0.1), 0.002)
+        runs.append([ctrl.step(s.t, s) for s in snaps])
+    for a, b in zip(*runs, strict=True):
+        np.testing.assert_array_equal(a.ctrl, b.ctrl)
+        assert a.signals == b.signals and a.events == b.events
+
+
+def test_signals_are_plain_floats_and_lists() -> None:
+    """Every logged signal is a float or a list of floats (cheap to log, no numpy scalars)."""
+    robot = load_robot("coman")
+    ctrl = controller_class("timeprojection")()
+    ctrl.reset(robot, TimeProjectionParams(start_time=0.0), 0.002)
+    for s in _walking_snapshots(robot, 5):
+        signals = ctrl.step(s.t, s).signals
+    assert "q_cmd_legs" in signals
+    for name, value in signals.items():
+        values = value if isinstance(value, list) else [value]
+        assert all(type(v) is float for v in values), name
+
+
+def test_timing_splits_the_tick() -> None:
+    """timing() reports the four parts of a tick, each non-negative [s]."""
+    robot = load_robot("coman")
+    ctrl = controller_class("timeprojection")()
+    ctrl.reset(robot, TimeProjectionParams(start_time=0.0), 0.002)
+    for s in _walking_snapshots(robot, 5):
+        ctrl.step(s.t, s)
+    split = ctrl.timing()
+    assert set(split) == {"estimation", "feedback", "ik", "output"}
+    assert all(v >= 0.0 for v in split.values()) and split["ik"] > 0.0

@@ -12,6 +12,7 @@ from walkrepro.controllers.timeprojection.estimation import (
     IirFilter,
     KinematicState,
     MovingAverageDerivative,
+    dead_zone,
     smooth_dead_zone,
 )
 from walkrepro.robot import load_robot
@@ -31,6 +32,13 @@ def test_dead_zone_is_odd_and_shifts_large_signals() -> None:
     np.testing.assert_allclose(smooth_dead_zone(-x, a), -smooth_dead_zone(x, a))
     assert float(smooth_dead_zone(10.0, 0.1)) == pytest.approx(10.0 - 0.1, abs=1e-3)
     assert float(smooth_dead_zone(0.3, 0.0)) == 0.3  # a = 0 disables it
+
+
+def test_scalar_dead_zone_matches_the_array_one() -> None:
+    """dead_zone (one float, per tick) equals smooth_dead_zone, threshold 0 included."""
+    for x in (-0.3, -0.02, 0.0, 0.001, 0.05, 2.0):
+        for a in (0.0, 0.022, 0.23):
+            assert dead_zone(x, a) == pytest.approx(float(smooth_dead_zone(x, a)), abs=1e-15)
 
 
 def test_iir_filter_converges_with_rate_zeta() -> None:
@@ -86,3 +94,28 @@ def test_knee_compensation_scales_with_load() -> None:
     """Eq. (21): the knee offset is μ at full body weight and 0 when unloaded."""
     assert lift.knee_target_offset(300.0, 300.0, 0.03) == pytest.approx(-0.03)
     assert lift.knee_target_offset(0.0, 300.0, 0.03) == 0.0
+
+
+def test_kinematics_match_a_floating_base_with_the_heading_removed() -> None:
+    """feet() equals Pinocchio's floating-base kinematics at the IMU tilt without its yaw."""
+    import pinocchio as pin
+
+    robot = load_robot("coman")
+    rng = np.random.default_rng(3)
+    q_joints = robot.home_joint_pos + rng.uniform(-0.2, 0.2, robot.n_joints)
+    roll, pitch, yaw = 0.1, -0.15, 0.8
+    rot = pin.rpy.rpyToMatrix(roll, pitch, yaw)
+    quat = pin.Quaternion(rot)
+    left, right, roll_est, pitch_est = KinematicState(robot).feet(
+        np.array([quat.w, quat.x, quat.y, quat.z]), q_joints
+    )
+    model = robot.pin_model
+    data = model.createData()
+    q = pin.neutral(model)
+    q[3:7] = pin.Quaternion(pin.rpy.rpyToMatrix(roll, pitch, 0.0)).coeffs()
+    q[robot.pin_q_idx] = q_joints
+    pin.framesForwardKinematics(model, data, q)
+    for name, got in (("left_sole", left), ("right_sole", right)):
+        want = data.oMf[model.getFrameId(name)].translation
+        np.testing.assert_allclose(got, want, atol=1e-12)
+    assert roll_est == pytest.approx(roll) and pitch_est == pytest.approx(pitch)

@@ -96,3 +96,11 @@ def test_ankle_torque_profile_is_respected(model: ThreeLP) -> None:
     ankle = np.array([0.5, 0.0, -2.5, 0.0])
     g = PeriodicGait.solve(model, V, T, W, ankle_torque=ankle)
     assert np.allclose(g.inputs()[4:8], ankle) and g.residual < 1e-12
+
+
+def test_sagittal_relative_state_matches_the_full_one(gait: PeriodicGait) -> None:
+    """The per-tick float path gives the sagittal entries of M q̄(t) on both sides."""
+    for t in np.linspace(0.0, T, 17):
+        for side in (1, -1):
+            full = gait.relative_state(t, side)[[0, 2, 4, 6]]
+            np.testing.assert_allclose(gait.sagittal_relative_state(t), full, atol=1e-12)

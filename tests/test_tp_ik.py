@@ -34,3 +34,19 @@ def test_threelp_params_follow_the_model() -> None:
     assert p.h1 == pytest.approx(robot.nominal_pelvis_height)
     assert 0 < p.h2 < p.h1 and p.h3 > 0
     assert p.pw == pytest.approx(0.07)  # hips 14 cm apart
+
+
+def test_level_ik_matches_the_general_ik() -> None:
+    """LegIk.solve_level (floats, per tick) equals LegIk.solve with a level pelvis."""
+    from walkrepro.controllers.timeprojection.openloop import LegIk, LegTargets
+
+    ik = LegIk(load_robot("coman"))
+    rng = np.random.default_rng(2)
+    for _ in range(20):
+        roll, lp, rp = rng.uniform(-0.15, 0.15, 3)
+        left = (rng.uniform(-0.1, 0.1), 0.1 + rng.uniform(-0.03, 0.03), -0.5 + rng.uniform(0, 0.05))
+        right = (rng.uniform(-0.1, 0.1), -0.1 + rng.uniform(-0.03, 0.03), -0.5)
+        targets = LegTargets(roll, np.array(left), np.array(right), lp, rp)
+        fast = ik.solve_level(roll, left, right, lp, rp)
+        assert all(type(v) is float for v in fast)
+        np.testing.assert_allclose(fast, ik.solve(targets), atol=1e-12)

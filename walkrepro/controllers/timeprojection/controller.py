@@ -20,6 +20,8 @@ Every control tick (≈ 2 ms):
 from __future__ import annotations
 
 import math
+import time
+from collections.abc import Iterable
 
 import numpy as np
 import pinocchio as pin
@@ -32,7 +34,7 @@ from walkrepro.controllers.timeprojection.estimation import (
     IirFilter,
     KinematicState,
     MovingAverageDerivative,
-    smooth_dead_zone,
+    dead_zone,
 )
 from walkrepro.controllers.timeprojection.gait import PeriodicGait
 from walkrepro.controllers.timeprojection.openloop import (
@@ -54,6 +56,8 @@ HIP_PITCH = {"l": 2, "r": 8}
 KNEE = (3, 9)
 #: Sagittal spring joints of a leg (hip pitch, knee, ankle pitch), indices within the leg.
 SAGITTAL_JOINTS = (2, 3, 4)
+#: Parts of a control tick reported by `TimeProjectionController.timing`.
+SPLIT = ("estimation", "feedback", "ik", "output")
 
 
 class TimeProjectionParams(ControllerParams):
@@ -115,6 +119,7 @@ class TimeProjectionController(Controller):
         self._h = self.model.params.h1
         self._pw = self.model.params.pw
         self.dlqr = Dlqr.solve(self.model, p.step_time)
+        self._gaits: dict[float, PeriodicGait] = {}
         gait0 = self._gait(0.0)
         self.tp = TimeProjection.build(self.model, gait0, self.dlqr, p.table_samples)
         self.rel_gains = relative_footstep_gains(self.model, self.tp)
@@ -129,19 +134,34 @@ class TimeProjectionController(Controller):
         if p.knee_deflection is not None:
             for i in KNEE:
                 self._leg_offset_full[i] = -p.knee_deflection
+        self._offset_full = self._leg_offset_full.tolist()
         self._waist_roll = robot.joint_names.index("waist_roll")
         self._pin_data = robot.pin_model.createData()
         self._pin_q = pin.neutral(robot.pin_model)
+        legs = robot.pin_q_idx[LEG]
+        contiguous = np.array_equal(legs, np.arange(legs[0], legs[0] + legs.size))
+        # A slice assigns a list of floats cheaper than an index array.
+        self._pin_legs = slice(int(legs[0]), int(legs[-1]) + 1) if contiguous else legs
         self._sole_frames = tuple(
             robot.pin_model.getFrameId(n) for n in ("left_sole", "right_sole")
         )
+        # Eq. 21 with μ from the commanded posture (see `step`): the legs' Jacobian columns
+        # and spring stiffnesses.
+        self._posture_springs = p.knee_deflection is None and robot.spring_stiffness is not None
+        self._v_legs = [int(i) for i in robot.pin_v_idx[LEG]]
+        stiffness = robot.spring_stiffness
+        self._stiffness_legs = [] if stiffness is None else [float(k) for k in stiffness[LEG]]
         lf, rf, _, _ = self._kin.feet(np.array([1.0, 0, 0, 0]), robot.home_joint_pos)
         self._home_width = float(lf[1] - rf[1])
         self._home_x = 0.5 * float(lf[0] + rf[0])
-        self._pos_filter = IirFilter(p.zeta, 4)
-        self._vel_filter = MovingAverageDerivative(p.velocity_window, 4, control_period)
+        # Only the sagittal (x) sole positions feed the controller: filter those.
+        self._pos_filter = IirFilter(p.zeta, 2)
+        self._vel_filter = MovingAverageDerivative(p.velocity_window, 2, control_period)
         self._force_filter = IirFilter(p.zeta, 2)
-        self._thresholds = np.array(p.dead_zone_thresholds)
+        self._thresholds = tuple(float(a) for a in p.dead_zone_thresholds)
+        # The footstep row of the Δ(f − p)(T) table on the sagittal errors, as floats.
+        self._step_gains = self.rel_gains[:, 0, SAGITTAL].tolist()
+        self._step_slopes = self._rel_slopes[:, 0, SAGITTAL].tolist()
         self._k = -1
         self._side = 1
         self._speed_k = 0.0
@@ -151,39 +171,49 @@ class TimeProjectionController(Controller):
         self._end_y = {"l": 0.5 * self._home_width, "r": -0.5 * self._home_width}
         self._start_off = {"swing": 0.0, "stance": 0.0}
         self._attack = 0.0
-        self._gaits: dict[float, PeriodicGait] = {0.0: gait0}
+        self._last: tuple[float, float, float, float] | None = None
+        # Every speed of the velocity ramp (`_new_step`), solved now rather than mid-run.
+        for k in range(p.velocity_ramp_steps):
+            self._gait(p.speed * min(1.0, (k + 1) / p.velocity_ramp_steps))
+        self._gait_k = gait0
+        self._split_ns = [0] * len(SPLIT)
 
     def _gait(self, speed: float) -> PeriodicGait:
-        gaits = getattr(self, "_gaits", {})
+        """The periodic gait at ``speed`` [m/s], solved once per speed."""
+        gaits = self._gaits
         if speed not in gaits:
             gaits[speed] = PeriodicGait.solve(
                 self.model, speed, self._p.step_time, self._p.step_width
             )
-            self._gaits = gaits
         return gaits[speed]
-
-    def _rel_gain(self, t: float) -> np.ndarray:
-        """Interpolated Δ(f − p)(T) gains, shape (2, 8)."""
-        i, a = self.tp._locate(t)
-        return self.rel_gains[i] + a * self._rel_slopes[i]
 
     # ------------------------------------------------------------------------------------
 
     def step(self, t: float, sensors: SensorSnapshot) -> Command:
-        """One control tick (see the module docstring)."""
+        """One control tick (see the module docstring).
+
+        Plain-float arithmetic throughout: the quantities are a few scalars per tick, for
+        which numpy's per-call overhead would dominate.
+        """
+        clock, split = time.perf_counter_ns, self._split_ns
+        t0 = clock()
         p = self._p
         # ---- estimation (runs from t = 0 so the filters are warm at the first step)
         left, right, _, pitch = self._kin.feet(sensors.imu_quat, sensors.joint_pos)
-        feet = self._pos_filter.update(np.array([left[0], left[1], right[0], right[1]]))
+        feet = self._pos_filter.update((left[0], right[0]))  # sagittal [left, right]
         feet_vel = self._vel_filter.update(feet)
         forces = self._force_filter.update(
-            np.array([max(sensors.left_ft[2], 0.0), max(sensors.right_ft[2], 0.0)])
+            (max(float(sensors.left_ft[2]), 0.0), max(float(sensors.right_ft[2]), 0.0))
         )
+        t1 = clock()
+        split[0] += t1 - t0
         t_walk = t - p.start_time
         if t_walk < -p.sway_steps * p.step_time:
             return Command(ctrl=self._home_ctrl.copy(), signals={"phase": -1.0})
         if t_walk < 0.0:
-            return self._sway(t_walk)
+            command = self._sway(t_walk)
+            split[2] += clock() - t1
+            return command
 
         T = p.step_time
         k = int(t_walk // T)
@@ -192,24 +222,38 @@ class TimeProjectionController(Controller):
         if k != self._k:
             events = self._new_step(k)
         d = self._side
-        sw, st = ("l", "r") if d > 0 else ("r", "l")
-        gait = self._gait(self._speed_k)
-        rel = gait.relative_state(phase, d)  # nominal [p−f, p−s, ḟ, ṗ]
+        # Nominal sagittal [p−f, p−s, ḟ, ṗ] (e's entries 0, 2, 4, 6; the same on both sides).
+        rel = self._gait_k.sagittal_relative_state(phase)
 
         # ---- measured errors (Eq. 15), sagittal
-        f_i, s_i = (0, 2) if d > 0 else (2, 0)
-        f_x, s_x = feet[f_i], feet[s_i]
-        fv_x, sv_x = feet_vel[f_i], feet_vel[s_i]
-        meas = np.array([-f_x, -s_x, fv_x - sv_x, -sv_x])
-        err = meas - rel[SAGITTAL]
-        err_dz = smooth_dead_zone(err, self._thresholds) if p.dead_zone else err
+        f_x, s_x = (feet[0], feet[1]) if d > 0 else (feet[1], feet[0])
+        fv_x, sv_x = (feet_vel[0], feet_vel[1]) if d > 0 else (feet_vel[1], feet_vel[0])
+        meas = [-f_x, -s_x, fv_x - sv_x, -sv_x]
+        err = [meas[0] - rel[0], meas[1] - rel[1], meas[2] - rel[2], meas[3] - rel[3]]
+        if p.dead_zone:
+            a0, a1, a2, a3 = self._thresholds
+            err_dz = [
+                dead_zone(err[0], a0),
+                dead_zone(err[1], a1),
+                dead_zone(err[2], a2),
+                dead_zone(err[3], a3),
+            ]
+        else:
+            err_dz = list(err)
 
         # ---- time-projection footstep adjustment (Fig. 13 B, relative to the pelvis)
-        e8 = np.zeros(8)
-        e8[SAGITTAL] = err_dz
-        step_raw = p.footstep_scale * float(self._rel_gain(phase)[0] @ e8)
+        i, a = self.tp._locate(phase)
+        gain, slope = self._step_gains[i], self._step_slopes[i]
+        step_raw = p.footstep_scale * (
+            (gain[0] + a * slope[0]) * err_dz[0]
+            + (gain[1] + a * slope[1]) * err_dz[1]
+            + (gain[2] + a * slope[2]) * err_dz[2]
+            + (gain[3] + a * slope[3]) * err_dz[3]
+        )
         step = truncate_footstep(step_raw, p.footstep_limit)
         self._attack = step / self._h if p.stepping else 0.0
+        t2 = clock()
+        split[1] += t2 - t1
 
         # ---- adaptive lift (Eqs. 28-30), from the filtered (not dead-zoned) errors
         theta_hat = lift.hip_angle_estimate(err[0], self._h) if p.adaptive_lift else 0.0
@@ -218,6 +262,7 @@ class TimeProjectionController(Controller):
         # ---- Cartesian targets in the level frame at the pelvis
         ramp = min(1.0, (k + phase / T) / p.ramp_steps)
         roll_mag = lift.pelvis_roll(phase, T, ramp * p.roll_amplitude)  # ≥ 0
+        roll_cmd = d * roll_mag
         blend = 0.5 * (1.0 - math.cos(math.pi * phase / T))
         swing_y = d * 0.5 * (self._width_prev + (self._width_k - self._width_prev) * blend)
         stance_y = -d * 0.5 * self._width_k
@@ -225,73 +270,84 @@ class TimeProjectionController(Controller):
         swing_x = -rel[0] + self._start_off["swing"] * (1.0 - blend)
         if p.attack_in_ik:
             swing_x += self._h * math.tan(self._attack)
-        stance_x = -rel[2] + self._start_off["stance"] * (1.0 - blend)
+        stance_x = -rel[1] + self._start_off["stance"] * (1.0 - blend)
         swing_z = (
             -self._h + hip_rise + lift.fixed_lift(phase, T, ramp * p.lift_amplitude) + dz_adapt
         )
         stance_z = -self._h - hip_rise
-        swing = np.array([swing_x, swing_y, swing_z])
-        stance = np.array([stance_x, stance_y, stance_z])
+        swing = (swing_x, swing_y, swing_z)
+        stance = (stance_x, stance_y, stance_z)
         swing_pitch = lift.foot_pitch_feedback(theta_hat)  # coman: +pitch = toes down
-        targets = LegTargets(
-            pelvis_roll=d * roll_mag,
-            left=swing if d > 0 else stance,
-            right=stance if d > 0 else swing,
-            left_pitch=swing_pitch if d > 0 else 0.0,
-            right_pitch=swing_pitch if d < 0 else 0.0,
-        )
-        q_des = self._ik.solve(targets)
-        q_open = q_des.copy()  # the open-loop posture, before the footstep feedback
-        self._last_x = {sw: swing_x, st: stance_x}
-        self._last_y = {sw: swing_y, st: stance_y}
+        if d > 0:
+            q_open = self._ik.solve_level(roll_cmd, swing, stance, swing_pitch, 0.0)
+        else:
+            q_open = self._ik.solve_level(roll_cmd, stance, swing, 0.0, swing_pitch)
+        self._last = (swing_x, stance_x, swing_y, stance_y)
+        t3 = clock()
+        split[2] += t3 - t2
 
         # ---- attack angle on the swing hip; hip switch (Eq. 24)
-        t1 = p.hip_switch_ratio * T
+        # q_open: the open-loop posture, before the footstep feedback.
+        q_des = list(q_open)
+        sw_hip, st_hip = (
+            (HIP_PITCH["l"], HIP_PITCH["r"]) if d > 0 else (HIP_PITCH["r"], HIP_PITCH["l"])
+        )
         if not p.attack_in_ik:
-            q_des[HIP_PITCH[sw]] -= self._attack  # hip flexion is negative pitch in coman
-        ctrl_legs = q_des.copy()
-        for leg, swinging in ((sw, True), (st, False)):
-            i = HIP_PITCH[leg]
+            q_des[sw_hip] -= self._attack  # hip flexion is negative pitch in coman
+        ctrl_legs = list(q_des)
+        t1 = p.hip_switch_ratio * T
+        joint_pos = sensors.joint_pos
+        for i, swinging in ((sw_hip, True), (st_hip, False)):
             gamma = lift.hip_switch_gamma(phase, t1, swinging)
-            torso = sensors.joint_pos[i] + pitch  # drives the pelvis pitch to zero
+            torso = float(joint_pos[i]) + pitch  # drives the pelvis pitch to zero
             ctrl_legs[i] = gamma * q_des[i] + (1.0 - gamma) * torso
 
         # ---- spring compensation (Eq. 21, knees; the other leg joints alike)
-        load = forces / self._weight
-        ctrl_legs[0:6] += load[0] * self._leg_offset_full[0:6]
-        ctrl_legs[6:12] += load[1] * self._leg_offset_full[6:12]
-        if p.knee_deflection is None and self._robot.spring_stiffness is not None:
+        load = [forces[0] / self._weight, forces[1] / self._weight]
+        offset = self._offset_full
+        for i in range(12):
+            ctrl_legs[i] += load[i // 6] * offset[i]
+        if self._posture_springs:
             # Eq. 21 with μ from the commanded posture instead of home: the sagittal springs'
             # static deflection under the body weight at the sole point (the 3LP CoP).
+            self._pin_q[self._pin_legs] = q_open
             for leg in (0, 1):
-                mu = self._spring_deflection(q_open, leg, d * roll_mag)
-                for j in SAGITTAL_JOINTS:
+                mu = self._deflection(leg, roll_cmd, SAGITTAL_JOINTS)
+                for j, mu_j in zip(SAGITTAL_JOINTS, mu, strict=True):
                     i = 6 * leg + j
-                    ctrl_legs[i] += load[leg] * (mu[j] - self._leg_offset_full[i])
+                    ctrl_legs[i] += load[leg] * (mu_j - offset[i])
 
         ctrl = self._home_ctrl.copy()
         ctrl[LEG] = ctrl_legs
-        ctrl[self._waist_roll] -= d * roll_mag  # keep the torso upright (Eq. 22)
+        ctrl[self._waist_roll] -= roll_cmd  # keep the torso upright (Eq. 22)
 
         signals = {
             "phase": phase,
             "step_index": float(k),
             "swing_side": float(d),
-            "e_raw": meas - rel[SAGITTAL],
+            "e_raw": err,
             "e_dead_zone": err_dz,
             "e_meas": meas,
-            "e_nominal": rel[SAGITTAL],
+            "e_nominal": list(rel),
             "footstep_raw": step_raw,
             "footstep": step,
             "attack_angle": self._attack,
             "theta_hat": theta_hat,
             "adaptive_lift": dz_adapt,
-            "pelvis_roll_cmd": d * roll_mag,
+            "pelvis_roll_cmd": roll_cmd,
             "pelvis_pitch": pitch,
             "q_cmd_legs": q_des,
             "load": load,
         }
-        return Command(ctrl=ctrl, signals=signals, events=events)
+        command = Command(ctrl=ctrl, signals=signals, events=events)
+        split[3] += clock() - t3
+        return command
+
+    def timing(self) -> dict[str, float]:
+        """Wall time [s] of the tick's parts: estimation (kinematics, filters), feedback
+        (gait reference, errors, footstep table), ik (Cartesian targets, IK), output (hip
+        switch, spring compensation, command and signals)."""
+        return {name: ns * 1e-9 for name, ns in zip(SPLIT, self._split_ns, strict=True)}
 
     def _spring_deflection(self, q_legs: np.ndarray, leg: int, roll: float) -> np.ndarray:
         """Motor-minus-link offsets of leg ``leg``'s joints at full body weight [rad], shape (6,).
@@ -300,16 +356,30 @@ class TimeProjectionController(Controller):
         posture ``q_legs``, the world-vertical weight expressed in the pelvis frame rolled by
         ``roll``; the offset is −τ / k (the home keyframe's pre-load is this at home).
         """
-        robot = self._robot
-        model, data, q = robot.pin_model, self._pin_data, self._pin_q
-        q[robot.pin_q_idx[LEG]] = q_legs
-        frame = self._sole_frames[leg]
+        self._pin_q[self._pin_legs] = q_legs
+        return np.array(self._deflection(leg, roll, range(6)))
+
+    def _deflection(self, leg: int, roll: float, joints: Iterable[int]) -> list[float]:
+        """:meth:`_spring_deflection` of ``joints`` at the legs' posture already in the
+        Pinocchio configuration (``step`` sets it once for both legs) [rad]."""
         # computeFrameJacobian runs the forward kinematics it needs itself.
-        jac = pin.computeFrameJacobian(model, data, q, frame, pin.LOCAL_WORLD_ALIGNED)
-        sl = slice(6 * leg, 6 * leg + 6)
-        up = np.array([0.0, math.sin(roll), math.cos(roll)])
-        torque = (up @ jac[:3, robot.pin_v_idx[sl]]) * self._weight
-        return -torque / robot.spring_stiffness[sl]
+        jac = pin.computeFrameJacobian(
+            self._robot.pin_model,
+            self._pin_data,
+            self._pin_q,
+            self._sole_frames[leg],
+            pin.LOCAL_WORLD_ALIGNED,
+        )
+        # (0, sin roll, cos roll) · J[:3]: the x row has a zero weight.
+        jac_y, jac_z = jac[1], jac[2]
+        s, c = math.sin(roll), math.cos(roll)
+        weight, cols, stiffness = self._weight, self._v_legs, self._stiffness_legs
+        out = []
+        for j in joints:
+            i = 6 * leg + j
+            torque = (s * float(jac_y[cols[i]]) + c * float(jac_z[cols[i]])) * weight
+            out.append(-torque / stiffness[i])
+        return out
 
     def _sway(self, t_walk: float) -> Command:
         """Lateral sway in double support before the first step (walkrepro start-up).
@@ -345,19 +415,23 @@ class TimeProjectionController(Controller):
         p = self._p
         if self._k >= 0:
             self._side = -self._side
-            last = getattr(self, "_last_x", self._end_x)
+            sw_prev, st_prev = ("r", "l") if self._side > 0 else ("l", "r")
+            if self._last is not None:  # the last tick's targets, by leg
+                swing_x, stance_x, swing_y, stance_y = self._last
+                self._end_x = {sw_prev: swing_x, st_prev: stance_x}
+                self._end_y = {sw_prev: swing_y, st_prev: stance_y}
+            else:
+                self._end_x = dict(self._end_x)
+                self._end_y = dict(self._end_y)
             # The landing swing foot got the attack angle: h·tan(attack) further forward.
-            sw_prev = "r" if self._side > 0 else "l"
-            self._end_x = dict(last)
             if not self._p.attack_in_ik:
-                self._end_x[sw_prev] = last[sw_prev] + self._h * math.tan(self._attack)
-            self._end_y = dict(getattr(self, "_last_y", self._end_y))
+                self._end_x[sw_prev] += self._h * math.tan(self._attack)
         self._k = k
         ramp = min(1.0, (k + 1) / p.ramp_steps)
         self._width_prev = self._width_k
         self._width_k = self._home_width + (p.step_width - self._home_width) * ramp
         self._speed_k = p.speed * min(1.0, (k + 1) / p.velocity_ramp_steps)
-        gait = self._gait(self._speed_k)
+        gait = self._gait_k = self._gait(self._speed_k)
         d = self._side
         rel0 = gait.relative_state(0.0, d)
         sw, st = ("l", "r") if d > 0 else ("r", "l")

@@ -9,6 +9,9 @@ horizontal pelvis-feet vectors s₁ = p − f and s₂ = p − s of Fig. 1.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
+
 import numpy as np
 import pinocchio as pin
 
@@ -35,8 +38,23 @@ def smooth_dead_zone(x: np.ndarray | float, a: np.ndarray | float) -> np.ndarray
     return np.where(a > 0, y, x)
 
 
+def dead_zone(x: float, a: float) -> float:
+    """:func:`smooth_dead_zone` of one float (the per-tick path).
+
+    Args:
+        x: signal.
+        a: threshold a > 0 (a ≤ 0 passes the signal through).
+    """
+    if a > 0:
+        return x - math.atan(math.pi * x / (2.0 * a)) * 2.0 * a / math.pi
+    return x
+
+
 class IirFilter:
     """First-order IIR s(t) = (1 − ζ) s(t − δt) + ζ ŝ(t) (Eq. 26, ζ = 0.1).
+
+    The state is a list of floats: the signals are a handful of scalars, for which plain
+    float arithmetic is several times cheaper than numpy's per-call overhead.
 
     Args:
         zeta: ζ in (0, 1].
@@ -45,26 +63,32 @@ class IirFilter:
 
     def __init__(self, zeta: float, size: int) -> None:
         self.zeta = zeta
-        self.value = np.zeros(size)
+        self.value = [0.0] * size
         self._started = False
 
-    def reset(self, value: np.ndarray) -> None:
+    def reset(self, value: Sequence[float]) -> None:
         """Start from ``value`` (no transient from zero)."""
-        self.value = np.array(value, dtype=float)
+        self.value = [float(v) for v in value]
         self._started = True
 
-    def update(self, observed: np.ndarray) -> np.ndarray:
-        """Filter one sample and return the filtered value."""
+    def update(self, observed: Sequence[float]) -> list[float]:
+        """Filter one sample and return the filtered value (a new list)."""
         if not self._started:
             self.reset(observed)
         else:
-            self.value = (1.0 - self.zeta) * self.value + self.zeta * np.asarray(observed)
+            zeta = self.zeta
+            keep = 1.0 - zeta
+            self.value = [
+                keep * v + zeta * float(o) for v, o in zip(self.value, observed, strict=False)
+            ]
         return self.value
 
 
 class MovingAverageDerivative:
     """Backward difference of a signal followed by a moving average (Paper II: "time
     differentiation ... and another averaging filter afterward with a window of 30 samples").
+
+    A running sum over a ring buffer of plain floats: O(size) per sample.
 
     Args:
         window: number of samples averaged.
@@ -73,22 +97,32 @@ class MovingAverageDerivative:
     """
 
     def __init__(self, window: int, size: int, dt: float) -> None:
-        self._buf = np.zeros((window, size))
+        self._buf = [[0.0] * size for _ in range(window)]
         self._dt = dt
         self._i = 0
         self._n = 0
-        self._sum = np.zeros(size)
-        self._last: np.ndarray | None = None
+        self._sum = [0.0] * size
+        self._last: list[float] | None = None
 
-    def update(self, x: np.ndarray) -> np.ndarray:
-        """Add a sample of x; return the averaged derivative [unit/s]."""
-        d = np.zeros_like(self._sum) if self._last is None else (x - self._last) / self._dt
-        self._last = np.array(x, dtype=float)
-        self._sum += d - self._buf[self._i]
+    def update(self, x: Sequence[float]) -> list[float]:
+        """Add a sample of x; return the averaged derivative [unit/s] (a new list)."""
+        x = [float(v) for v in x]
+        dt = self._dt
+        last = self._last
+        d = (
+            [0.0] * len(x)
+            if last is None
+            else [(v - w) / dt for v, w in zip(x, last, strict=False)]
+        )
+        self._last = x
+        old = self._buf[self._i]
+        s = self._sum = [
+            acc + (new - prev) for acc, new, prev in zip(self._sum, d, old, strict=False)
+        ]
         self._buf[self._i] = d
         self._i = (self._i + 1) % len(self._buf)
-        self._n = min(self._n + 1, len(self._buf))
-        return self._sum / self._n
+        self._n = n = min(self._n + 1, len(self._buf))
+        return [v / n for v in s]
 
 
 class KinematicState:
@@ -106,30 +140,78 @@ class KinematicState:
         self._model = robot.pin_model
         self._data = self._model.createData()
         self._q = pin.neutral(self._model)
+        idx = np.asarray(robot.pin_q_idx)
+        contiguous = idx.size > 0 and np.array_equal(idx, np.arange(idx[0], idx[0] + idx.size))
+        self._q_idx = slice(int(idx[0]), int(idx[0]) + idx.size) if contiguous else idx
         self._frames = [self._model.getFrameId(f) for f in FOOT_FRAMES]
         imu = self._model.frames[self._model.getFrameId("imu")]
-        self._imu_in_pelvis = imu.placement.rotation.copy()
+        imu_in_pelvis = imu.placement.rotation
+        # Pelvis = IMU · (IMU in pelvis)ᵀ; skipped when the IMU is mounted level.
+        self._pelvis_from_imu = (
+            None
+            if np.array_equal(imu_in_pelvis, np.eye(3))
+            else tuple(imu_in_pelvis.ravel().tolist())
+        )
+
+    def heading_rotation(self, imu_quat_wxyz: np.ndarray) -> tuple[float, ...]:
+        """The pelvis orientation in the heading frame (yaw removed), row-major 9 floats.
+
+        From the IMU quaternion (w, x, y, z), normalised, as Eigen's ``toRotationMatrix``.
+        """
+        w, x, y, z = imu_quat_wxyz.tolist()
+        norm = math.sqrt(w * w + x * x + y * y + z * z)
+        w, x, y, z = w / norm, x / norm, y / norm, z / norm
+        tx, ty, tz = 2.0 * x, 2.0 * y, 2.0 * z
+        twx, twy, twz = tx * w, ty * w, tz * w
+        txx, txy, txz = tx * x, ty * x, tz * x
+        tyy, tyz, tzz = ty * y, tz * y, tz * z
+        r = (
+            1.0 - (tyy + tzz), txy - twz, txz + twy,
+            txy + twz, 1.0 - (txx + tzz), tyz - twx,
+            txz - twy, tyz + twx, 1.0 - (txx + tyy),
+        )  # fmt: skip
+        m = self._pelvis_from_imu
+        if m is not None:  # r · mᵀ
+            r = tuple(
+                r[3 * i] * m[3 * j] + r[3 * i + 1] * m[3 * j + 1] + r[3 * i + 2] * m[3 * j + 2]
+                for i in range(3)
+                for j in range(3)
+            )
+        # R_z(−yaw) · r, with yaw the pelvis heading.
+        yaw = math.atan2(r[3], r[0])
+        c, s = math.cos(yaw), math.sin(yaw)
+        return (
+            c * r[0] + s * r[3], c * r[1] + s * r[4], c * r[2] + s * r[5],
+            c * r[3] - s * r[0], c * r[4] - s * r[1], c * r[5] - s * r[2],
+            r[6], r[7], r[8],
+        )  # fmt: skip
 
     def feet(
         self, imu_quat_wxyz: np.ndarray, joint_pos: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, float, float]:
+    ) -> tuple[tuple[float, float, float], tuple[float, float, float], float, float]:
         """Left and right sole points relative to the pelvis, heading frame.
 
         Returns:
-            left (3,), right (3,) [m], pelvis roll [rad] and pitch [rad] in that frame.
+            left (x, y, z), right (x, y, z) [m], pelvis roll [rad] and pitch [rad] in that
+            frame.
         """
-        w, x, y, z = imu_quat_wxyz
-        r_imu = pin.Quaternion(w, x, y, z).normalized().toRotationMatrix()
-        r_pelvis = r_imu @ self._imu_in_pelvis.T
-        yaw = np.arctan2(r_pelvis[1, 0], r_pelvis[0, 0])
-        c, s = np.cos(yaw), np.sin(yaw)
-        r_heading = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]) @ r_pelvis
+        h = self.heading_rotation(imu_quat_wxyz)
+        # Forward kinematics with the pelvis at the identity, then rotate into the heading
+        # frame: the same sole points as a floating base at the heading orientation.
         q = self._q
-        q[3:7] = pin.Quaternion(r_heading).coeffs()
-        q[self._robot.pin_q_idx] = joint_pos
-        pin.forwardKinematics(self._model, self._data, q)
-        left = pin.updateFramePlacement(self._model, self._data, self._frames[0]).translation
-        right = pin.updateFramePlacement(self._model, self._data, self._frames[1]).translation
-        pitch = float(np.arcsin(np.clip(-r_heading[2, 0], -1.0, 1.0)))
-        roll = float(np.arctan2(r_heading[2, 1], r_heading[2, 2]))
-        return left.copy(), right.copy(), roll, pitch
+        q[self._q_idx] = joint_pos
+        model, data = self._model, self._data
+        pin.forwardKinematics(model, data, q)
+        out = []
+        for frame in self._frames:
+            x, y, z = pin.updateFramePlacement(model, data, frame).translation.tolist()
+            out.append(
+                (
+                    h[0] * x + h[1] * y + h[2] * z,
+                    h[3] * x + h[4] * y + h[5] * z,
+                    h[6] * x + h[7] * y + h[8] * z,
+                )
+            )
+        pitch = math.asin(min(max(-h[6], -1.0), 1.0))
+        roll = math.atan2(h[7], h[8])
+        return out[0], out[1], roll, pitch

@@ -8,7 +8,8 @@ the sagittal plane, mirrors in the lateral plane, and the swing foot lands at re
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -35,6 +36,8 @@ from walkrepro.controllers.timeprojection.threelp import (
 # swing-hip constant and ramp torques (x, y). Eight unknowns for eight equations (note §5).
 _UNKNOWNS = np.r_[np.arange(N_Q)[PELVIS], np.arange(N_Q)[PELVIS_VEL], N_Q + np.arange(4)]
 _M = relative_coordinates()
+# Rows of q = [f, p, s, ḟ, ṗ, ṡ] (x, y interleaved) for f_x, p_x, s_x, ḟ_x, ṗ_x.
+_SAGITTAL_ROWS = (0, 2, 4, 6, 8)
 
 
 def landing_mirror() -> np.ndarray:
@@ -71,10 +74,15 @@ class PeriodicGait:
     coefficients: np.ndarray
     """Modal coefficients W of q̄(t) = W φ(t) for d = +1, shape (12, 6)."""
 
+    _sagittal_rows: tuple[tuple[float, ...], ...] = field(init=False, repr=False, compare=False)
+    """Rows of W for f_x, p_x, s_x, ḟ_x, ṗ_x as floats (:meth:`sagittal_relative_state`)."""
+
     def __post_init__(self) -> None:
         # Shared by every caller of `initial` and `inputs`: make in-place edits fail loudly.
         self.start.flags.writeable = False
         self.coefficients.flags.writeable = False
+        rows = tuple(tuple(self.coefficients[i].tolist()) for i in _SAGITTAL_ROWS)
+        object.__setattr__(self, "_sagittal_rows", rows)
 
     @classmethod
     def solve(
@@ -155,6 +163,23 @@ class PeriodicGait:
         The error of Eq. (15) is then e(t) = M q(t) − M q̄(t), whatever the stance position.
         """
         return _M @ self.state(t, side)
+
+    def sagittal_relative_state(self, t: float) -> tuple[float, float, float, float]:
+        """The sagittal entries of :meth:`relative_state`, ((p − f)_x, (p − s)_x, ḟ_x, ṗ_x).
+
+        The same for both swing sides (the mirror flips only y). Plain floats: the
+        controller calls it every tick.
+
+        Args:
+            t: phase time since touchdown [s].
+        """
+        a, b = self.model.omega_fall * t, self.model.omega_swing * t
+        ch, sh, co, si = math.cosh(a), math.sinh(a), math.cos(b), math.sin(b)
+        f, p, s, fd, pd = (
+            w0 + w1 * t + w2 * ch + w3 * sh + w4 * co + w5 * si
+            for w0, w1, w2, w3, w4, w5 in self._sagittal_rows
+        )
+        return p - f, p - s, fd, pd
 
     def hip_torque(self, t: float, side: int = 1) -> np.ndarray:
         """Nominal swing-hip torque τ̄(t) = τ_c + t τ_r (Eq. 4), signed per axis [Nm], (2,)."""

@@ -10,7 +10,10 @@ is exact and costs a few microseconds. The geometry is read from the robot model
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -91,22 +94,81 @@ def leg_ik(
         [hip yaw, hip roll, hip pitch, knee, ankle pitch, ankle roll] [rad]; the knee is
         clipped to the reachable range (stretched leg at worst).
     """
-    a, b = geom.thigh, geom.shank
-    ankle = sole_in_pelvis - foot_rot_in_pelvis @ geom.sole
-    r = foot_rot_in_pelvis.T @ (geom.hip - ankle)  # ankle -> hip, in the foot frame
-    c = float(np.linalg.norm(r))
-    c = min(c, a + b - 1e-9)
+    x, y, z = np.asarray(sole_in_pelvis, dtype=float).tolist()
+    rot = tuple(np.asarray(foot_rot_in_pelvis, dtype=float).ravel().tolist())
+    return np.array(leg_ik_scalar(LegConstants.from_geometry(geom), x, y, z, rot))
+
+
+class LegConstants(NamedTuple):
+    """A :class:`LegGeometry` as plain floats, for :func:`leg_ik_scalar`'s per-tick use."""
+
+    hip_x: float
+    """Hip centre in the pelvis frame, x [m]."""
+    hip_y: float
+    """Hip centre, y [m]."""
+    hip_z: float
+    """Hip centre, z [m]."""
+    thigh: float
+    """Hip-to-knee length A [m]."""
+    shank: float
+    """Knee-to-ankle length B [m]."""
+    sole_x: float
+    """Sole point relative to the ankle centre in the foot frame, x [m]."""
+    sole_y: float
+    """Sole point, y [m]."""
+    sole_z: float
+    """Sole point, z [m]."""
+
+    @classmethod
+    def from_geometry(cls, geom: LegGeometry) -> LegConstants:
+        """Unpack ``geom`` into floats."""
+        hx, hy, hz = (float(v) for v in geom.hip)
+        sx, sy, sz = (float(v) for v in geom.sole)
+        return cls(hx, hy, hz, float(geom.thigh), float(geom.shank), sx, sy, sz)
+
+
+def leg_ik_scalar(
+    leg: LegConstants, x: float, y: float, z: float, rot: Sequence[float]
+) -> tuple[float, float, float, float, float, float]:
+    """:func:`leg_ik` on plain floats (a control tick calls it twice; no numpy overhead).
+
+    Args:
+        leg: the leg's geometry as floats.
+        x, y, z: sole-point position in the pelvis frame [m].
+        rot: foot orientation R in the pelvis frame, row-major, 9 floats.
+
+    Returns:
+        (hip yaw, hip roll, hip pitch, knee, ankle pitch, ankle roll) [rad].
+    """
+    hx, hy, hz, a, b, sx, sy, sz = leg
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = rot
+    # Ankle centre = sole − R·sole, then r = Rᵀ (hip − ankle): ankle → hip in the foot frame.
+    dx = hx - (x - (r00 * sx + r01 * sy + r02 * sz))
+    dy = hy - (y - (r10 * sx + r11 * sy + r12 * sz))
+    dz = hz - (z - (r20 * sx + r21 * sy + r22 * sz))
+    rx = r00 * dx + r10 * dy + r20 * dz
+    ry = r01 * dx + r11 * dy + r21 * dz
+    rz = r02 * dx + r12 * dy + r22 * dz
+    c = min(math.sqrt(rx * rx + ry * ry + rz * rz), a + b - 1e-9)
     cos_knee = (c * c - a * a - b * b) / (2.0 * a * b)
-    knee = float(np.arccos(np.clip(cos_knee, -1.0, 1.0)))
-    alpha = float(np.arcsin(np.clip(a * np.sin(np.pi - knee) / c, -1.0, 1.0)))
-    ankle_pitch = -float(np.arctan2(r[0], np.sign(r[2]) * np.hypot(r[1], r[2]))) - alpha
-    ankle_roll = float(np.arctan2(r[1], r[2]))
-    rot = foot_rot_in_pelvis @ _rx(-ankle_roll) @ _ry(-knee - ankle_pitch)
-    yaw = float(np.arctan2(-rot[0, 1], rot[1, 1]))
-    cy, sy = np.cos(yaw), np.sin(yaw)
-    roll = float(np.arctan2(rot[2, 1], -rot[0, 1] * sy + rot[1, 1] * cy))
-    pitch = float(np.arctan2(-rot[2, 0], rot[2, 2]))
-    return np.array([yaw, roll, pitch, knee, ankle_pitch, ankle_roll])
+    knee = math.acos(min(max(cos_knee, -1.0), 1.0))
+    alpha = math.asin(min(max(a * math.sin(math.pi - knee) / c, -1.0), 1.0))
+    sign_z = 1.0 if rz > 0.0 else (-1.0 if rz < 0.0 else 0.0)
+    ankle_pitch = -math.atan2(rx, sign_z * math.hypot(ry, rz)) - alpha
+    ankle_roll = math.atan2(ry, rz)
+    # Hip rotation R · R_x(−ankle_roll) · R_y(−knee − ankle_pitch): only the entries the hip
+    # angles need, its middle column (01, 11, 21) and its bottom row's ends (20, 22).
+    ca, sa = math.cos(-ankle_roll), math.sin(-ankle_roll)
+    m01, m11, m21 = r01 * ca + r02 * sa, r11 * ca + r12 * sa, r21 * ca + r22 * sa
+    m22 = r22 * ca - r21 * sa
+    th = -knee - ankle_pitch
+    ct, st = math.cos(th), math.sin(th)
+    h20 = r20 * ct - m22 * st
+    h22 = r20 * st + m22 * ct
+    yaw = math.atan2(-m01, m11)
+    roll = math.atan2(m21, -m01 * math.sin(yaw) + m11 * math.cos(yaw))
+    pitch = math.atan2(-h20, h22)
+    return yaw, roll, pitch, knee, ankle_pitch, ankle_roll
 
 
 def forward(robot: Robot, joint_pos: np.ndarray, side: str) -> tuple[np.ndarray, np.ndarray]:

@@ -8,12 +8,19 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
-from walkrepro.controllers.timeprojection.ik import LegGeometry, leg_ik, rot_rpy
+from walkrepro.controllers.timeprojection.ik import (
+    LegConstants,
+    LegGeometry,
+    leg_ik,
+    leg_ik_scalar,
+    rot_rpy,
+)
 from walkrepro.controllers.timeprojection.projection import TimeProjection
 from walkrepro.controllers.timeprojection.threelp import (
     HIP,
@@ -99,6 +106,38 @@ class LegIk:
     def __init__(self, robot: Robot) -> None:
         self.left = LegGeometry.from_robot(robot, "l")
         self.right = LegGeometry.from_robot(robot, "r")
+        self._left = LegConstants.from_geometry(self.left)
+        self._right = LegConstants.from_geometry(self.right)
+
+    def solve_level(
+        self,
+        pelvis_roll: float,
+        left: tuple[float, float, float],
+        right: tuple[float, float, float],
+        left_pitch: float,
+        right_pitch: float,
+    ) -> list[float]:
+        """:meth:`solve` for a level pelvis (pitch 0), on plain floats: the per-tick path.
+
+        Args:
+            pelvis_roll: pelvis roll about x [rad].
+            left: left sole target (x, y, z) in the level frame [m]; right: the right one.
+            left_pitch / right_pitch: foot pitch about y in the world [rad].
+
+        Returns:
+            Joint angles [left leg (6), right leg (6)] [rad].
+        """
+        # Level frame → pelvis: R_x(roll)ᵀ; foot orientation R_x(roll)ᵀ R_y(foot pitch).
+        c, s = math.cos(pelvis_roll), math.sin(pelvis_roll)
+        out: list[float] = []
+        for leg, (x, y, z), foot_pitch in (
+            (self._left, left, left_pitch),
+            (self._right, right, right_pitch),
+        ):
+            cp, sp = math.cos(foot_pitch), math.sin(foot_pitch)
+            rot = (cp, 0.0, sp, -s * sp, c, s * cp, -c * sp, -s, c * cp)
+            out.extend(leg_ik_scalar(leg, x, c * y + s * z, c * z - s * y, rot))
+        return out
 
     def solve(self, targets: LegTargets, pitch: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
         """Joint angles [left leg (6), right leg (6)] [rad].

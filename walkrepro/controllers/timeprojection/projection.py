@@ -222,7 +222,7 @@ class TimeProjection:
 
 def truncate_footstep(step: float, limit: float = FOOTSTEP_LIMIT) -> float:
     """Clip a footstep adjustment to ±limit [m] (Paper II, Fig. 13: 15 cm)."""
-    return float(np.clip(step, -limit, limit))
+    return min(max(float(step), -limit), limit)
 
 
 def attack_angle(step: float, pelvis_height: float) -> float:
