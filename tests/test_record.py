@@ -480,3 +480,15 @@ def test_summary_statistics_and_indexes_point_at_the_messages(
                 assert chunk_index.message_start_time <= stamp <= chunk_index.message_end_time
                 indexed += 1
     assert indexed == stats.message_count
+
+
+def test_none_fields_do_not_hide_a_nan(tmp_path: Path, encoder: str) -> None:
+    """``None`` fields are written as null; a NaN next to them is still caught and named."""
+    path = tmp_path / "a.mcap"
+    with new_writer(path) as log:
+        log.write_float64(TOPIC_SENSORS, {"base_pos": None, "q": np.array([1.0, 2.0])}, 0.0)
+        with pytest.raises(ValueError, match=r"q\[1\] = nan"):
+            log.write_float64(TOPIC_SENSORS, {"base_pos": None, "q": np.array([1.0, np.nan])}, 0.0)
+        with pytest.raises(ValueError, match=r"note = nan"):
+            log.write(TOPIC_SIGNALS, {"t": 0.0, "s": "null", "note": math.nan}, 0.0)
+    assert read_log(path).messages(TOPIC_SENSORS) == [{"base_pos": None, "q": [1.0, 2.0]}]

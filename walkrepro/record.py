@@ -116,10 +116,21 @@ def _encode_stdlib(message: Mapping[str, Any]) -> bytes:
 def _encode_orjson(message: Mapping[str, Any]) -> bytes:
     """Compact JSON, ~8x faster than the stdlib; raises ValueError on NaN/infinity."""
     data = orjson.dumps(message, default=_json_default)
-    # orjson writes NaN and infinity as null; a null is rare, so only then look closer.
-    if b"null" in data and _find_nonfinite(message, "") is not None:
-        raise ValueError("Out of range float values are not JSON compliant")
+    _reject_nonfinite(message, data)
     return data
+
+
+def _reject_nonfinite(message: Any, data: bytes) -> None:
+    """orjson writes NaN and infinity as null: raise ValueError if ``data`` holds one.
+
+    A null is rare except from top-level ``None`` fields (e.g. the base state a spec does not
+    provide), so only a null those do not account for costs a walk through the message.
+    """
+    if b"null" not in data:
+        return
+    nones = sum(v is None for v in message.values()) if isinstance(message, Mapping) else 0
+    if data.count(b"null") != nones and _find_nonfinite(message, "") is not None:
+        raise ValueError("Out of range float values are not JSON compliant")
 
 
 def _encode_orjson_float64(message: Mapping[str, Any]) -> bytes:
@@ -127,8 +138,7 @@ def _encode_orjson_float64(message: Mapping[str, Any]) -> bytes:
     writes them straight from their buffers, the same bytes as ``tolist()`` first, in half the
     time. Arrays of other float dtypes would be written in their own precision."""
     data = orjson.dumps(message, default=_json_default, option=orjson.OPT_SERIALIZE_NUMPY)
-    if b"null" in data and _find_nonfinite(message, "") is not None:
-        raise ValueError("Out of range float values are not JSON compliant")
+    _reject_nonfinite(message, data)
     return data
 
 
