@@ -109,3 +109,26 @@ def test_disturbance_is_applied_logged_and_replayed(tmp_path: Path) -> None:
     assert compute(data, ["peak_external_force"])["peak_external_force"] == pytest.approx(150.0)
     assert data.qvel[-1, 0] != 0.0 or np.ptp(data.qpos[:, 0]) > 1e-4  # the push moved the pelvis
     assert verify_log(tmp_path / "log.mcap").ok
+
+
+def test_a_non_foot_body_on_the_floor_is_a_fall(tmp_path: Path) -> None:
+    """With the height criterion (almost) off, the limp robot's fall is seen by a knee, hip or pelvis
+    geom touching the floor, and the message names that body."""
+    spec = spec_of(
+        "stand_dyros_red",
+        "sim.duration=4",
+        "sim.fall.pelvis_height_ratio=0.01",
+        "controller.params.kp=0",
+        "controller.params.kd=0",
+        "controller.params.gravity_compensation=false",
+    )
+    result = runner.run(spec, tmp_path / "log.mcap")
+    assert result.outcome == "fell" and "touched the floor" in result.message
+    body = result.message.split("(")[1].split(" touched")[0]
+    assert body not in ("left_foot", "right_foot", "floor") and body in spec_robot_bodies()
+
+
+def spec_robot_bodies() -> set[str]:
+    from walkrepro.robot import load_robot
+
+    return set(load_robot("dyros_red").body_names())

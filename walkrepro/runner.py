@@ -474,16 +474,19 @@ class _FallDetector:
         self._min_z = spec.sim.fall.pelvis_height_ratio * float(robot.home_qpos[2])
         self._check_contact = spec.sim.fall.non_foot_ground_contact
         self._pelvis = model.body("pelvis").id
-        self._floor = model.geom(FLOOR_NAME).id
+        self._floor = floor = model.geom(FLOOR_NAME).id
         feet = {model.body(name).id for name in FOOT_BODIES}
         # Geoms of the robot's tree other than the feet (obstacles may rest on the floor).
-        self._non_foot_robot_geom = np.array(
+        non_foot = np.array(
             [
                 model.body_rootid[model.geom_bodyid[g]] == self._pelvis
                 and model.geom_bodyid[g] not in feet
                 for g in range(model.ngeom)
             ]
         )
+        # falls[g1, g2]: a contact between these two geoms is a non-foot body on the floor.
+        self._falls = np.zeros((model.ngeom, model.ngeom), dtype=bool)
+        self._falls[floor, non_foot] = self._falls[non_foot, floor] = True
         self._geom_body = [model.body(model.geom_bodyid[g]).name for g in range(model.ngeom)]
 
     def check(self, data: mujoco.MjData) -> str:
@@ -493,10 +496,11 @@ class _FallDetector:
             return f"pelvis height {z:.3f} m below {self._min_z:.3f} m"
         n = data.ncon
         if self._check_contact and n:
-            geom1, geom2 = data.contact.geom1[:n], data.contact.geom2[:n]
-            other = np.where(geom1 == self._floor, geom2, geom1)
-            on_floor = (geom1 == self._floor) | (geom2 == self._floor)
-            touching = on_floor & self._non_foot_robot_geom[other] & (data.contact.dist[:n] < 0)
+            contact = data.contact
+            geom = contact.geom[:n]
+            touching = self._falls[geom[:, 0], geom[:, 1]] & (contact.dist[:n] < 0)
             if touching.any():
-                return f"{self._geom_body[other[np.argmax(touching)]]} touched the floor"
+                g1, g2 = geom[np.argmax(touching)]
+                robot_geom = g2 if g1 == self._floor else g1
+                return f"{self._geom_body[robot_geom]} touched the floor"
         return ""
