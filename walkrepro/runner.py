@@ -41,7 +41,6 @@ ProgressCallback = Callable[[float, float, float], None]
 
 FOOT_BODIES = ("left_foot", "right_foot")
 _XYZ = np.arange(3)
-_YZX, _ZXY = np.array([1, 2, 0]), np.array([2, 0, 1])  # cross product p × f by columns
 
 
 @dataclass(frozen=True)
@@ -428,14 +427,25 @@ class _ContactReader:
         # mj_contactForce gives the force of geom1 on geom2 in the contact frame, whose rows
         # are the frame's axes in world coordinates: world force = frameᵀ · local.
         force = np.einsum("ni,nij->nj", local, contact.frame[rows].reshape(-1, 3, 3))
+        # The force on the robot geom: flip where the robot geom is geom1. Usually the floor
+        # is geom1 of every contact or of none (it depends on the geom ids), so flip at once.
         world_first = world[:, 0]
-        force *= np.where(world_first, 1.0, -1.0)[:, None]  # the force on the robot geom
-        pos = contact.pos[rows]
+        if world_first.all():
+            robot_geom, world_geom = geom[:, 1].tolist(), geom[:, 0].tolist()
+        elif not world_first.any():
+            np.negative(force, out=force)
+            robot_geom, world_geom = geom[:, 0].tolist(), geom[:, 1].tolist()
+        else:
+            force *= np.where(world_first, 1.0, -1.0)[:, None]
+            robot_geom = np.where(world_first, geom[:, 1], geom[:, 0]).tolist()
+            world_geom = np.where(world_first, geom[:, 0], geom[:, 1]).tolist()
+        # Torque about the world origin, p × f, on doubled columns: [1:4] is (y, z, x) and
+        # [2:5] is (z, x, y), views instead of gathers.
+        pp = np.concatenate((contact.pos[rows], contact.pos[rows]), axis=1)
+        ff = np.concatenate((force, force), axis=1)
         wrench = np.empty((force.shape[0], 6))
         wrench[:, :3] = force
-        wrench[:, 3:] = pos[:, _YZX] * force[:, _ZXY] - pos[:, _ZXY] * force[:, _YZX]
-        robot_geom = np.where(world_first, geom[:, 1], geom[:, 0]).tolist()
-        world_geom = np.where(world_first, geom[:, 0], geom[:, 1]).tolist()
+        wrench[:, 3:] = pp[:, 1:4] * ff[:, 2:5] - pp[:, 2:5] * ff[:, 1:4]
         pairs: dict[str, np.ndarray] = {}
         for row, key in enumerate(map(self._key, robot_geom, world_geom)):
             pairs[key] = pairs[key] + wrench[row] if key in pairs else wrench[row]
