@@ -386,8 +386,34 @@ def _jsonable(values: object) -> dict:
     return out
 
 
+@dataclass(frozen=True)
+class _ContactPlan:
+    """How to turn one set of contacts (a tuple of geom pairs) into pair wrenches.
+
+    The same sets recur tick after tick, so everything that depends only on which geoms
+    touch is worked out once per set.
+
+    Attributes:
+        rows: the robot-world contacts among all (a slice when they are all of them).
+        sign: +1/-1 per row so the force is the one on the robot geom; None when all +1.
+        keys: ``"<robot body>/<world geom>"`` of each pair, in order of first appearance.
+        starts: first row of each pair's run of rows (``np.add.reduceat`` offsets).
+        order: row order that makes each pair's rows one run (None when they already are).
+    """
+
+    rows: slice | np.ndarray
+    sign: np.ndarray | None
+    keys: tuple[str, ...]
+    starts: np.ndarray
+    order: np.ndarray | None
+
+
 class _ContactReader:
     """Net contact wrench on each robot body from each world geom (floor, obstacles)."""
+
+    #: Contact sets remembered; a walk sees tens. The cache is emptied when full, so memory
+    #: stays bounded however long the run.
+    MAX_PLANS = 4096
 
     def __init__(self, model: mujoco.MjModel) -> None:
         self._model = model
@@ -401,7 +427,7 @@ class _ContactReader:
         self._body_name = [model.body(model.geom_bodyid[i]).name for i in range(model.ngeom)]
         self._force = np.zeros(6)
         self._elliptic = model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
-        self._keys: dict[tuple[int, int], str] = {}
+        self._plans: dict[bytes, _ContactPlan | None] = {}
 
     def read(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
         """``{"<robot body>/<world geom>": [fx, fy, fz, tx, ty, tz]}`` in the world frame.
@@ -414,42 +440,65 @@ class _ContactReader:
             return {}
         contact = data.contact  # each field access builds a view: read each once
         geom = contact.geom[:n]
-        world = self._world_geom[geom]
-        robot_world = world[:, 0] != world[:, 1]  # robot-world pairs only
-        if robot_world.all():
-            rows: slice | np.ndarray = slice(0, n)
-        else:
-            rows = np.flatnonzero(robot_world)
-            if rows.size == 0:
-                return {}
-            geom, world = geom[rows], world[rows]
+        signature = geom.tobytes()
+        plan = self._plans.get(signature, False)
+        if plan is False:
+            if len(self._plans) >= self.MAX_PLANS:
+                self._plans.clear()
+            plan = self._plans[signature] = self._plan(geom)
+        if plan is None:
+            return {}
+        rows = plan.rows
         local = self._local_forces(data, rows)
         # mj_contactForce gives the force of geom1 on geom2 in the contact frame, whose rows
         # are the frame's axes in world coordinates: world force = frameᵀ · local.
         force = np.einsum("ni,nij->nj", local, contact.frame[rows].reshape(-1, 3, 3))
-        # The force on the robot geom: flip where the robot geom is geom1. Usually the floor
-        # is geom1 of every contact or of none (it depends on the geom ids), so flip at once.
-        world_first = world[:, 0]
-        if world_first.all():
-            robot_geom, world_geom = geom[:, 1].tolist(), geom[:, 0].tolist()
-        elif not world_first.any():
-            np.negative(force, out=force)
-            robot_geom, world_geom = geom[:, 0].tolist(), geom[:, 1].tolist()
-        else:
-            force *= np.where(world_first, 1.0, -1.0)[:, None]
-            robot_geom = np.where(world_first, geom[:, 1], geom[:, 0]).tolist()
-            world_geom = np.where(world_first, geom[:, 0], geom[:, 1]).tolist()
+        if plan.sign is not None:
+            force *= plan.sign
         # Torque about the world origin, p × f, on doubled columns: [1:4] is (y, z, x) and
         # [2:5] is (z, x, y), views instead of gathers.
-        pp = np.concatenate((contact.pos[rows], contact.pos[rows]), axis=1)
+        pos = contact.pos[rows]
+        pp = np.concatenate((pos, pos), axis=1)
         ff = np.concatenate((force, force), axis=1)
         wrench = np.empty((force.shape[0], 6))
         wrench[:, :3] = force
         wrench[:, 3:] = pp[:, 1:4] * ff[:, 2:5] - pp[:, 2:5] * ff[:, 1:4]
-        pairs: dict[str, np.ndarray] = {}
-        for row, key in enumerate(map(self._key, robot_geom, world_geom)):
-            pairs[key] = pairs[key] + wrench[row] if key in pairs else wrench[row]
-        return pairs
+        if plan.order is not None:
+            wrench = wrench[plan.order]
+        # Each pair's rows summed in row order.
+        return dict(zip(plan.keys, np.add.reduceat(wrench, plan.starts, axis=0), strict=True))
+
+    def _plan(self, geom: np.ndarray) -> _ContactPlan | None:
+        """The plan for this contact set, or None when no contact is robot-world."""
+        world = self._world_geom[geom]
+        robot_world = world[:, 0] != world[:, 1]
+        rows: slice | np.ndarray = (
+            slice(0, len(geom)) if robot_world.all() else np.flatnonzero(robot_world)
+        )
+        geom, world = geom[rows], world[rows]
+        if len(geom) == 0:
+            return None
+        world_first = world[:, 0]
+        # The force on the robot geom: flip the rows where the robot geom is geom2's partner.
+        sign = None if world_first.all() else np.where(world_first, 1.0, -1.0)[:, None]
+        robot_geom = np.where(world_first, geom[:, 1], geom[:, 0]).tolist()
+        world_geom = np.where(world_first, geom[:, 0], geom[:, 1]).tolist()
+        labels = [
+            f"{self._body_name[r]}/{self._geom_name[w]}"
+            for r, w in zip(robot_geom, world_geom, strict=True)
+        ]
+        keys = tuple(dict.fromkeys(labels))
+        rank = {key: i for i, key in enumerate(keys)}
+        # A stable sort by pair keeps each pair's rows in their original order.
+        order = np.argsort([rank[label] for label in labels], kind="stable")
+        grouped = [labels[i] for i in order]
+        starts = np.array(
+            [i for i, label in enumerate(grouped) if i == 0 or label != grouped[i - 1]]
+        )
+        in_order = bool(np.all(order == np.arange(len(order))))
+        return _ContactPlan(
+            rows=rows, sign=sign, keys=keys, starts=starts, order=None if in_order else order
+        )
 
     def _local_forces(self, data: mujoco.MjData, rows: slice | np.ndarray) -> np.ndarray:
         """Force of geom1 on geom2 in each contact's frame, shape (n_rows, 3).
@@ -467,14 +516,6 @@ class _ContactReader:
             mujoco.mj_contactForce(self._model, data, i, self._force)
             local[row] = self._force[:3]
         return local
-
-    def _key(self, robot_geom: int, world_geom: int) -> str:
-        """``"<robot body>/<world geom>"``, cached: the same pairs recur every tick."""
-        key = self._keys.get((robot_geom, world_geom))
-        if key is None:
-            key = f"{self._body_name[robot_geom]}/{self._geom_name[world_geom]}"
-            self._keys[(robot_geom, world_geom)] = key
-        return key
 
 
 class _FallDetector:
