@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
+import pinocchio as pin
 
 from walkrepro.controllers.efsm.controller import EfsmController, EfsmParams
 from walkrepro.controllers.efsm.fsm import Phase
+from walkrepro.robot import load_robot
 
 
 def _controller(**params: object) -> EfsmController:
@@ -51,3 +55,44 @@ def test_epsilon_scales_swing_force_in_ssa() -> None:
     acc = np.r_[0.1, -0.2, 0.05, 2.0, -1.0, 1.0, 0.3, -0.2, 0.1]
     f2 = _controller()._task2_force(lam, acc, False, 0.0, Phase.SSA)
     np.testing.assert_allclose(f2[3:], 0.0, atol=1e-12)
+
+
+def _measured_cop_reference(ctrl: EfsmController, fts: dict[str, np.ndarray]) -> np.ndarray:
+    """The CoP of §VI-D2 from the summed world wrench, written with full 3-D vectors."""
+    model, data = ctrl._model, ctrl._data
+    force, moment = np.zeros(3), np.zeros(3)
+    for f in ("left", "right"):
+        m_ft = data.oMf[ctrl._ft[f]]
+        fw, tw = m_ft.rotation @ fts[f][:3], m_ft.rotation @ fts[f][3:]
+        inertia = model.inertias[ctrl._foot_joint[f]]
+        weight = np.array([0.0, 0.0, inertia.mass * 9.81])
+        com_foot = data.oMi[ctrl._foot_joint[f]].act(inertia.lever)
+        if (fw + weight)[2] <= 0.0:
+            continue
+        force += fw + weight
+        moment += tw + np.cross(m_ft.translation, fw) + np.cross(com_foot, weight)
+    if force[2] <= 1e-6:
+        return np.array([np.nan, np.nan])
+    return np.array([-moment[1] / force[2], moment[0] / force[2]])
+
+
+def test_measured_cop_matches_the_wrench_sum() -> None:
+    """The F/T CoP (§VI-D2) equals the one from the summed 3-D wrenches, feet unloaded or not."""
+    robot = load_robot("dyros_red")
+    ctrl = EfsmController()
+    ctrl.reset(robot, EfsmParams(), 0.0005)
+    rng = np.random.default_rng(7)
+    qpos = robot.home_qpos.copy()
+    qpos[7:] += rng.normal(scale=0.05, size=qpos.size - 7)
+    q, _ = robot.pin_state_from_mujoco(qpos, np.zeros(robot.mj_model.nv))
+    pin.forwardKinematics(ctrl._model, ctrl._data, q)
+    pin.updateFramePlacements(ctrl._model, ctrl._data)
+    down = np.array([0.0, 0.0, -1.0])  # the ankle frames are roughly level
+    for loads in ((300.0, 200.0), (300.0, -50.0), (-50.0, -50.0)):
+        fts = {}
+        for f, load in zip(("left", "right"), loads, strict=True):
+            rot = ctrl._data.oMf[ctrl._ft[f]].rotation
+            fts[f] = np.r_[rot.T @ (load * -down) + rng.normal(size=3), rng.normal(size=3)]
+        sensors = SimpleNamespace(left_ft=fts["left"], right_ft=fts["right"])
+        cop = ctrl._measured_cop(sensors, ctrl._data)  # type: ignore[arg-type]
+        np.testing.assert_allclose(cop, _measured_cop_reference(ctrl, fts), rtol=1e-12, atol=1e-15)

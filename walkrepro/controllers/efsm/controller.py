@@ -108,7 +108,9 @@ class EfsmController(Controller):
         self._ft = {f: robot.pin_frame_id(f"{f}_foot_ft") for f in FEET}
         self._foot_joint = {f: robot.pin_joint_id(f"{f[0]}_ankle_roll") for f in FEET}
         self._pelvis_joint = 1  # the free-flyer root: the rigid upper body
-        self._v_idx = np.asarray(robot.pin_v_idx) - 6  # actuator i -> joint-torque row
+        v_idx = np.asarray(robot.pin_v_idx) - 6  # actuator i -> joint-torque row
+        # None when the actuators are in joint-torque order (no reindexing per tick).
+        self._v_idx = None if np.array_equal(v_idx, np.arange(len(v_idx))) else v_idx
         self._half_sole = np.asarray(robot.sole_size) / 2.0
         self._fsm = EventFsm(
             FsmParams(
@@ -122,6 +124,9 @@ class EfsmController(Controller):
         self._swing_target = np.zeros(3)
         self._rot_w = np.eye(3)
         self._nv = self._model.nv
+        inertias = {f: self._model.inertias[self._foot_joint[f]] for f in FEET}
+        self._foot_weight = {f: inertias[f].mass * GRAVITY for f in FEET}  # [N]
+        self._foot_lever = {f: inertias[f].lever.copy() for f in FEET}  # CoM in the joint [m]
 
     # ---- frames ------------------------------------------------------------------------
 
@@ -132,10 +137,8 @@ class EfsmController(Controller):
     @staticmethod
     def _ow_rotation(p_sup: np.ndarray, p_sw: np.ndarray) -> np.ndarray:
         """O_w axes (§III-A1): x from the support to the swing foot's ground projection."""
-        dx, dy = p_sw[0] - p_sup[0], p_sw[1] - p_sup[1]
-        yaw = math.atan2(dy, dx)
-        c, s = math.cos(yaw), math.sin(yaw)
-        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        dx, dy = float(p_sw[0] - p_sup[0]), float(p_sw[1] - p_sup[1])
+        return _yaw_rotation(math.atan2(dy, dx))
 
     # ---- the control tick ----------------------------------------------------------------
 
@@ -143,20 +146,20 @@ class EfsmController(Controller):
         """One control period of the E-FSM + OS-WBC."""
         p, model, data = self._p, self._model, self._data
         q, v = sensors.pinocchio_state(self._robot, "the E-FSM controller")
+        # One pass: M, b + g, joint Jacobians, CoM and its Jacobian, and (with q̈ = 0) the
+        # bias accelerations J̇ q̇ of every frame.
         pin.computeAllTerms(model, data, q, v)
         pin.updateFramePlacements(model, data)
-        com, vcom = data.com[0].copy(), data.vcom[0].copy()
-        sole = {f: data.oMf[self._sole[f]] for f in FEET}
+        com, vcom = data.com[0], data.vcom[0]  # read within this tick only
         if not self._started:
-            self._start(sole, com)
+            self._start({f: data.oMf[self._sole[f]] for f in FEET}, com)
         events: list[dict[str, Any]] = []
 
         # O_w and the E-FSM inputs (§III-A1, Eq. 2).
         sup, sw = self._support, self._other(self._support)
-        p_sup, p_sw = sole[sup].translation.copy(), sole[sw].translation.copy()
-        rot = self._ow_rotation(p_sup, p_sw)
-        com_w, vcom_w = rot.T @ (com - p_sup), rot.T @ vcom
-        x_s = float((rot.T @ (p_sw - p_sup))[0])
+        m_sup, m_sw = data.oMf[self._sole[sup]], data.oMf[self._sole[sw]]
+        p_sup, p_sw = m_sup.translation.copy(), m_sw.translation.copy()
+        rot, com_w, vcom_w, x_s = _ow_frame(p_sup, p_sw, com, vcom)
         x_cp = capture_point(com_w[0], vcom_w[0], self._z_m0)
         out = self._fsm.step(FsmInput(com_w[0], vcom_w[0], x_cp, x_s))
         for old, new in out.transitions:
@@ -165,148 +168,155 @@ class EfsmController(Controller):
         if out.switched_support:
             # DS ends: the swing foot becomes the support foot; next footstep target.
             self._support, sup, sw = sw, sw, sup
-            p_sup, p_sw = p_sw, p_sup
+            m_sup, m_sw, p_sup, p_sw = m_sw, m_sup, p_sw, p_sup
             self._plan_next_step(p_sup, sw)
-            rot = self._ow_rotation(p_sup, p_sw)
-            com_w, vcom_w = rot.T @ (com - p_sup), rot.T @ vcom
-            x_s = float((rot.T @ (p_sw - p_sup))[0])
+            rot, com_w, vcom_w, x_s = _ow_frame(p_sup, p_sw, com, vcom)
             x_cp = capture_point(com_w[0], vcom_w[0], self._z_m0)
             xp_des = 0.0
             self._fsm.reframe(xp_des)
             events.append({"kind": "support", "foot": sup, "step": self._steps_done})
+        rot_t = rot.T
         self._rot_w = rot
         phase = self._fsm.phase
         double = phase is Phase.DS
 
         # Contact set: the support foot, plus the swing foot in DS.
-        contacts = [sup, sw] if double else [sup]
-        jc_blocks, jdv = [], []
-        pin.forwardKinematics(model, data, q, v, np.zeros(self._nv))
-        for f in contacts:
-            jc_blocks.append(pin.getFrameJacobian(model, data, self._sole[f], LWA))
-            acc = pin.getFrameClassicalAcceleration(model, data, self._sole[f], LWA)
-            jdv.append(acc.vector)
-        jc, jc_dot_v = np.vstack(jc_blocks), np.concatenate(jdv)
-        a = np.triu(data.M) + np.triu(data.M, 1).T
-        a_inv = np.linalg.inv(a)
+        contacts = (sup, sw) if double else (sup,)
+        if double:
+            jc, jc_dot_v = np.empty((12, self._nv)), np.empty(12)
+            for i, f in enumerate(contacts):
+                jc[6 * i : 6 * i + 6] = pin.getFrameJacobian(model, data, self._sole[f], LWA)
+                acc = pin.getFrameClassicalAcceleration(model, data, self._sole[f], LWA)
+                jc_dot_v[6 * i : 6 * i + 6] = acc.vector
+        else:
+            jc = pin.getFrameJacobian(model, data, self._sole[sup], LWA)
+            jc_dot_v = pin.getFrameClassicalAcceleration(model, data, self._sole[sup], LWA).vector
+        pin.cholesky.decompose(model, data)  # A = U D Uᵀ of the M from computeAllTerms
+        a_inv = pin.cholesky.computeMinv(model, data)  # A⁻¹, both triangles
         cd = wbc.contact_dynamics(a_inv, data.nle, jc, jc_dot_v)
 
-        # Task Jacobians (Eq. 11), CoM rows in O_w axes, upper body = pelvis (rigid).
-        jcom_w = rot.T @ data.Jcom
+        # Task Jacobians (Eq. 11), CoM rows in O_w axes, upper body = pelvis (rigid), stacked:
+        # task 1 = CoM x; task 2 = CoM y/z, pelvis yaw (+ swing foot); task 3 = pelvis roll/pitch.
         j_ub = pin.getJointJacobian(model, data, self._pelvis_joint, LWA)[3:]
         rot_pelvis = data.oMi[self._pelvis_joint].rotation
         w_pelvis = j_ub @ v
-        j1 = jcom_w[0:1]
-        j2_rows = [jcom_w[1:3], j_ub[2:3]]
-        if not double:
+        m2 = 3 if double else 9
+        j_com_w, j_ub_w = rot_t @ data.Jcom, rot_t[0:2] @ j_ub
+        if double:
+            j_all = np.concatenate((j_com_w, j_ub[2:3], j_ub_w))
+        else:
             j_sw = pin.getFrameJacobian(model, data, self._sole[sw], LWA)
-            j2_rows.append(j_sw)
-        j2 = np.vstack(j2_rows)
-        j3 = (rot.T @ j_ub)[0:2]
+            j_all = np.concatenate((j_com_w, j_ub[2:3], j_sw, j_ub_w))
 
         # Reference accelerations, Eq. (6) (Table II targets).
         kp, kv = p.kp, p.kv
         e_ub = pin.log3(self._rot_ub_des @ rot_pelvis.T)  # world-axes orientation error
-        acc2 = [
-            kp * (0.0 - com_w[1]) - kv * vcom_w[1],
-            kp * (self._z_m0 - com_w[2]) - kv * vcom_w[2],
-            kp * e_ub[2] - kv * w_pelvis[2],
-        ]
-        sw_pos = sole[sw].translation
+        _, cw_y, cw_z = com_w
+        _, vw_y, vw_z = vcom_w
+        acc2 = np.empty(m2)
+        acc2[0:3] = (
+            kp * (0.0 - cw_y) - kv * vw_y,
+            kp * (self._z_m0 - cw_z) - kv * vw_z,
+            kp * float(e_ub[2]) - kv * float(w_pelvis[2]),
+        )
+        sw_pos = p_sw
         sw_ref = self._swing_ref(phase, p_sup)
         if not double:
-            v_sw = j_sw @ v
-            e_sw = np.r_[sw_ref - sw_pos, pin.log3(self._rot_foot_des @ sole[sw].rotation.T)]
-            acc2.extend(kp * e_sw - kv * v_sw)
-        acc3 = (rot.T @ (kp * e_ub - kv * w_pelvis))[0:2]
+            acc2[3:6] = sw_ref - sw_pos
+            acc2[6:9] = pin.log3(self._rot_foot_des @ m_sw.rotation.T)
+            acc2[3:9] *= kp
+            acc2[3:9] -= kv * (j_sw @ v)
+        acc3 = rot_t[0:2] @ (kp * e_ub - kv * w_pelvis)
 
-        # The hierarchy (Eq. 11, Appendix A).
-        phi1 = wbc.task_phi(cd, j1)
-        phi2 = wbc.task_phi(cd, j2)
-        phi3 = wbc.task_phi(cd, j3)
-        n1 = wbc.null_space_t(cd, phi1)
-        n12 = wbc.null_space_t(cd, np.vstack([phi1, phi2]))
-        task1 = wbc.prioritized_task(cd, phi1, None)
-        task2 = wbc.prioritized_task(cd, phi2, n1)
-        task3 = wbc.prioritized_task(cd, phi3, n12)
-        f2 = self._task2_force(task2.lam, np.asarray(acc2), double, eps, phase)
-        f3 = task3.lam @ acc3
-        g2, g3 = task2.torque_map @ f2, task3.torque_map @ f3
+        # The hierarchy (Eq. 11, Appendix A): rows [task 1 (1), task 2 (m2), task 3 (2)].
+        s2, s3 = slice(1, m2 + 1), slice(m2 + 1, m2 + 3)
+        hier = wbc.task_hierarchy(cd, wbc.task_phi(cd, j_all), 1, m2)
+        tmap, (_, lam2, lam3) = hier.torque_map, hier.lams
+        f_all = np.empty(m2 + 3)  # [F_1; F_2; F_3]
+        f_all[s2] = self._task2_force(lam2, acc2, double, eps, phase)
+        f_all[s3] = lam3 @ acc3
 
         # CoM x-force for x_p^des (Appendix D-1, Eqs. 17–21) in O_w at the support centre.
-        points = [sole[f].translation for f in contacts]
-        kmap = wbc.grasp_map(rot, p_sup, points)
+        kmap = wbc.grasp_map(rot, p_sup, [p_sup, p_sw] if double else [p_sup])
         kpsi = kmap @ cd.psi
-        fc2, fc3 = kpsi @ g2, kpsi @ g3
+        kt = kpsi @ tmap  # resultant wrench per task force, shape (6, m)
+        fc23 = kt[:, 1:] @ f_all[1:]  # of tasks 2 and 3
         fcb = kmap @ (cd.psi @ cd.gamma_gc + cd.f_bias)
-        q1 = float((kpsi @ task1.torque_map)[4, 0])
-        f1 = wbc.com_force_for_cop(xp_des, q1, fc2[2] + fc3[2] + fcb[2], fcb[4])
-        g1 = task1.torque_map[:, 0] * f1
+        q1 = float(kt[4, 0])
+        f1 = wbc.com_force_for_cop(xp_des, q1, float(fc23[2] + fcb[2]), float(fcb[4]))
+        f_all[0] = f1
 
         # Balancing (Appendix D-3): expected CoP out of the shrunk polygon -> F_3^bal.
-        fc = kpsi @ g1 + fc2 + fc3 + fcb
+        fc = kt[:, 0] * f1 + fc23 + fcb
         balancing = False
         if p.balance:
-            f3_new = self._balance_force(
-                fc, fc3, kpsi @ task3.torque_map, rot, sole[sup], x_s if double else None
-            )
+            kt3, f3 = kt[:, s3], f_all[s3]
+            f3_new = self._balance_force(fc, kt3, f3, rot, m_sup, x_s if double else None)
             if f3_new is not None:
                 balancing = True
-                g3 = task3.torque_map @ f3_new
-                fc = fc - fc3 + kpsi @ g3
-        gamma_t = g1 + g2 + g3
+                fc = fc + kt3 @ (f3_new - f3)  # F_3 replaced
+                f_all[s3] = f3_new
+        gamma = tmap @ f_all + cd.gamma_gc  # Γ_t + Γ_gc, Γ_t = Σ Ñ_precᵀ J̃ᵀ F (Eq. 11)
 
         # Contact wrench redistribution in DS (Appendix C) with ε (§IV-B).
-        gamma_c = np.zeros_like(gamma_t)
         eps_on = 1.0
         if double:
             if self._ds_start_xp is None:
                 self._ds_start_xp = xp_des
             if p.use_epsilon and p.ds_onset_ramp:
                 eps_on = epsilon(abs(xp_des - self._ds_start_xp), p.d_thr)
-            f_now = cd.psi @ (gamma_t + cd.gamma_gc) + cd.f_bias
+            f_now = cd.psi @ gamma + cd.f_bias
             gamma_c, _ = wbc.redistribution_torque(
                 cd, f_now, slice(0, 6), eps, eps_on, p_sup - p_sw
             )
+            gamma += gamma_c  # Γ = Γ_t + Γ_c + Γ_gc, Eq. (7)
+            fc_all = fc + kpsi @ gamma_c
         else:
-            self._ds_start_xp = None
-        gamma = gamma_t + gamma_c + cd.gamma_gc  # Eq. (7)
-        tau = np.clip(gamma[self._v_idx], -p.torque_limit, p.torque_limit)
+            self._ds_start_xp = None  # Γ_c = 0
+            fc_all = fc
+        tau_lim = p.torque_limit
+        tau = gamma if self._v_idx is None else gamma[self._v_idx]
+        tau = np.minimum(np.maximum(tau, -tau_lim), tau_lim)  # np.clip
 
-        # Expected CoP from the reference torques (Eqs. 9, 18, 22) and measured CoP (F/T).
-        fc_all = kmap @ (cd.psi @ gamma + cd.f_bias)
-        cop_exp_w = np.array(wbc.cop_of(fc_all))
-        cop_exp_world = p_sup[:2] + rot[:2, :2] @ cop_exp_w
-        cop_meas_world = self._measured_cop(sensors, data, contacts)
-        meas_valid = bool(np.all(np.isfinite(cop_meas_world)))
+        # Expected CoP from the reference torques (Eqs. 9, 18, 22): the resultant
+        # K (Ψ Γ + f_bias) = fc (+ K Ψ Γ_c), and measured CoP (F/T).
+        cop_exp_x, cop_exp_y = wbc.cop_of(fc_all)
+        (r00, r01, _), (r10, r11, _) = rot[:2].tolist()
+        sup_x, sup_y, _ = p_sup.tolist()
+        cop_exp_world = [
+            sup_x + (r00 * cop_exp_x + r01 * cop_exp_y),
+            sup_y + (r10 * cop_exp_x + r11 * cop_exp_y),
+        ]
+        cop_meas = self._measured_cop(sensors, data)
+        meas_valid = math.isfinite(cop_meas[0]) and math.isfinite(cop_meas[1])
         if not meas_valid:  # no foot loaded: logs hold finite numbers only
-            cop_meas_world = np.zeros(2)
+            cop_meas = [0.0, 0.0]
         fsm_state = 0 if double else (1 if sup == "left" else -1)
-        xp_world = p_sup[:2] + rot[:2, 0] * xp_des
+        xp_world = [sup_x + r00 * xp_des, sup_y + r10 * xp_des]
         signals = {
             "fsm_state": fsm_state,
             "efsm_phase": int(phase),
             "epsilon": eps,
             "epsilon_onset": eps_on,
             "d": out.d if math.isfinite(out.d) else 1.0,
-            "com_w": com_w.tolist(),
-            "com_vel_w": vcom_w.tolist(),
+            "com_w": com_w,
+            "com_vel_w": vcom_w,
             "com_world": com.tolist(),
             "com_vel_world": vcom.tolist(),
             "cp_w": x_cp,
             "cp_ref_w": x_s - p.r,
             "x_s_w": x_s,
             "xp_des_w": xp_des,
-            "xp_des_world": xp_world.tolist(),
-            "cop_exp_w": cop_exp_w.tolist(),
-            "cop_exp_world": cop_exp_world.tolist(),
-            "cop_meas_world": cop_meas_world.tolist(),
+            "xp_des_world": xp_world,
+            "cop_exp_w": [cop_exp_x, cop_exp_y],
+            "cop_exp_world": cop_exp_world,
+            "cop_meas_world": cop_meas,
             "cop_meas_valid": int(meas_valid),
             "swing_pos_world": sw_pos.tolist(),
             "swing_ref_world": sw_ref.tolist(),
             "swing_foot": 0 if double else (1 if sw == "right" else -1),
             "support_pos_world": p_sup.tolist(),
-            "ow_yaw": math.atan2(rot[1, 0], rot[0, 0]),
+            "ow_yaw": math.atan2(r10, r00),
             "com_force_x": f1,
             "balancing": int(balancing),
             "tau_ref": tau.tolist(),
@@ -379,31 +389,40 @@ class EfsmController(Controller):
         if double:
             return lam @ acc
         p = self._p
-        c, s = slice(0, 3), slice(3, 9)
-        fs = lam[s] @ acc
+        f_max, m_max = p.fs_max_force, p.fs_max_moment
+        f_free = lam @ acc  # Λ ẍ*, unbounded
+        fs = f_free[3:9].copy()
         if p.fs_decoupled_saturation:
             # Λ_s couples the swing foot's linear and angular rows: Λ ẍ* puts into the
             # moment rows the part Λ_rt ẍ*_t that pairs with the (large) linear
             # acceleration. Clipping only the force rows would leave that moment and
             # spin the foot. Instead keep the orientation acceleration ẍ*_r and take
-            # the linear acceleration that the saturated force really produces.
-            t_, r_ = slice(3, 6), slice(6, 9)
-            f_t = np.clip(fs[:3], -p.fs_max_force, p.fs_max_force)
-            rhs = f_t - lam[t_, c] @ acc[c] - lam[t_, r_] @ acc[r_]
-            a_t = np.linalg.solve(lam[t_, t_], rhs)
-            m_r = lam[r_, c] @ acc[c] + lam[r_, t_] @ a_t + lam[r_, r_] @ acc[r_]
-            fs = np.concatenate([f_t, m_r])
-        fs[:3] = np.clip(fs[:3], -p.fs_max_force, p.fs_max_force)
-        fs[3:] = np.clip(fs[3:], -p.fs_max_moment, p.fs_max_moment)
-        fs *= eps if phase is Phase.SSA else 1.0  # ε F_s (§IV-C)
-        acc_s = np.linalg.solve(lam[s, s], fs - lam[s, c] @ acc[c])
-        return np.concatenate([lam[c, c] @ acc[c] + lam[c, s] @ acc_s, fs])
+            # the linear acceleration a_t that the saturated force f_t really produces:
+            # Λ_tt (a_t − ẍ*_t) = f_t − (Λ ẍ*)_t, so m_r = (Λ ẍ*)_r + Λ_rt (a_t − ẍ*_t).
+            f_t = fs[:3]  # a view: saturated in place (np.clip)
+            np.minimum(np.maximum(f_t, -f_max, out=f_t), f_max, out=f_t)
+            cut = f_t - f_free[3:6]
+            if cut.any():
+                fs[3:] += lam[6:9, 3:6] @ wbc.solve(lam[3:6, 3:6], cut)
+        f_t, m_r = fs[:3], fs[3:]  # views: saturated in place (np.clip)
+        np.minimum(np.maximum(f_t, -f_max, out=f_t), f_max, out=f_t)
+        np.minimum(np.maximum(m_r, -m_max, out=m_r), m_max, out=m_r)
+        if phase is Phase.SSA:
+            fs *= eps  # ε F_s (§IV-C)
+        # The CoM/yaw rows with the swing acceleration ẍ_s that F_s produces:
+        # Λ_ss (ẍ_s − ẍ*_s) = F_s − (Λ ẍ*)_s, then F_c = (Λ ẍ*)_c + Λ_cs (ẍ_s − ẍ*_s).
+        f2 = f_free
+        cut = fs - f_free[3:9]
+        if cut.any():
+            f2[:3] += lam[0:3, 3:9] @ wbc.solve(lam[3:9, 3:9], cut)
+        f2[3:] = fs
+        return f2
 
     def _balance_force(
         self,
         fc: np.ndarray,
-        fc3: np.ndarray,
         kpsi3: np.ndarray,
+        f3: np.ndarray,
         rot: np.ndarray,
         sole_sup: pin.SE3,
         x_s: float | None,
@@ -413,58 +432,114 @@ class EfsmController(Controller):
         The support polygon is the square of Eq. (23) in O_w: the support sole's extent
         along the O_w axes, stretched to the swing foot (x_s) in DS (Fig. 16), shrunk by the
         safety margin.
+
+        Args:
+            fc: resultant contact wrench in O_w, shape (6,).
+            kpsi3: resultant wrench per task-3 force, K Ψ Ñ_12ᵀ J̃_3ᵀ, shape (6, 2).
+            f3: task 3's force F_3, shape (2,).
+            rot: world-from-O_w rotation (a yaw).
+            sole_sup: support sole placement.
+            x_s: swing-foot centre along x of O_w in DS [m], else None.
         """
-        cop_w = np.array(wbc.cop_of(fc))
-        if not np.all(np.isfinite(cop_w)):
+        cop_x, cop_y = wbc.cop_of(fc)
+        if not (math.isfinite(cop_x) and math.isfinite(cop_y)):
             return None
-        rel = rot[:2, :2].T @ sole_sup.rotation[:2, :2]  # O_w-from-foot (xy)
-        half = np.abs(rel) @ self._half_sole - self._p.cop_margin  # extent along O_w axes
-        lo, hi = -half, half.copy()
-        if x_s is not None:
-            hi[0] += x_s
-        clamped = np.clip(cop_w, lo, hi)
-        if np.allclose(clamped, cop_w):
+        # O_w-from-foot (xy): rot[:2, :2]ᵀ @ sole_sup.rotation[:2, :2] with rot a yaw.
+        c, s = float(rot[0, 0]), float(rot[1, 0])
+        (a00, a01, _), (a10, a11, _), _ = sole_sup.rotation.tolist()
+        r00, r01 = c * a00 + s * a10, c * a01 + s * a11
+        r10, r11 = c * a10 - s * a00, c * a11 - s * a01
+        half_x, half_y = self._half_sole.tolist()
+        margin = self._p.cop_margin
+        # Extent along the O_w axes: |rel| @ half_sole − margin.
+        hx = (abs(r00) * half_x + abs(r01) * half_y) - margin
+        hy = (abs(r10) * half_x + abs(r11) * half_y) - margin
+        hi_x = hx + x_s if x_s is not None else hx
+        cx, cy = min(max(cop_x, -hx), hi_x), min(max(cop_y, -hy), hy)  # np.clip
+        # Inside: np.allclose(clamped, cop), i.e. with its default tolerances.
+        tol_x, tol_y = 1e-8 + 1e-5 * abs(cop_x), 1e-8 + 1e-5 * abs(cop_y)
+        if abs(cx - cop_x) <= tol_x and abs(cy - cop_y) <= tol_y:
             return None
-        fsig = fc - fc3
-        m_des = np.array(
-            [clamped[1] * fsig[2] - fsig[3], -clamped[0] * fsig[2] - fsig[4]]
-        )  # Eqs. (26)-(27)
+        fsig = fc - kpsi3 @ f3  # the wrench without task 3
+        m_des = np.array([cy * fsig[2] - fsig[3], -cx * fsig[2] - fsig[4]])  # Eqs. (26)-(27)
         q3 = kpsi3[3:5]  # Eq. (28)
         if abs(np.linalg.det(q3)) < 1e-12:
             return None
         return np.linalg.solve(q3, m_des)  # F_3 + F_3^bal, Eq. (29)
 
-    def _measured_cop(
-        self, sensors: SensorSnapshot, data: pin.Data, contacts: list[str]
-    ) -> np.ndarray:
-        """CoP in the world from the two F/T sensors (§VI-D2) [m].
+    def _measured_cop(self, sensors: SensorSnapshot, data: pin.Data) -> list[float]:
+        """CoP (x, y) in the world from the two F/T sensors (§VI-D2) [m]; NaN if unloaded.
 
         Each sensor reads the wrench the foot applies to the leg; adding back the static
         weight of the part below the sensor (the ankle-roll link, i.e. the foot) gives the
-        ground reaction. Feet carrying no vertical load are left out.
+        ground reaction. Feet carrying no vertical load are left out. Only the vertical
+        force and the horizontal moment about the world origin are needed, so the cross
+        products are written out.
         """
-        force = np.zeros(3)
-        moment = np.zeros(3)  # about the world origin
+        force_z = mom_x = mom_y = 0.0
         for f in FEET:
             ft = sensors.left_ft if f == "left" else sensors.right_ft
             m_ft = data.oMf[self._ft[f]]
-            fw, tw = m_ft.rotation @ ft[:3], m_ft.rotation @ ft[3:]
-            inertia = self._model.inertias[self._foot_joint[f]]
-            weight = np.array([0.0, 0.0, inertia.mass * GRAVITY])
-            com_foot = data.oMi[self._foot_joint[f]].act(inertia.lever)
-            fg = fw + weight
-            if fg[2] <= 0.0:
+            # Force and moment in world axes, as columns: [[fx, tx], [fy, ty], [fz, tz]].
+            (fx, tx), (fy, ty), (fz, _) = (m_ft.rotation @ ft.reshape(2, 3).T).tolist()
+            weight = self._foot_weight[f]  # [N], along +z
+            if fz + weight <= 0.0:
                 continue
-            force += fg
-            moment += tw + np.cross(m_ft.translation, fw) + np.cross(com_foot, weight)
-        if force[2] <= 1e-6:
-            return np.array([math.nan, math.nan])
+            px, py, pz = m_ft.translation.tolist()
+            cx, cy, _ = data.oMi[self._foot_joint[f]].act(self._foot_lever[f]).tolist()
+            force_z += fz + weight
+            # τ + p_ft × f + c_foot × (0, 0, weight), x and y rows.
+            mom_x += tx + (py * fz - pz * fy) + cy * weight
+            mom_y += ty + (pz * fx - px * fz) - cx * weight
+        if force_z <= 1e-6:
+            return [math.nan, math.nan]
         # Ground-level CoP: the point on z = 0 about which the moment has no x/y part.
-        return np.array([-moment[1] / force[2], moment[0] / force[2]])
+        return [-mom_y / force_z, mom_x / force_z]
+
+
+_EYE3 = np.eye(3)
+
+
+def _rot_z(c: float, s: float) -> np.ndarray:
+    """Rotation about z with cosine ``c`` and sine ``s``."""
+    rot = _EYE3.copy()
+    rot[0, 0], rot[0, 1], rot[1, 0], rot[1, 1] = c, -s, s, c
+    return rot
+
+
+def _yaw_rotation(yaw: float) -> np.ndarray:
+    """Rotation about z by ``yaw`` [rad]."""
+    return _rot_z(math.cos(yaw), math.sin(yaw))
 
 
 def _yaw_only(rot: np.ndarray) -> np.ndarray:
     """The yaw part of a rotation: level, with the same heading."""
-    yaw = math.atan2(rot[1, 0], rot[0, 0])
+    return _yaw_rotation(math.atan2(rot[1, 0], rot[0, 0]))
+
+
+def _ow_frame(
+    p_sup: np.ndarray, p_sw: np.ndarray, com: np.ndarray, vcom: np.ndarray
+) -> tuple[np.ndarray, list[float], list[float], float]:
+    """O_w (§III-A1) and the CoM and swing foot in it.
+
+    Args:
+        p_sup: support sole centre, the origin of O_w [m].
+        p_sw: swing sole centre [m]; O_w's x points to its ground projection.
+        com: CoM in the world [m].
+        vcom: CoM velocity in the world [m/s].
+
+    Returns:
+        world-from-O_w rotation (3, 3); com_w [m] and vcom_w [m/s] (3 floats each); x_s,
+        the swing sole centre along x of O_w [m].
+    """
+    ox, oy, oz = p_sup.tolist()
+    sx, sy, _ = p_sw.tolist()
+    yaw = math.atan2(sy - oy, sx - ox)
     c, s = math.cos(yaw), math.sin(yaw)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    rot = _rot_z(c, s)
+    cx, cy, cz = com.tolist()
+    vx, vy, vz = vcom.tolist()
+    dx, dy = cx - ox, cy - oy
+    com_w = [c * dx + s * dy, c * dy - s * dx, cz - oz]
+    vcom_w = [c * vx + s * vy, c * vy - s * vx, vz]
+    return rot, com_w, vcom_w, c * (sx - ox) + s * (sy - oy)

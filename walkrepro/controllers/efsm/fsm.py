@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from enum import IntEnum
+from typing import NamedTuple
 
 
 class Phase(IntEnum):
@@ -83,8 +84,7 @@ def epsilon(d: float, d_thr: float) -> float:
     return 1.0
 
 
-@dataclass(frozen=True)
-class FsmInput:
+class FsmInput(NamedTuple):
     """What the E-FSM reads each tick, along the x-axis of O_w.
 
     Attributes:
@@ -100,8 +100,7 @@ class FsmInput:
     x_s: float
 
 
-@dataclass(frozen=True)
-class FsmOutput:
+class FsmOutput(NamedTuple):
     """What the E-FSM decides each tick.
 
     Attributes:
