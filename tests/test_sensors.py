@@ -121,3 +121,55 @@ def test_contact_wrenches_carry_the_weight_and_match_mj_contact_force(coman) -> 
     slow = reader.read(data)
     for key, wrench in pairs.items():
         assert np.allclose(slow[key], wrench, rtol=1e-12, atol=1e-9)
+
+
+MIXED_SCENE = """
+<mujoco>
+  <option cone="elliptic"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="0 0 1"/>
+    <body name="left_foot" pos="0 0 0.03">
+      <freejoint/>
+      <geom type="box" size="0.1 0.05 0.02" mass="2"/>
+      <geom type="sphere" pos="-0.2 0 -0.01" size="0.03" mass="0.1"/>
+    </body>
+    <body name="right_foot" pos="0.35 0.3 0.08">
+      <freejoint/>
+      <geom type="box" size="0.1 0.05 0.02" mass="2"/>
+    </body>
+    <body name="block" pos="0.35 0.3 0.02">
+      <geom name="obstacle_step" type="box" size="0.2 0.2 0.02"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_contact_pairs_sum_every_contact_of_the_pair_in_the_world_frame() -> None:
+    """The floor before the robot's geoms and the obstacle after them (so the force sign flips
+    for one and not the other), and two geoms of one body on the floor: the reader's pair
+    wrenches equal a contact-by-contact sum."""
+    model = mujoco.MjModel.from_xml_string(MIXED_SCENE)
+    data = mujoco.MjData(model)
+    for _ in range(300):
+        mujoco.mj_step(model, data)
+    reader = _ContactReader(model)
+    pairs = reader.read(data)
+    expected: dict[str, np.ndarray] = {}
+    local = np.zeros(6)
+    for i in range(data.ncon):
+        c = data.contact[i]
+        names = [model.geom(g).name for g in c.geom]
+        mujoco.mj_contactForce(model, data, i, local)
+        force = c.frame.reshape(3, 3).T @ local[:3]  # force of geom1 on geom2
+        world_first = names[0] in ("floor", "obstacle_step")
+        robot = c.geom[1] if world_first else c.geom[0]
+        if not world_first:
+            force = -force
+        key = f"{model.body(model.geom_bodyid[robot]).name}/{names[0 if world_first else 1]}"
+        wrench = np.concatenate([force, np.cross(c.pos, force)])
+        expected[key] = expected.get(key, 0) + wrench
+    assert set(pairs) == set(expected) >= {"left_foot/floor", "right_foot/obstacle_step"}
+    for key, wrench in expected.items():
+        assert np.allclose(pairs[key], wrench, rtol=1e-12, atol=1e-9), key
+    assert reader.read(data).keys() == pairs.keys()  # the cached plan gives the same
