@@ -12,17 +12,22 @@ run in C. mcap's readers read the result; tests check that.
 
 Schemas and channels are written before any chunk, so a log cut short still names every
 topic; a killed writer loses at most the open chunk.
+
+:func:`read_mcap` reads such a file back the same way: the few records that are not messages
+with mcap's record classes, the messages of each chunk with one ``struct`` call each.
 """
 
 from __future__ import annotations
 
+import io
 import struct
 import zlib
 from collections import defaultdict
+from dataclasses import dataclass, field
 from typing import BinaryIO
 
 import zstandard
-from mcap.data_stream import RecordBuilder
+from mcap.data_stream import ReadDataStream, RecordBuilder
 from mcap.opcode import Opcode
 from mcap.records import (
     Attachment,
@@ -44,6 +49,8 @@ MAGIC = b"\x89MCAP0\r\n"
 # Message record: opcode, record length, channel id, sequence, log time, publish time.
 _MESSAGE = struct.Struct("<BQHIQQ")
 _MESSAGE_FIXED = _MESSAGE.size - 9  # record length counts what follows opcode and length
+_RECORD_HEAD = struct.Struct("<BQ")  # opcode, length of what follows
+_CHANNEL_ID = struct.Struct("<H")
 
 
 class McapFile:
@@ -249,3 +256,116 @@ class McapFile:
         data = builder.end()
         self._out.write(data)
         return len(data)
+
+
+@dataclass
+class McapContents:
+    """What :func:`read_mcap` found, in file order.
+
+    Attributes:
+        channels: channel id → channel, from the records seen (in or outside chunks).
+        messages: channel id → the data of each of its messages, in file order.
+        attachments: every attachment record.
+        metadata: every metadata record.
+        closed: whether the footer was reached (the writer finished the file).
+    """
+
+    channels: dict[int, Channel] = field(default_factory=dict)
+    messages: dict[int, list[bytes]] = field(default_factory=lambda: defaultdict(list))
+    attachments: list[Attachment] = field(default_factory=list)
+    metadata: list[Metadata] = field(default_factory=list)
+    closed: bool = False
+
+
+class _Damaged(Exception):
+    """The file ends or is damaged here; what was read before stands."""
+
+
+def read_mcap(data: bytes) -> McapContents:
+    """Reads an MCAP file's records, stopping quietly at the first damaged or missing byte.
+
+    Only the opening magic must be whole: a file cut short (no summary, footer or closing
+    magic) keeps every record, and every chunk that passes its CRC, before the cut.
+
+    Raises:
+        ValueError: ``data`` does not start with the MCAP magic.
+    """
+    if not data.startswith(MAGIC):
+        raise ValueError("not an MCAP file (it lacks the MCAP magic bytes)")
+    out = McapContents()
+    pos, end = len(MAGIC), len(data)
+    try:
+        while pos < end and not out.closed:
+            opcode, body, pos = _record_at(data, pos, end)
+            if opcode == Opcode.CHUNK:
+                _read_chunk(data[body:pos], out)
+            else:
+                _read_other(opcode, data[body:pos], out)
+    except _Damaged:
+        pass
+    return out
+
+
+def _record_at(data: bytes, pos: int, end: int) -> tuple[int, int, int]:
+    """Opcode, start of the body, and end of the record at ``pos``."""
+    if pos + _RECORD_HEAD.size > end:
+        raise _Damaged
+    opcode, length = _RECORD_HEAD.unpack_from(data, pos)
+    body = pos + _RECORD_HEAD.size
+    if body + length > end:
+        raise _Damaged
+    return opcode, body, body + length
+
+
+def _read_other(opcode: int, body: bytes, out: McapContents) -> None:
+    """A record outside the chunks; the ones walkrepro does not use are skipped."""
+    reader = {
+        Opcode.CHANNEL: Channel.read,
+        Opcode.ATTACHMENT: Attachment.read,
+        Opcode.METADATA: Metadata.read,
+    }.get(opcode)
+    if opcode == Opcode.FOOTER:
+        out.closed = True
+    if reader is None:
+        return
+    try:
+        record = reader(ReadDataStream(io.BytesIO(body)))
+    except Exception as exc:  # noqa: BLE001 - a malformed record ends the read
+        raise _Damaged from exc
+    if isinstance(record, Channel):
+        out.channels.setdefault(record.id, record)
+    elif isinstance(record, Attachment):
+        out.attachments.append(record)
+    else:
+        out.metadata.append(record)
+
+
+def _read_chunk(body: bytes, out: McapContents) -> None:
+    """The messages (and any schema/channel records) of one chunk, if its CRC holds."""
+    try:
+        chunk = Chunk.read(ReadDataStream(io.BytesIO(body)))
+        if chunk.compression == "zstd":
+            raw = zstandard.ZstdDecompressor().decompress(
+                chunk.data, max_output_size=chunk.uncompressed_size
+            )
+        elif chunk.compression == "":
+            raw = chunk.data
+        else:
+            raise _Damaged  # walkrepro writes zstd
+    except _Damaged:
+        raise
+    except Exception as exc:  # noqa: BLE001 - truncated body, zstd error
+        raise _Damaged from exc
+    if len(raw) != chunk.uncompressed_size or (
+        chunk.uncompressed_crc != 0 and zlib.crc32(raw) != chunk.uncompressed_crc
+    ):
+        raise _Damaged
+    messages = out.messages
+    pos, end = 0, len(raw)
+    while pos < end:
+        opcode, start, pos = _record_at(raw, pos, end)
+        if opcode == Opcode.MESSAGE:
+            (channel_id,) = _CHANNEL_ID.unpack_from(raw, start)
+            messages[channel_id].append(raw[start + _MESSAGE_FIXED : pos])
+        elif opcode == Opcode.CHANNEL:
+            _read_other(opcode, raw[start:pos], out)

@@ -29,7 +29,7 @@ import json
 import math
 import re
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from importlib import metadata as importlib_metadata
@@ -39,12 +39,10 @@ from typing import Any
 
 import mujoco
 import numpy as np
-from mcap.records import Attachment, Channel, Footer, Message, Metadata
-from mcap.stream_reader import StreamReader
 
 import walkrepro
 from walkrepro.errors import UnknownNameError, WalkreproError
-from walkrepro.mcapfile import McapFile
+from walkrepro.mcapfile import McapFile, read_mcap
 
 try:
     import orjson
@@ -83,7 +81,6 @@ _REQUIRED_KEYS: dict[str, frozenset[str]] = {
     TOPIC_SIGNALS: frozenset({"t"}),
     TOPIC_EVENTS: frozenset({"t", "kind"}),
 }
-_MCAP_MAGIC = b"\x89MCAP0\r\n"  # the 8 bytes every MCAP file starts and ends with
 _FILE_ATTRIBUTE = re.compile(r"<(\w+)\b[^>]*?\sfile\s*=", re.DOTALL)
 
 
@@ -621,34 +618,6 @@ class Log:
         return [topic for topic, raw in self._raw.items() if raw]
 
 
-def _records(path: Path, size: int) -> Iterator[Any]:
-    """Records of the file in order; stops quietly at the first damaged or missing byte.
-
-    Raises:
-        WalkreproError: the file does not start with the MCAP magic bytes.
-    """
-    try:
-        f = open(path, "rb")  # noqa: SIM115 - closed by the with below
-    except OSError as exc:
-        raise WalkreproError(f"cannot read log {path}: {exc.strerror}") from exc
-    with f:
-        if f.read(len(_MCAP_MAGIC)) != _MCAP_MAGIC:
-            raise WalkreproError(f"{path} is not an MCAP log (it lacks the MCAP magic bytes)")
-        # A non-seeking read, so a file without summary or footer reads as far as it is whole.
-        # skip_magic: the opening magic is checked above, and a missing closing magic must not
-        # discard a whole log. The size limit keeps a garbage length from allocating gigabytes.
-        reader = StreamReader(f, skip_magic=True, validate_crcs=True, record_size_limit=size)
-        records = reader.records
-        while True:
-            try:
-                record = next(records)
-            except StopIteration:
-                return
-            except Exception:  # noqa: BLE001 - any damage (EOF, zstd, CRC, struct) ends the read
-                return
-            yield record
-
-
 def read_log(path: Path) -> Log:
     """Reads a log, including one truncated by a killed writer.
 
@@ -663,29 +632,19 @@ def read_log(path: Path) -> Log:
     """
     path = Path(path)
     try:
-        size = path.stat().st_size
+        data = path.read_bytes()
     except OSError as exc:
         raise WalkreproError(f"cannot read log {path}: {exc.strerror}") from exc
-    channels: dict[int, str] = {}
+    try:
+        contents = read_mcap(data)
+    except ValueError:
+        raise WalkreproError(f"{path} is not an MCAP log (it lacks the MCAP magic bytes)") from None
     raw: dict[str, list[bytes]] = {}
-    attachments: dict[str, str] = {}
-    metadata: dict[str, str] | None = None
-    closed = False
-    for record in _records(path, size):
-        if isinstance(record, Message):
-            topic = channels.get(record.channel_id)
-            if topic is not None:
-                raw[topic].append(record.data)
-        elif isinstance(record, Channel):
-            if record.id not in channels:
-                channels[record.id] = record.topic
-                raw.setdefault(record.topic, [])
-        elif isinstance(record, Attachment):
-            attachments[record.name] = record.data.decode()
-        elif isinstance(record, Metadata) and record.name == METADATA_NAME:
-            metadata = dict(record.metadata)
-        elif isinstance(record, Footer):
-            closed = True
+    for channel_id, channel in sorted(contents.channels.items()):
+        raw.setdefault(channel.topic, []).extend(contents.messages.get(channel_id, []))
+    attachments = {a.name: a.data.decode() for a in contents.attachments}
+    metadata = next((dict(m.metadata) for m in contents.metadata if m.name == METADATA_NAME), None)
+    closed = contents.closed
     missing = [name for name in (SCENE_ATTACHMENT, SPEC_ATTACHMENT) if name not in attachments]
     if missing:
         raise WalkreproError(
