@@ -8,11 +8,13 @@ import pytest
 
 from walkrepro.controllers.qpimpedance.centroidal_qp import (
     SOLVERS,
+    CentroidalQP,
     Task,
     build_qp,
     contact_wrench_basis,
     friction_basis,
     joint_torques,
+    rotate_wrench_basis,
 )
 from walkrepro.robot import load_robot
 
@@ -42,7 +44,8 @@ def test_pyramid_forces_lie_in_friction_cone() -> None:
     np.testing.assert_allclose(w[3:], moment, atol=1e-12)
 
 
-def _problem(support: tuple[int, ...]):  # noqa: ANN202
+def _inputs(support: tuple[int, ...]) -> dict:
+    """The QP inputs of a random state of kist_humanoid with the given support feet."""
     robot = load_robot("kist_humanoid")
     model = robot.pin_model
     data = model.createData()
@@ -53,19 +56,43 @@ def _problem(support: tuple[int, ...]):  # noqa: ANN202
     pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
     pin.updateFramePlacements(model, data)
     corners = np.array([[sx * 0.12, sy * 0.065, 0.0] for sx in (1, -1) for sy in (1, -1)])
-    jacs, drifts, maps = [], [], []
+    jacs, drifts, maps, rots = [], [], [], []
     for side in support:
         fid = model.getFrameId(("left_sole", "right_sole")[side])
         jacs.append(pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED))
         a = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
         drifts.append(np.concatenate([a.linear, a.angular]))
-        maps.append(contact_wrench_basis(data.oMf[fid].rotation, corners, friction_basis(MU, 4)))
-    posture = Task("posture", np.eye(model.nv)[6:], -v[6:], np.ones(model.nv - 6))
-    b1 = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]) - (data.nle[:6] - data.g[:6])
+        rots.append(data.oMf[fid].rotation.copy())
+        maps.append(contact_wrench_basis(rots[-1], corners, friction_basis(MU, 4)))
+    return {
+        "mass": data.M.copy(),
+        "nle": data.nle.copy(),
+        "b1": np.zeros(6) - (data.nle[:6] - data.g[:6]),
+        "posture": Task("posture", np.eye(model.nv)[6:], -v[6:], np.ones(model.nv - 6)),
+        "jacs": jacs,
+        "drifts": drifts,
+        "maps": maps,
+        "rots": rots,
+        "local": contact_wrench_basis(np.eye(3), corners, friction_basis(MU, 4)),
+    }
+
+
+def _problem(support: tuple[int, ...]):  # noqa: ANN202
+    i = _inputs(support)
     problem = build_qp(
-        data.M, data.nle, b1, np.ones(6), jacs, drifts, maps, support, [posture], 1e-4, 1e-6
+        i["mass"],
+        i["nle"],
+        i["b1"],
+        np.ones(6),
+        i["jacs"],
+        i["drifts"],
+        i["maps"],
+        support,
+        [i["posture"]],
+        1e-4,
+        1e-6,
     )
-    return problem, data.M.copy(), data.nle.copy(), jacs, drifts
+    return problem, i["mass"], i["nle"], i["jacs"], i["drifts"]
 
 
 def test_problem_is_inspectable() -> None:
@@ -113,3 +140,41 @@ def test_eq9_torques_reproduce_the_joint_rows() -> None:
         j.T @ w for j, w in zip(jacs, wrenches, strict=True)
     )
     np.testing.assert_allclose(mass @ accel + nle, gen, atol=1e-6)
+
+
+@pytest.mark.parametrize("support", [(0, 1), (1,)])
+def test_preallocated_qp_matches_build_qp(support: tuple[int, ...]) -> None:
+    """CentroidalQP assembles build_qp's matrices, and ProxQP called directly, cold then warm, finds its solution."""
+    i = _inputs(support)
+    problem, *_ = _problem(support)
+    nv = i["mass"].shape[0]
+    qp = CentroidalQP(nv, support, [i["local"]] * len(support), 1e-4, 1e-6, "proxqp", 1e-10)
+    built = qp.update(
+        i["mass"],
+        i["nle"],
+        np.vstack([i["mass"][:6], i["posture"].jacobian]),
+        np.concatenate([i["b1"], i["posture"].target]),
+        i["jacs"],
+        i["drifts"],
+        i["rots"],
+    )
+    for name in ("P", "q", "A", "b", "lb", "ub"):
+        np.testing.assert_allclose(getattr(built, name), getattr(problem, name), atol=1e-9)
+    ref = problem.solve("proxqp", eps_abs=1e-10, eps_rel=0.0)
+    for warm in (False, True):
+        x = qp.solve(warm=warm)
+        assert x is not None
+        np.testing.assert_allclose(x[:nv], ref[:nv], atol=1e-6)
+        wrench = np.concatenate(built.split(x)[1])
+        np.testing.assert_allclose(wrench, np.concatenate(problem.split(ref)[1]), atol=1e-5)
+
+
+def test_rotated_wrench_basis_equals_contact_wrench_basis() -> None:
+    """Rotating the contact-frame basis gives the world-axes basis of Eq. (8)."""
+    rot = pin.rpy.rpyToMatrix(0.3, -0.2, 0.5)
+    corners = np.array([[0.12, 0.065, 0], [0.12, -0.065, 0], [-0.12, 0.065, 0], [-0.12, -0.065, 0]])
+    basis = friction_basis(MU, 4)
+    local = contact_wrench_basis(np.eye(3), corners, basis)
+    out = np.empty_like(local)
+    rotate_wrench_basis(rot, local, out)
+    np.testing.assert_allclose(out, contact_wrench_basis(rot, corners, basis), atol=1e-14)

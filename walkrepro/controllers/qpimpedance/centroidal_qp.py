@@ -15,6 +15,11 @@ Here the contact Jacobians are Pinocchio's sole-frame Jacobians in LOCAL_WORLD_A
 axes, so Σ X_{C_k B}ᵀ R̃ U_k β_k is the base block of J_kᵀ (U_k β_k) with U_k β_k the
 contact wrench at the sole centre in world axes. Build, then solve: :func:`build_qp`
 returns an inspectable :class:`QPProblem`; :meth:`QPProblem.solve` calls ``qpsolvers``.
+
+At 1 kHz the controller uses :class:`CentroidalQP` instead: the same problem, assembled in
+preallocated arrays by the same code (:func:`assemble_qp`), and for ``proxqp`` solved by one
+``proxsuite.proxqp.dense.QP`` per support set, set up once and warm-started each tick
+(:class:`ProxQPSolver`). Other solvers still go through ``qpsolvers``.
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import qpsolvers
+from proxsuite import proxqp
 from scipy import sparse
 
 #: Solvers this module is tested with, fastest first on our problem (see README).
@@ -73,6 +79,22 @@ def contact_wrench_basis(
     u[4] = d[2] * e[0] - d[0] * e[2]
     u[5] = d[0] * e[1] - d[1] * e[0]
     return u
+
+
+def rotate_wrench_basis(rotation: np.ndarray, local: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """R̃_{C_k} U_k from U_k in the contact frame, written into ``out``.
+
+    Rotations preserve cross products, R (d̃ × ū) = (R d̃) × (R ū), so the world-axes basis of
+    :func:`contact_wrench_basis` is the contact-frame one with both halves rotated: one
+    (3, 3) @ (2, 3, m N_c) product instead of rebuilding it.
+
+    Args:
+        rotation: world-from-contact-frame rotation R̃_{C_k}, shape (3, 3).
+        local: ``contact_wrench_basis(np.eye(3), corners, basis)``, shape (6, m N_c).
+        out: C-contiguous result, shape (6, m N_c).
+    """
+    np.matmul(rotation, local.reshape(2, 3, -1), out=out.reshape(2, 3, -1))
+    return out
 
 
 @dataclass(frozen=True)
@@ -175,8 +197,9 @@ def build_qp(
         force_weight: W_4 (scalar times identity).
     """
     nv = mass_matrix.shape[0]
-    nb = sum(u.shape[1] for u in wrench_maps)
-    nx = nv + nb
+    problem = empty_qp(nv, tuple(u.shape[1] for u in wrench_maps), support, force_weight)
+    for u, out in zip(wrench_maps, problem.wrench_maps, strict=True):
+        out[:] = u
     # Cost rows: √W (Φ ξ̈ − b).
     rows = [np.sqrt(momentum_weight)[:, None] * mass_matrix[:6]]
     rhs = [np.sqrt(momentum_weight) * momentum_target]
@@ -184,31 +207,211 @@ def build_qp(
         sw = np.sqrt(task.weight)
         rows.append(sw[:, None] * task.jacobian)
         rhs.append(sw * task.target)
-    a_cost = np.vstack(rows)
-    b_cost = np.concatenate(rhs)
-    p = np.zeros((nx, nx))
-    p[:nv, :nv] = a_cost.T @ a_cost
-    p[np.diag_indices(nv)] += accel_weight
-    p[np.arange(nv, nx), np.arange(nv, nx)] += force_weight
-    q = np.zeros(nx)
-    q[:nv] = -a_cost.T @ b_cost
+    assemble_qp(
+        problem,
+        mass_matrix,
+        nonlinear,
+        np.vstack(rows),
+        np.concatenate(rhs),
+        contact_jacobians,
+        contact_drifts,
+        accel_weight,
+    )
+    return problem
 
-    ne = 6 + 6 * len(contact_jacobians)
-    a_eq = np.zeros((ne, nx))
-    b_eq = np.zeros(ne)
-    a_eq[:6, :nv] = mass_matrix[:6]
-    b_eq[:6] = -nonlinear[:6]
-    col = nv
-    for k, (jac, drift, u) in enumerate(
-        zip(contact_jacobians, contact_drifts, wrench_maps, strict=True)
-    ):
-        a_eq[:6, col : col + u.shape[1]] = -jac[:, :6].T @ u
-        a_eq[6 + 6 * k : 12 + 6 * k, :nv] = jac
-        b_eq[6 + 6 * k : 12 + 6 * k] = -drift
-        col += u.shape[1]
+
+def empty_qp(
+    nv: int, n_beta: tuple[int, ...], support: tuple[int, ...], force_weight: float
+) -> QPProblem:
+    """A :class:`QPProblem` of the given shape with its constant parts filled in.
+
+    Constant: the β block of P (W_4 I), the bounds (ξ̈ free, β ≥ 0) and the zeros of q and A
+    outside the blocks :func:`assemble_qp` writes.
+
+    Args:
+        nv: size of ξ̈.
+        n_beta: number of pyramid coefficients m N_c of each support foot.
+        support: the support feet, in the order of their β blocks.
+        force_weight: W_4 (scalar times identity).
+    """
+    nb = sum(n_beta)
+    nx = nv + nb
+    p = np.zeros((nx, nx))
+    p[np.arange(nv, nx), np.arange(nv, nx)] = force_weight
+    ne = 6 + 6 * len(n_beta)
     lb = np.concatenate([np.full(nv, -np.inf), np.zeros(nb)])
     ub = np.full(nx, np.inf)
-    return QPProblem(p, q, a_eq, b_eq, lb, ub, nv, tuple(wrench_maps), support)
+    maps = tuple(np.zeros((6, m)) for m in n_beta)
+    return QPProblem(p, np.zeros(nx), np.zeros((ne, nx)), np.zeros(ne), lb, ub, nv, maps, support)
+
+
+def assemble_qp(
+    problem: QPProblem,
+    mass_matrix: np.ndarray,
+    nonlinear: np.ndarray,
+    cost_rows: np.ndarray,
+    cost_rhs: np.ndarray,
+    contact_jacobians: list[np.ndarray],
+    contact_drifts: list[np.ndarray],
+    accel_weight: float,
+) -> None:
+    """Write the tick-dependent blocks of the §III-D QP into ``problem`` (from :func:`empty_qp`).
+
+    P_ξξ = AᵀA + W_3 I and q_ξ = −Aᵀb for the stacked weighted cost rows A ξ̈ ≈ b (momentum
+    rows √W_1 M_B, b = √W_1 b_1, then the tasks √W_t Φ_t, √W_t b_t; zero rows add nothing);
+    the equality rows of Eq. (5) and of the support feet. ``problem.wrench_maps`` must hold
+    this tick's R̃ U_k.
+
+    Args:
+        problem: the problem to fill in place.
+        mass_matrix: M, shape (nv, nv).
+        nonlinear: C ξ̇ + g, shape (nv,).
+        cost_rows: stacked √W Φ rows, shape (r, nv).
+        cost_rhs: stacked √W b, shape (r,).
+        contact_jacobians: J_k of each support foot, shape (6, nv).
+        contact_drifts: J̇_k ξ̇ of each support foot, shape (6,).
+        accel_weight: W_3 (scalar times identity).
+    """
+    nv = problem.nv
+    hess = cost_rows.T @ cost_rows
+    hess.reshape(-1)[:: nv + 1] += accel_weight  # a view: hess is contiguous
+    problem.P[:nv, :nv] = hess
+    np.negative(cost_rhs @ cost_rows, out=problem.q[:nv])
+    a_eq, b_eq = problem.A, problem.b
+    a_eq[:6, :nv] = mass_matrix[:6]
+    np.negative(nonlinear[:6], out=b_eq[:6])
+    col, row = nv, 6
+    for jac, drift, u in zip(contact_jacobians, contact_drifts, problem.wrench_maps, strict=True):
+        m = u.shape[1]
+        np.negative(jac[:, :6].T @ u, out=a_eq[:6, col : col + m])
+        a_eq[row : row + 6, :nv] = jac
+        np.negative(drift, out=b_eq[row : row + 6])
+        col += m
+        row += 6
+
+
+class ProxQPSolver:
+    """ProxQP's dense solver kept from tick to tick for problems of one fixed shape and bounds.
+
+    ``qpsolvers`` builds a new solver each call: it recomputes the Ruiz preconditioner
+    (≈ 60 µs here) and turns the bounds into an nx-row inequality block. Here a cold start
+    sets up a fresh ``proxsuite.proxqp.dense.QP`` (preconditioner included), exactly like one
+    ``qpsolvers`` call; the warm ticks that follow only update P, q, A and b in place, keep
+    that preconditioner and start from the previous primal and dual solution
+    (deterministic). Only the bounded variables (β ≥ 0) get inequality rows: the free ξ̈
+    need none, so the constraint set is the same.
+
+    Args:
+        problem: a problem of the shape to solve (fixes the bounds, which must not change).
+        eps_abs: absolute tolerance (``eps_rel`` stays 0, as through ``qpsolvers``).
+    """
+
+    def __init__(self, problem: QPProblem, eps_abs: float) -> None:
+        self._shape = problem.P.shape[0], problem.A.shape[0]
+        bounded = np.isfinite(problem.lb) | np.isfinite(problem.ub)
+        self._c = np.eye(self._shape[0])[bounded]
+        self._l, self._u = problem.lb[bounded].copy(), problem.ub[bounded].copy()
+        self._eps_abs = eps_abs
+        self._qp: proxqp.dense.QP | None = None
+
+    def solve(self, problem: QPProblem, warm: bool) -> np.ndarray | None:
+        """Solve ``problem``; ``warm`` continues from the previous solve, else starts afresh.
+
+        A cold start (the first tick of a support phase) also recomputes the preconditioner:
+        kept across a phase change it leaves the solver from the equality-constrained guess
+        tens of iterations from the solution, at times thousands.
+
+        Returns:
+            x, or None when the solver finds no solution.
+        """
+        qp = self._qp
+        if warm and qp is not None:
+            qp.update(H=problem.P, g=problem.q, A=problem.A, b=problem.b)
+            qp.solve()
+        else:
+            qp = self._qp = proxqp.dense.QP(*self._shape, self._c.shape[0])
+            qp.settings.eps_abs = self._eps_abs
+            qp.settings.eps_rel = 0.0
+            qp.init(problem.P, problem.q, problem.A, problem.b, self._c, self._l, self._u)
+            qp.solve()  # from the equality-constrained initial guess (the default)
+            qp.settings.initial_guess = proxqp.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
+        results = qp.results
+        if results.info.status != proxqp.QPSolverOutput.PROXQP_SOLVED:
+            return None
+        return results.x
+
+
+class CentroidalQP:
+    """The QP of §III-D for one support set, in preallocated arrays, solved tick after tick.
+
+    Args:
+        nv: size of ξ̈.
+        support: the support feet, in the order of their β blocks.
+        local_maps: U_k of each support foot in its contact frame, shape (6, m N_c)
+            (``contact_wrench_basis(np.eye(3), ...)``).
+        accel_weight: W_3 (scalar times identity).
+        force_weight: W_4 (scalar times identity).
+        solver: ``proxqp`` (direct, warm-started) or another ``qpsolvers`` backend.
+        eps_abs: solver absolute tolerance.
+    """
+
+    def __init__(
+        self,
+        nv: int,
+        support: tuple[int, ...],
+        local_maps: list[np.ndarray],
+        accel_weight: float,
+        force_weight: float,
+        solver: str,
+        eps_abs: float,
+    ) -> None:
+        self.problem = empty_qp(nv, tuple(u.shape[1] for u in local_maps), support, force_weight)
+        self._local_maps = [np.ascontiguousarray(u) for u in local_maps]
+        self._accel_weight = accel_weight
+        self._solver, self._eps_abs = solver, eps_abs
+        self._proxqp = ProxQPSolver(self.problem, eps_abs) if solver == "proxqp" else None
+        self._x_prev: np.ndarray | None = None
+
+    def update(
+        self,
+        mass_matrix: np.ndarray,
+        nonlinear: np.ndarray,
+        cost_rows: np.ndarray,
+        cost_rhs: np.ndarray,
+        contact_jacobians: list[np.ndarray],
+        contact_drifts: list[np.ndarray],
+        contact_rotations: list[np.ndarray],
+    ) -> QPProblem:
+        """Fill in this tick's problem (arguments as :func:`assemble_qp`; R̃_{C_k} per foot)."""
+        for rot, local, out in zip(
+            contact_rotations, self._local_maps, self.problem.wrench_maps, strict=True
+        ):
+            rotate_wrench_basis(rot, local, out)
+        assemble_qp(
+            self.problem,
+            mass_matrix,
+            nonlinear,
+            cost_rows,
+            cost_rhs,
+            contact_jacobians,
+            contact_drifts,
+            self._accel_weight,
+        )
+        return self.problem
+
+    def solve(self, warm: bool) -> np.ndarray | None:
+        """Solve the current problem; ``warm`` starts from this set's last solution.
+
+        Returns:
+            x = (ξ̈, β), or None when the solver finds no solution.
+        """
+        if self._proxqp is not None:
+            return self._proxqp.solve(self.problem, warm)
+        init = self._x_prev if warm else None
+        x = self.problem.solve(self._solver, initvals=init, eps_abs=self._eps_abs)
+        if x is not None:
+            self._x_prev = x
+        return x
 
 
 def joint_torques(

@@ -18,6 +18,7 @@ The controller knows nothing about obstacles: its plan is for a flat floor.
 from __future__ import annotations
 
 import time
+from bisect import bisect_right
 
 import numpy as np
 import pinocchio as pin
@@ -26,8 +27,7 @@ from pydantic import Field
 from walkrepro.controllers.base import Command, Controller, ControllerParams
 from walkrepro.controllers.qpimpedance.centroidal_qp import (
     SOLVERS,
-    Task,
-    build_qp,
+    CentroidalQP,
     contact_wrench_basis,
     friction_basis,
     joint_torques,
@@ -40,7 +40,7 @@ from walkrepro.controllers.qpimpedance.footsteps import (
     SwingTrajectory,
     plan_walk,
 )
-from walkrepro.controllers.qpimpedance.impedance import ImpedanceFilter, reference_acceleration
+from walkrepro.controllers.qpimpedance.impedance import ImpedanceFilter
 from walkrepro.controllers.qpimpedance.preview import generate_com, preview_gains
 from walkrepro.robot import Robot
 from walkrepro.sensors import SensorSnapshot
@@ -48,13 +48,14 @@ from walkrepro.sensors import SensorSnapshot
 GRAVITY = 9.81  # [m/s^2]
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 Vec3 = tuple[float, float, float]
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b of two 3-vectors (np.cross costs ~20 µs per call on tiny arrays)."""
-    return np.array(
-        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-    )
+#: Support sets, each with its own QP (its β blocks differ).
+SUPPORTS = ((LEFT, RIGHT), (RIGHT,), (LEFT,))
+#: Names of the per-foot signals, in the order :meth:`QPImpedanceController._update_foot` fills them.
+FOOT_SIGNALS = (
+    "fz", "mx", "my", "x", "z", "roll", "pitch", "vz", "wx", "wy", "az", "alphax", "alphay"
+)  # fmt: skip
+#: Names of the reference signals per axis, in the order of ``(x_d, ẋ_d, ẍ_d, x_m, ẋ_m, ẍ_m)``.
+REFERENCE_SIGNALS = ("_d", "_dot_d", "_ddot_d", "_m", "_dot_m", "_ddot_m")
 
 
 class QPImpedanceParams(ControllerParams):
@@ -123,12 +124,22 @@ class QPImpedanceParams(ControllerParams):
     w_force: float = Field(1e-6, gt=0, description="W_4 regularisation of β")
     friction: float = Field(0.6, gt=0, description="friction coefficient μ of the pyramid (Eq. 8)")
     pyramid_edges: int = Field(4, ge=3, description="edges m of each pyramid (Eq. 8)")
-    solver: str = Field("proxqp", description=f"qpsolvers backend, one of {SOLVERS}")
+    solver: str = Field(
+        "proxqp",
+        description=f"QP solver, one of {SOLVERS}: proxqp runs ProxSuite directly (warm-started),"
+        " the others through qpsolvers",
+    )
     solver_eps: float = Field(1e-6, gt=0, description="solver absolute tolerance")
 
 
 class QPImpedanceController(Controller):
-    """Walks the flat-ground plan with the centroidal QP and impedance landing (Jo & Oh)."""
+    """Walks the flat-ground plan with the centroidal QP and impedance landing (Jo & Oh).
+
+    A tick runs at 1 kHz, so :meth:`step` keeps to a few dozen numpy calls: arrays are
+    preallocated in :meth:`reset`, 3-vector algebra is done on Python floats (numpy costs
+    about 1 µs per call on 3-vectors), and the QP is a preallocated :class:`CentroidalQP`
+    per support set.
+    """
 
     Params = QPImpedanceParams
 
@@ -141,6 +152,7 @@ class QPImpedanceController(Controller):
         p = params
         model = robot.pin_model
         self._model, self._data = model, model.createData()
+        self._oMf = self._data.oMf  # a live view of the frame placements
         self._mass = robot.total_mass
         self._sole = [robot.pin_frame_id(f"{s}_sole") for s in SIDES]
         self._ft = [robot.pin_frame_id(f"{s}_foot_ft") for s in SIDES]
@@ -175,18 +187,20 @@ class QPImpedanceController(Controller):
             p.t_end_hold,
             p.preview_dt,
         )
+        self._phase_ends = [ph.t1 for ph in self._plan.phases]
         gains = preview_gains(
             p.preview_dt, self._com_height, p.preview_time, p.preview_q, p.preview_r
         )
         q0, _ = robot.pin_state_from_mujoco(robot.home_qpos, np.zeros(robot.mj_model.nv))
         com0 = pin.centerOfMass(model, self._data, q0)
         ref = self._plan.zmp_xy.copy()
-        self._com_x, _ = generate_com(gains, ref[:, 0], np.array([com0[0], 0.0, 0.0]))
-        self._com_y, _ = generate_com(gains, ref[:, 1], np.array([com0[1], 0.0, 0.0]))
-        self._com_x = self._com_x.copy()
-        self._com_z = com0[2] if p.com_height is None else p.com_height
+        com_x, _ = generate_com(gains, ref[:, 0], np.array([com0[0], 0.0, 0.0]))
+        com_y, _ = generate_com(gains, ref[:, 1], np.array([com0[1], 0.0, 0.0]))
+        # (x, ẋ, ẍ) samples as Python floats: the tick interpolates two of them.
+        self._com_x: list[list[float]] = com_x.tolist()
+        self._com_y: list[list[float]] = com_y.tolist()
+        self._com_z = float(com0[2] if p.com_height is None else p.com_height)
 
-        n = robot.n_joints
         names = robot.joint_names
         self._posture_idx = np.array(
             [
@@ -195,9 +209,9 @@ class QPImpedanceController(Controller):
                 if not j.startswith(("l_hip", "r_hip", "l_knee", "r_knee", "l_ankle", "r_ankle"))
             ]
         )
-        self._q_home = robot.home_joint_pos.copy()
-        self._v_idx = robot.pin_v_idx
-        self._zero_v = np.zeros(model.nv)
+        self._q_home_posture = robot.home_joint_pos[self._posture_idx].copy()
+        self._q_idx, self._v_idx = robot.pin_q_idx, robot.pin_v_idx
+        self._q, self._v = np.zeros(model.nq), np.zeros(model.nv)
         self._impedance = [
             ImpedanceFilter(
                 np.array(p.m_d),
@@ -211,33 +225,99 @@ class QPImpedanceController(Controller):
         self._phase_index = -1
         self._swing: SwingTrajectory | None = None
         self._stance = [np.array([0.0, p.foot_y, 0.0]), np.array([0.0, -p.foot_y, 0.0])]
-        self._foot_acc_cmd = [np.zeros(6), np.zeros(6)]
+        self._foot_acc_cmd = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]  # commanded ẍ of each sole
         self._prev_foot_vel = [np.zeros(6), np.zeros(6)]
-        self._tau = np.zeros(n)
-        self._x_prev: np.ndarray | None = None
+        self._tau = np.zeros(robot.n_joints)
         self._int_k = np.zeros(3)
         self._qp_fail = 0
+
+        # Stacked weighted cost rows √W Φ ξ̈ ≈ √W b of §III-D, in a fixed order: momentum (6),
+        # pelvis (3), torso (3), posture (one per arm/waist joint), swing foot (6, single
+        # support only). The posture rows are constant selections.
+        nv, n_post = model.nv, self._posture_idx.size
+        self._rows_post = 12
+        self._rows_swing = 12 + n_post
+        self._cost_rows = np.zeros((self._rows_swing + 6, nv))
+        self._cost_rhs = np.zeros(self._rows_swing + 6)
+        self._sqrt_w1 = np.sqrt(np.array([p.w_momentum_linear] * 3 + [p.w_momentum_angular] * 3))[
+            :, None
+        ]
+        self._sqrt_w = {
+            k: float(np.sqrt(w))
+            for k, w in (
+                ("pelvis", p.w_pelvis),
+                ("torso", p.w_torso),
+                ("posture", p.w_posture),
+                ("swing", p.w_swing),
+            )
+        }
+        self._cost_rows[self._rows_post + np.arange(n_post), self._v_idx[self._posture_idx]] = (
+            self._sqrt_w["posture"]
+        )
+        local_map = contact_wrench_basis(np.eye(3), self._corners, self._pyramid)
+        self._qps = {
+            support: CentroidalQP(
+                nv,
+                support,
+                [local_map] * len(support),
+                p.w_accel,
+                p.w_force,
+                p.solver,
+                p.solver_eps,
+            )
+            for support in SUPPORTS
+        }
+        self._warm_support: tuple[int, ...] | None = None  # QP solved on the previous tick
+        self._foot_keys = [tuple(f"{name}_{s}" for s in FOOT_SIGNALS) for name in SIDES]
+        self._ref_keys = [
+            tuple(
+                f"{name}_{axis}{kind}"
+                for kind in REFERENCE_SIGNALS
+                for axis in ("z", "roll", "pitch")
+            )
+            for name in SIDES
+        ]
+        self._fz_qp_keys = [f"{name}_fz_qp" for name in SIDES]
+        self._impedance_keys = [f"{name}_impedance_on" for name in SIDES]
+        # Wall time of each QP solve [s] and of the tick's parts, for benchmarks only
+        # (never logged: logs stay deterministic).
         self.qp_solve_times: list[float] = []
+        self._timing = dict.fromkeys(("dynamics", "tasks", "qp_build", "qp_solve", "output"), 0.0)
+
+    def timing(self) -> dict[str, float]:
+        """Wall time [s] of the tick's parts: Pinocchio, tasks, QP assembly, QP solve, output."""
+        return dict(self._timing)
 
     # ------------------------------------------------------------------------------------
 
-    def _desired_com(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """CoM position, velocity, acceleration of the preview pattern at ``t`` [m, m/s, m/s²]."""
-        k = t / self._p.preview_dt
-        i = int(min(max(np.floor(k), 0), self._com_x.shape[0] - 2))
-        a = min(max(k - i, 0.0), 1.0)
-        sx = (1 - a) * self._com_x[i] + a * self._com_x[i + 1]
-        sy = (1 - a) * self._com_y[i] + a * self._com_y[i + 1]
-        if t >= self._plan.end:
-            sx = np.array([self._com_x[-1, 0], 0.0, 0.0])
-            sy = np.array([self._com_y[-1, 0], 0.0, 0.0])
-        return (
-            np.array([sx[0], sy[0], self._com_z]),
-            np.array([sx[1], sy[1], 0.0]),
-            np.array([sx[2], sy[2], 0.0]),
-        )
+    def _state(self, s: SensorSnapshot) -> tuple[np.ndarray, np.ndarray]:
+        """Pinocchio (q, v) as ``s.pinocchio_state``, written into preallocated arrays."""
+        if s.base_pos is None or s.base_quat is None or s.base_linvel is None:
+            return s.pinocchio_state(self._robot, "qpimpedance (as in §IV)")  # names the fix
+        q, v = self._q, self._v
+        w, x, y, z = s.base_quat.tolist()
+        q[0:3] = s.base_pos
+        q[3:7] = (x, y, z, w)
+        rot = pin.Quaternion(w, x, y, z).normalized().toRotationMatrix()  # world-from-pelvis
+        v[0:3] = s.base_linvel @ rot  # world -> pelvis frame (Rᵀ v)
+        v[3:6] = s.base_angvel
+        q[self._q_idx] = s.joint_pos
+        v[self._v_idx] = s.joint_vel
+        return q, v
 
-    def _contact_wrench(self, side: int, ft: np.ndarray) -> np.ndarray:
+    def _desired_com(self, t: float) -> tuple[list[float], list[float], list[float]]:
+        """CoM position, velocity, acceleration of the preview pattern at ``t`` [m, m/s, m/s²]."""
+        if t >= self._plan.end:
+            return [self._com_x[-1][0], self._com_y[-1][0], self._com_z], [0.0] * 3, [0.0] * 3
+        k = t / self._p.preview_dt
+        i = int(min(max(np.floor(k), 0), len(self._com_x) - 2))
+        a = min(max(k - i, 0.0), 1.0)
+        x0, x1, y0, y1 = self._com_x[i], self._com_x[i + 1], self._com_y[i], self._com_y[i + 1]
+        sx = [(1 - a) * x0[j] + a * x1[j] for j in range(3)]
+        sy = [(1 - a) * y0[j] + a * y1[j] for j in range(3)]
+        return [sx[0], sy[0], self._com_z], [sx[1], sy[1], 0.0], [sx[2], sy[2], 0.0]
+
+    def _contact_wrench(self, side: int, ft: np.ndarray) -> tuple[float, float, float]:
         """Contact wrench on a foot from its F/T reading: (f_z [N], μ_x, μ_y [N m]).
 
         The sensor (site ``*_foot_ft``) reads the foot-on-leg wrench, which includes the
@@ -245,20 +325,22 @@ class QPImpedanceController(Controller):
         f_c = f_s + m (g ẑ + a), μ_c = μ_s − r_c × m (g_vec − a) about the sensor, then moved
         to the sole centre; world axes. a is the foot's commanded acceleration.
         """
-        data = self._data
-        site = data.oMf[self._ft[side]]
-        foot = data.oMf[self._foot[side]]
-        sole = data.oMf[self._sole[side]]
-        rot = site.rotation
-        f_s, m_s = rot @ ft[:3], rot @ ft[3:]
-        acc = self._foot_acc_cmd[side][:3]
+        oMf = self._oMf
+        site = oMf[self._ft[side]]
+        (f0, f1, f2), (s0, s1, s2) = (site.rotation @ ft.reshape(2, 3).T).T.tolist()
+        p0, p1, p2 = site.translation.tolist()
+        c0, c1, c2 = oMf[self._foot[side]].act(self._foot_com[side]).tolist()
+        o0, o1, o2 = oMf[self._sole[side]].translation.tolist()
+        a0, a1, a2 = self._foot_acc_cmd[side]
         m = self._foot_mass
-        gravity = np.array([0.0, 0.0, -GRAVITY])
-        f_c = f_s - m * gravity + m * acc
-        r_c = foot.act(self._foot_com[side]) - site.translation
-        m_c = m_s - _cross(r_c, m * (gravity - acc))
-        m_sole = m_c + _cross(site.translation - sole.translation, f_c)
-        return np.array([f_c[2], m_sole[0], m_sole[1]])
+        # f_c = f_s − m g_vec + m a, with g_vec = (0, 0, −g).
+        fc0, fc1, fc2 = f0 + m * a0, f1 + m * a1, f2 + m * GRAVITY + m * a2
+        r0, r1, r2 = c0 - p0, c1 - p1, c2 - p2  # r_c: foot CoM from the sensor
+        h0, h1, h2 = -m * a0, -m * a1, m * (-GRAVITY - a2)  # m (g_vec − a)
+        mc0 = s0 - (r1 * h2 - r2 * h1)
+        mc1 = s1 - (r2 * h0 - r0 * h2)
+        d0, d1, d2 = p0 - o0, p1 - o1, p2 - o2  # sensor from the sole centre
+        return fc2, mc0 + (d1 * fc2 - d2 * fc1), mc1 + (d2 * fc0 - d0 * fc2)
 
     def _enter_phase(self, index: int, t: float) -> None:
         """Start a phase: a swing builds its trajectory from the foot's actual pose."""
@@ -267,7 +349,7 @@ class QPImpedanceController(Controller):
         if phase.swing < 0:
             self._swing = None
             return
-        sole = self._data.oMf[self._sole[phase.swing]]
+        sole = self._oMf[self._sole[phase.swing]]
         rpy = pin.rpy.matrixToRpy(sole.rotation)
         start = np.array([*sole.translation, rpy[0], rpy[1]])
         target = np.array([*phase.target, 0.0, 0.0])
@@ -277,204 +359,206 @@ class QPImpedanceController(Controller):
         )
         self._stance[phase.swing] = np.array(phase.target)
 
+    def _orientation_task(self, fid: int, row: int, sqrt_w: float) -> None:
+        """Upright frame, heading +x: ẍ_r = K_P log(R⁻¹) − K_V ω, rows ``row:row+3``."""
+        model, data, p = self._model, self._data, self._p
+        jac = pin.getFrameJacobian(model, data, fid, LWA)[3:]
+        drift = pin.getFrameClassicalAcceleration(model, data, fid, LWA).angular
+        err = pin.log3(self._oMf[fid].rotation)  # minus the world rotation to identity
+        acc_r = -p.kp_orient * err - p.kv_orient * (jac @ self._v)
+        np.multiply(jac, sqrt_w, out=self._cost_rows[row : row + 3])
+        np.multiply(acc_r - drift, sqrt_w, out=self._cost_rhs[row : row + 3])
+
+    def _update_foot(
+        self, side: int, ft: np.ndarray, t: float, swing: int, signals: dict, events: list[dict]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A foot's state, wrench, impedance and (in swing) task rows (Eqs. 1–3).
+
+        Args:
+            side: LEFT or RIGHT.
+            ft: the foot's F/T reading (see :meth:`_contact_wrench`).
+            t: time [s].
+            swing: the swing foot, or −1.
+            signals: the tick's signals, updated in place.
+            events: the tick's events, appended to.
+
+        Returns:
+            The sole Jacobian (6, nv), its drift J̇ ξ̇ (6,) and rotation (3, 3), world axes.
+        """
+        model, data, p = self._model, self._data, self._p
+        fid = self._sole[side]
+        jac = pin.getFrameJacobian(model, data, fid, LWA)
+        drift = pin.getFrameClassicalAcceleration(model, data, fid, LWA).vector
+        vel = jac @ self._v
+        sole = self._oMf[fid]
+        rot = sole.rotation
+        rpy = pin.rpy.matrixToRpy(rot)
+        acc_meas = (vel - self._prev_foot_vel[side]) / self._dt
+        self._prev_foot_vel[side] = vel
+        lam = self._contact_wrench(side, ft)
+        px, py, pz = sole.translation.tolist()
+        roll, pitch, yaw = rpy.tolist()
+        vl = vel.tolist()
+        al = acc_meas.tolist()
+        x_now = (pz, roll, pitch)
+        v_now = (vl[2], vl[3], vl[4])
+        signals.update(
+            zip(
+                self._foot_keys[side],
+                (*lam, px, pz, roll, pitch, vl[2], vl[3], vl[4], al[2], al[3], al[4]),
+                strict=True,
+            )
+        )
+        imp = self._impedance[side]
+        if side != swing:
+            z = float(self._stance[side][2])
+            imp.reset(np.array(x_now), np.zeros(3), np.zeros(3))
+            self._foot_acc_cmd[side] = [0.0, 0.0, 0.0]
+            signals[self._impedance_keys[side]] = 0.0
+            zero = (0.0,) * 6
+            signals.update(
+                zip(self._ref_keys[side], (z, 0.0, 0.0, *zero, z, 0.0, 0.0, *zero), strict=True)
+            )
+            return jac, drift, rot
+        assert self._swing is not None
+        pos_d, vel_d, acc_d = self._swing.at(t)
+        xd, vd, ad = pos_d[2:5], vel_d[2:5], acc_d[2:5]  # (z, φx, φy)
+        was_active = imp.active
+        xm, vm, am = imp.update(xd, vd, ad, np.array(lam), self._dt, enabled=p.impedance)
+        if imp.active and not was_active:
+            events.append({"kind": "impedance_on", "foot": SIDES[side], "fz": float(lam[0])})
+        # Eq. (3), ẍ_r = ẍ_m + K_v (ẋ_m − ẋ) + K_p (x_m − x), for (z, φx, φy) with the
+        # modified reference; x, y and yaw follow the plan (the same form, unmodified).
+        kp, kv = p.kp_swing, p.kv_swing
+        pd, vd_, ad_ = pos_d.tolist(), vel_d.tolist(), acc_d.tolist()
+        xl, vml, aml = xm.tolist(), vm.tolist(), am.tolist()
+        acc_r_list = [
+            ad_[0] + kv * (vd_[0] - vl[0]) + kp * (pd[0] - px),
+            ad_[1] + kv * (vd_[1] - vl[1]) + kp * (pd[1] - py),
+            *(aml[i] + kv * (vml[i] - v_now[i]) + kp * (xl[i] - x_now[i]) for i in range(3)),
+            -kv * vl[5] - kp * yaw,
+        ]
+        self._foot_acc_cmd[side] = acc_r_list[:3]
+        acc_r = np.array(acc_r_list)
+        sqrt_w = self._sqrt_w["swing"]
+        row = self._rows_swing
+        np.multiply(jac, sqrt_w, out=self._cost_rows[row : row + 6])
+        np.multiply(acc_r - drift, sqrt_w, out=self._cost_rhs[row : row + 6])
+        signals[self._impedance_keys[side]] = float(imp.active)
+        signals.update(
+            zip(
+                self._ref_keys[side], (*pd[2:5], *vd_[2:5], *ad_[2:5], *xl, *vml, *aml), strict=True
+            )
+        )
+        return jac, drift, rot
+
     def step(self, t: float, s: SensorSnapshot) -> Command:
         """One tick of §III-D: tasks → QP → Eq. (9)."""
+        t0 = time.perf_counter()
         p, model, data = self._p, self._model, self._data
-        q, v = s.pinocchio_state(self._robot, "qpimpedance (as in §IV)")
+        q, v = self._state(s)
+        # M, C ξ̇ + g, g, the joint Jacobians, the CoM and h_G. Its forward pass also leaves
+        # the drift accelerations (ξ̈ = 0) in data.a, so J̇ ξ̇ needs no second kinematics pass.
         pin.computeAllTerms(model, data, q, v)
-        mass_matrix, nle = data.M, data.nle.copy()
-        # Drift accelerations J̇ ξ̇: forward kinematics with ξ̈ = 0.
-        pin.forwardKinematics(model, data, q, v, self._zero_v)
         pin.updateFramePlacements(model, data)
+        mass_matrix, nle = data.M, data.nle
+        t1 = time.perf_counter()
 
-        index = next(
-            i
-            for i, ph in enumerate(self._plan.phases)
-            if t < ph.t1 or i == len(self._plan.phases) - 1
-        )
+        index = min(bisect_right(self._phase_ends, t), len(self._phase_ends) - 1)
         if index != self._phase_index:
             self._enter_phase(index, t)
-        phase = self._plan.phases[index]
-        swing = phase.swing
-        support = tuple(k for k in (LEFT, RIGHT) if k != swing)
+        swing = self._plan.phases[index].swing
+        support = SUPPORTS[swing + 1]
 
         signals: dict[str, float] = {"t_plan": t, "swing_foot": float(swing)}
         events: list[dict] = []
 
         # ---- centroidal momentum reference (§III-D) -------------------------------------
-        com, vcom = data.com[0].copy(), data.vcom[0].copy()
+        c0, c1, c2 = com = data.com[0].tolist()
+        v0, v1, v2 = data.vcom[0].tolist()
         c_d, v_d, a_d = self._desired_com(t)
-        m = self._mass
-        hdot_lin = m * (
-            a_d + p.k_h * (v_d - vcom) + p.k_i * (c_d - com)
-        )  # ∫(h_d − h) = m (c_d − c)
-        k_ang = data.hg.angular.copy()
-        hdot_ang = -p.k_h_angular * k_ang
+        m, kh, ki = self._mass, p.k_h, p.k_i
+        # ḣ_lin = m (c̈_d + K_h (ċ_d − ċ) + K_I (c_d − c)), with ∫(h_d − h) = m (c_d − c).
+        l0 = m * (a_d[0] + kh * (v_d[0] - v0) + ki * (c_d[0] - c0))
+        l1 = m * (a_d[1] + kh * (v_d[1] - v1) + ki * (c_d[1] - c1))
+        l2 = m * (a_d[2] + kh * (v_d[2] - v2) + ki * (c_d[2] - c2))
+        k0, k1, k2 = (-p.k_h_angular * data.hg.angular).tolist()  # ḣ_ang = −K_h k
         base = data.oMi[1]
-        rot_b, pos_b = base.rotation, base.translation
-        f_b = rot_b.T @ hdot_lin
-        n_b = rot_b.T @ (hdot_ang + _cross(com - pos_b, hdot_lin))
-        c_b = nle[:6] - data.g[:6]
-        b1 = np.concatenate([f_b, n_b]) - c_b
-        w1 = np.array([p.w_momentum_linear] * 3 + [p.w_momentum_angular] * 3)
+        b0, b1, b2 = base.translation.tolist()
+        r0, r1, r2 = c0 - b0, c1 - b1, c2 - b2
+        # (ḣ_lin, ḣ_ang + (c − p_B) × ḣ_lin) in the base frame: X_GBᵀ ḣ_{G,r} of Eq. (7).
+        h_world = np.array(
+            [
+                [l0, k0 + (r1 * l2 - r2 * l1)],
+                [l1, k1 + (r2 * l0 - r0 * l2)],
+                [l2, k2 + (r0 * l1 - r1 * l0)],
+            ]
+        )
+        rhs, rows = self._cost_rhs, self._cost_rows
+        rhs[0:6] = (base.rotation.T @ h_world).T.ravel()
+        rhs[0:6] -= nle[:6] - data.g[:6]  # b_1 = X_GBᵀ ḣ_{G,r} − C_B ξ̇
+        rhs[0:6] *= self._sqrt_w1[:, 0]
+        np.multiply(mass_matrix[:6], self._sqrt_w1, out=rows[:6])
 
         # ---- tasks --------------------------------------------------------------------
-        tasks: list[Task] = []
-        # Pelvis and torso orientation: upright, heading +x.
-        for name, fid, w in (
-            ("pelvis", self._pelvis, p.w_pelvis),
-            ("torso", self._torso, p.w_torso),
-        ):
-            jac = pin.getFrameJacobian(model, data, fid, LWA)[3:]
-            drift = pin.getFrameClassicalAcceleration(model, data, fid, LWA).angular
-            rot = data.oMf[fid].rotation
-            omega = jac @ v
-            err = -pin.log3(rot)  # world-frame rotation from current to identity
-            acc_r = p.kp_orient * err - p.kv_orient * omega
-            tasks.append(Task(name, jac, acc_r - drift, np.full(3, w)))
+        self._orientation_task(self._pelvis, 6, self._sqrt_w["pelvis"])
+        self._orientation_task(self._torso, 9, self._sqrt_w["torso"])
         # Arm and waist joints: hold home.
         idx = self._posture_idx
-        jac_post = np.zeros((idx.size, model.nv))
-        jac_post[np.arange(idx.size), self._v_idx[idx]] = 1.0
-        acc_post = (
-            p.kp_posture * (self._q_home[idx] - s.joint_pos[idx]) - p.kv_posture * s.joint_vel[idx]
-        )
-        tasks.append(Task("posture", jac_post, acc_post, np.full(idx.size, p.w_posture)))
+        acc_post = p.kp_posture * (self._q_home_posture - s.joint_pos[idx])
+        acc_post -= p.kv_posture * s.joint_vel[idx]
+        np.multiply(acc_post, self._sqrt_w["posture"], out=rhs[self._rows_post : self._rows_swing])
+        # Feet: measured contact wrench, state, impedance (and the swing rows).
+        feet = [
+            self._update_foot(LEFT, s.left_ft, t, swing, signals, events),
+            self._update_foot(RIGHT, s.right_ft, t, swing, signals, events),
+        ]
+        n_rows = self._rows_swing + (6 if swing >= 0 else 0)
+        t2 = time.perf_counter()
 
-        # Feet: measured contact wrench, state, impedance.
-        for side in (LEFT, RIGHT):
-            fid = self._sole[side]
-            jac = pin.getFrameJacobian(model, data, fid, LWA)
-            drift_m = pin.getFrameClassicalAcceleration(model, data, fid, LWA)
-            drift = np.concatenate([drift_m.linear, drift_m.angular])
-            vel = jac @ v
-            sole = data.oMf[fid]
-            rpy = pin.rpy.matrixToRpy(sole.rotation)
-            x_now = np.array([sole.translation[2], rpy[0], rpy[1]])
-            v_now = np.array([vel[2], vel[3], vel[4]])
-            acc_meas = (vel - self._prev_foot_vel[side]) / self._dt
-            self._prev_foot_vel[side] = vel
-            lam = self._contact_wrench(side, s.left_ft if side == LEFT else s.right_ft)
-            name = SIDES[side]
-            signals.update(
-                {
-                    f"{name}_fz": lam[0],
-                    f"{name}_mx": lam[1],
-                    f"{name}_my": lam[2],
-                    f"{name}_x": sole.translation[0],
-                    f"{name}_z": x_now[0],
-                    f"{name}_roll": x_now[1],
-                    f"{name}_pitch": x_now[2],
-                    f"{name}_vz": v_now[0],
-                    f"{name}_wx": v_now[1],
-                    f"{name}_wy": v_now[2],
-                    f"{name}_az": acc_meas[2],
-                    f"{name}_alphax": acc_meas[3],
-                    f"{name}_alphay": acc_meas[4],
-                }
-            )
-            imp = self._impedance[side]
-            if side != swing:
-                st = np.array([self._stance[side][2], 0.0, 0.0])
-                imp.reset(x_now, np.zeros(3), np.zeros(3))
-                self._foot_acc_cmd[side][:] = 0.0
-                signals.update(
-                    self._reference_signals(
-                        name, st, np.zeros(3), np.zeros(3), st, np.zeros(3), np.zeros(3), False
-                    )
-                )
-                continue
-            assert self._swing is not None
-            pos_d, vel_d, acc_d = self._swing.at(t)
-            xd = np.array([pos_d[2], pos_d[3], pos_d[4]])
-            vd = np.array([vel_d[2], vel_d[3], vel_d[4]])
-            ad = np.array([acc_d[2], acc_d[3], acc_d[4]])
-            was_active = imp.active
-            xm, vm, am = imp.update(xd, vd, ad, lam, self._dt, enabled=p.impedance)
-            if imp.active and not was_active:
-                events.append({"kind": "impedance_on", "foot": name, "fz": float(lam[0])})
-            kp = np.full(3, p.kp_swing)
-            kv = np.full(3, p.kv_swing)
-            a_mod = reference_acceleration(xm, vm, am, x_now, v_now, kp, kv)  # Eq. (3)
-            # x, y and yaw follow the plan (Eq. 3 form with the unmodified reference).
-            yaw = rpy[2]
-            acc_r = np.empty(6)
-            acc_r[0:2] = (
-                acc_d[0:2]
-                + p.kv_swing * (vel_d[0:2] - vel[0:2])
-                + p.kp_swing * (pos_d[0:2] - sole.translation[0:2])
-            )
-            acc_r[2] = a_mod[0]
-            acc_r[3] = a_mod[1]
-            acc_r[4] = a_mod[2]
-            acc_r[5] = -p.kv_swing * vel[5] - p.kp_swing * yaw
-            self._foot_acc_cmd[side][:] = acc_r
-            tasks.append(Task(f"{name}_swing", jac, acc_r - drift, np.full(6, p.w_swing)))
-            signals.update(self._reference_signals(name, xd, vd, ad, xm, vm, am, imp.active))
-        # Support feet: contact constraints and wrench bases.
-        jacs, drifts, maps = [], [], []
-        for side in support:
-            fid = self._sole[side]
-            jac = pin.getFrameJacobian(model, data, fid, LWA)
-            drift_m = pin.getFrameClassicalAcceleration(model, data, fid, LWA)
-            jacs.append(jac)
-            drifts.append(np.concatenate([drift_m.linear, drift_m.angular]))
-            maps.append(contact_wrench_basis(data.oMf[fid].rotation, self._corners, self._pyramid))
-
-        problem = build_qp(
-            mass_matrix, nle, b1, w1, jacs, drifts, maps, support, tasks, p.w_accel, p.w_force
+        # ---- QP and Eq. (9) -----------------------------------------------------------
+        qp = self._qps[support]
+        jacs = [feet[k][0] for k in support]
+        problem = qp.update(
+            mass_matrix,
+            nle,
+            rows[:n_rows],
+            rhs[:n_rows],
+            jacs,
+            [feet[k][1] for k in support],
+            [feet[k][2] for k in support],
         )
-        init = (
-            self._x_prev
-            if self._x_prev is not None and self._x_prev.size == problem.P.shape[0]
-            else None
-        )
-        t_qp = time.perf_counter()
-        x = problem.solve(p.solver, initvals=init, eps_abs=p.solver_eps)
-        # Wall time of each solve [s], for benchmarks only (never logged: logs stay deterministic).
-        self.qp_solve_times.append(time.perf_counter() - t_qp)
+        t3 = time.perf_counter()
+        x = qp.solve(warm=support == self._warm_support)
+        t4 = time.perf_counter()
+        self.qp_solve_times.append(t4 - t3)
         if x is None:
             self._qp_fail += 1
+            self._warm_support = None
             events.append({"kind": "qp_failed"})
         else:
-            self._x_prev = x
+            self._warm_support = support
             accel, wrenches = problem.split(x)
             self._tau = joint_torques(mass_matrix, nle, accel, jacs, wrenches)
             for side, w in zip(support, wrenches, strict=True):
-                signals[f"{SIDES[side]}_fz_qp"] = float(w[2])
+                signals[self._fz_qp_keys[side]] = float(w[2])
+        zmp_x, zmp_y = self._plan.zmp_at(t).tolist()
         signals.update(
-            {
-                "com_x": com[0],
-                "com_y": com[1],
-                "com_z": com[2],
-                "com_x_d": c_d[0],
-                "com_y_d": c_d[1],
-                "com_z_d": c_d[2],
-                "zmp_x_ref": float(self._plan.zmp_at(t)[0]),
-                "zmp_y_ref": float(self._plan.zmp_at(t)[1]),
-                "qp_failures": float(self._qp_fail),
-            }
+            com_x=com[0],
+            com_y=com[1],
+            com_z=com[2],
+            com_x_d=c_d[0],
+            com_y_d=c_d[1],
+            com_z_d=c_d[2],
+            zmp_x_ref=zmp_x,
+            zmp_y_ref=zmp_y,
+            qp_failures=float(self._qp_fail),
         )
-        return Command(ctrl=self._tau.copy(), signals=signals, events=tuple(events))
-
-    @staticmethod
-    def _reference_signals(
-        name: str,
-        xd: np.ndarray,
-        vd: np.ndarray,
-        ad: np.ndarray,
-        xm: np.ndarray,
-        vm: np.ndarray,
-        am: np.ndarray,
-        active: bool,
-    ) -> dict[str, float]:
-        """Desired and impedance-modified (z, φx, φy) references of one foot, for the log."""
-        out: dict[str, float] = {f"{name}_impedance_on": float(active)}
-        for i, axis in enumerate(("z", "roll", "pitch")):
-            out[f"{name}_{axis}_d"] = float(xd[i])
-            out[f"{name}_{axis}_dot_d"] = float(vd[i])
-            out[f"{name}_{axis}_ddot_d"] = float(ad[i])
-            out[f"{name}_{axis}_m"] = float(xm[i])
-            out[f"{name}_{axis}_dot_m"] = float(vm[i])
-            out[f"{name}_{axis}_ddot_m"] = float(am[i])
-        return out
+        command = Command(ctrl=self._tau.copy(), signals=signals, events=tuple(events))
+        timing = self._timing
+        timing["dynamics"] += t1 - t0
+        timing["tasks"] += t2 - t1
+        timing["qp_build"] += t3 - t2
+        timing["qp_solve"] += t4 - t3
+        timing["output"] += time.perf_counter() - t4
+        return command
