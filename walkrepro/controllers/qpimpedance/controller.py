@@ -412,7 +412,7 @@ class QPImpedanceController(Controller):
         imp = self._impedance[side]
         if side != swing:
             z = float(self._stance[side][2])
-            imp.reset(np.array(x_now), np.zeros(3), np.zeros(3))
+            imp.reset(x_now, 0.0, 0.0)  # type: ignore[arg-type]  # broadcast into x_m, ẋ_m, ẍ_m
             self._foot_acc_cmd[side] = [0.0, 0.0, 0.0]
             signals[self._impedance_keys[side]] = 0.0
             zero = (0.0,) * 6
@@ -542,7 +542,7 @@ class QPImpedanceController(Controller):
             self._tau = joint_torques(mass_matrix, nle, accel, jacs, wrenches)
             for side, w in zip(support, wrenches, strict=True):
                 signals[self._fz_qp_keys[side]] = float(w[2])
-        zmp_x, zmp_y = self._plan.zmp_at(t).tolist()
+        zmp_x, zmp_y = self._plan.zmp_at(t)
         signals.update(
             com_x=com[0],
             com_y=com[1],

@@ -9,6 +9,7 @@ half strides, so the feet start and end side by side.
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,14 +58,28 @@ class FootstepPlan:
                 return phase
         return self.phases[-1]
 
-    def zmp_at(self, t: float) -> np.ndarray:
-        """Reference ZMP (x, y) at time ``t`` [s]."""
-        return np.array(
-            [
-                np.interp(t, self.zmp_t, self.zmp_xy[:, 0]),
-                np.interp(t, self.zmp_t, self.zmp_xy[:, 1]),
-            ]
-        )
+    def zmp_at(self, t: float) -> tuple[float, float]:
+        """Reference ZMP (x, y) at time ``t`` [s]: ``np.interp`` of the samples, per axis.
+
+        Written out on Python floats (with ``np.interp``'s formula and end values): two
+        ``np.interp`` calls cost a few µs, which matters at 1 kHz.
+        """
+        times = self._times
+        j = bisect_right(times, t) - 1
+        if j < 0:
+            return self._xy[0]
+        if j >= len(times) - 1:
+            return self._xy[-1]
+        (x0, y0), (x1, y1) = self._xy[j], self._xy[j + 1]
+        if t == times[j]:
+            return x0, y0
+        dt = times[j + 1] - times[j]
+        return (x1 - x0) / dt * (t - times[j]) + x0, (y1 - y0) / dt * (t - times[j]) + y0
+
+    def __post_init__(self) -> None:
+        # Python-float copies of the samples for zmp_at (the dataclass is frozen).
+        object.__setattr__(self, "_times", self.zmp_t.tolist())
+        object.__setattr__(self, "_xy", [tuple(p) for p in self.zmp_xy.tolist()])
 
 
 def plan_walk(
