@@ -51,6 +51,10 @@ _MESSAGE = struct.Struct("<BQHIQQ")
 _MESSAGE_FIXED = _MESSAGE.size - 9  # record length counts what follows opcode and length
 _RECORD_HEAD = struct.Struct("<BQ")  # opcode, length of what follows
 _CHANNEL_ID = struct.Struct("<H")
+#: zstd level of the chunks. A run's JSON (shortest-repr doubles) compresses about 2.5x at
+#: level 1 as at mcap's default 3, at under half the cost (≈ 3.4 vs 8.9 ms per MB here, which
+#: at 6 kB of log per control tick was 50 µs per tick).
+ZSTD_LEVEL = 1
 
 
 class McapFile:
@@ -86,6 +90,7 @@ class McapFile:
         self._chunk = bytearray()
         self._index: dict[int, list[int]] = {}
         self._chunk_start = self._chunk_end = 0
+        self._compressor = zstandard.ZstdCompressor(level=ZSTD_LEVEL)
         self._out.write(MAGIC)
         self._write(Header(profile="", library=library))
 
@@ -172,7 +177,7 @@ class McapFile:
         if not self._chunk:
             return
         raw = bytes(self._chunk)
-        compressed = zstandard.compress(raw)
+        compressed = self._compressor.compress(raw)
         chunk = Chunk(
             message_start_time=self._chunk_start,
             message_end_time=self._chunk_end,
