@@ -65,3 +65,22 @@ def test_bench_compare_with_a_wrong_file_is_a_clear_error(tmp_path) -> None:  # 
     assert result.exit_code == 2
     assert "not a `walkrepro bench --json` file" in result.output
     assert "Traceback" not in result.output
+
+
+def test_repeat_keeps_the_fastest_run_and_floor(monkeypatch: pytest.MonkeyPatch) -> None:
+    """With --repeat N the fastest run and the fastest floor are reported (no clock read)."""
+    from walkrepro import bench
+    from walkrepro.runner import RunResult, RunTiming
+
+    walls, floors = iter([3.0, 1.0, 2.0]), iter([0.5, 0.7, 0.4])
+
+    def fake_run(spec, log_path):  # noqa: ANN001, ANN202
+        timing = RunTiming(stages={"logging": 0.1}, tick_median=1e-4, tick_p99=2e-4, n_ticks=100)
+        return RunResult(spec.name, log_path, "complete", 0.2, next(walls), None, "", timing)
+
+    monkeypatch.setattr(bench, "run", fake_run)
+    monkeypatch.setattr(bench, "floor_time", lambda spec, duration: next(floors))
+    spec = resolve_spec(load_spec("stand_coman", ["sim.duration=0.2"])).spec
+    r = bench.bench_experiment(spec, repeat=3)
+    assert r.wall_time == 1.0 and r.floor_wall_time == 0.4
+    assert r.floor_ratio == pytest.approx(2.5) and r.real_time_factor == pytest.approx(0.2)

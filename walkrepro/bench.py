@@ -8,6 +8,7 @@ controller, logging) is from the physical limit.
 from __future__ import annotations
 
 import json
+import math
 import os
 import platform
 import tempfile
@@ -64,14 +65,21 @@ class BenchResult:
         return asdict(self)
 
 
-def bench_experiment(spec: ExperimentSpec) -> BenchResult:
-    """Run ``spec`` once with logging on (to a temporary file) and measure the floor."""
-    with tempfile.TemporaryDirectory(prefix="walkrepro-bench-") as tmp:
-        result = run(spec, Path(tmp) / "log.mcap")
+def bench_experiment(spec: ExperimentSpec, repeat: int = 1) -> BenchResult:
+    """Run ``spec`` with logging on (to a temporary file) and measure the floor, ``repeat``
+    times each, keeping the fastest of each: on a shared or virtual machine the speed drifts
+    (here by up to 2x over minutes), and the fastest run is the one least disturbed."""
+    result, floor = None, math.inf
+    for _ in range(max(repeat, 1)):
+        with tempfile.TemporaryDirectory(prefix="walkrepro-bench-") as tmp:
+            attempt = run(spec, Path(tmp) / "log.mcap")
+        if result is None or attempt.wall_time < result.wall_time:
+            result = attempt
+        floor = min(floor, floor_time(spec, attempt.sim_time))
+    assert result is not None
     timing = result.timing
     assert timing is not None
     n_ticks = max(timing.n_ticks, 1)
-    floor = floor_time(spec, result.sim_time)
     return BenchResult(
         experiment=spec.name,
         outcome=result.outcome,

@@ -266,6 +266,12 @@ def bench(
     json_out: Annotated[
         Path | None, typer.Option("--json", help="Also write results as JSON.")
     ] = None,
+    repeat: Annotated[
+        int,
+        typer.Option(
+            min=1, help="Runs per experiment; the fastest counts (the machine's speed drifts)."
+        ),
+    ] = 1,
     compare: Annotated[
         Path | None,
         typer.Option(
@@ -292,7 +298,7 @@ def bench(
         _console(stderr=True).print(
             f"benchmarking {spec.name} ({spec.sim.duration:g} s simulated)…"
         )
-        rows.append(bench_experiment(spec))
+        rows.append(bench_experiment(spec, repeat))
     stages = sorted({k for r in rows for k in r.per_tick})
     table = Table(title="walkrepro bench (per-tick costs in µs)")
     columns = ["experiment", "outcome", "RTF", *(["RTF before"] if before else [])]
