@@ -29,6 +29,7 @@ class _Active:
     spec: DisturbanceSpec
     rotation: np.ndarray | None = None  # world-from-frame, frozen at onset
     anchor: np.ndarray | None = None  # hold: the body's CoM at onset [m]
+    wrench: np.ndarray | None = None  # constant/ramp: the world-frame wrench at scale 1
     on: bool = False
 
 
@@ -62,22 +63,24 @@ class DisturbanceSchedule:
             scale = profile_scale(s, t)
             if scale > 0 and not item.on:
                 item.on = True
-                item.rotation = self._frame_rotation(s, frame_lookup)
+                item.rotation = rot = self._frame_rotation(s, frame_lookup)
                 if s.profile == "hold":
                     item.anchor = body_state(s.body)[0].copy()
+                else:  # the frame is frozen at onset, so is the wrench's direction
+                    item.wrench = np.concatenate(
+                        [rot @ np.asarray(s.force), rot @ np.asarray(s.torque)]
+                    )
                 events.append({"kind": "disturbance_on", "name": s.name, "body": s.body})
             elif scale == 0 and item.on:
                 item.on = False
                 events.append({"kind": "disturbance_off", "name": s.name, "body": s.body})
             if scale == 0:
                 continue
-            rot = item.rotation if item.rotation is not None else np.eye(3)
             if s.profile == "hold":
+                rot = item.rotation if item.rotation is not None else np.eye(3)
                 wrench = scale * _hold_wrench(s, rot, item.anchor, *body_state(s.body))
             else:
-                wrench = scale * np.concatenate(
-                    [rot @ np.asarray(s.force), rot @ np.asarray(s.torque)]
-                )
+                wrench = scale * item.wrench
             out[s.body] = out.get(s.body, np.zeros(6)) + wrench
         return {b: w for b, w in out.items() if np.any(w)}, events
 
