@@ -60,8 +60,12 @@ def test_hold_is_a_one_sided_capped_spring_damper() -> None:
     wrenches, _ = schedule.wrenches(0.1, lambda n: None, lookup)
     assert np.allclose(wrenches["pelvis"], [-60.0, 0, 0, 0, 0, 0])
     state["vel"] = np.array([0.1, 0.0, 0.0])  # still moving into the hand: damping adds
-    assert np.allclose(schedule.wrenches(0.2, lambda n: None, lookup)[0]["pelvis"][:3], [-90.0, 0, 0])
+    assert np.allclose(
+        schedule.wrenches(0.2, lambda n: None, lookup)[0]["pelvis"][:3], [-90.0, 0, 0]
+    )
     state["pos"], state["vel"] = np.array([-0.02, 0.0, 0.0]), np.zeros(3)  # moved away: no pull
     assert schedule.wrenches(0.3, lambda n: None, lookup)[0] == {}
     state["pos"] = np.array([0.5, 0.0, 0.0])  # far into the hand: capped
-    assert np.allclose(schedule.wrenches(0.4, lambda n: None, lookup)[0]["pelvis"][:3], [-150.0, 0, 0])
+    assert np.allclose(
+        schedule.wrenches(0.4, lambda n: None, lookup)[0]["pelvis"][:3], [-150.0, 0, 0]
+    )
