@@ -454,8 +454,8 @@ class LogWriter:
     ) -> None:
         if topic not in self._channels:
             raise ValueError(f"unknown topic {topic!r}. Valid topics: {', '.join(TOPICS)}.")
-        missing = _REQUIRED_KEYS[topic] - message.keys()
-        if missing:
+        if not _REQUIRED_KEYS[topic] <= message.keys():  # a subset test allocates nothing
+            missing = _REQUIRED_KEYS[topic] - message.keys()
             raise ValueError(f"{topic} message lacks key(s) {', '.join(sorted(missing))}")
         if topic == TOPIC_STATE or topic == TOPIC_INPUTS:
             self._check_sizes(topic, message)
@@ -481,12 +481,11 @@ class LogWriter:
         """Appends encoded ``data`` with the next sequence number of ``topic``."""
         if self._closed:
             raise ValueError(f"cannot write to {topic!r}: log {self.path} is closed")
-        if not (math.isfinite(t) and t >= 0.0):
+        if not 0.0 <= t < math.inf:  # also false for NaN
             raise ValueError(f"{topic} message time t={t!r} must be finite and >= 0 [s]")
-        stamp = _ns(t)
         sequence = self._sequence[topic]
         self._sequence[topic] = sequence + 1
-        self._writer.add_message(self._channels[topic], stamp, data, sequence)
+        self._writer.add_message(self._channels[topic], _ns(t), data, sequence)
 
     def _check_sizes(self, topic: str, message: Mapping[str, Any]) -> None:
         """Vector sizes and body names of the replay-critical topics, so ``verify`` can work."""
