@@ -96,6 +96,7 @@ def test_unknown_body_lists_valid_bodies(tmp_path: Path) -> None:
     """An unknown disturbance body lists the robot's bodies."""
     msg = error_of(tmp_path, GOOD.replace("body: pelvis", "body: torsoo"))
     assert "line 14" in msg and "'torsoo'" in msg and "left_foot" in msg
+    assert "Valid bodies:" in msg
 
 
 def test_unknown_metric_lists_valid_metrics(tmp_path: Path) -> None:

@@ -27,8 +27,14 @@ class UnknownNameError(WalkreproError):
         valid = sorted(valid)
         prefix = f"{where}: " if where else ""
         super().__init__(
-            f"{prefix}unknown {kind} {name!r}. Valid {kind}s: {', '.join(valid) or '(none)'}."
+            f"{prefix}unknown {kind} {name!r}. Valid {_plural(kind)}: "
+            f"{', '.join(valid) or '(none)'}."
         )
         self.kind = kind
         self.name = name
         self.valid = valid
+
+
+def _plural(noun: str) -> str:
+    """``body`` → ``bodies``, ``robot`` → ``robots``: the kinds of names walkrepro has."""
+    return noun[:-1] + "ies" if noun.endswith("y") and noun[-2:-1] not in "aeiou" else noun + "s"
