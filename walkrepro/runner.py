@@ -539,6 +539,7 @@ class _FallDetector:
         self._falls = np.zeros((model.ngeom, model.ngeom), dtype=bool)
         self._falls[floor, non_foot] = self._falls[non_foot, floor] = True
         self._geom_body = [model.body(model.geom_bodyid[g]).name for g in range(model.ngeom)]
+        self._suspects: dict[bytes, np.ndarray] = {}
 
     def check(self, data: mujoco.MjData) -> str:
         """Reason for a fall, or an empty string."""
@@ -546,12 +547,22 @@ class _FallDetector:
         if z < self._min_z:
             return f"pelvis height {z:.3f} m below {self._min_z:.3f} m"
         n = data.ncon
-        if self._check_contact and n:
-            contact = data.contact
-            geom = contact.geom[:n]
-            touching = self._falls[geom[:, 0], geom[:, 1]] & (contact.dist[:n] < 0)
-            if touching.any():
-                g1, g2 = geom[np.argmax(touching)]
+        if not (self._check_contact and n):
+            return ""
+        contact = data.contact
+        geom = contact.geom[:n]
+        # Which contacts pair the floor with a non-foot geom depends only on the contact set,
+        # which recurs tick after tick: look it up once per set (usually: none).
+        signature = geom.tobytes()
+        rows = self._suspects.get(signature)
+        if rows is None:
+            if len(self._suspects) >= _ContactReader.MAX_PLANS:
+                self._suspects.clear()
+            rows = self._suspects[signature] = np.flatnonzero(self._falls[geom[:, 0], geom[:, 1]])
+        if rows.size:
+            touching = rows[contact.dist[rows] < 0]
+            if touching.size:
+                g1, g2 = geom[touching[0]]
                 robot_geom = g2 if g1 == self._floor else g1
                 return f"{self._geom_body[robot_geom]} touched the floor"
         return ""
