@@ -108,11 +108,11 @@ def test_problem_is_inspectable() -> None:
 def test_solution_satisfies_floating_base_dynamics(solver: str) -> None:
     """The QP solution satisfies the floating-base rows of Eq. (5) and the contact constraints."""
     problem, mass, nle, jacs, drifts = _problem((0, 1))
-    opts = (
-        {"eps_abs": 1e-10, "eps_rel": 0.0}
-        if solver == "proxqp"
-        else {"eps_abs": 1e-10, "eps_rel": 1e-10, "polishing": True, "max_iter": 100000}
-    )
+    opts = {
+        "active_set": {},
+        "proxqp": {"eps_abs": 1e-10, "eps_rel": 0.0},
+        "osqp": {"eps_abs": 1e-10, "eps_rel": 1e-10, "polishing": True, "max_iter": 100000},
+    }[solver]
     x = problem.solve(solver, **opts)
     assert x is not None
     accel, wrenches = problem.split(x)
@@ -121,7 +121,7 @@ def test_solution_satisfies_floating_base_dynamics(solver: str) -> None:
         + nle[:6]
         - sum(j[:, :6].T @ w for j, w in zip(jacs, wrenches, strict=True))
     )
-    tol = 1e-8 if solver == "proxqp" else 1e-6
+    tol = 1e-6 if solver == "osqp" else 1e-8
     assert np.max(np.abs(base)) < tol * max(1.0, np.max(np.abs(nle[:6])))
     for jac, drift in zip(jacs, drifts, strict=True):
         assert np.max(np.abs(jac @ accel + drift)) < tol * 10
@@ -142,14 +142,15 @@ def test_eq9_torques_reproduce_the_joint_rows() -> None:
     np.testing.assert_allclose(mass @ accel + nle, gen, atol=1e-6)
 
 
+@pytest.mark.parametrize("solver", ["active_set", "proxqp"])
 @pytest.mark.parametrize("support", [(0, 1), (1,)])
-def test_preallocated_qp_matches_build_qp(support: tuple[int, ...]) -> None:
-    """CentroidalQP assembles build_qp's matrices, and ProxQP called directly, cold then warm, finds its solution."""
+def test_preallocated_qp_matches_build_qp(support: tuple[int, ...], solver: str) -> None:
+    """CentroidalQP builds build_qp's matrices and, cold then warm, finds its solution and Eq. (9) torques."""
     i = _inputs(support)
-    problem, *_ = _problem(support)
+    problem, mass, nle, jacs, _ = _problem(support)
     nv = i["mass"].shape[0]
-    qp = CentroidalQP(nv, support, [i["local"]] * len(support), 1e-4, 1e-6, "proxqp", 1e-10)
-    built = qp.update(
+    qp = CentroidalQP(nv, support, [i["local"]] * len(support), 1e-4, 1e-6, solver, 1e-10)
+    qp.update(
         i["mass"],
         i["nle"],
         np.vstack([i["mass"][:6], i["posture"].jacobian]),
@@ -158,15 +159,17 @@ def test_preallocated_qp_matches_build_qp(support: tuple[int, ...]) -> None:
         i["drifts"],
         i["rots"],
     )
+    built = qp.build()
     for name in ("P", "q", "A", "b", "lb", "ub"):
         np.testing.assert_allclose(getattr(built, name), getattr(problem, name), atol=1e-9)
     ref = problem.solve("proxqp", eps_abs=1e-10, eps_rel=0.0)
+    ref_accel, ref_wrenches = problem.split(ref)
+    ref_tau = joint_torques(mass, nle, ref_accel, jacs, ref_wrenches)
     for warm in (False, True):
-        x = qp.solve(warm=warm)
-        assert x is not None
-        np.testing.assert_allclose(x[:nv], ref[:nv], atol=1e-6)
-        wrench = np.concatenate(built.split(x)[1])
-        np.testing.assert_allclose(wrench, np.concatenate(problem.split(ref)[1]), atol=1e-5)
+        assert qp.solve(warm=warm)
+        np.testing.assert_allclose(qp.accel, ref_accel, atol=1e-6)
+        np.testing.assert_allclose(qp.wrenches, np.array(ref_wrenches), atol=1e-5)
+        np.testing.assert_allclose(qp.tau, ref_tau, atol=1e-5)
 
 
 def test_rotated_wrench_basis_equals_contact_wrench_basis() -> None:

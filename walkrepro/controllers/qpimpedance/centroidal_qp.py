@@ -16,10 +16,13 @@ axes, so Σ X_{C_k B}ᵀ R̃ U_k β_k is the base block of J_kᵀ (U_k β_k) wit
 contact wrench at the sole centre in world axes. Build, then solve: :func:`build_qp`
 returns an inspectable :class:`QPProblem`; :meth:`QPProblem.solve` calls ``qpsolvers``.
 
-At 1 kHz the controller uses :class:`CentroidalQP` instead: the same problem, assembled in
-preallocated arrays by the same code (:func:`assemble_qp`), and for ``proxqp`` solved by one
-``proxsuite.proxqp.dense.QP`` per support set, set up once and warm-started each tick
-(:class:`ProxQPSolver`). Other solvers still go through ``qpsolvers``.
+At 1 kHz the controller uses :class:`CentroidalQP` instead: the same problem, and by default
+(``active_set``) solved exactly in one compiled call with ξ̈ and the equality rows
+eliminated (:mod:`.condensed`: 16 or 32 bounded variables instead of 60). With ``proxqp``
+it is assembled in preallocated arrays by the same code as :func:`build_qp`
+(:func:`assemble_qp`) and solved by one ``proxsuite.proxqp.dense.QP`` per support set, set up
+once and warm-started each tick (:class:`ProxQPSolver`). Other solvers go through
+``qpsolvers``.
 """
 
 from __future__ import annotations
@@ -31,8 +34,10 @@ import qpsolvers
 from proxsuite import proxqp
 from scipy import sparse
 
+from walkrepro.controllers.qpimpedance.condensed import solve_centroidal, solve_eliminated
+
 #: Solvers this module is tested with, fastest first on our problem (see README).
-SOLVERS = ("proxqp", "osqp")
+SOLVERS = ("active_set", "proxqp", "osqp")
 
 
 def friction_basis(mu: float, n_edges: int) -> np.ndarray:
@@ -143,7 +148,28 @@ class QPProblem:
     def solve(
         self, solver: str, initvals: np.ndarray | None = None, **options: object
     ) -> np.ndarray | None:
-        """Solve with ``qpsolvers``; None when the solver finds no solution."""
+        """Solve with ``qpsolvers``, or exactly with ``active_set``; None when no solution.
+
+        ``active_set`` (:func:`.condensed.solve_eliminated`) needs the shape
+        :func:`empty_qp` gives: q and P zero on β but for P's W_4 I, and β ≥ 0 its only
+        bounds. It takes no options and ignores ``initvals``.
+        """
+        if solver == "active_set":
+            nv = self.nv
+            x = np.zeros(self.q.size)
+            force_weight = self.P[nv, nv] if self.q.size > nv else 1.0
+            accel = x[:nv]  # a view: the kernel writes ξ̈ into x
+            ok = solve_eliminated(
+                self.P[:nv, :nv].copy(),
+                self.q[:nv].copy(),
+                np.ascontiguousarray(self.A[:, :nv]),
+                np.ascontiguousarray(self.A[:, nv:]),
+                self.b.copy(),
+                force_weight,
+                x[nv:],
+                accel,
+            )
+            return x if ok >= 0 else None
         if solver not in qpsolvers.available_solvers:
             raise ValueError(
                 f"QP solver {solver!r} is not installed; installed: "
@@ -344,6 +370,12 @@ class ProxQPSolver:
 class CentroidalQP:
     """The QP of §III-D for one support set, in preallocated arrays, solved tick after tick.
 
+    ``active_set`` (the default) solves the QP exactly with ξ̈ and the equality rows
+    eliminated (:mod:`.condensed`, one compiled call that also applies Eq. 9), warm-started
+    from the set's last β; should it ever fail (a singular factor), that tick falls back to
+    ProxQP on the full problem. ``proxqp`` runs ProxSuite on the full problem directly
+    (:class:`ProxQPSolver`); other solvers go through ``qpsolvers``.
+
     Args:
         nv: size of ξ̈.
         support: the support feet, in the order of their β blocks.
@@ -351,8 +383,15 @@ class CentroidalQP:
             (``contact_wrench_basis(np.eye(3), ...)``).
         accel_weight: W_3 (scalar times identity).
         force_weight: W_4 (scalar times identity).
-        solver: ``proxqp`` (direct, warm-started) or another ``qpsolvers`` backend.
-        eps_abs: solver absolute tolerance.
+        solver: ``active_set``, ``proxqp`` or another ``qpsolvers`` backend.
+        eps_abs: solver absolute tolerance (ProxQP and ``qpsolvers`` only).
+
+    Attributes:
+        problem: the full problem, filled in by :meth:`build` (and by :meth:`solve` for the
+            solvers that need it).
+        accel: ξ̈* of the last successful :meth:`solve`, shape (nv,).
+        wrenches: U_k β*_k of each support foot (world axes, at the sole), shape (k, 6).
+        tau: Eq. (9) joint torques of the last successful :meth:`solve`, shape (nv − 6,).
     """
 
     def __init__(
@@ -365,12 +404,26 @@ class CentroidalQP:
         solver: str,
         eps_abs: float,
     ) -> None:
+        n_feet, m = len(local_maps), local_maps[0].shape[1]
         self.problem = empty_qp(nv, tuple(u.shape[1] for u in local_maps), support, force_weight)
         self._local_maps = [np.ascontiguousarray(u) for u in local_maps]
-        self._accel_weight = accel_weight
+        self._accel_weight, self._force_weight = accel_weight, force_weight
         self._solver, self._eps_abs = solver, eps_abs
-        self._proxqp = ProxQPSolver(self.problem, eps_abs) if solver == "proxqp" else None
+        self._proxqp = ProxQPSolver(self.problem, eps_abs)
         self._x_prev: np.ndarray | None = None
+        # This tick's inputs, stacked per support foot for the compiled kernel.
+        self._jacobians = np.zeros((n_feet, 6, nv))
+        self._drifts = np.zeros((n_feet, 6))
+        self._maps = np.zeros((n_feet, 6, m))
+        self._mass_matrix = np.zeros((nv, nv))
+        self._nonlinear = np.zeros(nv)
+        self._cost_rows = np.zeros((0, nv))
+        self._cost_rhs = np.zeros(0)
+        self._beta = np.zeros(n_feet * m)
+        self.accel = np.zeros(nv)
+        self.wrenches = np.zeros((n_feet, 6))
+        self.tau = np.zeros(nv - 6)
+        self.fallbacks = 0  # ticks the active-set solve failed and ProxQP stepped in
 
     def update(
         self,
@@ -381,37 +434,84 @@ class CentroidalQP:
         contact_jacobians: list[np.ndarray],
         contact_drifts: list[np.ndarray],
         contact_rotations: list[np.ndarray],
-    ) -> QPProblem:
-        """Fill in this tick's problem (arguments as :func:`assemble_qp`; R̃_{C_k} per foot)."""
-        for rot, local, out in zip(
-            contact_rotations, self._local_maps, self.problem.wrench_maps, strict=True
+    ) -> None:
+        """Take this tick's inputs (arguments as :func:`assemble_qp`; R̃_{C_k} per foot).
+
+        The arrays are referenced, not copied, except the per-foot ones, which are stacked.
+        """
+        for k, (jac, drift, rot) in enumerate(
+            zip(contact_jacobians, contact_drifts, contact_rotations, strict=True)
         ):
-            rotate_wrench_basis(rot, local, out)
+            self._jacobians[k] = jac
+            self._drifts[k] = drift
+            rotate_wrench_basis(rot, self._local_maps[k], self._maps[k])
+        self._mass_matrix, self._nonlinear = mass_matrix, nonlinear
+        self._cost_rows = np.ascontiguousarray(cost_rows)
+        self._cost_rhs = cost_rhs
+
+    def build(self) -> QPProblem:
+        """The full problem of this tick's inputs (as :func:`build_qp`), for inspection."""
+        problem = self.problem
+        for out, u in zip(problem.wrench_maps, self._maps, strict=True):
+            out[:] = u
         assemble_qp(
-            self.problem,
-            mass_matrix,
-            nonlinear,
-            cost_rows,
-            cost_rhs,
-            contact_jacobians,
-            contact_drifts,
+            problem,
+            self._mass_matrix,
+            self._nonlinear,
+            self._cost_rows,
+            self._cost_rhs,
+            list(self._jacobians),
+            list(self._drifts),
             self._accel_weight,
         )
-        return self.problem
+        return problem
 
-    def solve(self, warm: bool) -> np.ndarray | None:
-        """Solve the current problem; ``warm`` starts from this set's last solution.
+    def solve(self, warm: bool) -> bool:
+        """Solve this tick's problem; ``warm`` starts from this set's last solution.
 
         Returns:
-            x = (ξ̈, β), or None when the solver finds no solution.
+            Whether a solution was found (then in :attr:`accel`, :attr:`wrenches`, :attr:`tau`).
         """
-        if self._proxqp is not None:
-            return self._proxqp.solve(self.problem, warm)
-        init = self._x_prev if warm else None
-        x = self.problem.solve(self._solver, initvals=init, eps_abs=self._eps_abs)
-        if x is not None:
-            self._x_prev = x
-        return x
+        if self._solver == "active_set":
+            if not warm:
+                self._beta[:] = 0.0  # cold: every β at its bound
+            iterations = solve_centroidal(
+                self._cost_rows,
+                self._cost_rhs,
+                self._mass_matrix,
+                self._nonlinear,
+                self._jacobians,
+                self._drifts,
+                self._maps,
+                self._accel_weight,
+                self._force_weight,
+                self._beta,
+                self.accel,
+                self.wrenches,
+                self.tau,
+            )
+            if iterations >= 0:
+                return True
+            self.fallbacks += 1
+            x = self._proxqp.solve(self.build(), warm=False)
+            if x is not None:
+                self._beta[:] = np.maximum(x[self.problem.nv :], 0.0)
+        elif self._solver == "proxqp":
+            x = self._proxqp.solve(self.build(), warm)
+        else:
+            init = self._x_prev if warm else None
+            x = self.build().solve(self._solver, initvals=init, eps_abs=self._eps_abs)
+            if x is not None:
+                self._x_prev = x
+        if x is None:
+            return False
+        accel, wrenches = self.problem.split(x)
+        self.accel[:] = accel
+        self.wrenches[:] = wrenches
+        self.tau[:] = joint_torques(
+            self._mass_matrix, self._nonlinear, accel, list(self._jacobians), wrenches
+        )
+        return True
 
 
 def joint_torques(

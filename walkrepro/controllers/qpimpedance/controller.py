@@ -30,8 +30,8 @@ from walkrepro.controllers.qpimpedance.centroidal_qp import (
     CentroidalQP,
     contact_wrench_basis,
     friction_basis,
-    joint_torques,
 )
+from walkrepro.controllers.qpimpedance.condensed import warm_up
 from walkrepro.controllers.qpimpedance.footsteps import (
     LEFT,
     RIGHT,
@@ -125,9 +125,10 @@ class QPImpedanceParams(ControllerParams):
     friction: float = Field(0.6, gt=0, description="friction coefficient μ of the pyramid (Eq. 8)")
     pyramid_edges: int = Field(4, ge=3, description="edges m of each pyramid (Eq. 8)")
     solver: str = Field(
-        "proxqp",
-        description=f"QP solver, one of {SOLVERS}: proxqp runs ProxSuite directly (warm-started),"
-        " the others through qpsolvers",
+        "active_set",
+        description=f"QP solver, one of {SOLVERS}: active_set solves the QP exactly with ξ̈"
+        " eliminated (compiled, warm-started), proxqp runs ProxSuite directly on the full QP"
+        " (warm-started), the others go through qpsolvers",
     )
     solver_eps: float = Field(1e-6, gt=0, description="solver absolute tolerance")
 
@@ -268,6 +269,7 @@ class QPImpedanceController(Controller):
             for support in SUPPORTS
         }
         self._warm_support: tuple[int, ...] | None = None  # QP solved on the previous tick
+        warm_up()  # compile the QP kernels now (or load them from numba's cache), not on tick 1
         self._foot_keys = [tuple(f"{name}_{s}" for s in FOOT_SIGNALS) for name in SIDES]
         self._ref_keys = [
             tuple(
@@ -518,30 +520,28 @@ class QPImpedanceController(Controller):
 
         # ---- QP and Eq. (9) -----------------------------------------------------------
         qp = self._qps[support]
-        jacs = [feet[k][0] for k in support]
-        problem = qp.update(
+        qp.update(
             mass_matrix,
             nle,
             rows[:n_rows],
             rhs[:n_rows],
-            jacs,
+            [feet[k][0] for k in support],
             [feet[k][1] for k in support],
             [feet[k][2] for k in support],
         )
         t3 = time.perf_counter()
-        x = qp.solve(warm=support == self._warm_support)
+        solved = qp.solve(warm=support == self._warm_support)
         t4 = time.perf_counter()
         self.qp_solve_times.append(t4 - t3)
-        if x is None:
+        if not solved:
             self._qp_fail += 1
             self._warm_support = None
             events.append({"kind": "qp_failed"})
         else:
             self._warm_support = support
-            accel, wrenches = problem.split(x)
-            self._tau = joint_torques(mass_matrix, nle, accel, jacs, wrenches)
-            for side, w in zip(support, wrenches, strict=True):
-                signals[self._fz_qp_keys[side]] = float(w[2])
+            self._tau[:] = qp.tau
+            for side, wrench in zip(support, qp.wrenches.tolist(), strict=True):
+                signals[self._fz_qp_keys[side]] = wrench[2]
         zmp_x, zmp_y = self._plan.zmp_at(t)
         signals.update(
             com_x=com[0],
