@@ -132,3 +132,19 @@ def spec_robot_bodies() -> set[str]:
     from walkrepro.robot import load_robot
 
     return set(load_robot("dyros_red").body_names())
+
+
+def test_exploding_physics_is_a_clear_error_and_keeps_the_log(tmp_path: Path) -> None:
+    """A push far beyond anything physical makes MuJoCo reject the acceleration; the run ends
+    with outcome 'error' naming the time, and the log up to then is readable and replays."""
+    spec = spec_of(
+        "stand_dyros_red",
+        "sim.duration=1",
+        "disturbances=[{name: blast, body: pelvis, force: [1e16, 0, 0], start: 0.1, duration: 0.1}]",
+    )
+    result = runner.run(spec, tmp_path / "log.mcap")
+    assert result.outcome == "error" and "unstable at t = 0.1000 s" in result.message
+    log = record.read_log(tmp_path / "log.mcap")
+    assert log.metadata["outcome"] == "error"
+    assert log.messages(record.TOPIC_STATE)[-1]["t"] == pytest.approx(0.1)
+    assert verify_log(tmp_path / "log.mcap").ok

@@ -6,8 +6,9 @@ import mujoco
 import numpy as np
 import pytest
 
+from walkrepro.contacts import ContactReader
 from walkrepro.robot import load_robot
-from walkrepro.runner import _ContactReader, _set_home
+from walkrepro.runner import _set_home
 from walkrepro.sensors import SensorModel
 from walkrepro.spec import SensorsSpec, load_spec, resolve_spec
 from walkrepro.world import build_scene
@@ -106,7 +107,7 @@ def test_delay_holds_back_whole_control_periods(coman) -> None:  # noqa: ANN001
 def test_contact_wrenches_carry_the_weight_and_match_mj_contact_force(coman) -> None:  # noqa: ANN001
     """The fast read of the constraint forces equals MuJoCo's own ``mj_contactForce``."""
     robot, model, data = coman
-    reader = _ContactReader(model)
+    reader = ContactReader(model)
     pairs = reader.read(data)
     assert set(pairs) == {"left_foot/floor", "right_foot/floor"}
     total = sum(pairs.values())
@@ -117,8 +118,9 @@ def test_contact_wrenches_carry_the_weight_and_match_mj_contact_force(coman) -> 
         cop_y = w[3] / w[2]
         foot_y = data.xpos[model.body(f"{side}_foot").id][1]
         assert cop_y == pytest.approx(foot_y, abs=0.05)
-    reader._elliptic = False  # force the per-contact mj_contactForce path
-    slow = reader.read(data)
+    slow_reader = ContactReader(model)
+    slow_reader._elliptic = False  # force the per-contact mj_contactForce path
+    slow = slow_reader.read(data)
     for key, wrench in pairs.items():
         assert np.allclose(slow[key], wrench, rtol=1e-12, atol=1e-9)
 
@@ -153,7 +155,7 @@ def test_contact_pairs_sum_every_contact_of_the_pair_in_the_world_frame() -> Non
     data = mujoco.MjData(model)
     for _ in range(300):
         mujoco.mj_step(model, data)
-    reader = _ContactReader(model)
+    reader = ContactReader(model)
     pairs = reader.read(data)
     expected: dict[str, np.ndarray] = {}
     local = np.zeros(6)

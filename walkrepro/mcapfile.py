@@ -49,6 +49,7 @@ MAGIC = b"\x89MCAP0\r\n"
 # Message record: opcode, record length, channel id, sequence, log time, publish time.
 _MESSAGE = struct.Struct("<BQHIQQ")
 _MESSAGE_FIXED = _MESSAGE.size - 9  # record length counts what follows opcode and length
+_MESSAGE_OPCODE = int(Opcode.MESSAGE)
 _RECORD_HEAD = struct.Struct("<BQ")  # opcode, length of what follows
 _CHANNEL_ID = struct.Struct("<H")
 #: zstd level of the chunks. A run's JSON (shortest-repr doubles) compresses as well at level
@@ -85,11 +86,10 @@ class McapFile:
             metadata_count=0,
             schema_count=0,
         )
-        # The open chunk: its records, each channel's flat [time, offset, time, offset, ...]
-        # message index, and its time span.
+        # The open chunk: its records and each channel's flat [time, offset, time, offset, ...]
+        # message index (the chunk's time span is read off the indexes when it closes).
         self._chunk = bytearray()
         self._index: dict[int, list[int]] = {}
-        self._chunk_start = self._chunk_end = 0
         self._compressor = zstandard.ZstdCompressor(level=ZSTD_LEVEL)
         self._out.write(MAGIC)
         self._write(Header(profile="", library=library))
@@ -112,6 +112,7 @@ class McapFile:
             metadata={},
         )
         self._channels.append(channel)
+        self._index[channel.id] = []
         self._stats.channel_count += 1
         self._write(channel)
         return channel.id
@@ -146,21 +147,11 @@ class McapFile:
     def add_message(self, channel_id: int, stamp: int, data: bytes, sequence: int) -> None:
         """Appends one message (log time = publish time = ``stamp`` [ns]) to the open chunk."""
         chunk = self._chunk
-        offset = len(chunk)
-        if offset == 0:
-            self._chunk_start = self._chunk_end = stamp
+        self._index[channel_id] += (stamp, len(chunk))
         chunk += _MESSAGE.pack(
-            Opcode.MESSAGE, _MESSAGE_FIXED + len(data), channel_id, sequence, stamp, stamp
+            _MESSAGE_OPCODE, _MESSAGE_FIXED + len(data), channel_id, sequence, stamp, stamp
         )
         chunk += data
-        index = self._index.get(channel_id)
-        if index is None:
-            index = self._index[channel_id] = []
-        index += (stamp, offset)
-        if stamp < self._chunk_start:
-            self._chunk_start = stamp
-        elif stamp > self._chunk_end:
-            self._chunk_end = stamp
         if len(chunk) >= self._chunk_size:
             self.flush_chunk()
 
@@ -176,11 +167,12 @@ class McapFile:
         """Compresses and writes the open chunk and its message indexes, if it has messages."""
         if not self._chunk:
             return
+        indexes = {channel_id: flat for channel_id, flat in self._index.items() if flat}
         raw = bytes(self._chunk)
         compressed = self._compressor.compress(raw)
         chunk = Chunk(
-            message_start_time=self._chunk_start,
-            message_end_time=self._chunk_end,
+            message_start_time=min(min(flat[0::2]) for flat in indexes.values()),
+            message_end_time=max(max(flat[0::2]) for flat in indexes.values()),
             uncompressed_size=len(raw),
             uncompressed_crc=zlib.crc32(raw),
             compression="zstd",
@@ -191,7 +183,7 @@ class McapFile:
         index_offsets: dict[int, int] = {}
         index_start = self._out.tell()
         stats = self._stats
-        for channel_id, flat in self._index.items():
+        for channel_id, flat in indexes.items():
             index_offsets[channel_id] = self._out.tell()
             n = len(flat) // 2
             head = (Opcode.MESSAGE_INDEX, 6 + 16 * n, channel_id, 16 * n)
@@ -217,7 +209,7 @@ class McapFile:
         stats.message_end_time = max(stats.message_end_time, chunk.message_end_time)
         stats.chunk_count += 1
         self._chunk = bytearray()
-        self._index = {}
+        self._index = {channel_id: [] for channel_id in self._index}
 
     def finish(self) -> None:
         """Closes the open chunk and writes the summary, footer and closing magic."""

@@ -35,7 +35,7 @@ from datetime import datetime, timezone
 from importlib import metadata as importlib_metadata
 from pathlib import Path
 from types import TracebackType
-from typing import Any
+from typing import Any, NoReturn
 
 import mujoco
 import numpy as np
@@ -149,6 +149,18 @@ else:
     _encode = _encode_orjson
     _encode_float64 = _encode_orjson_float64
     _decode = orjson.loads
+
+
+def _raise_nonfinite(topic: str, message: Any, t: float, exc: ValueError) -> NoReturn:
+    """Raise for a message the encoder refused (``exc``), naming its first non-finite number
+    if that was the reason."""
+    where = _find_nonfinite(message, "")
+    if where is None:
+        raise exc
+    raise ValueError(
+        f"{topic} message at t={t} [s] holds a non-finite number: {where}. "
+        "Logs must be valid JSON; check the simulation for divergence."
+    ) from exc
 
 
 def _find_nonfinite(obj: Any, where: str) -> str | None:
@@ -387,6 +399,7 @@ class LogWriter:
             schema_id = self._writer.add_schema(name, "jsonschema", json.dumps(schema).encode())
             self._channels[topic] = self._writer.add_channel(topic, "json", schema_id)
         self._sequence = dict.fromkeys(self._channels, 0)
+        self._last_t, self._last_stamp = math.nan, 0  # NaN equals no time
         self._closed = False
 
     @property
@@ -452,14 +465,21 @@ class LogWriter:
         t: float,
         encode: Callable[[Mapping[str, Any]], bytes],
     ) -> None:
-        if topic not in self._channels:
+        # The simulation loop writes 5-8 messages per control tick through here: checks are
+        # inline and cheap (a subset test allocates nothing), the rest is orjson and a pack.
+        required = _REQUIRED_KEYS.get(topic)
+        if required is None:
             raise ValueError(f"unknown topic {topic!r}. Valid topics: {', '.join(TOPICS)}.")
-        if not _REQUIRED_KEYS[topic] <= message.keys():  # a subset test allocates nothing
-            missing = _REQUIRED_KEYS[topic] - message.keys()
+        if not required <= message.keys():
+            missing = required - message.keys()
             raise ValueError(f"{topic} message lacks key(s) {', '.join(sorted(missing))}")
         if topic == TOPIC_STATE or topic == TOPIC_INPUTS:
             self._check_sizes(topic, message)
-        self._add(topic, self._encode_checked(topic, message, encode, t), t)
+        try:
+            data = encode(message)
+        except ValueError as exc:
+            _raise_nonfinite(topic, message, t, exc)
+        self._add(topic, data, t)
 
     @staticmethod
     def _encode_checked(
@@ -469,13 +489,7 @@ class LogWriter:
         try:
             return encode(message)
         except ValueError as exc:
-            where = _find_nonfinite(message, "")
-            if where is None:
-                raise
-            raise ValueError(
-                f"{topic} message at t={t} [s] holds a non-finite number: {where}. "
-                "Logs must be valid JSON; check the simulation for divergence."
-            ) from exc
+            _raise_nonfinite(topic, message, t, exc)
 
     def _add(self, topic: str, data: bytes, t: float) -> None:
         """Appends encoded ``data`` with the next sequence number of ``topic``."""
@@ -485,7 +499,10 @@ class LogWriter:
             raise ValueError(f"{topic} message time t={t!r} must be finite and >= 0 [s]")
         sequence = self._sequence[topic]
         self._sequence[topic] = sequence + 1
-        self._writer.add_message(self._channels[topic], _ns(t), data, sequence)
+        # A tick's messages share one time: convert it once.
+        if t != self._last_t:
+            self._last_t, self._last_stamp = t, _ns(t)
+        self._writer.add_message(self._channels[topic], self._last_stamp, data, sequence)
 
     def _check_sizes(self, topic: str, message: Mapping[str, Any]) -> None:
         """Vector sizes and body names of the replay-critical topics, so ``verify`` can work."""

@@ -99,6 +99,8 @@ class LinkAddresses(NamedTuple):
 
     def link_values(self, x: np.ndarray) -> np.ndarray:
         """Link-side values (sum of each joint's components), shape (n_joints,)."""
+        if len(self.adr) == len(self.starts):  # rigid joints only: one component each
+            return np.asarray(x)[self.adr]
         return np.add.reduceat(np.asarray(x)[self.adr], self.starts)
 
 
@@ -222,16 +224,26 @@ class Robot:
         """
         model = self.pin_model
         w, x, y, z = np.asarray(base_quat_wxyz, dtype=float)
-        q = np.zeros(model.nq)
-        q[0:3] = base_pos
-        q[3:7] = (x, y, z, w)
+        q = self.pin_configuration(base_pos, base_quat_wxyz, joint_pos)
         rot = pin.Quaternion(w, x, y, z).normalized().toRotationMatrix()  # world-from-pelvis
         v = np.zeros(model.nv)
         v[0:3] = rot.T @ np.asarray(base_linvel_world, dtype=float)  # world -> pelvis frame
         v[3:6] = base_angvel_local
-        q[self.pin_q_idx] = joint_pos
         v[self.pin_v_idx] = joint_vel
         return q, v
+
+    def pin_configuration(
+        self, base_pos: np.ndarray, base_quat_wxyz: np.ndarray, joint_pos: np.ndarray
+    ) -> np.ndarray:
+        """Pinocchio ``q`` (nq,) alone, quaternion as (x, y, z, w): for controllers that need
+        no velocities (see :meth:`pin_state` for the arguments)."""
+        quat = np.asarray(base_quat_wxyz, dtype=float)
+        q = np.empty(self.pin_model.nq)
+        q[0:3] = base_pos
+        q[3:6] = quat[1:4]
+        q[6] = quat[0]
+        q[self.pin_q_idx] = joint_pos
+        return q
 
     def pin_state_from_mujoco(
         self, qpos: np.ndarray, qvel: np.ndarray

@@ -28,19 +28,17 @@ import mujoco
 import numpy as np
 
 from walkrepro import record
+from walkrepro.contacts import ContactReader, FallDetector
 from walkrepro.controllers import controller_class
 from walkrepro.disturbances import DisturbanceSchedule
 from walkrepro.provenance import run_metadata
 from walkrepro.robot import Robot, load_robot
 from walkrepro.sensors import SensorModel
 from walkrepro.spec import ExperimentSpec
-from walkrepro.world import FLOOR_NAME, build_scene
+from walkrepro.world import build_scene
 
 #: Called as ``progress(sim_time, duration, real_time_factor)`` a few times per second.
 ProgressCallback = Callable[[float, float, float], None]
-
-FOOT_BODIES = ("left_foot", "right_foot")
-_XYZ = np.arange(3)
 
 
 @dataclass(frozen=True)
@@ -192,7 +190,7 @@ def run(
     )
     sensors = SensorModel(robot, model, spec.sensors, spec.sim.control_period, spec.sim.seed)
     disturbances = DisturbanceSchedule(spec.disturbances)
-    contacts = _ContactReader(model)
+    contacts = ContactReader(model)
 
     def body_state(body: str) -> tuple[np.ndarray, np.ndarray]:
         """A body's CoM position and linear velocity, world frame, in the current state
@@ -202,13 +200,12 @@ def run(
         mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, i, vel, 0)
         return data.xipos[i].copy(), vel[3:].copy()
 
-    fall = _FallDetector(robot, model, spec)
+    fall = FallDetector(robot, model, spec)
 
     writer = record.LogWriter(
         log_path, scene_xml=scene.xml, spec_yaml=spec.to_yaml(), metadata=run_metadata(spec)
     )
     substeps, n_steps = spec.sim.substeps, spec.sim.n_steps
-    ctrl = data.ctrl.copy()
     ctrl_json = b""
     wrenches: dict[str, np.ndarray] = {}
     body_ids = {d.body: model.body(d.body).id for d in spec.disturbances}
@@ -218,7 +215,14 @@ def run(
     step = 0
     interrupt = _InterruptFlag()
     clock = StageClock(n_steps // substeps + 1)
-    bad_qacc = data.warning[mujoco.mjtWarning.mjWARN_BADQACC]  # a live view of the counter
+    # Live views of MuJoCo's warning counters: a non-finite or huge state (caught at the start
+    # of mj_step1) or acceleration (in mj_step2) makes MuJoCo reset the data and count it.
+    warnings = data.warning
+    bad_state = (
+        warnings[mujoco.mjtWarning.mjWARN_BADQPOS],
+        warnings[mujoco.mjtWarning.mjWARN_BADQVEL],
+    )
+    bad_qacc = warnings[mujoco.mjtWarning.mjWARN_BADQACC]
     lap = clock.lap
     try:
         for step in range(n_steps):
@@ -227,13 +231,14 @@ def run(
             tick = step % substeps == 0
             if tick:
                 clock.tick()
-                _check_finite(data, data.time)
             # Positions, velocities, collisions and their sensors for this state; the
             # acceleration stage (constraint forces, F/T, accelerometer) comes after the command.
             mujoco.mj_step1(model, data)
             lap("physics")
             t = data.time
             if tick:
+                if bad_state[0].number or bad_state[1].number:
+                    raise SimulationError(f"simulation state became NaN/inf at t = {t:.4f} s")
                 reason = fall.check(data)
                 lap("bookkeeping")
                 writer.write_float64(record.TOPIC_STATE, _state_msg(step, data), t)
@@ -245,9 +250,11 @@ def run(
                 snapshot = sensors.read(model, data)
                 lap("sensors")
                 command = controller.step(t, snapshot)
-                ctrl = _checked_ctrl(command.ctrl, model.nu, t)
                 lap("controller")
-                ctrl_json = writer.encode_ctrl(ctrl)
+                # The command as MuJoCo will hold it (float64), checked and encoded once.
+                ctrl = np.array(command.ctrl, dtype=np.float64)
+                ctrl_json = _encoded_ctrl(writer, ctrl, model.nu, t)
+                data.ctrl[:] = ctrl  # mj_step leaves ctrl alone: held until the next tick
                 writer.write_float64(record.TOPIC_SENSORS, snapshot.as_message(), t)
                 writer.write_float64(record.TOPIC_SIGNALS, {"t": t, **command.signals}, t)
                 for event in command.events:
@@ -264,18 +271,17 @@ def run(
                 data.xfrc_applied[:] = 0.0
                 for body, wrench in wrenches.items():
                     data.xfrc_applied[body_ids[body]] = wrench
+                lap("bookkeeping")
             elif wrenches:
                 wrenches = {}
                 data.xfrc_applied[:] = 0.0
-            lap("bookkeeping")
-            data.ctrl[:] = ctrl
             writer.write_inputs(step, ctrl_json, wrenches, t)
             lap("logging")
             # Actuation, constraint forces and acceleration-stage sensors, then integration:
             # mj_step1 + mj_step2 is mj_step, so `walkrepro verify` replays it bit for bit.
             mujoco.mj_step2(model, data)
             lap("physics")
-            if bad_qacc.number > 0:
+            if bad_qacc.number:
                 raise SimulationError(
                     f"simulation became unstable at t = {t:.4f} s (MuJoCo reported a "
                     "bad acceleration); the controller's torques or the timestep are too large"
@@ -365,13 +371,16 @@ def _check_finite(data: mujoco.MjData, t: float) -> None:
         raise SimulationError(f"simulation state became NaN/inf at t = {t:.4f} s")
 
 
-def _checked_ctrl(ctrl: np.ndarray, nu: int, t: float) -> np.ndarray:
-    ctrl = np.asarray(ctrl, dtype=float)
+def _encoded_ctrl(writer: record.LogWriter, ctrl: np.ndarray, nu: int, t: float) -> bytes:
+    """The JSON of a controller's command, which must be ``nu`` finite numbers."""
     if ctrl.shape != (nu,):
         raise ValueError(f"controller returned ctrl of shape {ctrl.shape}, expected ({nu},)")
-    if not np.all(np.isfinite(ctrl)):
-        raise SimulationError(f"controller returned a non-finite command at t = {t:.4f} s")
-    return ctrl.copy()
+    try:
+        return writer.encode_ctrl(ctrl)  # JSON has no NaN: the encoder rejects it
+    except ValueError:
+        raise SimulationError(
+            f"controller returned a non-finite command at t = {t:.4f} s"
+        ) from None
 
 
 def _jsonable(values: object) -> dict:
@@ -384,185 +393,3 @@ def _jsonable(values: object) -> dict:
             value = value.item()
         out[key] = value
     return out
-
-
-@dataclass(frozen=True)
-class _ContactPlan:
-    """How to turn one set of contacts (a tuple of geom pairs) into pair wrenches.
-
-    The same sets recur tick after tick, so everything that depends only on which geoms
-    touch is worked out once per set.
-
-    Attributes:
-        rows: the robot-world contacts among all (a slice when they are all of them).
-        sign: +1/-1 per row so the force is the one on the robot geom; None when all +1.
-        keys: ``"<robot body>/<world geom>"`` of each pair, in order of first appearance.
-        starts: first row of each pair's run of rows (``np.add.reduceat`` offsets).
-        order: row order that makes each pair's rows one run (None when they already are).
-    """
-
-    rows: slice | np.ndarray
-    sign: np.ndarray | None
-    keys: tuple[str, ...]
-    starts: np.ndarray
-    order: np.ndarray | None
-
-
-class _ContactReader:
-    """Net contact wrench on each robot body from each world geom (floor, obstacles)."""
-
-    #: Contact sets remembered; a walk sees tens. The cache is emptied when full, so memory
-    #: stays bounded however long the run.
-    MAX_PLANS = 4096
-
-    def __init__(self, model: mujoco.MjModel) -> None:
-        self._model = model
-        self._world_geom = np.array(
-            [
-                (model.geom(i).name == FLOOR_NAME or model.geom(i).name.startswith("obstacle"))
-                for i in range(model.ngeom)
-            ]
-        )
-        self._geom_name = [model.geom(i).name for i in range(model.ngeom)]
-        self._body_name = [model.body(model.geom_bodyid[i]).name for i in range(model.ngeom)]
-        self._force = np.zeros(6)
-        self._elliptic = model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
-        self._plans: dict[bytes, _ContactPlan | None] = {}
-
-    def read(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
-        """``{"<robot body>/<world geom>": [fx, fy, fz, tx, ty, tz]}`` in the world frame.
-
-        The torque is about the world origin, so a pair's centre of pressure on a
-        horizontal surface is ``(-ty / fz, tx / fz)``.
-        """
-        n = data.ncon
-        if n == 0:
-            return {}
-        contact = data.contact  # each field access builds a view: read each once
-        geom = contact.geom[:n]
-        signature = geom.tobytes()
-        plan = self._plans.get(signature, False)
-        if plan is False:
-            if len(self._plans) >= self.MAX_PLANS:
-                self._plans.clear()
-            plan = self._plans[signature] = self._plan(geom)
-        if plan is None:
-            return {}
-        rows = plan.rows
-        local = self._local_forces(data, rows)
-        # mj_contactForce gives the force of geom1 on geom2 in the contact frame, whose rows
-        # are the frame's axes in world coordinates: world force = frameᵀ · local.
-        force = np.einsum("ni,nij->nj", local, contact.frame[rows].reshape(-1, 3, 3))
-        if plan.sign is not None:
-            force *= plan.sign
-        # Torque about the world origin, p × f, on doubled columns: [1:4] is (y, z, x) and
-        # [2:5] is (z, x, y), views instead of gathers.
-        pos = contact.pos[rows]
-        pp = np.concatenate((pos, pos), axis=1)
-        ff = np.concatenate((force, force), axis=1)
-        wrench = np.empty((force.shape[0], 6))
-        wrench[:, :3] = force
-        wrench[:, 3:] = pp[:, 1:4] * ff[:, 2:5] - pp[:, 2:5] * ff[:, 1:4]
-        if plan.order is not None:
-            wrench = wrench[plan.order]
-        # Each pair's rows summed in row order.
-        return dict(zip(plan.keys, np.add.reduceat(wrench, plan.starts, axis=0), strict=True))
-
-    def _plan(self, geom: np.ndarray) -> _ContactPlan | None:
-        """The plan for this contact set, or None when no contact is robot-world."""
-        world = self._world_geom[geom]
-        robot_world = world[:, 0] != world[:, 1]
-        rows: slice | np.ndarray = (
-            slice(0, len(geom)) if robot_world.all() else np.flatnonzero(robot_world)
-        )
-        geom, world = geom[rows], world[rows]
-        if len(geom) == 0:
-            return None
-        world_first = world[:, 0]
-        # The force on the robot geom: flip the rows where the robot geom is geom2's partner.
-        sign = None if world_first.all() else np.where(world_first, 1.0, -1.0)[:, None]
-        robot_geom = np.where(world_first, geom[:, 1], geom[:, 0]).tolist()
-        world_geom = np.where(world_first, geom[:, 0], geom[:, 1]).tolist()
-        labels = [
-            f"{self._body_name[r]}/{self._geom_name[w]}"
-            for r, w in zip(robot_geom, world_geom, strict=True)
-        ]
-        keys = tuple(dict.fromkeys(labels))
-        rank = {key: i for i, key in enumerate(keys)}
-        # A stable sort by pair keeps each pair's rows in their original order.
-        order = np.argsort([rank[label] for label in labels], kind="stable")
-        grouped = [labels[i] for i in order]
-        starts = np.array(
-            [i for i, label in enumerate(grouped) if i == 0 or label != grouped[i - 1]]
-        )
-        in_order = bool(np.all(order == np.arange(len(order))))
-        return _ContactPlan(
-            rows=rows, sign=sign, keys=keys, starts=starts, order=None if in_order else order
-        )
-
-    def _local_forces(self, data: mujoco.MjData, rows: slice | np.ndarray) -> np.ndarray:
-        """Force of geom1 on geom2 in each contact's frame, shape (n_rows, 3).
-
-        With elliptic cones and condim >= 3 these are the first three rows of the contact's
-        constraint force, which is all ``mj_contactForce`` copies; read them at once.
-        """
-        contact = data.contact
-        adr, dim = contact.efc_address[rows], contact.dim[rows]
-        if self._elliptic and adr.min() >= 0 and dim.min() >= 3:
-            return data.efc_force[adr[:, None] + _XYZ]
-        index = np.arange(data.ncon)[rows]
-        local = np.empty((index.size, 3))
-        for row, i in enumerate(index.tolist()):
-            mujoco.mj_contactForce(self._model, data, i, self._force)
-            local[row] = self._force[:3]
-        return local
-
-
-class _FallDetector:
-    """TARGETS.md: pelvis below a fraction of nominal height, or a non-foot body on the floor."""
-
-    def __init__(self, robot: Robot, model: mujoco.MjModel, spec: ExperimentSpec) -> None:
-        self._min_z = spec.sim.fall.pelvis_height_ratio * float(robot.home_qpos[2])
-        self._check_contact = spec.sim.fall.non_foot_ground_contact
-        self._pelvis = model.body("pelvis").id
-        self._floor = floor = model.geom(FLOOR_NAME).id
-        feet = {model.body(name).id for name in FOOT_BODIES}
-        # Geoms of the robot's tree other than the feet (obstacles may rest on the floor).
-        non_foot = np.array(
-            [
-                model.body_rootid[model.geom_bodyid[g]] == self._pelvis
-                and model.geom_bodyid[g] not in feet
-                for g in range(model.ngeom)
-            ]
-        )
-        # falls[g1, g2]: a contact between these two geoms is a non-foot body on the floor.
-        self._falls = np.zeros((model.ngeom, model.ngeom), dtype=bool)
-        self._falls[floor, non_foot] = self._falls[non_foot, floor] = True
-        self._geom_body = [model.body(model.geom_bodyid[g]).name for g in range(model.ngeom)]
-        self._suspects: dict[bytes, np.ndarray] = {}
-
-    def check(self, data: mujoco.MjData) -> str:
-        """Reason for a fall, or an empty string."""
-        z = data.xpos[self._pelvis, 2]
-        if z < self._min_z:
-            return f"pelvis height {z:.3f} m below {self._min_z:.3f} m"
-        n = data.ncon
-        if not (self._check_contact and n):
-            return ""
-        contact = data.contact
-        geom = contact.geom[:n]
-        # Which contacts pair the floor with a non-foot geom depends only on the contact set,
-        # which recurs tick after tick: look it up once per set (usually: none).
-        signature = geom.tobytes()
-        rows = self._suspects.get(signature)
-        if rows is None:
-            if len(self._suspects) >= _ContactReader.MAX_PLANS:
-                self._suspects.clear()
-            rows = self._suspects[signature] = np.flatnonzero(self._falls[geom[:, 0], geom[:, 1]])
-        if rows.size:
-            touching = rows[contact.dist[rows] < 0]
-            if touching.size:
-                g1, g2 = geom[touching[0]]
-                robot_geom = g2 if g1 == self._floor else g1
-                return f"{self._geom_body[robot_geom]} touched the floor"
-        return ""

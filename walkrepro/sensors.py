@@ -66,10 +66,7 @@ class SensorSnapshot:
         Raises:
             ValueError: the spec does not provide the base state (``sensors.base_state``).
         """
-        if self.base_pos is None or self.base_quat is None:
-            raise ValueError(
-                f"{who} needs the base state: set sensors.base_state: true in the spec"
-            )
+        self._require_base_state(who)
         return robot.pin_state(
             self.base_pos,
             self.base_quat,
@@ -78,6 +75,17 @@ class SensorSnapshot:
             self.joint_pos,
             self.joint_vel,
         )
+
+    def pinocchio_configuration(self, robot: Robot, who: str = "this controller") -> np.ndarray:
+        """Pinocchio ``q`` alone (see :meth:`pinocchio_state`)."""
+        self._require_base_state(who)
+        return robot.pin_configuration(self.base_pos, self.base_quat, self.joint_pos)
+
+    def _require_base_state(self, who: str) -> None:
+        if self.base_pos is None or self.base_quat is None:
+            raise ValueError(
+                f"{who} needs the base state: set sensors.base_state: true in the spec"
+            )
 
     def as_message(self) -> dict[str, float | np.ndarray | None]:
         """The ``/sensors`` log message: every field by name, arrays as they are (float64)."""
