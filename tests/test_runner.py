@@ -134,9 +134,12 @@ def spec_robot_bodies() -> set[str]:
     return set(load_robot("dyros_red").body_names())
 
 
-def test_exploding_physics_is_a_clear_error_and_keeps_the_log(tmp_path: Path) -> None:
+def test_exploding_physics_is_a_clear_error_and_keeps_the_log(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """A push far beyond anything physical makes MuJoCo reject the acceleration; the run ends
     with outcome 'error' naming the time, and the log up to then is readable and replays."""
+    monkeypatch.chdir(tmp_path)  # MuJoCo appends its warning to ./MUJOCO_LOG.TXT
     spec = spec_of(
         "stand_dyros_red",
         "sim.duration=1",
