@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from importlib import metadata as importlib_metadata
 from pathlib import Path
-from types import TracebackType
+from types import NoneType, TracebackType
 from typing import Any, NoReturn
 
 import mujoco
@@ -125,7 +125,8 @@ def _reject_nonfinite(message: Any, data: bytes) -> None:
     """
     if b"null" not in data:
         return
-    nones = sum(v is None for v in message.values()) if isinstance(message, Mapping) else 0
+    # Counting types, not values: == on an array is elementwise.
+    nones = [*map(type, message.values())].count(NoneType) if isinstance(message, Mapping) else 0
     if data.count(b"null") != nones and _find_nonfinite(message, "") is not None:
         raise ValueError("Out of range float values are not JSON compliant")
 
