@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import mujoco
+import numba
 import numpy as np
 
 from walkrepro.robot import SENSOR_NAMES
@@ -92,6 +93,21 @@ class SensorSnapshot:
         return dict(vars(self))
 
 
+@numba.njit("void(f8[:], i8[:], i8[:], f8[:], i8)", cache=True)
+def _link_values(
+    x: np.ndarray, adr: np.ndarray, starts: np.ndarray, out: np.ndarray, at: int
+) -> None:
+    """``out[at:at + n]`` = each link joint's value, its components (motor + spring of a
+    series-elastic joint) summed in order as ``np.add.reduceat(x[adr], starts)`` does."""
+    n = starts.size
+    for j in range(n):
+        end = starts[j + 1] if j + 1 < n else adr.size
+        value = x[adr[starts[j]]]
+        for c in range(starts[j] + 1, end):
+            value += x[adr[c]]
+        out[at + j] = value
+
+
 class SensorModel:
     """Turns simulator state into :class:`SensorSnapshot` with the spec's imperfections.
 
@@ -155,8 +171,9 @@ class SensorModel:
         spec, n = self._spec, self._n
         reading = np.empty(self._size)
         # Sum the components of each link joint (motor + spring DoF for series-elastic joints).
-        reading[:n] = self._qpos_adr.link_values(data.qpos)
-        reading[n : 2 * n] = self._qvel_adr.link_values(data.qvel)
+        # One compiled call each instead of a gather and a reduceat (this runs at up to 2 kHz).
+        _link_values(data.qpos, self._qpos_adr.adr, self._qpos_adr.starts, reading, 0)
+        _link_values(data.qvel, self._qvel_adr.adr, self._qvel_adr.starts, reading, n)
         # MuJoCo's force/torque sensors give the wrench the parent applies to the foot
         # subtree; the F/T convention here is the reaction (foot on leg), hence the sign.
         np.multiply(data.sensordata[self._sensor_rows], self._sensor_sign, out=reading[2 * n :])
