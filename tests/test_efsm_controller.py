@@ -64,9 +64,10 @@ def _measured_cop_reference(ctrl: EfsmController, fts: dict[str, np.ndarray]) ->
     for f in ("left", "right"):
         m_ft = data.oMf[ctrl._ft[f]]
         fw, tw = m_ft.rotation @ fts[f][:3], m_ft.rotation @ fts[f][3:]
-        inertia = model.inertias[ctrl._foot_joint[f]]
+        foot_joint = ctrl._robot.pin_joint_id(f"{f[0]}_ankle_roll")
+        inertia = model.inertias[foot_joint]
         weight = np.array([0.0, 0.0, inertia.mass * 9.81])
-        com_foot = data.oMi[ctrl._foot_joint[f]].act(inertia.lever)
+        com_foot = data.oMi[foot_joint].act(inertia.lever)
         if (fw + weight)[2] <= 0.0:
             continue
         force += fw + weight
@@ -94,5 +95,5 @@ def test_measured_cop_matches_the_wrench_sum() -> None:
             rot = ctrl._data.oMf[ctrl._ft[f]].rotation
             fts[f] = np.r_[rot.T @ (load * -down) + rng.normal(size=3), rng.normal(size=3)]
         sensors = SimpleNamespace(left_ft=fts["left"], right_ft=fts["right"])
-        cop = ctrl._measured_cop(sensors, ctrl._data)  # type: ignore[arg-type]
+        cop = ctrl._measured_cop(sensors)  # type: ignore[arg-type]
         np.testing.assert_allclose(cop, _measured_cop_reference(ctrl, fts), rtol=1e-12, atol=1e-15)

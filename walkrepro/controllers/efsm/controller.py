@@ -20,7 +20,7 @@ import pinocchio as pin
 from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
-from walkrepro.controllers.efsm import wbc
+from walkrepro.controllers.efsm import kernels
 from walkrepro.controllers.efsm.fsm import (
     EventFsm,
     FsmInput,
@@ -90,6 +90,47 @@ class EfsmParams(ControllerParams):
     torque_limit: float = Field(300.0, gt=0, description="actuator saturation [Nm] (robot)")
 
 
+class _PoseViews:
+    """Numpy views of the Pinocchio ``Data`` fields a tick reads, taken once.
+
+    Pinocchio returns its vectors and matrices as views of ``Data``'s own memory, which
+    the algorithms overwrite in place, so views taken once stay current: reading a field
+    per tick then costs nothing. :meth:`aliases` proves that on this Pinocchio; where it
+    does not hold, the controller calls :meth:`refresh` every tick.
+    """
+
+    def __init__(self, data: pin.Data, sole: dict[str, int], ft: dict[str, int], pelvis: int):
+        self._data, self._sole, self._ft, self._pelvis = data, sole, ft, pelvis
+        self.refresh()
+
+    def refresh(self) -> None:
+        """(Re)take every view from ``Data``."""
+        data = self._data
+        self.com, self.vcom = data.com[0], data.vcom[0]  # [m], [m/s], world
+        self.nle, self.j_com = data.nle, data.Jcom
+        self.sole_pos = {f: data.oMf[i].translation for f, i in self._sole.items()}
+        self.sole_rot = {f: data.oMf[i].rotation for f, i in self._sole.items()}
+        self.ft_pos = tuple(data.oMf[self._ft[f]].translation for f in FEET)
+        self.ft_rot = tuple(data.oMf[self._ft[f]].rotation for f in FEET)
+        self.pelvis_rot = data.oMi[self._pelvis].rotation
+
+    def aliases(self) -> bool:
+        """True if every view holds what a fresh read of ``Data`` gives."""
+        fresh = _PoseViews(self._data, self._sole, self._ft, self._pelvis)
+        pairs = [
+            (self.com, fresh.com),
+            (self.vcom, fresh.vcom),
+            (self.nle, fresh.nle),
+            (self.j_com, fresh.j_com),
+            (self.pelvis_rot, fresh.pelvis_rot),
+            *zip(self.ft_pos, fresh.ft_pos, strict=True),
+            *zip(self.ft_rot, fresh.ft_rot, strict=True),
+            *((self.sole_pos[f], fresh.sole_pos[f]) for f in FEET),
+            *((self.sole_rot[f], fresh.sole_rot[f]) for f in FEET),
+        ]
+        return all(np.array_equal(a, b) for a, b in pairs)
+
+
 class EfsmController(Controller):
     """Event-based FSM walking with the operational-space whole-body controller."""
 
@@ -97,21 +138,63 @@ class EfsmController(Controller):
     FRAMES = ("O_w",)
 
     def reset(self, robot: Robot, params: ControllerParams, control_period: float) -> None:
-        """Cache models and start in DS with the CoP moving onto the first support foot."""
+        """Cache models and start in DS with the CoP moving onto the first support foot.
+
+        Also compiles the WBC kernels (or loads them from numba's cache) with a throwaway
+        tick in DS and one out of DS, so that the first real tick is not slow.
+        """
+        self._setup(robot, params)
+        self._check_views()
+        self._warm_up(robot, params)
+
+    def _setup(self, robot: Robot, params: ControllerParams) -> None:
+        """Models, constants, buffers and the initial state of a run."""
         assert isinstance(params, EfsmParams)
         if robot.control_mode != "torque":
             raise ValueError("the E-FSM controller needs a torque-controlled robot")
         self._robot, self._p = robot, params
-        self._model = robot.pin_model
-        self._data = self._model.createData()
+        self._model = model = robot.pin_model
+        self._data = model.createData()
         self._sole = {f: robot.pin_frame_id(f"{f}_sole") for f in FEET}
         self._ft = {f: robot.pin_frame_id(f"{f}_foot_ft") for f in FEET}
-        self._foot_joint = {f: robot.pin_joint_id(f"{f[0]}_ankle_roll") for f in FEET}
+        foot_joint = {f: robot.pin_joint_id(f"{f[0]}_ankle_roll") for f in FEET}
         self._pelvis_joint = 1  # the free-flyer root: the rigid upper body
-        v_idx = np.asarray(robot.pin_v_idx) - 6  # actuator i -> joint-torque row
-        # None when the actuators are in joint-torque order (no reindexing per tick).
-        self._v_idx = None if np.array_equal(v_idx, np.arange(len(v_idx))) else v_idx
-        self._half_sole = np.asarray(robot.sole_size) / 2.0
+        self._pose = _PoseViews(self._data, self._sole, self._ft, self._pelvis_joint)
+        self._refresh_pose = False
+        self._nv = nv = model.nv
+        # Joint-torque row of each actuator (Γ is in joint order, ctrl in actuator order).
+        self._actuator_rows = np.asarray(robot.pin_v_idx, dtype=np.int64) - 6
+        self._tau = np.empty(len(self._actuator_rows))
+        self._half_sole = np.asarray(robot.sole_size, dtype=float) / 2.0
+        self._gains = np.array(
+            [
+                params.kp,
+                params.kv,
+                params.fs_max_force,
+                params.fs_max_moment,
+                float(params.fs_decoupled_saturation),
+                float(params.balance),
+                params.cop_margin,
+                params.torque_limit,
+            ]
+        )
+        # Buffers the kernels read: contact Jacobian and J̇_c q̇ (support foot first), the
+        # swing-foot Jacobian, the task errors of Eq. (6).
+        self._jc = {1: np.empty((6, nv)), 2: np.empty((12, nv))}
+        self._jc_dot_v = {1: np.empty(6), 2: np.empty(12)}
+        self._j_swing = np.zeros((6, nv))
+        self._task_err = np.zeros(13)
+        # The part of each foot below its F/T sensor (the ankle-roll link): its weight and
+        # its CoM in the sensor frame (both on that link, so the offset is constant).
+        self._foot_weight = np.empty(2)
+        self._foot_com_ft = np.empty((2, 3))
+        for i, f in enumerate(FEET):
+            frame = model.frames[self._ft[f]]
+            if frame.parentJoint != foot_joint[f]:
+                raise ValueError(f"{f}_foot_ft must be on the {f[0]}_ankle_roll link")
+            inertia = model.inertias[foot_joint[f]]
+            self._foot_weight[i] = inertia.mass * GRAVITY  # [N]
+            self._foot_com_ft[i] = frame.placement.actInv(inertia.lever)  # [m]
         self._fsm = EventFsm(
             FsmParams(
                 params.zeta, params.r, params.dxp, params.d_thr, params.v_stop, params.use_epsilon
@@ -123,10 +206,46 @@ class EfsmController(Controller):
         self._ds_start_xp: float | None = None
         self._swing_target = np.zeros(3)
         self._rot_w = np.eye(3)
-        self._nv = self._model.nv
-        inertias = {f: self._model.inertias[self._foot_joint[f]] for f in FEET}
-        self._foot_weight = {f: inertias[f].mass * GRAVITY for f in FEET}  # [N]
-        self._foot_lever = {f: inertias[f].lever.copy() for f in FEET}  # CoM in the joint [m]
+
+    def _home_snapshot(self) -> SensorSnapshot:
+        """The robot standing still in its home posture, as sensed."""
+        robot, qpos = self._robot, self._robot.home_qpos
+        n, zeros3 = len(self._actuator_rows), np.zeros(3)
+        return SensorSnapshot(
+            t=0.0,
+            joint_pos=robot.link_joint_pos(qpos),
+            joint_vel=np.zeros(n),
+            imu_quat=np.array([1.0, 0.0, 0.0, 0.0]),
+            imu_gyro=zeros3,
+            imu_acc=zeros3,
+            left_ft=np.zeros(6),
+            right_ft=np.zeros(6),
+            base_pos=qpos[0:3].copy(),
+            base_quat=qpos[3:7].copy(),
+            base_linvel=zeros3,
+            base_angvel=zeros3,
+        )
+
+    def _check_views(self) -> None:
+        """Use the views of :class:`_PoseViews` only if they follow ``Data`` on this Pinocchio."""
+        model, data = self._model, self._data
+        q, v = self._home_snapshot().pinocchio_state(self._robot)
+        for scale in (0.0, 0.01):  # two states: the views must follow
+            dq = np.full(model.nv, scale)
+            pin.computeAllTerms(model, data, pin.integrate(model, q, dq), v + scale)
+            pin.updateFramePlacements(model, data)
+            if not self._pose.aliases():
+                self._refresh_pose = True
+
+    def _warm_up(self, robot: Robot, params: ControllerParams) -> None:
+        """Compile the kernels with a throwaway controller: one tick in DS, one in SSD."""
+        twin = EfsmController()
+        twin._setup(robot, params)
+        twin._refresh_pose = self._refresh_pose
+        home = self._home_snapshot()
+        twin.step(0.0, home)
+        twin._fsm.phase = Phase.SSD
+        twin.step(0.0, home)
 
     # ---- frames ------------------------------------------------------------------------
 
@@ -144,21 +263,22 @@ class EfsmController(Controller):
 
     def step(self, t: float, sensors: SensorSnapshot) -> Command:
         """One control period of the E-FSM + OS-WBC."""
-        p, model, data = self._p, self._model, self._data
+        p, model, data, pose = self._p, self._model, self._data, self._pose
         q, v = sensors.pinocchio_state(self._robot, "the E-FSM controller")
         # One pass: M, b + g, joint Jacobians, CoM and its Jacobian, and (with q̈ = 0) the
         # bias accelerations J̇ q̇ of every frame.
         pin.computeAllTerms(model, data, q, v)
         pin.updateFramePlacements(model, data)
-        com, vcom = data.com[0], data.vcom[0]  # read within this tick only
+        if self._refresh_pose:
+            pose.refresh()
+        com, vcom = pose.com, pose.vcom  # views: read within this tick only
         if not self._started:
-            self._start({f: data.oMf[self._sole[f]] for f in FEET}, com)
+            self._start(com)
         events: list[dict[str, Any]] = []
 
         # O_w and the E-FSM inputs (§III-A1, Eq. 2).
         sup, sw = self._support, self._other(self._support)
-        m_sup, m_sw = data.oMf[self._sole[sup]], data.oMf[self._sole[sw]]
-        p_sup, p_sw = m_sup.translation.copy(), m_sw.translation.copy()
+        p_sup, p_sw = pose.sole_pos[sup], pose.sole_pos[sw]
         rot, com_w, vcom_w, x_s = _ow_frame(p_sup, p_sw, com, vcom)
         x_cp = capture_point(com_w[0], vcom_w[0], self._z_m0)
         out = self._fsm.step(FsmInput(com_w[0], vcom_w[0], x_cp, x_s))
@@ -168,131 +288,93 @@ class EfsmController(Controller):
         if out.switched_support:
             # DS ends: the swing foot becomes the support foot; next footstep target.
             self._support, sup, sw = sw, sw, sup
-            m_sup, m_sw, p_sup, p_sw = m_sw, m_sup, p_sw, p_sup
+            p_sup, p_sw = p_sw, p_sup
             self._plan_next_step(p_sup, sw)
             rot, com_w, vcom_w, x_s = _ow_frame(p_sup, p_sw, com, vcom)
             x_cp = capture_point(com_w[0], vcom_w[0], self._z_m0)
             xp_des = 0.0
             self._fsm.reframe(xp_des)
             events.append({"kind": "support", "foot": sup, "step": self._steps_done})
-        rot_t = rot.T
         self._rot_w = rot
         phase = self._fsm.phase
         double = phase is Phase.DS
 
-        # Contact set: the support foot, plus the swing foot in DS.
-        contacts = (sup, sw) if double else (sup,)
+        # Contact set: the support foot, plus the swing foot in DS (its rows second).
+        sole_sup, sole_sw = self._sole[sup], self._sole[sw]
+        n_contacts = 2 if double else 1
+        jc, jc_dot_v = self._jc[n_contacts], self._jc_dot_v[n_contacts]
+        jc[0:6] = pin.getFrameJacobian(model, data, sole_sup, LWA)
+        jc_dot_v[0:6] = pin.getFrameClassicalAcceleration(model, data, sole_sup, LWA).vector
+        j_swing = self._j_swing
         if double:
-            jc, jc_dot_v = np.empty((12, self._nv)), np.empty(12)
-            for i, f in enumerate(contacts):
-                jc[6 * i : 6 * i + 6] = pin.getFrameJacobian(model, data, self._sole[f], LWA)
-                acc = pin.getFrameClassicalAcceleration(model, data, self._sole[f], LWA)
-                jc_dot_v[6 * i : 6 * i + 6] = acc.vector
+            jc[6:12] = pin.getFrameJacobian(model, data, sole_sw, LWA)
+            jc_dot_v[6:12] = pin.getFrameClassicalAcceleration(model, data, sole_sw, LWA).vector
         else:
-            jc = pin.getFrameJacobian(model, data, self._sole[sup], LWA)
-            jc_dot_v = pin.getFrameClassicalAcceleration(model, data, self._sole[sup], LWA).vector
+            j_swing[:] = pin.getFrameJacobian(model, data, sole_sw, LWA)
         pin.cholesky.decompose(model, data)  # A = U D Uᵀ of the M from computeAllTerms
         a_inv = pin.cholesky.computeMinv(model, data)  # A⁻¹, both triangles
-        cd = wbc.contact_dynamics(a_inv, data.nle, jc, jc_dot_v)
+        j_pelvis = pin.getJointJacobian(model, data, self._pelvis_joint, LWA)
 
-        # Task Jacobians (Eq. 11), CoM rows in O_w axes, upper body = pelvis (rigid), stacked:
-        # task 1 = CoM x; task 2 = CoM y/z, pelvis yaw (+ swing foot); task 3 = pelvis roll/pitch.
-        j_ub = pin.getJointJacobian(model, data, self._pelvis_joint, LWA)[3:]
-        rot_pelvis = data.oMi[self._pelvis_joint].rotation
-        w_pelvis = j_ub @ v
-        m2 = 3 if double else 9
-        j_com_w, j_ub_w = rot_t @ data.Jcom, rot_t[0:2] @ j_ub
-        if double:
-            j_all = np.concatenate((j_com_w, j_ub[2:3], j_ub_w))
-        else:
-            j_sw = pin.getFrameJacobian(model, data, self._sole[sw], LWA)
-            j_all = np.concatenate((j_com_w, j_ub[2:3], j_sw, j_ub_w))
-
-        # Reference accelerations, Eq. (6) (Table II targets).
-        kp, kv = p.kp, p.kv
-        e_ub = pin.log3(self._rot_ub_des @ rot_pelvis.T)  # world-axes orientation error
+        # Task errors of Eq. (6) (Table II targets); the kernel forms ẍ* = k_p e − k_v ẋ.
+        err = self._task_err
         _, cw_y, cw_z = com_w
         _, vw_y, vw_z = vcom_w
-        acc2 = np.empty(m2)
-        acc2[0:3] = (
-            kp * (0.0 - cw_y) - kv * vw_y,
-            kp * (self._z_m0 - cw_z) - kv * vw_z,
-            kp * float(e_ub[2]) - kv * float(w_pelvis[2]),
-        )
-        sw_pos = p_sw
+        err[0:4] = (0.0 - cw_y, self._z_m0 - cw_z, vw_y, vw_z)
+        err[4:7] = pin.log3(self._rot_ub_des @ pose.pelvis_rot.T)  # world axes
         sw_ref = self._swing_ref(phase, p_sup)
         if not double:
-            acc2[3:6] = sw_ref - sw_pos
-            acc2[6:9] = pin.log3(self._rot_foot_des @ m_sw.rotation.T)
-            acc2[3:9] *= kp
-            acc2[3:9] -= kv * (j_sw @ v)
-        acc3 = rot_t[0:2] @ (kp * e_ub - kv * w_pelvis)
+            err[7:10] = sw_ref - p_sw
+            err[10:13] = pin.log3(self._rot_foot_des @ pose.sole_rot[sw].T)
 
-        # The hierarchy (Eq. 11, Appendix A): rows [task 1 (1), task 2 (m2), task 3 (2)].
-        s2, s3 = slice(1, m2 + 1), slice(m2 + 1, m2 + 3)
-        hier = wbc.task_hierarchy(cd, wbc.task_phi(cd, j_all), 1, m2)
-        tmap, (_, lam2, lam3) = hier.torque_map, hier.lams
-        f_all = np.empty(m2 + 3)  # [F_1; F_2; F_3]
-        f_all[s2] = self._task2_force(lam2, acc2, double, eps, phase)
-        f_all[s3] = lam3 @ acc3
-
-        # CoM x-force for x_p^des (Appendix D-1, Eqs. 17–21) in O_w at the support centre.
-        kmap = wbc.grasp_map(rot, p_sup, [p_sup, p_sw] if double else [p_sup])
-        kpsi = kmap @ cd.psi
-        kt = kpsi @ tmap  # resultant wrench per task force, shape (6, m)
-        fc23 = kt[:, 1:] @ f_all[1:]  # of tasks 2 and 3
-        fcb = kmap @ (cd.psi @ cd.gamma_gc + cd.f_bias)
-        q1 = float(kt[4, 0])
-        f1 = wbc.com_force_for_cop(xp_des, q1, float(fc23[2] + fcb[2]), float(fcb[4]))
-        f_all[0] = f1
-
-        # Balancing (Appendix D-3): expected CoP out of the shrunk polygon -> F_3^bal.
-        fc = kt[:, 0] * f1 + fc23 + fcb
-        balancing = False
-        if p.balance:
-            kt3, f3 = kt[:, s3], f_all[s3]
-            f3_new = self._balance_force(fc, kt3, f3, rot, m_sup, x_s if double else None)
-            if f3_new is not None:
-                balancing = True
-                fc = fc + kt3 @ (f3_new - f3)  # F_3 replaced
-                f_all[s3] = f3_new
-        gamma = tmap @ f_all + cd.gamma_gc  # Γ_t + Γ_gc, Γ_t = Σ Ñ_precᵀ J̃ᵀ F (Eq. 11)
-
-        # Contact wrench redistribution in DS (Appendix C) with ε (§IV-B).
+        # Γ = Γ_t + Γ_c + Γ_gc (Eqs. 7 and 11, Appendices A–D), saturated, actuator order.
         eps_on = 1.0
         if double:
             if self._ds_start_xp is None:
                 self._ds_start_xp = xp_des
             if p.use_epsilon and p.ds_onset_ramp:
                 eps_on = epsilon(abs(xp_des - self._ds_start_xp), p.d_thr)
-            f_now = cd.psi @ gamma + cd.f_bias
-            gamma_c, _ = wbc.redistribution_torque(
-                cd, f_now, slice(0, 6), eps, eps_on, p_sup - p_sw
-            )
-            gamma += gamma_c  # Γ = Γ_t + Γ_c + Γ_gc, Eq. (7)
-            fc_all = fc + kpsi @ gamma_c
         else:
             self._ds_start_xp = None  # Γ_c = 0
-            fc_all = fc
-        tau_lim = p.torque_limit
-        tau = gamma if self._v_idx is None else gamma[self._v_idx]
-        tau = np.minimum(np.maximum(tau, -tau_lim), tau_lim)  # np.clip
+        tau = self._tau
+        f1, balancing, cop_exp_x, cop_exp_y = kernels.whole_body_torques(
+            a_inv,
+            pose.nle,
+            jc,
+            jc_dot_v,
+            pose.j_com,
+            j_pelvis,
+            j_swing,
+            v,
+            rot,
+            p_sup,
+            p_sw,
+            pose.sole_rot[sup],
+            err,
+            int(phase),
+            eps,
+            eps_on,
+            xp_des,
+            x_s,
+            self._gains,
+            self._half_sole,
+            self._actuator_rows,
+            tau,
+        )
 
-        # Expected CoP from the reference torques (Eqs. 9, 18, 22): the resultant
-        # K (Ψ Γ + f_bias) = fc (+ K Ψ Γ_c), and measured CoP (F/T).
-        cop_exp_x, cop_exp_y = wbc.cop_of(fc_all)
+        # Expected CoP from the reference torques (Eqs. 9, 18, 22), and measured CoP (F/T).
         (r00, r01, _), (r10, r11, _) = rot[:2].tolist()
         sup_x, sup_y, _ = p_sup.tolist()
         cop_exp_world = [
             sup_x + (r00 * cop_exp_x + r01 * cop_exp_y),
             sup_y + (r10 * cop_exp_x + r11 * cop_exp_y),
         ]
-        cop_meas = self._measured_cop(sensors, data)
+        cop_meas = list(self._measured_cop(sensors))
         meas_valid = math.isfinite(cop_meas[0]) and math.isfinite(cop_meas[1])
         if not meas_valid:  # no foot loaded: logs hold finite numbers only
             cop_meas = [0.0, 0.0]
         fsm_state = 0 if double else (1 if sup == "left" else -1)
         xp_world = [sup_x + r00 * xp_des, sup_y + r10 * xp_des]
+        tau_ref = tau.tolist()
         signals = {
             "fsm_state": fsm_state,
             "efsm_phase": int(phase),
@@ -312,17 +394,17 @@ class EfsmController(Controller):
             "cop_exp_world": cop_exp_world,
             "cop_meas_world": cop_meas,
             "cop_meas_valid": int(meas_valid),
-            "swing_pos_world": sw_pos.tolist(),
+            "swing_pos_world": p_sw.tolist(),
             "swing_ref_world": sw_ref.tolist(),
             "swing_foot": 0 if double else (1 if sw == "right" else -1),
             "support_pos_world": p_sup.tolist(),
             "ow_yaw": math.atan2(r10, r00),
             "com_force_x": f1,
             "balancing": int(balancing),
-            "tau_ref": tau.tolist(),
+            "tau_ref": tau_ref,
             "steps_done": self._steps_done,
         }
-        return Command(ctrl=tau, signals=signals, events=tuple(events))
+        return Command(ctrl=tau.copy(), signals=signals, events=tuple(events))
 
     # ---- helpers -------------------------------------------------------------------------
 
@@ -330,24 +412,23 @@ class EfsmController(Controller):
     def _other(foot: str) -> str:
         return "right" if foot == "left" else "left"
 
-    def _start(self, sole: dict[str, pin.SE3], com: np.ndarray) -> None:
+    def _start(self, com: np.ndarray) -> None:
         """Record the initial targets (Table II) and start the first DS (Table I)."""
-        p = self._p
+        p, pose = self._p, self._pose
         self._started = True
-        self._rot_ub_des = _yaw_only(self._data.oMi[self._pelvis_joint].rotation)
-        self._rot_foot_des = _yaw_only(sole["left"].rotation)
+        self._rot_ub_des = _yaw_only(pose.pelvis_rot)
+        self._rot_foot_des = _yaw_only(pose.sole_rot["left"])
         self._heading = self._rot_ub_des[:, 0].copy()
         self._lateral = self._rot_ub_des[:, 1].copy()
-        spacing = float(self._lateral @ (sole["left"].translation - sole["right"].translation))
+        p_left, p_right = pose.sole_pos["left"], pose.sole_pos["right"]
+        spacing = float(self._lateral @ (p_left - p_right))
         self._width = spacing if p.step_width is None else p.step_width
-        self._z_m0 = float(
-            com[2] - 0.5 * (sole["left"].translation[2] + sole["right"].translation[2])
-        )
+        self._z_m0 = float(com[2] - 0.5 * (p_left[2] + p_right[2]))
         # The first DS: O_w sits on the first swing foot, the CoP moves onto the support
         # foot (x_s); it starts where the CoM projects (standing still, CoP ≈ CoM).
         sup, sw = self._other(self._support), self._support  # roles in the first DS
         self._support = sup
-        p_sup, p_sw = sole[sup].translation, sole[sw].translation
+        p_sup, p_sw = pose.sole_pos[sup], pose.sole_pos[sw]
         rot = self._ow_rotation(p_sup, p_sw)
         self._fsm.xp_des = float((rot.T @ (com - p_sup))[0])
         self._rot_w = rot
@@ -385,116 +466,37 @@ class EfsmController(Controller):
         and 35° against the obstacle. The CoM/yaw forces are then computed
         with the swing-foot acceleration that this bounded F_s actually produces, so that
         they do not carry the coupling of an unbounded swing acceleration.
+
+        The tick computes this inside :func:`.kernels.whole_body_torques`
+        (:func:`.kernels.task2_force`); this method is that kernel with the parameters.
         """
-        if double:
-            return lam @ acc
         p = self._p
-        f_max, m_max = p.fs_max_force, p.fs_max_moment
-        f_free = lam @ acc  # Λ ẍ*, unbounded
-        fs = f_free[3:9].copy()
-        if p.fs_decoupled_saturation:
-            # Λ_s couples the swing foot's linear and angular rows: Λ ẍ* puts into the
-            # moment rows the part Λ_rt ẍ*_t that pairs with the (large) linear
-            # acceleration. Clipping only the force rows would leave that moment and
-            # spin the foot. Instead keep the orientation acceleration ẍ*_r and take
-            # the linear acceleration a_t that the saturated force f_t really produces:
-            # Λ_tt (a_t − ẍ*_t) = f_t − (Λ ẍ*)_t, so m_r = (Λ ẍ*)_r + Λ_rt (a_t − ẍ*_t).
-            f_t = fs[:3]  # a view: saturated in place (np.clip)
-            np.minimum(np.maximum(f_t, -f_max, out=f_t), f_max, out=f_t)
-            cut = f_t - f_free[3:6]
-            if cut.any():
-                fs[3:] += lam[6:9, 3:6] @ wbc.solve(lam[3:6, 3:6], cut)
-        f_t, m_r = fs[:3], fs[3:]  # views: saturated in place (np.clip)
-        np.minimum(np.maximum(f_t, -f_max, out=f_t), f_max, out=f_t)
-        np.minimum(np.maximum(m_r, -m_max, out=m_r), m_max, out=m_r)
-        if phase is Phase.SSA:
-            fs *= eps  # ε F_s (§IV-C)
-        # The CoM/yaw rows with the swing acceleration ẍ_s that F_s produces:
-        # Λ_ss (ẍ_s − ẍ*_s) = F_s − (Λ ẍ*)_s, then F_c = (Λ ẍ*)_c + Λ_cs (ẍ_s − ẍ*_s).
-        f2 = f_free
-        cut = fs - f_free[3:9]
-        if cut.any():
-            f2[:3] += lam[0:3, 3:9] @ wbc.solve(lam[3:9, 3:9], cut)
-        f2[3:] = fs
-        return f2
+        return kernels.task2_force(
+            np.ascontiguousarray(lam, dtype=float),
+            np.ascontiguousarray(acc, dtype=float),
+            double,
+            eps if phase is Phase.SSA else 1.0,
+            p.fs_max_force,
+            p.fs_max_moment,
+            p.fs_decoupled_saturation,
+        )
 
-    def _balance_force(
-        self,
-        fc: np.ndarray,
-        kpsi3: np.ndarray,
-        f3: np.ndarray,
-        rot: np.ndarray,
-        sole_sup: pin.SE3,
-        x_s: float | None,
-    ) -> np.ndarray | None:
-        """F_3 + F_3^bal (Eqs. 23–29), or None when the expected CoP is inside (Eq. 23).
-
-        The support polygon is the square of Eq. (23) in O_w: the support sole's extent
-        along the O_w axes, stretched to the swing foot (x_s) in DS (Fig. 16), shrunk by the
-        safety margin.
-
-        Args:
-            fc: resultant contact wrench in O_w, shape (6,).
-            kpsi3: resultant wrench per task-3 force, K Ψ Ñ_12ᵀ J̃_3ᵀ, shape (6, 2).
-            f3: task 3's force F_3, shape (2,).
-            rot: world-from-O_w rotation (a yaw).
-            sole_sup: support sole placement.
-            x_s: swing-foot centre along x of O_w in DS [m], else None.
-        """
-        cop_x, cop_y = wbc.cop_of(fc)
-        if not (math.isfinite(cop_x) and math.isfinite(cop_y)):
-            return None
-        # O_w-from-foot (xy): rot[:2, :2]ᵀ @ sole_sup.rotation[:2, :2] with rot a yaw.
-        c, s = float(rot[0, 0]), float(rot[1, 0])
-        (a00, a01, _), (a10, a11, _), _ = sole_sup.rotation.tolist()
-        r00, r01 = c * a00 + s * a10, c * a01 + s * a11
-        r10, r11 = c * a10 - s * a00, c * a11 - s * a01
-        half_x, half_y = self._half_sole.tolist()
-        margin = self._p.cop_margin
-        # Extent along the O_w axes: |rel| @ half_sole − margin.
-        hx = (abs(r00) * half_x + abs(r01) * half_y) - margin
-        hy = (abs(r10) * half_x + abs(r11) * half_y) - margin
-        hi_x = hx + x_s if x_s is not None else hx
-        cx, cy = min(max(cop_x, -hx), hi_x), min(max(cop_y, -hy), hy)  # np.clip
-        # Inside: np.allclose(clamped, cop), i.e. with its default tolerances.
-        tol_x, tol_y = 1e-8 + 1e-5 * abs(cop_x), 1e-8 + 1e-5 * abs(cop_y)
-        if abs(cx - cop_x) <= tol_x and abs(cy - cop_y) <= tol_y:
-            return None
-        fsig = fc - kpsi3 @ f3  # the wrench without task 3
-        m_des = np.array([cy * fsig[2] - fsig[3], -cx * fsig[2] - fsig[4]])  # Eqs. (26)-(27)
-        q3 = kpsi3[3:5]  # Eq. (28)
-        if abs(np.linalg.det(q3)) < 1e-12:
-            return None
-        return np.linalg.solve(q3, m_des)  # F_3 + F_3^bal, Eq. (29)
-
-    def _measured_cop(self, sensors: SensorSnapshot, data: pin.Data) -> list[float]:
+    def _measured_cop(self, sensors: SensorSnapshot) -> tuple[float, float]:
         """CoP (x, y) in the world from the two F/T sensors (§VI-D2) [m]; NaN if unloaded.
 
         Each sensor reads the wrench the foot applies to the leg; adding back the static
         weight of the part below the sensor (the ankle-roll link, i.e. the foot) gives the
-        ground reaction. Feet carrying no vertical load are left out. Only the vertical
-        force and the horizontal moment about the world origin are needed, so the cross
-        products are written out.
+        ground reaction. Feet carrying no vertical load are left out
+        (:func:`.kernels.measured_cop`).
         """
-        force_z = mom_x = mom_y = 0.0
-        for f in FEET:
-            ft = sensors.left_ft if f == "left" else sensors.right_ft
-            m_ft = data.oMf[self._ft[f]]
-            # Force and moment in world axes, as columns: [[fx, tx], [fy, ty], [fz, tz]].
-            (fx, tx), (fy, ty), (fz, _) = (m_ft.rotation @ ft.reshape(2, 3).T).tolist()
-            weight = self._foot_weight[f]  # [N], along +z
-            if fz + weight <= 0.0:
-                continue
-            px, py, pz = m_ft.translation.tolist()
-            cx, cy, _ = data.oMi[self._foot_joint[f]].act(self._foot_lever[f]).tolist()
-            force_z += fz + weight
-            # τ + p_ft × f + c_foot × (0, 0, weight), x and y rows.
-            mom_x += tx + (py * fz - pz * fy) + cy * weight
-            mom_y += ty + (pz * fx - px * fz) - cx * weight
-        if force_z <= 1e-6:
-            return [math.nan, math.nan]
-        # Ground-level CoP: the point on z = 0 about which the moment has no x/y part.
-        return [-mom_y / force_z, mom_x / force_z]
+        pose = self._pose
+        return kernels.measured_cop(
+            pose.ft_rot,
+            pose.ft_pos,
+            (sensors.left_ft, sensors.right_ft),
+            self._foot_com_ft,
+            self._foot_weight,
+        )
 
 
 _EYE3 = np.eye(3)

@@ -13,6 +13,10 @@ Notation (Appendix A), with n = 6 + k generalized velocities and k actuated join
 so that a torque Γ = J̃ᵀ F gives the task acceleration Λ⁻¹ F and Φ Ñᵀ = 0 (the task
 acceleration is blind to any torque Ñᵀ Γ_0). The hierarchy of Eq. (11) uses the
 prioritized projector Ñ_{12}ᵀ = Ñ_1ᵀ Ñ_{2|1}ᵀ for the third task.
+
+This module is the readable numpy reference of that algebra, tested against Pinocchio's
+constrained dynamics. The controller runs the same steps compiled in :mod:`.kernels` (a
+tick is too many small numpy calls to run fast), which the tests check against this one.
 """
 
 from __future__ import annotations
@@ -21,29 +25,6 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-
-try:  # numpy.linalg's own LAPACK kernels, without its per-call checks (≈ 3 µs per call)
-    from numpy.linalg import _umath_linalg
-
-    def inv(m: np.ndarray) -> np.ndarray:
-        """m⁻¹ as ``np.linalg.inv`` (same kernel); a singular m gives NaNs, not an error."""
-        return _umath_linalg.inv(m, signature="d->d")
-
-    def solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """a⁻¹ b for a vector b, as ``np.linalg.solve`` (same kernel); NaNs if singular."""
-        return _umath_linalg.solve1(a, b, signature="dd->d")
-
-    # A private module may change with numpy: prove both calls once, else use the public API.
-    _probe = np.array([[2.0, 0.0], [0.0, 4.0]])
-    if not (
-        np.array_equal(inv(_probe), np.linalg.inv(_probe))
-        and np.array_equal(solve(_probe, np.ones(2)), np.array([0.5, 0.25]))
-    ):
-        raise ImportError("numpy.linalg._umath_linalg behaves differently")
-
-except Exception:  # noqa: BLE001 - pragma: no cover - any numpy without the same private API
-    inv = np.linalg.inv
-    solve = np.linalg.solve
 
 #: Relative singular-value cut-off of the pseudo-inverses (W is rank-deficient in DS).
 PINV_RCOND = 1e-9
@@ -100,7 +81,10 @@ def inv_if_well_conditioned(m: np.ndarray) -> np.ndarray | None:
         m_inv = np.array([[d / det, -b / det], [-c / det, a / det]])
         tr, tr_inv = a + d, (a + d) / det
     else:
-        m_inv = inv(m)
+        try:
+            m_inv = np.linalg.inv(m)
+        except np.linalg.LinAlgError:  # exactly singular
+            return None
         tr, tr_inv = float(m.trace()), float(m_inv.trace())
     if tr > 0.0 and tr_inv > 0.0 and tr * tr_inv * PINV_RCOND < 1.0:  # False if NaN
         return m_inv
@@ -138,7 +122,7 @@ def contact_dynamics(
         jc_dot_v: J̇_c q̇, shape (c,).
     """
     a_inv_jct = a_inv @ jc.T  # A⁻¹ J_cᵀ, shape (n, c)
-    lam_c = inv(jc @ a_inv_jct)  # Λ_c
+    lam_c = np.linalg.inv(jc @ a_inv_jct)  # Λ_c
     if not math.isfinite(lam_c.trace()):
         raise np.linalg.LinAlgError("singular contact inertia J_c A⁻¹ J_cᵀ")
     a_inv_jct_lam = a_inv_jct @ lam_c  # J̄_c = A⁻¹ J_cᵀ Λ_c
@@ -335,5 +319,5 @@ def redistribution_torque(
         f_all = f_now[leave] + shifted
         target = eps_onset * target + (1.0 - eps_onset) * f_all
     f_ref = eps * target
-    alpha = solve(g[leave], f_ref - f_now[leave])  # Y_c f_c^cor (Eq. 16)
+    alpha = np.linalg.solve(g[leave], f_ref - f_now[leave])  # Y_c f_c^cor (Eq. 16)
     return v2 @ alpha, f_ref

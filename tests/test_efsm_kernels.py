@@ -1,0 +1,283 @@
+"""The compiled OS-WBC kernels of the E-FSM controller against the numpy reference (wbc.py)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from walkrepro.controllers.efsm import kernels, wbc
+from walkrepro.controllers.efsm.controller import EfsmController, EfsmParams
+from walkrepro.controllers.efsm.fsm import Phase
+from walkrepro.robot import load_robot
+
+LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+FEET = ("left_sole", "right_sole")
+
+
+def _close(actual: np.ndarray, expected: np.ndarray, rel: float = 1e-9) -> None:
+    """Equal up to rounding, relative to the largest entry."""
+    actual, expected = np.asarray(actual), np.asarray(expected)
+    assert actual.shape == expected.shape
+    scale = max(float(np.abs(expected).max(initial=0.0)), 1e-300)
+    np.testing.assert_allclose(actual, expected, rtol=0, atol=rel * scale)
+
+
+def _robot_state(seed: int) -> dict[str, np.ndarray]:
+    """Dynamics of dyros_red near its home posture, moving (random joint offsets, velocities)."""
+    robot = load_robot("dyros_red")
+    model, data = robot.pin_model, robot.pin_model.createData()
+    rng = np.random.default_rng(seed)
+    qpos = robot.home_qpos.copy()
+    qpos[7:] += rng.normal(scale=0.03, size=qpos.size - 7)
+    q, v = robot.pin_state_from_mujoco(qpos, rng.normal(scale=0.3, size=robot.mj_model.nv))
+    pin.computeAllTerms(model, data, q, v)
+    pin.updateFramePlacements(model, data)
+    ids = [robot.pin_frame_id(f) for f in FEET]
+    a = np.triu(data.M) + np.triu(data.M, 1).T
+    return {
+        "a_inv": np.linalg.inv(a),
+        "nle": data.nle.copy(),
+        "jc": np.vstack([pin.getFrameJacobian(model, data, i, LWA) for i in ids]),
+        "jc_dot_v": np.concatenate(
+            [pin.getFrameClassicalAcceleration(model, data, i, LWA).vector for i in ids]
+        ),
+        "j_com": data.Jcom.copy(),
+        "j_pelvis": pin.getJointJacobian(model, data, 1, LWA),
+        "v": v,
+        "sole_pos": np.array([data.oMf[i].translation for i in ids]),
+        "sole_rot": np.array([data.oMf[i].rotation for i in ids]),
+    }
+
+
+@pytest.mark.parametrize("n_feet", [1, 2])
+def test_contact_dynamics_matches_reference(n_feet: int) -> None:
+    """P, W⁺, Ψ, f_bias and Γ_gc of the kernel equal wbc.contact_dynamics (Appendix A)."""
+    s = _robot_state(n_feet)
+    rows = slice(0, 6 * n_feet)
+    ref = wbc.contact_dynamics(s["a_inv"], s["nle"], s["jc"][rows], s["jc_dot_v"][rows])
+    P, W_pinv, psi, f_bias, gamma_gc, eigvec, from_eigh = kernels.contact_dynamics(
+        s["a_inv"], s["nle"], s["jc"][rows], s["jc_dot_v"][rows]
+    )
+    for got, want in ((P, ref.P), (W_pinv, ref.W_pinv), (psi, ref.psi)):
+        _close(got, want)
+    _close(f_bias, ref.f_bias)
+    _close(gamma_gc, ref.gamma_gc)
+    assert from_eigh == (ref.w_eigvec is not None)
+    if from_eigh:  # the same null space (eigenvectors are unique up to a basis change)
+        v2, v2_ref = eigvec[:, :6], ref.w_eigvec[:, :6]
+        _close(v2 @ v2.T, v2_ref @ v2_ref.T)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_small_algebra_matches_numpy(seed: int) -> None:
+    """The loop products, LU solve and inverse equal numpy's on random matrices."""
+    rng = np.random.default_rng(seed)
+    n, m, p = rng.integers(1, 13, size=3)
+    a, b, c = rng.normal(size=(n, m)), rng.normal(size=(m, p)), rng.normal(size=(p, m))
+    x = rng.normal(size=m)
+    _close(kernels.matmul(a, b), a @ b)
+    _close(kernels.matmul(np.asfortranarray(a), b), a @ b)  # Pinocchio's layout
+    _close(kernels.matmul_bt(a, c), a @ c.T)
+    _close(kernels.matvec(a, x), a @ x)
+    sq = rng.normal(size=(m, m)) + m * np.eye(m)
+    _close(kernels.inverse(sq), np.linalg.inv(sq), rel=1e-12)
+    _close(kernels.solve_vec(sq, x), np.linalg.solve(sq, x), rel=1e-12)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 10])
+def test_inv_if_well_conditioned_matches_reference(n: int) -> None:
+    """The kernel accepts and refuses the same matrices as the reference, same inverse."""
+    rng = np.random.default_rng(n)
+    a = rng.normal(size=(n, n))
+    spd = a @ a.T + n * np.eye(n)
+    ill = np.eye(n)
+    ill[-1, -1] = 1e-10 if n > 1 else -1.0
+    for m in (spd, ill, np.zeros((n, n))):
+        ref = wbc.inv_if_well_conditioned(m)
+        ok, m_inv = kernels.inv_if_well_conditioned(m)
+        assert ok == (ref is not None)
+        if ok:
+            _close(m_inv, ref, rel=1e-12)
+
+
+@pytest.mark.parametrize(("n_feet", "m2"), [(1, 9), (2, 3)])
+@pytest.mark.parametrize("singular_task3", [False, True])
+def test_task_hierarchy_matches_reference(n_feet: int, m2: int, singular_task3: bool) -> None:
+    """Torque map and Λs equal wbc.task_hierarchy, also on its pseudo-inverse fallback."""
+    s = _robot_state(10 + n_feet)
+    rows = slice(0, 6 * n_feet)
+    cd = wbc.contact_dynamics(s["a_inv"], s["nle"], s["jc"][rows], s["jc_dot_v"][rows])
+    rng = np.random.default_rng(n_feet)
+    phi = wbc.task_phi(cd, rng.normal(size=(3 + m2, cd.P.shape[0])))
+    if singular_task3:
+        phi[-1] = phi[1]  # task 3 repeats a task-2 row: Λ_3 is singular
+    ref = wbc.task_hierarchy(cd, phi, 1, m2)
+    tmap, lam1, lam2, lam3 = kernels.task_hierarchy(cd.W, cd.W_pinv, phi, 1, m2)
+    _close(tmap, ref.torque_map, rel=1e-8)
+    for got, want in zip((lam1, lam2, lam3), ref.lams, strict=True):
+        _close(got, want, rel=1e-6)
+
+
+def test_grasp_map_and_cop_match_reference() -> None:
+    """K (Eq. 10) and the CoP of a wrench equal the reference."""
+    rng = np.random.default_rng(4)
+    yaw = 0.7
+    rot = np.array(
+        [[math.cos(yaw), -math.sin(yaw), 0], [math.sin(yaw), math.cos(yaw), 0], [0, 0, 1]]
+    )
+    origin, points = rng.normal(size=3), rng.normal(size=(2, 3))
+    _close(kernels.grasp_map(rot, origin, points), wbc.grasp_map(rot, origin, list(points)))
+    _close(kernels.grasp_map(rot, origin, points[:1]), wbc.grasp_map(rot, origin, [points[0]]))
+    wrench = rng.normal(size=6)
+    assert kernels.cop_of(wrench) == pytest.approx(wbc.cop_of(wrench), rel=1e-15)
+    wrench[2] = 0.0
+    assert all(math.isnan(c) for c in kernels.cop_of(wrench))
+
+
+@pytest.mark.parametrize(("eps", "eps_onset"), [(1.0, 1.0), (0.4, 1.0), (0.7, 0.3)])
+def test_redistribution_matches_reference(eps: float, eps_onset: float) -> None:
+    """Γ_c and the leaving foot's reference wrench equal wbc.redistribution_torque (App. C)."""
+    s = _robot_state(20)
+    cd = wbc.contact_dynamics(s["a_inv"], s["nle"], s["jc"], s["jc_dot_v"])
+    rng = np.random.default_rng(5)
+    f_now = cd.psi @ (cd.gamma_gc + rng.normal(scale=20.0, size=cd.k)) + cd.f_bias
+    lever = s["sole_pos"][0] - s["sole_pos"][1]
+    ref = wbc.redistribution_torque(cd, f_now, slice(0, 6), eps, eps_onset, lever)
+    got = kernels.redistribution_torque(cd.psi, cd.w_eigvec, f_now, eps, eps_onset, lever)
+    _close(got[0], ref[0], rel=1e-8)
+    _close(got[1], ref[1], rel=1e-9)
+
+
+def _task2_force_reference(
+    lam: np.ndarray, acc: np.ndarray, scale: float, f_max: float, m_max: float
+) -> np.ndarray:
+    """F_2 with F_s saturated (decoupled) and scaled: the numpy version the kernel replaced."""
+    f_free = lam @ acc
+    fs = f_free[3:9].copy()
+    fs[:3] = np.clip(fs[:3], -f_max, f_max)
+    cut = fs[:3] - f_free[3:6]
+    if cut.any():
+        fs[3:] += lam[6:9, 3:6] @ np.linalg.solve(lam[3:6, 3:6], cut)
+    fs[:3] = np.clip(fs[:3], -f_max, f_max)
+    fs[3:] = np.clip(fs[3:], -m_max, m_max)
+    fs *= scale
+    f2 = f_free.copy()
+    cut = fs - f_free[3:9]
+    if cut.any():
+        f2[:3] += lam[0:3, 3:9] @ np.linalg.solve(lam[3:9, 3:9], cut)
+    f2[3:] = fs
+    return f2
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_task2_force_matches_reference(seed: int) -> None:
+    """The saturated, ε-scaled task-2 force equals its numpy reference (Eq. 6, §IV-C)."""
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(9, 9))
+    lam = a @ a.T + 9.0 * np.eye(9)
+    acc = rng.normal(scale=10.0, size=9)  # large enough to saturate some rows
+    scale = (1.0, 0.5, 0.0, 1.0)[seed]
+    got = kernels.task2_force(lam, acc, False, scale, 30.0, 10.0, True)
+    _close(got, _task2_force_reference(lam, acc, scale, 30.0, 10.0), rel=1e-12)
+    _close(
+        kernels.task2_force(lam[:3, :3].copy(), acc[:3], True, 1.0, 1.0, 1.0, True),
+        lam[:3, :3] @ acc[:3],
+    )
+
+
+def test_balance_force_restores_cop_to_the_polygon() -> None:
+    """An expected CoP outside the shrunk sole gets F_3 that puts it on the edge (Eq. 29)."""
+    rng = np.random.default_rng(6)
+    kpsi3 = rng.normal(size=(6, 2))
+    kpsi3[2] = 0.0  # task 3 (upper-body roll/pitch) changes no vertical force here
+    f3 = rng.normal(size=2)
+    rot = sole_rot = np.eye(3)
+    half_sole, margin = np.array([0.1, 0.05]), 0.01
+    inside = np.array([0.0, 0.0, 500.0, 0.0, 0.0, 0.0])  # CoP at the centre
+    args = (rot, sole_rot, half_sole, margin, math.nan)
+    assert not kernels.balance_force(inside, kpsi3, f3, *args)[0]
+    outside = inside.copy()
+    outside[4] = -0.2 * 500.0  # CoP x = 0.2 m, beyond 0.1 − 0.01
+    acting, f3_new = kernels.balance_force(outside, kpsi3, f3, *args)
+    assert acting
+    fc_new = outside + kpsi3 @ (f3_new - f3)
+    cop = kernels.cop_of(fc_new)
+    assert cop[0] == pytest.approx(0.09, abs=1e-9)
+    assert cop[1] == pytest.approx(0.0, abs=1e-9)
+
+
+def _tick_reference(s: dict, phase: Phase, rot: np.ndarray, err: np.ndarray, gains: np.ndarray):
+    """Γ of one tick composed from the numpy reference (Eqs. 6, 7, 11, 20–21, App. C), as the
+    controller computed it before the fused kernel; no balancing (the CoP is inside)."""
+    kp, kv, f_max, m_max = gains[:4]
+    double = phase is Phase.DS
+    rows = slice(0, 12 if double else 6)
+    cd = wbc.contact_dynamics(s["a_inv"], s["nle"], s["jc"][rows], s["jc_dot_v"][rows])
+    j_ub, j_sw, v = s["j_pelvis"][3:], s["jc"][6:12], s["v"]
+    w_pelvis = j_ub @ v
+    blocks = [rot.T @ s["j_com"], j_ub[2:3]] + ([] if double else [j_sw]) + [rot.T[:2] @ j_ub]
+    acc2 = [kp * err[0] - kv * err[2], kp * err[1] - kv * err[3], kp * err[6] - kv * w_pelvis[2]]
+    if not double:
+        acc2 += list(kp * err[7:13] - kv * (j_sw @ v))
+    acc3 = rot.T[:2] @ (kp * err[4:7] - kv * w_pelvis)
+    m2 = len(acc2)
+    hier = wbc.task_hierarchy(cd, wbc.task_phi(cd, np.vstack(blocks)), 1, m2)
+    lam2, lam3 = hier.lams[1], hier.lams[2]
+    scale = 0.6 if phase is Phase.SSA else 1.0  # ε = 0.6
+    f2 = (
+        lam2 @ acc2 if double else _task2_force_reference(lam2, np.array(acc2), scale, f_max, m_max)
+    )
+    f_all = np.r_[0.0, f2, lam3 @ acc3]
+    p_sup, p_sw = s["sole_pos"]
+    kmap = wbc.grasp_map(rot, p_sup, [p_sup, p_sw] if double else [p_sup])
+    kt = kmap @ cd.psi @ hier.torque_map
+    fc23, fcb = kt[:, 1:] @ f_all[1:], kmap @ (cd.psi @ cd.gamma_gc + cd.f_bias)
+    f_all[0] = wbc.com_force_for_cop(0.02, kt[4, 0], fc23[2] + fcb[2], fcb[4])  # x_p^des
+    gamma = hier.torque_map @ f_all + cd.gamma_gc
+    if double:
+        f_now = cd.psi @ gamma + cd.f_bias
+        gamma += wbc.redistribution_torque(cd, f_now, slice(0, 6), 0.6, 0.5, p_sup - p_sw)[0]
+    return gamma, f_all[0]
+
+
+@pytest.mark.parametrize("phase", list(Phase))
+def test_whole_tick_matches_reference_composition(phase: Phase) -> None:
+    """The fused kernel's Γ equals the tick composed from the numpy reference, each phase."""
+    s = _robot_state(30 + int(phase))
+    rng = np.random.default_rng(int(phase))
+    yaw = 0.2
+    rot = np.array(
+        [[math.cos(yaw), -math.sin(yaw), 0], [math.sin(yaw), math.cos(yaw), 0], [0, 0, 1]]
+    )
+    err = rng.normal(scale=0.02, size=13)
+    gains = np.array([100.0, 20.0, 30.0, 10.0, 1.0, 0.0, 0.03, 1e9])  # no balancing, no clip
+    want, f1_want = _tick_reference(s, phase, rot, err, gains)
+    k = want.size
+    tau = np.empty(k)
+    actuator_rows = np.arange(k)[::-1].copy()  # a reordering, to check it too
+    f1, balancing, _, _ = kernels.whole_body_torques(
+        s["a_inv"], s["nle"], s["jc"][: 12 if phase is Phase.DS else 6].copy(),
+        s["jc_dot_v"][: 12 if phase is Phase.DS else 6].copy(), s["j_com"], s["j_pelvis"],
+        s["jc"][6:12].copy(), s["v"], rot, s["sole_pos"][0], s["sole_pos"][1], s["sole_rot"][0],
+        err, int(phase), 0.6, 0.5, 0.02, 0.3, gains, np.array([0.1, 0.05]), actuator_rows, tau,
+    )  # fmt: skip
+    assert not balancing
+    assert f1 == pytest.approx(f1_want, rel=1e-8)
+    _close(tau, want[actuator_rows], rel=1e-8)
+
+
+def test_warm_up_compiles_what_a_tick_uses() -> None:
+    """After reset, ticks in and out of DS compile nothing more (the first tick is not slow)."""
+    robot = load_robot("dyros_red")
+    ctrl = EfsmController()
+    ctrl.reset(robot, EfsmParams(), 0.0005)
+    compiled = {k: len(k.signatures) for k in (kernels.whole_body_torques, kernels.measured_cop)}
+    home = ctrl._home_snapshot()
+    ctrl.step(0.0, home)
+    ctrl._fsm.phase = Phase.SSD
+    cmd = ctrl.step(0.0005, home)
+    assert cmd.signals["efsm_phase"] != int(Phase.DS)
+    assert {k: len(k.signatures) for k in compiled} == compiled
