@@ -345,6 +345,17 @@ def _schemas(model: mujoco.MjModel) -> dict[str, tuple[str, dict[str, Any]]]:
     }
 
 
+class _Channel:
+    """A topic's MCAP channel id, the keys its messages need, and its next sequence number."""
+
+    __slots__ = ("id", "required", "sequence")
+
+    def __init__(self, channel_id: int, required: frozenset[str]) -> None:
+        self.id = channel_id
+        self.required = required
+        self.sequence = 0
+
+
 class LogWriter:
     """Writes one run's MCAP log per the log contract (see the module docstring).
 
@@ -395,11 +406,12 @@ class LogWriter:
             (SPEC_ATTACHMENT, "application/yaml", spec_yaml),
         ):
             self._writer.add_attachment(now_ns, 0, name, media_type, text.encode())
-        self._channels: dict[str, int] = {}
+        self._channels: dict[str, _Channel] = {}
         for topic, (name, schema) in _schemas(model).items():
             schema_id = self._writer.add_schema(name, "jsonschema", json.dumps(schema).encode())
-            self._channels[topic] = self._writer.add_channel(topic, "json", schema_id)
-        self._sequence = dict.fromkeys(self._channels, 0)
+            self._channels[topic] = _Channel(
+                self._writer.add_channel(topic, "json", schema_id), _REQUIRED_KEYS[topic]
+            )
         self._last_t, self._last_stamp = math.nan, 0  # NaN equals no time
         self._closed = False
 
@@ -457,7 +469,7 @@ class LogWriter:
         else:
             xfrc_json = b"{}"
         data = b'{"step":%d,"ctrl":%b,"xfrc":%b}' % (step, ctrl_json, xfrc_json)
-        self._add(TOPIC_INPUTS, data, t)
+        self._append(self._channels[TOPIC_INPUTS], TOPIC_INPUTS, data, t)
 
     def _write(
         self,
@@ -466,13 +478,13 @@ class LogWriter:
         t: float,
         encode: Callable[[Mapping[str, Any]], bytes],
     ) -> None:
-        # The simulation loop writes 5-8 messages per control tick through here: checks are
-        # inline and cheap (a subset test allocates nothing), the rest is orjson and a pack.
-        required = _REQUIRED_KEYS.get(topic)
-        if required is None:
+        # The simulation loop writes 5-8 messages per control tick through here, so the checks
+        # are inline and cheap (a subset test allocates nothing); the rest is orjson and a pack.
+        channel = self._channels.get(topic)
+        if channel is None:
             raise ValueError(f"unknown topic {topic!r}. Valid topics: {', '.join(TOPICS)}.")
-        if not required <= message.keys():
-            missing = required - message.keys()
+        if not channel.required <= message.keys():
+            missing = channel.required - message.keys()
             raise ValueError(f"{topic} message lacks key(s) {', '.join(sorted(missing))}")
         if topic == TOPIC_STATE or topic == TOPIC_INPUTS:
             self._check_sizes(topic, message)
@@ -480,7 +492,7 @@ class LogWriter:
             data = encode(message)
         except ValueError as exc:
             _raise_nonfinite(topic, message, t, exc)
-        self._add(topic, data, t)
+        self._append(channel, topic, data, t)
 
     @staticmethod
     def _encode_checked(
@@ -492,18 +504,17 @@ class LogWriter:
         except ValueError as exc:
             _raise_nonfinite(topic, message, t, exc)
 
-    def _add(self, topic: str, data: bytes, t: float) -> None:
-        """Appends encoded ``data`` with the next sequence number of ``topic``."""
+    def _append(self, channel: _Channel, topic: str, data: bytes, t: float) -> None:
+        """Appends encoded ``data`` to ``channel`` with its next sequence number."""
         if self._closed:
             raise ValueError(f"cannot write to {topic!r}: log {self.path} is closed")
-        if not 0.0 <= t < math.inf:  # also false for NaN
-            raise ValueError(f"{topic} message time t={t!r} must be finite and >= 0 [s]")
-        sequence = self._sequence[topic]
-        self._sequence[topic] = sequence + 1
-        # A tick's messages share one time: convert it once.
-        if t != self._last_t:
+        if t != self._last_t:  # a tick's messages share one time: convert it once
+            if not 0.0 <= t < math.inf:  # also false for NaN
+                raise ValueError(f"{topic} message time t={t!r} must be finite and >= 0 [s]")
             self._last_t, self._last_stamp = t, _ns(t)
-        self._writer.add_message(self._channels[topic], self._last_stamp, data, sequence)
+        sequence = channel.sequence
+        channel.sequence = sequence + 1
+        self._writer.add_message(channel.id, self._last_stamp, data, sequence)
 
     def _check_sizes(self, topic: str, message: Mapping[str, Any]) -> None:
         """Vector sizes and body names of the replay-critical topics, so ``verify`` can work."""
