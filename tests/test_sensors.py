@@ -42,6 +42,9 @@ def test_exact_reading_matches_the_simulator(coman) -> None:  # noqa: ANN001
     link = robot.link_joint_qpos_adr(model)
     assert np.array_equal(snap.joint_pos, link.link_values(data.qpos))
     assert np.array_equal(snap.base_pos, data.qpos[:3]) and snap.t == data.time
+    assert np.array_equal(snap.joint_vel, robot.link_joint_qvel_adr(model).link_values(data.qvel))
+    assert np.array_equal(snap.base_quat, data.qpos[3:7])
+    assert np.array_equal(snap.base_linvel, data.qvel[0:3])
     assert np.array_equal(snap.base_angvel, data.qvel[3:6])
     assert snap.imu_quat == pytest.approx(data.qpos[3:7], abs=0.05)  # IMU sits in the pelvis
     # Standing still: the soles carry the weight and the accelerometer reads +g upward.

@@ -93,19 +93,49 @@ class SensorSnapshot:
         return dict(vars(self))
 
 
-@numba.njit("void(f8[:], i8[:], i8[:], f8[:], i8)", cache=True)
-def _link_values(
-    x: np.ndarray, adr: np.ndarray, starts: np.ndarray, out: np.ndarray, at: int
+@numba.njit(
+    "void(f8[:], f8[:], f8[:], i8[:], i8[:], i8[:], i8[:], i8[:], f8[:], i8[:], i8[:], f8[:])",
+    cache=True,
+)
+def _gather_reading(
+    qpos: np.ndarray,
+    qvel: np.ndarray,
+    sensordata: np.ndarray,
+    qpos_adr: np.ndarray,
+    qpos_starts: np.ndarray,
+    qvel_adr: np.ndarray,
+    qvel_starts: np.ndarray,
+    sensor_rows: np.ndarray,
+    sensor_sign: np.ndarray,
+    base_qpos_rows: np.ndarray,
+    base_qvel_rows: np.ndarray,
+    reading: np.ndarray,
 ) -> None:
-    """``out[at:at + n]`` = each link joint's value, its components (motor + spring of a
-    series-elastic joint) summed in order as ``np.add.reduceat(x[adr], starts)`` does."""
-    n = starts.size
-    for j in range(n):
-        end = starts[j + 1] if j + 1 < n else adr.size
-        value = x[adr[starts[j]]]
-        for c in range(starts[j] + 1, end):
-            value += x[adr[c]]
-        out[at + j] = value
+    """Fill ``reading`` = [link joint positions, link joint velocities, ``sensordata`` rows
+    times their sign, base ``qpos`` rows, base ``qvel`` rows].
+
+    A link joint's value sums its components (motor + spring of a series-elastic joint) in
+    order, as ``np.add.reduceat`` does. One compiled call instead of about ten numpy calls:
+    this runs at up to 2 kHz.
+    """
+    at = 0
+    for adr, starts, x in ((qpos_adr, qpos_starts, qpos), (qvel_adr, qvel_starts, qvel)):
+        n = starts.size
+        for j in range(n):
+            end = starts[j + 1] if j + 1 < n else adr.size
+            value = x[adr[starts[j]]]
+            for c in range(starts[j] + 1, end):
+                value += x[adr[c]]
+            reading[at + j] = value
+        at += n
+    for k in range(sensor_rows.size):
+        reading[at + k] = sensordata[sensor_rows[k]] * sensor_sign[k]
+    at += sensor_rows.size
+    for k in range(base_qpos_rows.size):
+        reading[at + k] = qpos[base_qpos_rows[k]]
+    at += base_qpos_rows.size
+    for k in range(base_qvel_rows.size):
+        reading[at + k] = qvel[base_qvel_rows[k]]
 
 
 class SensorModel:
@@ -147,11 +177,16 @@ class SensorModel:
         self._noisy = np.flatnonzero(std != 0)
         self._noise_std = std[self._noisy]
         self._n = n
-        self._sensor_rows = np.concatenate(
-            [np.arange(sensor[name].start, sensor[name].stop) for name, _, _ in segments[2:]]
-        )
+        # After the noisy segments: the IMU orientation, then the base state if provided.
+        rows = [np.arange(sensor[name].start, sensor[name].stop) for name, _, _ in segments[2:]]
+        self._sensor_rows = np.concatenate([*rows, np.arange(self._quat.start, self._quat.stop)])
         self._sensor_sign = np.ones(self._sensor_rows.size)
-        self._sensor_sign[6:] = -1.0  # the F/T part
+        self._sensor_sign[6:18] = -1.0  # the F/T part
+        self._base_qpos_rows = np.arange(7 if spec.base_state else 0)
+        self._base_qvel_rows = np.arange(6 if spec.base_state else 0)
+        self._reading_size = (
+            2 * n + self._sensor_rows.size + self._base_qpos_rows.size + self._base_qvel_rows.size
+        )
         # A delay of d seconds holds back round(d / control_period) readings.
         self._delay_ticks = int(round(spec.delay / control_period))
         self._buffer: deque[SensorSnapshot] = deque(maxlen=self._delay_ticks + 1)
@@ -169,14 +204,23 @@ class SensorModel:
 
     def _measure(self, data: mujoco.MjData) -> SensorSnapshot:
         spec, n = self._spec, self._n
-        reading = np.empty(self._size)
-        # Sum the components of each link joint (motor + spring DoF for series-elastic joints).
-        # One compiled call each instead of a gather and a reduceat (this runs at up to 2 kHz).
-        _link_values(data.qpos, self._qpos_adr.adr, self._qpos_adr.starts, reading, 0)
-        _link_values(data.qvel, self._qvel_adr.adr, self._qvel_adr.starts, reading, n)
+        reading = np.empty(self._reading_size)
         # MuJoCo's force/torque sensors give the wrench the parent applies to the foot
         # subtree; the F/T convention here is the reaction (foot on leg), hence the sign.
-        np.multiply(data.sensordata[self._sensor_rows], self._sensor_sign, out=reading[2 * n :])
+        _gather_reading(
+            data.qpos,
+            data.qvel,
+            data.sensordata,
+            self._qpos_adr.adr,
+            self._qpos_adr.starts,
+            self._qvel_adr.adr,
+            self._qvel_adr.starts,
+            self._sensor_rows,
+            self._sensor_sign,
+            self._base_qpos_rows,
+            self._base_qvel_rows,
+            reading,
+        )
         if self._noisy.size:
             noise = self._noise_std * self._rng.standard_normal(self._noisy.size)
             reading[self._noisy] += noise
@@ -184,28 +228,21 @@ class SensorModel:
         if spec.joint_position_quantization > 0:
             step = spec.joint_position_quantization
             joint_pos = np.round(joint_pos / step) * step
-        i = 2 * n
-        base: dict[str, np.ndarray | None] = dict.fromkeys(
-            ("base_pos", "base_quat", "base_linvel", "base_angvel")
-        )
-        if spec.base_state:
-            qpos, qvel = data.qpos[:7].copy(), data.qvel[:6].copy()
-            base = {
-                "base_pos": qpos[0:3],
-                "base_quat": qpos[3:7],
-                "base_linvel": qvel[0:3],
-                "base_angvel": qvel[3:6],
-            }
+        i = 2 * n  # gyro, accelerometer, F/T, IMU orientation, base position ... velocity
+        base = reading[i + 22 :] if spec.base_state else None
         return SensorSnapshot(
             t=data.time,
             joint_pos=joint_pos,
             joint_vel=reading[n:i],
-            imu_quat=data.sensordata[self._quat].copy(),
+            imu_quat=reading[i + 18 : i + 22],
             imu_gyro=reading[i : i + 3],
             imu_acc=reading[i + 3 : i + 6],
             left_ft=reading[i + 6 : i + 12],
             right_ft=reading[i + 12 : i + 18],
-            **base,
+            base_pos=None if base is None else base[0:3],
+            base_quat=None if base is None else base[3:7],
+            base_linvel=None if base is None else base[7:10],
+            base_angvel=None if base is None else base[10:13],
         )
 
 
