@@ -37,7 +37,11 @@ def _robot_state(seed: int) -> dict[str, np.ndarray]:
     pin.updateFramePlacements(model, data)
     ids = [robot.pin_frame_id(f) for f in FEET]
     a = np.triu(data.M) + np.triu(data.M, 1).T
+    support = [np.any(pin.getFrameJacobian(model, data, i, LWA) != 0.0, axis=0) for i in ids]
     return {
+        "j_world": data.J.copy(),
+        "support": support,
+        "pelvis_rot": data.oMi[1].rotation.copy(),
         "a_inv": np.linalg.inv(a),
         "nle": data.nle.copy(),
         "jc": np.vstack([pin.getFrameJacobian(model, data, i, LWA) for i in ids]),
@@ -209,27 +213,35 @@ def test_balance_force_restores_cop_to_the_polygon() -> None:
     assert cop[1] == pytest.approx(0.0, abs=1e-9)
 
 
-def _tick_reference(s: dict, phase: Phase, rot: np.ndarray, err: np.ndarray, gains: np.ndarray):
+def _tick_reference(
+    s: dict, phase: Phase, rot: np.ndarray, task_ref: np.ndarray, rot_des: np.ndarray
+) -> tuple[np.ndarray, float]:
     """Γ of one tick composed from the numpy reference (Eqs. 6, 7, 11, 20–21, App. C), as the
     controller computed it before the fused kernel; no balancing (the CoP is inside)."""
-    kp, kv, f_max, m_max = gains[:4]
+    kp, kv, f_max, m_max = 100.0, 20.0, 30.0, 10.0
     double = phase is Phase.DS
     rows = slice(0, 12 if double else 6)
     cd = wbc.contact_dynamics(s["a_inv"], s["nle"], s["jc"][rows], s["jc_dot_v"][rows])
     j_ub, j_sw, v = s["j_pelvis"][3:], s["jc"][6:12], s["v"]
     w_pelvis = j_ub @ v
+    e_ub = pin.log3(rot_des[0] @ s["pelvis_rot"].T)
     blocks = [rot.T @ s["j_com"], j_ub[2:3]] + ([] if double else [j_sw]) + [rot.T[:2] @ j_ub]
-    acc2 = [kp * err[0] - kv * err[2], kp * err[1] - kv * err[3], kp * err[6] - kv * w_pelvis[2]]
+    acc2 = [
+        kp * task_ref[0] - kv * task_ref[2],
+        kp * task_ref[1] - kv * task_ref[3],
+        kp * e_ub[2] - kv * w_pelvis[2],
+    ]
     if not double:
-        acc2 += list(kp * err[7:13] - kv * (j_sw @ v))
-    acc3 = rot.T[:2] @ (kp * err[4:7] - kv * w_pelvis)
+        e_sw = pin.log3(rot_des[1] @ s["sole_rot"][1].T)
+        err_sw = np.r_[task_ref[4:7] - s["sole_pos"][1], e_sw]
+        acc2 += list(kp * err_sw - kv * (j_sw @ v))
+    acc3 = rot.T[:2] @ (kp * e_ub - kv * w_pelvis)
     m2 = len(acc2)
     hier = wbc.task_hierarchy(cd, wbc.task_phi(cd, np.vstack(blocks)), 1, m2)
     lam2, lam3 = hier.lams[1], hier.lams[2]
     scale = 0.6 if phase is Phase.SSA else 1.0  # ε = 0.6
-    f2 = (
-        lam2 @ acc2 if double else _task2_force_reference(lam2, np.array(acc2), scale, f_max, m_max)
-    )
+    acc2 = np.array(acc2)
+    f2 = lam2 @ acc2 if double else _task2_force_reference(lam2, acc2, scale, f_max, m_max)
     f_all = np.r_[0.0, f2, lam3 @ acc3]
     p_sup, p_sw = s["sole_pos"]
     kmap = wbc.grasp_map(rot, p_sup, [p_sup, p_sw] if double else [p_sup])
@@ -243,30 +255,55 @@ def _tick_reference(s: dict, phase: Phase, rot: np.ndarray, err: np.ndarray, gai
     return gamma, f_all[0]
 
 
+def _yaw(angle: float) -> np.ndarray:
+    """Rotation about z [rad]."""
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
 @pytest.mark.parametrize("phase", list(Phase))
 def test_whole_tick_matches_reference_composition(phase: Phase) -> None:
     """The fused kernel's Γ equals the tick composed from the numpy reference, each phase."""
     s = _robot_state(30 + int(phase))
     rng = np.random.default_rng(int(phase))
-    yaw = 0.2
-    rot = np.array(
-        [[math.cos(yaw), -math.sin(yaw), 0], [math.sin(yaw), math.cos(yaw), 0], [0, 0, 1]]
-    )
-    err = rng.normal(scale=0.02, size=13)
-    gains = np.array([100.0, 20.0, 30.0, 10.0, 1.0, 0.0, 0.03, 1e9])  # no balancing, no clip
-    want, f1_want = _tick_reference(s, phase, rot, err, gains)
+    rot = _yaw(0.2)
+    task_ref = rng.normal(scale=0.02, size=7)
+    task_ref[4:7] += s["sole_pos"][1]  # a swing target near the swing sole
+    rot_des = np.array([_yaw(0.05), _yaw(-0.03)])
+    want, f1_want = _tick_reference(s, phase, rot, task_ref, rot_des)
     k = want.size
     tau = np.empty(k)
     actuator_rows = np.arange(k)[::-1].copy()  # a reordering, to check it too
+    params = np.array([100.0, 20.0, 30.0, 10.0, 1.0, 0.0, 0.03, 1e9, 0.1, 0.05])  # no clip
+    c = 12 if phase is Phase.DS else 6
     f1, balancing, _, _ = kernels.whole_body_torques(
-        s["a_inv"], s["nle"], s["jc"][: 12 if phase is Phase.DS else 6].copy(),
-        s["jc_dot_v"][: 12 if phase is Phase.DS else 6].copy(), s["j_com"], s["j_pelvis"],
-        s["jc"][6:12].copy(), s["v"], rot, s["sole_pos"][0], s["sole_pos"][1], s["sole_rot"][0],
-        err, int(phase), 0.6, 0.5, 0.02, 0.3, gains, np.array([0.1, 0.05]), actuator_rows, tau,
+        s["a_inv"], s["nle"], s["j_world"], s["jc_dot_v"][:c].copy(), s["support"][0],
+        s["support"][1], s["j_com"], s["v"], rot, s["sole_pos"][0], s["sole_pos"][1],
+        s["sole_rot"][0], s["sole_rot"][1], s["pelvis_rot"], rot_des, task_ref, int(phase),
+        0.6, 0.5, 0.02, 0.3, params, actuator_rows, tau,
     )  # fmt: skip
     assert not balancing
     assert f1 == pytest.approx(f1_want, rel=1e-8)
     _close(tau, want[actuator_rows], rel=1e-8)
+
+
+def test_frame_jacobian_matches_pinocchio() -> None:
+    """The sole Jacobians built from data.J equal pinocchio.getFrameJacobian (LWA)."""
+    s = _robot_state(40)
+    for i in range(2):
+        out = np.empty((6, s["v"].size))
+        kernels.frame_jacobian(s["j_world"], s["support"][i], s["sole_pos"][i], out)
+        _close(out, s["jc"][6 * i : 6 * i + 6], rel=1e-14)
+
+
+def test_log3_matches_pinocchio() -> None:
+    """log3 equals pinocchio.log3 on random rotations, near identity and near π."""
+    rng = np.random.default_rng(8)
+    for angle in (0.0, 1e-9, 1e-6, 1e-3, 0.3, 2.0, math.pi - 1e-3, math.pi - 1e-7, math.pi):
+        for _ in range(5):
+            axis = rng.normal(size=3)
+            rot = pin.exp3(angle * axis / np.linalg.norm(axis))
+            np.testing.assert_allclose(kernels.log3(rot), pin.log3(rot), rtol=1e-12, atol=1e-13)
 
 
 def test_warm_up_compiles_what_a_tick_uses() -> None:

@@ -107,7 +107,7 @@ class _PoseViews:
         """(Re)take every view from ``Data``."""
         data = self._data
         self.com, self.vcom = data.com[0], data.vcom[0]  # [m], [m/s], world
-        self.nle, self.j_com = data.nle, data.Jcom
+        self.nle, self.j_com, self.j_world = data.nle, data.Jcom, data.J
         self.sole_pos = {f: data.oMf[i].translation for f, i in self._sole.items()}
         self.sole_rot = {f: data.oMf[i].rotation for f, i in self._sole.items()}
         self.ft_pos = tuple(data.oMf[self._ft[f]].translation for f in FEET)
@@ -122,6 +122,7 @@ class _PoseViews:
             (self.vcom, fresh.vcom),
             (self.nle, fresh.nle),
             (self.j_com, fresh.j_com),
+            (self.j_world, fresh.j_world),
             (self.pelvis_rot, fresh.pelvis_rot),
             *zip(self.ft_pos, fresh.ft_pos, strict=True),
             *zip(self.ft_rot, fresh.ft_rot, strict=True),
@@ -165,8 +166,9 @@ class EfsmController(Controller):
         # Joint-torque row of each actuator (Γ is in joint order, ctrl in actuator order).
         self._actuator_rows = np.asarray(robot.pin_v_idx, dtype=np.int64) - 6
         self._tau = np.empty(len(self._actuator_rows))
-        self._half_sole = np.asarray(robot.sole_size, dtype=float) / 2.0
-        self._gains = np.array(
+        half_sole = np.asarray(robot.sole_size, dtype=float) / 2.0
+        # The parameters of kernels.whole_body_torques, in its order.
+        self._kernel_params = np.array(
             [
                 params.kp,
                 params.kv,
@@ -176,14 +178,23 @@ class EfsmController(Controller):
                 float(params.balance),
                 params.cop_margin,
                 params.torque_limit,
+                *half_sole,
             ]
         )
-        # Buffers the kernels read: contact Jacobian and J̇_c q̇ (support foot first), the
-        # swing-foot Jacobian, the task errors of Eq. (6).
-        self._jc = {1: np.empty((6, nv)), 2: np.empty((12, nv))}
+        # The velocity coordinates that move each sole (its joint's ancestors in the tree).
+        self._sole_support = {}
+        for f, frame_id in self._sole.items():
+            joint = model.frames[frame_id].parentJoint
+            support = np.zeros(nv, dtype=np.bool_)
+            for j in model.supports[joint][1:]:  # without the universe
+                support[model.joints[j].idx_v : model.joints[j].idx_v + model.joints[j].nv] = True
+            self._sole_support[f] = support
+        if model.joints[self._pelvis_joint].nv != 6 or model.joints[self._pelvis_joint].idx_v:
+            raise ValueError("the E-FSM controller needs the pelvis as the free-flyer root")
+        # Buffers the kernel reads: J̇_c q̇ (support foot first), the targets of Eq. (6).
         self._jc_dot_v = {1: np.empty(6), 2: np.empty(12)}
-        self._j_swing = np.zeros((6, nv))
-        self._task_err = np.zeros(13)
+        self._task_ref = np.zeros(7)
+        self._rot_des = np.zeros((2, 3, 3))  # Table II: pelvis, swing sole
         # The part of each foot below its F/T sensor (the ankle-roll link): its weight and
         # its CoM in the sensor frame (both on that link, so the offset is constant).
         self._foot_weight = np.empty(2)
@@ -300,31 +311,19 @@ class EfsmController(Controller):
         double = phase is Phase.DS
 
         # Contact set: the support foot, plus the swing foot in DS (its rows second).
-        sole_sup, sole_sw = self._sole[sup], self._sole[sw]
-        n_contacts = 2 if double else 1
-        jc, jc_dot_v = self._jc[n_contacts], self._jc_dot_v[n_contacts]
-        jc[0:6] = pin.getFrameJacobian(model, data, sole_sup, LWA)
-        jc_dot_v[0:6] = pin.getFrameClassicalAcceleration(model, data, sole_sup, LWA).vector
-        j_swing = self._j_swing
+        jc_dot_v = self._jc_dot_v[2 if double else 1]
+        jc_dot_v[0:6] = pin.getFrameClassicalAcceleration(model, data, self._sole[sup], LWA)
         if double:
-            jc[6:12] = pin.getFrameJacobian(model, data, sole_sw, LWA)
-            jc_dot_v[6:12] = pin.getFrameClassicalAcceleration(model, data, sole_sw, LWA).vector
-        else:
-            j_swing[:] = pin.getFrameJacobian(model, data, sole_sw, LWA)
+            jc_dot_v[6:12] = pin.getFrameClassicalAcceleration(model, data, self._sole[sw], LWA)
         pin.cholesky.decompose(model, data)  # A = U D Uᵀ of the M from computeAllTerms
         a_inv = pin.cholesky.computeMinv(model, data)  # A⁻¹, both triangles
-        j_pelvis = pin.getJointJacobian(model, data, self._pelvis_joint, LWA)
 
-        # Task errors of Eq. (6) (Table II targets); the kernel forms ẍ* = k_p e − k_v ẋ.
-        err = self._task_err
+        # Task-space errors of Eq. (6) (Table II targets); the kernel forms ẍ* = k_p e − k_v ẋ.
+        task_ref = self._task_ref
         _, cw_y, cw_z = com_w
         _, vw_y, vw_z = vcom_w
-        err[0:4] = (0.0 - cw_y, self._z_m0 - cw_z, vw_y, vw_z)
-        err[4:7] = pin.log3(self._rot_ub_des @ pose.pelvis_rot.T)  # world axes
         sw_ref = self._swing_ref(phase, p_sup)
-        if not double:
-            err[7:10] = sw_ref - p_sw
-            err[10:13] = pin.log3(self._rot_foot_des @ pose.sole_rot[sw].T)
+        task_ref[:] = (0.0 - cw_y, self._z_m0 - cw_z, vw_y, vw_z, *sw_ref)
 
         # Γ = Γ_t + Γ_c + Γ_gc (Eqs. 7 and 11, Appendices A–D), saturated, actuator order.
         eps_on = 1.0
@@ -339,24 +338,26 @@ class EfsmController(Controller):
         f1, balancing, cop_exp_x, cop_exp_y = kernels.whole_body_torques(
             a_inv,
             pose.nle,
-            jc,
+            pose.j_world,
             jc_dot_v,
+            self._sole_support[sup],
+            self._sole_support[sw],
             pose.j_com,
-            j_pelvis,
-            j_swing,
             v,
             rot,
             p_sup,
             p_sw,
             pose.sole_rot[sup],
-            err,
+            pose.sole_rot[sw],
+            pose.pelvis_rot,
+            self._rot_des,
+            task_ref,
             int(phase),
             eps,
             eps_on,
             xp_des,
             x_s,
-            self._gains,
-            self._half_sole,
+            self._kernel_params,
             self._actuator_rows,
             tau,
         )
@@ -416,10 +417,11 @@ class EfsmController(Controller):
         """Record the initial targets (Table II) and start the first DS (Table I)."""
         p, pose = self._p, self._pose
         self._started = True
-        self._rot_ub_des = _yaw_only(pose.pelvis_rot)
-        self._rot_foot_des = _yaw_only(pose.sole_rot["left"])
-        self._heading = self._rot_ub_des[:, 0].copy()
-        self._lateral = self._rot_ub_des[:, 1].copy()
+        rot_ub_des = _yaw_only(pose.pelvis_rot)
+        self._rot_des[0] = rot_ub_des  # Table II: the upper body level, initial heading
+        self._rot_des[1] = _yaw_only(pose.sole_rot["left"])  # the swing sole level
+        self._heading = rot_ub_des[:, 0].copy()
+        self._lateral = rot_ub_des[:, 1].copy()
         p_left, p_right = pose.sole_pos["left"], pose.sole_pos["right"]
         spacing = float(self._lateral @ (p_left - p_right))
         self._width = spacing if p.step_width is None else p.step_width
@@ -489,11 +491,14 @@ class EfsmController(Controller):
         ground reaction. Feet carrying no vertical load are left out
         (:func:`.kernels.measured_cop`).
         """
-        pose = self._pose
+        (rot_left, rot_right), (pos_left, pos_right) = self._pose.ft_rot, self._pose.ft_pos
         return kernels.measured_cop(
-            pose.ft_rot,
-            pose.ft_pos,
-            (sensors.left_ft, sensors.right_ft),
+            rot_left,
+            pos_left,
+            sensors.left_ft,
+            rot_right,
+            pos_right,
+            sensors.right_ft,
             self._foot_com_ft,
             self._foot_weight,
         )

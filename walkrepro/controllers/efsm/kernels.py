@@ -171,6 +171,109 @@ def pinv_eigh(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return matmul_bt(scaled, eigvec), eigvec
 
 
+# ---- kinematics read from Pinocchio's results ----------------------------------------------
+
+#: Pinocchio's Taylor-expansion threshold of log3, TaylorSeriesExpansion<double>::precision<2>.
+_LOG3_PREC = float(np.finfo(np.float64).eps) ** (1.0 / 3.0)
+_EPS = float(np.finfo(np.float64).eps)
+
+
+@_jit
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b of 3-vectors."""
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
+
+
+@_jit
+def _log3_singular_axis(rot: np.ndarray, i0: int, val: float) -> tuple[float, np.ndarray]:
+    """Angle and axis of a rotation by ≈ π from its i0-th diagonal (Pinocchio's
+    ``internal::compute_theta_axis``)."""
+    i1, i2 = (i0 + 1) % 3, (i0 + 2) % 3
+    sign = 1.0 if rot[i2, i1] >= rot[i1, i2] else -1.0
+    s = math.sqrt(val + _EPS + _EPS * _EPS) * sign
+    axis = np.empty(3)
+    axis[i0] = s / 2.0
+    axis[i1] = 1.0 / (2.0 * s) * (rot[i1, i0] + rot[i0, i1])
+    axis[i2] = 1.0 / (2.0 * s) * (rot[i2, i0] + rot[i0, i2])
+    w = 1.0 / (2.0 * s) * (rot[i2, i1] - rot[i1, i2])
+    norm = math.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])
+    return 2.0 * math.atan2(norm, w), axis / norm
+
+
+@_jit
+def log3(rot: np.ndarray) -> np.ndarray:
+    """The rotation vector of ``rot`` [rad], as ``pinocchio.log3`` (same branches).
+
+    The rotation is renormalized first; below θ = ε^(1/3) a Taylor expansion replaces
+    θ / sin θ, and near θ = π the axis comes from the largest diagonal entry.
+    """
+    c0 = rot[:, 0] / math.sqrt(rot[0, 0] ** 2 + rot[1, 0] ** 2 + rot[2, 0] ** 2)
+    c1 = rot[:, 1] / math.sqrt(rot[0, 1] ** 2 + rot[1, 1] ** 2 + rot[2, 1] ** 2)
+    c2 = _cross(c0, c1)
+    c0 = _cross(c1, c2)
+    r = np.empty((3, 3))
+    r[:, 0], r[:, 1], r[:, 2] = c0, c1, c2
+    tr = r[0, 0] + r[1, 1] + r[2, 2]
+    cos_value = (tr - 1.0) / 2.0
+    prec = _LOG3_PREC
+    if cos_value < -1.0 + prec:  # θ ≈ π
+        vals = np.array([2.0 * r[i, i] - tr + 1.0 for i in range(3)])
+        if vals[0] >= vals[1]:
+            i0 = 0 if vals[0] >= vals[2] else 2
+        else:
+            i0 = 1 if vals[1] >= vals[2] else 2
+        theta, axis = _log3_singular_axis(r, i0, vals[i0])
+        return theta * axis
+    acos_expansion = math.sqrt(2.0 * (1.0 - cos_value) + _EPS * _EPS)
+    if tr <= 3.0 - prec:
+        theta = math.acos(cos_value) if tr >= -1.0 + prec else math.pi - acos_expansion
+    else:
+        theta = acos_expansion
+    antisym = np.array(
+        [0.5 * (r[2, 1] - r[1, 2]), 0.5 * (r[0, 2] - r[2, 0]), 0.5 * (r[1, 0] - r[0, 1])]
+    )
+    sq = antisym[0] ** 2 + antisym[1] ** 2 + antisym[2] ** 2
+    if theta >= prec:
+        t = theta / math.sin(theta)
+    else:
+        t = 1.0 + sq / 6.0 + sq * sq * 3.0 / 40.0
+    return t * antisym
+
+
+@_jit
+def orientation_error(rot_des: np.ndarray, rot: np.ndarray) -> np.ndarray:
+    """log3(R_des Rᵀ), the orientation error in world axes [rad]."""
+    return log3(matmul_bt(rot_des, rot))
+
+
+@_jit
+def frame_jacobian(
+    j_world: np.ndarray, support: np.ndarray, pos: np.ndarray, out: np.ndarray
+) -> None:
+    """A frame's Jacobian in LOCAL_WORLD_ALIGNED axes, as ``pinocchio.getFrameJacobian``.
+
+    Args:
+        j_world: Pinocchio's joint Jacobians ``data.J``: spatial velocity at the world
+            origin, world axes, per velocity coordinate, shape (6, n).
+        support: True for the velocity coordinates that move the frame, shape (n,).
+        pos: the frame's origin in the world [m].
+        out: the Jacobian, shape (6, n): linear velocity of the frame origin, then
+            angular velocity, world axes.
+    """
+    for col in range(j_world.shape[1]):
+        if not support[col]:
+            for i in range(6):
+                out[i, col] = 0.0
+            continue
+        wx, wy, wz = j_world[3, col], j_world[4, col], j_world[5, col]
+        out[0, col] = j_world[0, col] - (pos[1] * wz - pos[2] * wy)  # v − p × ω
+        out[1, col] = j_world[1, col] - (pos[2] * wx - pos[0] * wz)
+        out[2, col] = j_world[2, col] - (pos[0] * wy - pos[1] * wx)
+        out[3, col], out[4, col], out[5, col] = wx, wy, wz
+
+
 # ---- Appendix A: contact dynamics and the task hierarchy ---------------------------------
 
 
@@ -433,24 +536,26 @@ def balance_force(
 def whole_body_torques(
     a_inv: np.ndarray,
     nle: np.ndarray,
-    jc: np.ndarray,
+    j_world: np.ndarray,
     jc_dot_v: np.ndarray,
+    support_sup: np.ndarray,
+    support_sw: np.ndarray,
     j_com: np.ndarray,
-    j_pelvis: np.ndarray,
-    j_swing: np.ndarray,
     v: np.ndarray,
     rot: np.ndarray,
     p_sup: np.ndarray,
     p_sw: np.ndarray,
     sole_rot_sup: np.ndarray,
-    task_err: np.ndarray,
+    sole_rot_sw: np.ndarray,
+    pelvis_rot: np.ndarray,
+    rot_des: np.ndarray,
+    task_ref: np.ndarray,
     phase: int,
     eps: float,
     eps_onset: float,
     xp_des: float,
     x_s: float,
-    gains: np.ndarray,
-    half_sole: np.ndarray,
+    params: np.ndarray,
     actuator_rows: np.ndarray,
     tau: np.ndarray,
 ) -> tuple[float, bool, float, float]:
@@ -458,31 +563,31 @@ def whole_body_torques(
 
     The three tasks of Eq. (11): task 1 the CoM x-force for x_p^des (Appendix D-1); task 2
     CoM y/z, pelvis yaw and, out of DS, the 6-D swing foot; task 3 pelvis roll/pitch, plus
-    F_3^bal (Appendix D-3). Γ_c redistributes the DS wrenches (Appendix C).
+    F_3^bal (Appendix D-3). Γ_c redistributes the DS wrenches (Appendix C). Contacts: the
+    support sole, plus the swing sole in DS (its rows second).
 
     Args:
         a_inv: A⁻¹, shape (n, n).
         nle: b + g, shape (n,).
-        jc: contact Jacobian, support foot first, world axes, shape (6 or 12, n).
-        jc_dot_v: J̇_c q̇, shape (6 or 12,).
+        j_world: Pinocchio's joint Jacobians ``data.J`` (see :func:`frame_jacobian`). The
+            pelvis (the rigid upper body) is the floating base: its first six columns.
+        jc_dot_v: J̇_c q̇ of the contacts, world axes, shape (6 or 12,).
+        support_sup, support_sw: the velocity coordinates moving each sole, shape (n,).
         j_com: CoM Jacobian, world axes, shape (3, n).
-        j_pelvis: pelvis (upper body) Jacobian, world axes, angular rows last, shape (6, n).
-        j_swing: swing sole Jacobian, world axes, shape (6, n) (unused in DS).
         v: generalized velocity, shape (n,).
         rot: world-from-O_w rotation.
-        p_sup: support sole centre [m], the origin of O_w.
-        p_sw: swing sole centre [m].
-        sole_rot_sup: world-from-support-sole rotation.
-        task_err: task errors and velocities of Eq. (6), shape (13,): [0:2] CoM y, z error
-            in O_w [m]; [2:4] CoM y, z velocity in O_w [m/s]; [4:7] pelvis orientation
-            error, world axes [rad]; [7:10] swing-foot position error [m]; [10:13]
-            swing-foot orientation error, world axes [rad] (both unused in DS).
+        p_sup, p_sw: support and swing sole centres [m]; p_sup is the origin of O_w.
+        sole_rot_sup, sole_rot_sw: world-from-sole rotations.
+        pelvis_rot: world-from-pelvis rotation.
+        rot_des: orientation targets (Table II), shape (2, 3, 3): pelvis, swing sole.
+        task_ref: shape (7,): [0:2] CoM y, z error in O_w [m]; [2:4] CoM y, z velocity in
+            O_w [m/s]; [4:7] swing-sole position reference [m] (unused in DS).
         phase: E-FSM phase (fsm.Phase as int).
         eps: ε; eps_onset: ε's onset ramp in DS (see ``wbc.redistribution_torque``).
         xp_des: desired CoP along x of O_w [m]; x_s: swing-foot centre along x of O_w [m].
-        gains: k_p, k_v, F_s force bound [N], F_s moment bound [Nm], decoupled saturation
-            (1/0), balancing (1/0), CoP safety margin [m], torque limit [Nm].
-        half_sole: half length and width of the sole [m].
+        params: k_p, k_v, F_s force bound [N], F_s moment bound [Nm], decoupled saturation
+            (1/0), balancing (1/0), CoP safety margin [m], torque limit [Nm], half sole
+            length and width [m].
         actuator_rows: joint-torque row of each actuator, shape (k,).
         tau: out: actuator torques, saturated, shape (k,) [Nm].
 
@@ -490,10 +595,16 @@ def whole_body_torques(
         F_1 (the CoM x-force [N]), whether F_3^bal acted, and the expected CoP (x, y) in
         O_w [m] (NaN if unloaded).
     """
-    kp, kv, f_max, m_max = gains[0], gains[1], gains[2], gains[3]
-    decoupled, balance, margin, tau_lim = gains[4] != 0.0, gains[5] != 0.0, gains[6], gains[7]
+    kp, kv, f_max, m_max = params[0], params[1], params[2], params[3]
+    decoupled, balance, margin, tau_lim = params[4] != 0.0, params[5] != 0.0, params[6], params[7]
     n = a_inv.shape[0]
     double = phase == _DS
+
+    # Contact and task Jacobians, world axes.
+    jc = np.empty((12 if double else 6, n))
+    frame_jacobian(j_world, support_sup, p_sup, jc[0:6])
+    j_swing = np.empty((6, n))
+    frame_jacobian(j_world, support_sw, p_sw, jc[6:12] if double else j_swing)
     P, W_pinv, psi, f_bias, gamma_gc, w_eigvec, _ = contact_dynamics(a_inv, nle, jc, jc_dot_v)
 
     # Task Jacobians, stacked [CoM x | CoM y, z, pelvis yaw, (swing foot) | pelvis roll, pitch],
@@ -501,32 +612,39 @@ def whole_body_torques(
     m2 = 3 if double else 9
     m = m2 + 3
     j_all = np.zeros((m, n))
-    w_pelvis = matvec(j_pelvis[3:], v)  # world axes
+    w_pelvis = np.zeros(3)  # world axes
+    for i in range(3):
+        for col in range(6):
+            w_pelvis[i] += j_world[3 + i, col] * v[col]
     for col in range(n):
         for i in range(3):
             for j in range(3):
                 j_all[i, col] += rot[j, i] * j_com[j, col]
-        j_all[3, col] = j_pelvis[5, col]
-        for i in range(2):
-            for j in range(3):
-                j_all[m - 2 + i, col] += rot[j, i] * j_pelvis[3 + j, col]
+        if col < 6:
+            j_all[3, col] = j_world[5, col]
+            for i in range(2):
+                for j in range(3):
+                    j_all[m - 2 + i, col] += rot[j, i] * j_world[3 + j, col]
         if not double:
             for i in range(6):
                 j_all[4 + i, col] = j_swing[i, col]
 
     # Reference accelerations, Eq. (6) (Table II targets).
+    e_pelvis = orientation_error(rot_des[0], pelvis_rot)  # world axes
     acc2 = np.empty(m2)
-    acc2[0] = kp * task_err[0] - kv * task_err[2]
-    acc2[1] = kp * task_err[1] - kv * task_err[3]
-    acc2[2] = kp * task_err[6] - kv * w_pelvis[2]
+    acc2[0] = kp * task_ref[0] - kv * task_ref[2]
+    acc2[1] = kp * task_ref[1] - kv * task_ref[3]
+    acc2[2] = kp * e_pelvis[2] - kv * w_pelvis[2]
     if not double:
         v_swing = matvec(j_swing, v)
-        for i in range(6):
-            acc2[3 + i] = task_err[7 + i] * kp - kv * v_swing[i]
+        e_swing = orientation_error(rot_des[1], sole_rot_sw)
+        for i in range(3):
+            acc2[3 + i] = (task_ref[4 + i] - p_sw[i]) * kp - kv * v_swing[i]
+            acc2[6 + i] = e_swing[i] * kp - kv * v_swing[3 + i]
     acc3 = np.zeros(2)
     for i in range(2):  # rot[:, i] · (k_p e − k_v ω)
         for j in range(3):
-            acc3[i] += rot[j, i] * (kp * task_err[4 + j] - kv * w_pelvis[j])
+            acc3[i] += rot[j, i] * (kp * e_pelvis[j] - kv * w_pelvis[j])
 
     # The hierarchy (Eq. 11, Appendix A): rows [task 1 (1), task 2 (m2), task 3 (2)].
     phi = matmul(j_all, P[:, 6:])  # Φ = J P Sᵀ
@@ -556,7 +674,7 @@ def whole_body_torques(
         kt3 = kt[:, m2 + 1 :].copy()
         f3 = f_all[m2 + 1 :].copy()
         balancing, f3_new = balance_force(
-            fc, kt3, f3, rot, sole_rot_sup, half_sole, margin, x_s if double else math.nan
+            fc, kt3, f3, rot, sole_rot_sup, params[8:10], margin, x_s if double else math.nan
         )
         if balancing:
             fc = fc + matvec(kt3, f3_new - f3)  # F_3 replaced
@@ -577,28 +695,34 @@ def whole_body_torques(
 
 @_jit
 def measured_cop(
-    ft_rot: tuple[np.ndarray, np.ndarray],
-    ft_pos: tuple[np.ndarray, np.ndarray],
-    ft_wrench: tuple[np.ndarray, np.ndarray],
+    ft_rot_left: np.ndarray,
+    ft_pos_left: np.ndarray,
+    wrench_left: np.ndarray,
+    ft_rot_right: np.ndarray,
+    ft_pos_right: np.ndarray,
+    wrench_right: np.ndarray,
     foot_com: np.ndarray,
     foot_weight: np.ndarray,
 ) -> tuple[float, float]:
     """CoP (x, y) in the world from the two F/T sensors, as ``EfsmController._measured_cop``.
 
     Args:
-        ft_rot: world-from-sensor rotation of each foot's F/T frame.
-        ft_pos: position of each F/T frame in the world [m].
-        ft_wrench: each sensor's (f, τ) in its frame, the wrench the foot applies to the leg.
-        foot_com: centre of mass of the part below each sensor, in the sensor frame,
-            shape (2, 3) [m].
-        foot_weight: weight of that part, shape (2,) [N].
+        ft_rot_left, ft_rot_right: world-from-sensor rotation of each F/T frame.
+        ft_pos_left, ft_pos_right: position of each F/T frame in the world [m].
+        wrench_left, wrench_right: each sensor's (f, τ) in its frame, the wrench the foot
+            applies to the leg [N, Nm].
+        foot_com: centre of mass of the part below each sensor (left, right), in the
+            sensor frame, shape (2, 3) [m].
+        foot_weight: weight of that part (left, right), shape (2,) [N].
 
     Returns:
         The ground-level CoP [m]; NaN when no foot carries vertical load.
     """
     force_z = mom_x = mom_y = 0.0
     for foot in range(2):
-        rot, pos, wrench = ft_rot[foot], ft_pos[foot], ft_wrench[foot]
+        rot = ft_rot_left if foot == 0 else ft_rot_right
+        pos = ft_pos_left if foot == 0 else ft_pos_right
+        wrench = wrench_left if foot == 0 else wrench_right
         f = np.zeros(3)
         tq = np.zeros(3)
         for i in range(3):  # world axes
