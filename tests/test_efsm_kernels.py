@@ -91,6 +91,18 @@ def test_small_algebra_matches_numpy(seed: int) -> None:
     _close(kernels.solve_vec(sq, x), np.linalg.solve(sq, x), rel=1e-12)
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_lstsq_matches_numpy(seed: int) -> None:
+    """The QR least squares equals np.linalg.lstsq, also when a is rank-deficient (fallback)."""
+    rng = np.random.default_rng(seed)
+    a, b = rng.normal(size=(10, 6)), rng.normal(size=10)
+    a[:, 0] *= 1e3  # badly scaled columns, as forces next to moments
+    if seed == 3:
+        a[:, 5] = a[:, 4]  # rank 5: the minimum-norm solution, as LAPACK's
+    want = np.linalg.lstsq(a, b, rcond=None)[0]
+    _close(kernels.lstsq(a, b), want, rel=1e-10)
+
+
 @pytest.mark.parametrize("n", [1, 2, 3, 10])
 def test_inv_if_well_conditioned_matches_reference(n: int) -> None:
     """The kernel accepts and refuses the same matrices as the reference, same inverse."""

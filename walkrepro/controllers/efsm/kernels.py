@@ -107,13 +107,14 @@ def lu_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
                 lu[r, j] -= f * lu[col, j]
             for j in range(p):
                 x[r, j] -= f * x[col, j]
-    for col in range(n - 1, -1, -1):
+    for col in range(n - 1, -1, -1):  # back substitution, row operations (vectorize)
         pivot = lu[col, col]
         for j in range(p):
-            acc = x[col, j]
-            for k in range(col + 1, n):
-                acc -= lu[col, k] * x[k, j]
-            x[col, j] = acc / pivot
+            x[col, j] /= pivot
+        for r in range(col):
+            f = lu[r, col]
+            for j in range(p):
+                x[r, j] -= f * x[col, j]
     return x
 
 
@@ -127,6 +128,58 @@ def inverse(a: np.ndarray) -> np.ndarray:
 def solve_vec(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a⁻¹ b for a vector b (infs/NaNs if a is singular)."""
     return lu_solve(a, b.reshape((b.shape[0], 1)).copy())[:, 0]
+
+
+@_jit
+def lstsq(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """argmin ‖a x − b‖ for a tall a (m ≥ n), as ``np.linalg.lstsq(a, b, rcond=None)[0]``.
+
+    Householder QR: for a of full column rank the minimizer is unique, so it equals
+    LAPACK's SVD-based one up to rounding, at a fraction of the cost. A nearly
+    rank-deficient a (a diagonal entry of R below 1e-8 of the largest) goes to
+    ``np.linalg.lstsq`` itself, whose cut-off then decides.
+    """
+    m, n = a.shape
+    r = a.copy()
+    y = b.copy()
+    v = np.empty(m)
+    for k in range(n):
+        norm = 0.0
+        for i in range(k, m):
+            norm += r[i, k] * r[i, k]
+        norm = math.sqrt(norm)
+        if norm == 0.0:
+            return np.linalg.lstsq(a, b, _LSTSQ_RCOND)[0]
+        alpha = -norm if r[k, k] >= 0.0 else norm  # reflect away from r[k, k]: no cancellation
+        for i in range(k, m):
+            v[i] = r[i, k]
+        v[k] -= alpha
+        v_sq = 0.0
+        for i in range(k, m):
+            v_sq += v[i] * v[i]
+        for j in range(k, n):  # H = I − 2 v vᵀ / (vᵀ v) on the remaining columns and on b
+            dot = 0.0
+            for i in range(k, m):
+                dot += v[i] * r[i, j]
+            f = 2.0 * dot / v_sq
+            for i in range(k, m):
+                r[i, j] -= f * v[i]
+        dot = 0.0
+        for i in range(k, m):
+            dot += v[i] * y[i]
+        f = 2.0 * dot / v_sq
+        for i in range(k, m):
+            y[i] -= f * v[i]
+    diag = np.abs(np.diag(r[:n, :n]))
+    if diag.min() <= 1e-8 * diag.max():
+        return np.linalg.lstsq(a, b, _LSTSQ_RCOND)[0]
+    x = np.empty(n)
+    for k in range(n - 1, -1, -1):  # R x = Qᵀ b
+        acc = y[k]
+        for j in range(k + 1, n):
+            acc -= r[k, j] * x[j]
+        x[k] = acc / r[k, k]
+    return x
 
 
 @_jit
@@ -283,27 +336,38 @@ def contact_dynamics(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
     """The contact-consistent quantities of Appendices A and B, as :func:`.wbc.contact_dynamics`.
 
+    Uses the symmetry of A⁻¹ and Λ_c to form the products row by row (J_c A⁻¹ rather than
+    A⁻¹ J_cᵀ), which the compiler vectorizes.
+
     Returns:
         P (n, n), W⁺ (k, k), Ψ = J̄_cᵀSᵀ (c, k), f_bias (c,), Γ_gc (k,), W's eigenvectors
         (k, k), and whether W⁺ was built from them (else they are not computed).
     """
-    c = jc.shape[0]
-    a_inv_jct = matmul_bt(a_inv, jc)  # A⁻¹ J_cᵀ, shape (n, c)
-    lam_c = inverse(matmul(jc, a_inv_jct))  # Λ_c
+    c, n = jc.shape
+    jc_a_inv = matmul(jc, a_inv)  # J_c A⁻¹ = (A⁻¹ J_cᵀ)ᵀ, shape (c, n)
+    lam_c = inverse(matmul_bt(jc_a_inv, jc))  # Λ_c = (J_c A⁻¹ J_cᵀ)⁻¹
     if not math.isfinite(np.trace(lam_c)):
         raise np.linalg.LinAlgError("singular contact inertia J_c A⁻¹ J_cᵀ")
-    jbar = matmul(a_inv_jct, lam_c)  # J̄_c = A⁻¹ J_cᵀ Λ_c, shape (n, c)
-    P = a_inv - matmul_bt(jbar, a_inv_jct)  # A⁻¹(I − J_cᵀ J̄_cᵀ)
+    jbar_t = matmul(lam_c, jc_a_inv)  # J̄_cᵀ = Λ_c J_c A⁻¹, shape (c, n)
+    P = a_inv.copy()  # A⁻¹(I − J_cᵀ J̄_cᵀ) = A⁻¹ − J̄_c (J_c A⁻¹)
+    for r in range(c):
+        for i in range(n):
+            f = jbar_t[r, i]
+            for j in range(n):
+                P[i, j] -= f * jc_a_inv[r, j]
     W = P[6:, 6:].copy()
     well, W_pinv = inv_if_well_conditioned(W) if c <= 6 else (False, W)
     w_eigvec = np.empty((0, 0))  # only built with W⁺ from the eigen-decomposition
     if not well:
         W_pinv, w_eigvec = pinv_eigh(W)
     # Eq. (8): f_c = J̄_cᵀ (SᵀΓ − b − g) + Λ_c J̇_c q̇.
-    psi = jbar[6:, :].T.copy()  # J̄_cᵀ Sᵀ, shape (c, k)
-    f_bias = matvec(lam_c, jc_dot_v) - matvec(jbar.T, nle)
+    psi = jbar_t[:, 6:].copy()  # J̄_cᵀ Sᵀ, shape (c, k)
+    f_bias = matvec(lam_c, jc_dot_v) - matvec(jbar_t, nle)
     # Appendix B: S q̈ = W Γ − S P (b+g) − S A⁻¹ J_cᵀ Λ_c J̇_c q̇.
-    bias_acc = matvec(P[6:, :], nle) + matvec(jbar[6:, :], jc_dot_v)
+    bias_acc = matvec(P[6:, :], nle)
+    for r in range(c):
+        for i in range(n - 6):
+            bias_acc[i] += psi[r, i] * jc_dot_v[r]
     gamma_gc = matvec(W_pinv, bias_acc)
     return P, W_pinv, psi, f_bias, gamma_gc, w_eigvec, not well
 
@@ -423,7 +487,7 @@ def redistribution_torque(
     for i in range(n_tan):
         g_tan[i] = g[TANGENTIAL_ROWS[i]]
         rhs[i] = -f_now[TANGENTIAL_ROWS[i]]
-    alpha_opt = np.linalg.lstsq(g_tan, rhs, _LSTSQ_RCOND)[0]
+    alpha_opt = lstsq(g_tan, rhs)
     target = f_now[:6] + matvec(g[:6], alpha_opt)  # the leaving foot's rows of f_opt
     if eps_onset < 1.0:
         # The whole resultant about the leaving sole centre: m_a moves by (p_a − p_l) × f_a.
