@@ -411,10 +411,10 @@ class CentroidalQP:
         self._solver, self._eps_abs = solver, eps_abs
         self._proxqp = ProxQPSolver(self.problem, eps_abs)
         self._x_prev: np.ndarray | None = None
-        # This tick's inputs, stacked per support foot for the compiled kernel.
-        self._jacobians = np.zeros((n_feet, 6, nv))
-        self._drifts = np.zeros((n_feet, 6))
-        self._maps = np.zeros((n_feet, 6, m))
+        # Stacks per support foot that :meth:`update` fills for the compiled kernel, and
+        # this tick's inputs (these stacks, or the arrays :meth:`set_inputs` was given).
+        self._stacks = np.zeros((n_feet, 6, nv)), np.zeros((n_feet, 6)), np.zeros((n_feet, 6, m))
+        self._jacobians, self._drifts, self._maps = self._stacks
         self._mass_matrix = np.zeros((nv, nv))
         self._nonlinear = np.zeros(nv)
         self._cost_rows = np.zeros((0, nv))
@@ -439,15 +439,45 @@ class CentroidalQP:
 
         The arrays are referenced, not copied, except the per-foot ones, which are stacked.
         """
+        jacobians, drifts, maps = self._stacks
         for k, (jac, drift, rot) in enumerate(
             zip(contact_jacobians, contact_drifts, contact_rotations, strict=True)
         ):
-            self._jacobians[k] = jac
-            self._drifts[k] = drift
-            rotate_wrench_basis(rot, self._local_maps[k], self._maps[k])
+            jacobians[k] = jac
+            drifts[k] = drift
+            rotate_wrench_basis(rot, self._local_maps[k], maps[k])
+        self.set_inputs(
+            mass_matrix,
+            nonlinear,
+            np.ascontiguousarray(cost_rows),
+            cost_rhs,
+            jacobians,
+            drifts,
+            maps,
+        )
+
+    def set_inputs(
+        self,
+        mass_matrix: np.ndarray,
+        nonlinear: np.ndarray,
+        cost_rows: np.ndarray,
+        cost_rhs: np.ndarray,
+        jacobians: np.ndarray,
+        drifts: np.ndarray,
+        wrench_maps: np.ndarray,
+    ) -> None:
+        """Take this tick's inputs already stacked per support foot, by reference (no copies).
+
+        Args:
+            mass_matrix, nonlinear, cost_rows, cost_rhs: as :meth:`update` (``cost_rows``
+                C-contiguous).
+            jacobians: J_k of each support foot, shape (k, 6, nv), C-contiguous.
+            drifts: J̇_k ξ̇ of each support foot, shape (k, 6).
+            wrench_maps: R̃_{C_k} U_k of each support foot, shape (k, 6, m N_c).
+        """
         self._mass_matrix, self._nonlinear = mass_matrix, nonlinear
-        self._cost_rows = np.ascontiguousarray(cost_rows)
-        self._cost_rhs = cost_rhs
+        self._cost_rows, self._cost_rhs = cost_rows, cost_rhs
+        self._jacobians, self._drifts, self._maps = jacobians, drifts, wrench_maps
 
     def build(self) -> QPProblem:
         """The full problem of this tick's inputs (as :func:`build_qp`), for inspection."""

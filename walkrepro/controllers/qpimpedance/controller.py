@@ -32,30 +32,33 @@ from walkrepro.controllers.qpimpedance.centroidal_qp import (
     friction_basis,
 )
 from walkrepro.controllers.qpimpedance.condensed import warm_up
-from walkrepro.controllers.qpimpedance.footsteps import (
-    LEFT,
-    RIGHT,
-    SIDES,
-    FootstepPlan,
-    SwingTrajectory,
-    plan_walk,
-)
-from walkrepro.controllers.qpimpedance.impedance import ImpedanceFilter
+from walkrepro.controllers.qpimpedance.footsteps import LEFT, RIGHT, SIDES, FootstepPlan, plan_walk
 from walkrepro.controllers.qpimpedance.preview import generate_com, preview_gains
+from walkrepro.controllers.qpimpedance.tasks import (
+    FOOT_BLOCK,
+    N_SIGNALS,
+    ROW_POSTURE,
+    SCALARS,
+    SIGNAL_COM,
+    SIGNAL_FEET,
+    kinematic_chain,
+    pack_swing,
+    pinocchio_state,
+    signal_names,
+    task_rows,
+)
 from walkrepro.robot import Robot
 from walkrepro.sensors import SensorSnapshot
 
-GRAVITY = 9.81  # [m/s^2]
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 Vec3 = tuple[float, float, float]
 #: Support sets, each with its own QP (its β blocks differ).
 SUPPORTS = ((LEFT, RIGHT), (RIGHT,), (LEFT,))
-#: Names of the per-foot signals, in the order :meth:`QPImpedanceController._update_foot` fills them.
-FOOT_SIGNALS = (
-    "fz", "mx", "my", "x", "z", "roll", "pitch", "vz", "wx", "wy", "az", "alphax", "alphay"
+#: Signals logged after the QP's contact forces, in order.
+TAIL_SIGNALS = (
+    "com_x", "com_y", "com_z", "com_x_d", "com_y_d", "com_z_d", "zmp_x_ref", "zmp_y_ref",
+    "qp_failures",
 )  # fmt: skip
-#: Names of the reference signals per axis, in the order of ``(x_d, ẋ_d, ẍ_d, x_m, ẋ_m, ẍ_m)``.
-REFERENCE_SIGNALS = ("_d", "_dot_d", "_ddot_d", "_m", "_dot_m", "_ddot_m")
 
 
 class QPImpedanceParams(ControllerParams):
@@ -136,10 +139,11 @@ class QPImpedanceParams(ControllerParams):
 class QPImpedanceController(Controller):
     """Walks the flat-ground plan with the centroidal QP and impedance landing (Jo & Oh).
 
-    A tick runs at 1 kHz, so :meth:`step` keeps to a few dozen numpy calls: arrays are
-    preallocated in :meth:`reset`, 3-vector algebra is done on Python floats (numpy costs
-    about 1 µs per call on 3-vectors), and the QP is a preallocated :class:`CentroidalQP`
-    per support set.
+    A tick runs at 1 kHz, so :meth:`step` makes few Python calls: one compiled call forms
+    (q, v), one ``computeAllTerms`` gives Pinocchio's terms, a handful of Pinocchio getters
+    give the frame placements and drifts, one compiled call (:func:`.tasks.task_rows`) forms
+    every task row, contact wrench and impedance update, and one compiled call solves the QP
+    (:class:`CentroidalQP`). Arrays are preallocated in :meth:`reset`.
     """
 
     Params = QPImpedanceParams
@@ -149,33 +153,26 @@ class QPImpedanceController(Controller):
         assert isinstance(params, QPImpedanceParams)
         if robot.control_mode != "torque":
             raise ValueError("qpimpedance needs a torque-controlled robot")
-        self._robot, self._p, self._dt = robot, params, control_period
+        self._robot, self._p = robot, params
         p = params
         model = robot.pin_model
         self._model, self._data = model, model.createData()
-        self._oMf = self._data.oMf  # a live view of the frame placements
-        self._mass = robot.total_mass
         self._sole = [robot.pin_frame_id(f"{s}_sole") for s in SIDES]
-        self._ft = [robot.pin_frame_id(f"{s}_foot_ft") for s in SIDES]
-        self._foot = [robot.pin_frame_id(f"{s}_foot") for s in SIDES]
         self._pelvis = robot.pin_frame_id("pelvis")
         self._torso = robot.pin_frame_id("torso")
-        # Foot body below the F/T sensor: its mass and centre (in the foot frame) [kg, m].
-        foot_joint = model.frames[self._foot[0]].parentJoint
-        self._foot_mass = float(model.inertias[foot_joint].mass)
-        self._foot_com = [
-            np.array(model.inertias[model.frames[f].parentJoint].lever) for f in self._foot
-        ]
+        self._sole_site_rotation, self._sole_site_position, self._sole_foot_com = _foot_geometry(
+            robot
+        )
         length, width = robot.sole_size
-        self._corners = np.array(
+        corners = np.array(
             [[sx * length / 2, sy * width / 2, 0.0] for sx in (1, -1) for sy in (1, -1)]
         )
-        self._pyramid = friction_basis(p.friction, p.pyramid_edges)
+        pyramid = friction_basis(p.friction, p.pyramid_edges)
         if p.solver not in SOLVERS:
             raise ValueError(f"unknown QP solver {p.solver!r}; valid: {', '.join(SOLVERS)}")
 
         # Walking pattern: footsteps, ZMP reference and the preview-control CoM (ref. [23]).
-        self._com_height = p.com_height or robot.nominal_com_height
+        com_height = p.com_height or robot.nominal_com_height
         first = LEFT if p.first_swing == "left" else RIGHT
         self._plan: FootstepPlan = plan_walk(
             p.foot_y,
@@ -189,18 +186,14 @@ class QPImpedanceController(Controller):
             p.preview_dt,
         )
         self._phase_ends = [ph.t1 for ph in self._plan.phases]
-        gains = preview_gains(
-            p.preview_dt, self._com_height, p.preview_time, p.preview_q, p.preview_r
-        )
-        q0, _ = robot.pin_state_from_mujoco(robot.home_qpos, np.zeros(robot.mj_model.nv))
+        gains = preview_gains(p.preview_dt, com_height, p.preview_time, p.preview_q, p.preview_r)
+        q0, v0 = robot.pin_state_from_mujoco(robot.home_qpos, np.zeros(robot.mj_model.nv))
         com0 = pin.centerOfMass(model, self._data, q0)
         ref = self._plan.zmp_xy.copy()
         com_x, _ = generate_com(gains, ref[:, 0], np.array([com0[0], 0.0, 0.0]))
         com_y, _ = generate_com(gains, ref[:, 1], np.array([com0[1], 0.0, 0.0]))
-        # (x, ẋ, ẍ) samples as Python floats: the tick interpolates two of them.
-        self._com_x: list[list[float]] = com_x.tolist()
-        self._com_y: list[list[float]] = com_y.tolist()
-        self._com_z = float(com0[2] if p.com_height is None else p.com_height)
+        self._com_plan = np.ascontiguousarray(np.hstack([com_x, com_y]))  # (x, ẋ, ẍ, y, ẏ, ÿ)
+        com_z = float(com0[2] if p.com_height is None else p.com_height)
 
         names = robot.joint_names
         self._posture_idx = np.array(
@@ -211,56 +204,78 @@ class QPImpedanceController(Controller):
             ]
         )
         self._q_home_posture = robot.home_joint_pos[self._posture_idx].copy()
-        self._q_idx, self._v_idx = robot.pin_q_idx, robot.pin_v_idx
+        self._q_idx = np.ascontiguousarray(robot.pin_q_idx, dtype=np.int64)
+        self._v_idx = np.ascontiguousarray(robot.pin_v_idx, dtype=np.int64)
         self._q, self._v = np.zeros(model.nq), np.zeros(model.nv)
-        self._impedance = [
-            ImpedanceFilter(
-                np.array(p.m_d),
-                np.array(p.b_d),
-                np.array(p.k_d),
-                p.force_threshold,
-                p.torque_threshold,
-            )
-            for _ in SIDES
-        ]
+        self._chains = np.array(  # rows: tasks.CHAIN_*
+            [
+                kinematic_chain(model, fid)
+                for fid in (self._sole[LEFT], self._sole[RIGHT], self._pelvis, self._torso)
+            ]
+        )
+        scalars = {
+            "dt": control_period,
+            "mass": robot.total_mass,
+            "foot_mass": _foot_mass(robot),
+            "k_h": p.k_h,
+            "k_i": p.k_i,
+            "k_h_angular": p.k_h_angular,
+            "kp_orient": p.kp_orient,
+            "kv_orient": p.kv_orient,
+            "kp_posture": p.kp_posture,
+            "kv_posture": p.kv_posture,
+            "kp_swing": p.kp_swing,
+            "kv_swing": p.kv_swing,
+            "sqrt_w_pelvis": float(np.sqrt(p.w_pelvis)),
+            "sqrt_w_torso": float(np.sqrt(p.w_torso)),
+            "sqrt_w_posture": float(np.sqrt(p.w_posture)),
+            "sqrt_w_swing": float(np.sqrt(p.w_swing)),
+            "impedance": float(p.impedance),
+            "preview_dt": p.preview_dt,
+            "plan_end": self._plan.end,
+            "com_z": com_z,
+        }
+        self._scalars = np.array([scalars[name] for name in SCALARS])
+        self._impedance_gains = np.array(
+            [p.m_d, p.b_d, p.k_d, (p.force_threshold, p.torque_threshold, p.torque_threshold)]
+        )
+        # Per-tick state: each foot's impedance (x_m, ẋ_m, ẍ_m) and (armed, active), its
+        # previous sole velocity and its commanded acceleration; the swing trajectory.
+        self._impedance_state = np.zeros((2, 3, 3))
+        self._impedance_flags = np.zeros((2, 2), dtype=bool)
+        self._prev_foot_vel = np.zeros((2, 6))
+        self._foot_acc_cmd = np.zeros((2, 3))
+        self._swing_plan = np.zeros(14)  # tasks.pack_swing
+        self._stance_z = np.zeros(2)  # planned height of each foot in support [m]
         self._phase_index = -1
-        self._swing: SwingTrajectory | None = None
-        self._stance = [np.array([0.0, p.foot_y, 0.0]), np.array([0.0, -p.foot_y, 0.0])]
-        self._foot_acc_cmd = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]  # commanded ẍ of each sole
-        self._prev_foot_vel = [np.zeros(6), np.zeros(6)]
         self._tau = np.zeros(robot.n_joints)
-        self._int_k = np.zeros(3)
         self._qp_fail = 0
 
         # Stacked weighted cost rows √W Φ ξ̈ ≈ √W b of §III-D, in a fixed order: momentum (6),
         # pelvis (3), torso (3), posture (one per arm/waist joint), swing foot (6, single
         # support only). The posture rows are constant selections.
         nv, n_post = model.nv, self._posture_idx.size
-        self._rows_post = 12
-        self._rows_swing = 12 + n_post
+        self._rows_swing = ROW_POSTURE + n_post
         self._cost_rows = np.zeros((self._rows_swing + 6, nv))
         self._cost_rhs = np.zeros(self._rows_swing + 6)
-        self._sqrt_w1 = np.sqrt(np.array([p.w_momentum_linear] * 3 + [p.w_momentum_angular] * 3))[
-            :, None
-        ]
-        self._sqrt_w = {
-            k: float(np.sqrt(w))
-            for k, w in (
-                ("pelvis", p.w_pelvis),
-                ("torso", p.w_torso),
-                ("posture", p.w_posture),
-                ("swing", p.w_swing),
-            )
-        }
-        self._cost_rows[self._rows_post + np.arange(n_post), self._v_idx[self._posture_idx]] = (
-            self._sqrt_w["posture"]
+        self._momentum_sqrt_w = np.sqrt([p.w_momentum_linear] * 3 + [p.w_momentum_angular] * 3)
+        self._cost_rows[ROW_POSTURE + np.arange(n_post), self._v_idx[self._posture_idx]] = np.sqrt(
+            p.w_posture
         )
-        local_map = contact_wrench_basis(np.eye(3), self._corners, self._pyramid)
+        self._local_map = contact_wrench_basis(np.eye(3), corners, pyramid)
+        # Each foot's sole Jacobian, drift and rotated wrench basis; the QP of a support set
+        # takes the feet's slices of these (no copies).
+        self._sole_jacobians = np.zeros((2, 6, nv))
+        self._sole_drifts = np.zeros((2, 6))
+        self._wrench_maps = np.zeros((2, 6, self._local_map.shape[1]))
+        self._support_slices = {
+            support: slice(min(support), max(support) + 1) for support in SUPPORTS
+        }
         self._qps = {
             support: CentroidalQP(
                 nv,
                 support,
-                [local_map] * len(support),
+                [self._local_map] * len(support),
                 p.w_accel,
                 p.w_force,
                 p.solver,
@@ -269,21 +284,14 @@ class QPImpedanceController(Controller):
             for support in SUPPORTS
         }
         self._warm_support: tuple[int, ...] | None = None  # QP solved on the previous tick
-        warm_up()  # compile the QP kernels now (or load them from numba's cache), not on tick 1
-        self._foot_keys = [tuple(f"{name}_{s}" for s in FOOT_SIGNALS) for name in SIDES]
-        self._ref_keys = [
-            tuple(
-                f"{name}_{axis}{kind}"
-                for kind in REFERENCE_SIGNALS
-                for axis in ("z", "roll", "pitch")
-            )
-            for name in SIDES
-        ]
+        names = signal_names(SIDES)
+        self._signals = np.zeros(N_SIGNALS)
+        self._head_keys = names[:SIGNAL_COM]
         self._fz_qp_keys = [f"{name}_fz_qp" for name in SIDES]
-        self._impedance_keys = [f"{name}_impedance_on" for name in SIDES]
-        # Wall time of each QP solve [s] and of the tick's parts, for benchmarks only
-        # (never logged: logs stay deterministic).
-        self.qp_solve_times: list[float] = []
+        warm_up()  # compile the QP kernels now (or load them from numba's cache), not on tick 1
+        self._warm_up_tick(q0, v0)
+        # Wall time of the tick's parts [s], for benchmarks only (never logged: logs stay
+        # deterministic). Running totals: memory stays flat however long the run.
         self._timing = dict.fromkeys(("dynamics", "tasks", "qp_build", "qp_solve", "output"), 0.0)
 
     def timing(self) -> dict[str, float]:
@@ -292,247 +300,184 @@ class QPImpedanceController(Controller):
 
     # ------------------------------------------------------------------------------------
 
+    def _warm_up_tick(self, q0: np.ndarray, v0: np.ndarray) -> None:
+        """Compile (or load from numba's cache) the tick's kernels for the argument types of a
+        real tick, by running them once at home, at rest; then undo that tick's state."""
+        robot = self._robot
+        home_pos, home_quat = robot.home_qpos[0:3].copy(), robot.home_qpos[3:7].copy()
+        home_joints, zero_joints = robot.home_joint_pos.copy(), np.zeros(robot.n_joints)
+        zero3, zero_ft = np.zeros(3), np.zeros(6)
+        pinocchio_state(
+            home_pos, home_quat, zero3, zero3, home_joints, zero_joints,
+            self._q_idx, self._v_idx, self._q, self._v,
+        )  # fmt: skip
+        pin.computeAllTerms(self._model, self._data, q0, v0)
+        pin.updateFramePlacements(self._model, self._data)
+        self._task_rows(0.0, -1, home_joints, zero_joints, zero_ft, zero_ft)
+        self._impedance_state[:] = 0.0
+        self._impedance_flags[:] = False
+        self._prev_foot_vel[:] = 0.0
+        self._foot_acc_cmd[:] = 0.0
+
     def _state(self, s: SensorSnapshot) -> tuple[np.ndarray, np.ndarray]:
         """Pinocchio (q, v) as ``s.pinocchio_state``, written into preallocated arrays."""
         if s.base_pos is None or s.base_quat is None or s.base_linvel is None:
             return s.pinocchio_state(self._robot, "qpimpedance (as in §IV)")  # names the fix
         q, v = self._q, self._v
-        w, x, y, z = s.base_quat.tolist()
-        q[0:3] = s.base_pos
-        q[3:7] = (x, y, z, w)
-        rot = pin.Quaternion(w, x, y, z).normalized().toRotationMatrix()  # world-from-pelvis
-        v[0:3] = s.base_linvel @ rot  # world -> pelvis frame (Rᵀ v)
-        v[3:6] = s.base_angvel
-        q[self._q_idx] = s.joint_pos
-        v[self._v_idx] = s.joint_vel
+        pinocchio_state(
+            s.base_pos,
+            s.base_quat,
+            s.base_linvel,
+            s.base_angvel,
+            s.joint_pos,
+            s.joint_vel,
+            self._q_idx,
+            self._v_idx,
+            q,
+            v,
+        )
         return q, v
 
-    def _desired_com(self, t: float) -> tuple[list[float], list[float], list[float]]:
-        """CoM position, velocity, acceleration of the preview pattern at ``t`` [m, m/s, m/s²]."""
-        if t >= self._plan.end:
-            return [self._com_x[-1][0], self._com_y[-1][0], self._com_z], [0.0] * 3, [0.0] * 3
-        k = t / self._p.preview_dt
-        i = int(min(max(np.floor(k), 0), len(self._com_x) - 2))
-        a = min(max(k - i, 0.0), 1.0)
-        x0, x1, y0, y1 = self._com_x[i], self._com_x[i + 1], self._com_y[i], self._com_y[i + 1]
-        sx = [(1 - a) * x0[j] + a * x1[j] for j in range(3)]
-        sy = [(1 - a) * y0[j] + a * y1[j] for j in range(3)]
-        return [sx[0], sy[0], self._com_z], [sx[1], sy[1], 0.0], [sx[2], sy[2], 0.0]
-
-    def _contact_wrench(self, side: int, ft: np.ndarray) -> tuple[float, float, float]:
-        """Contact wrench on a foot from its F/T reading: (f_z [N], μ_x, μ_y [N m]).
-
-        The sensor (site ``*_foot_ft``) reads the foot-on-leg wrench, which includes the
-        weight and inertia of the foot below it (≈ 14 N). Newton–Euler of that foot body:
-        f_c = f_s + m (g ẑ + a), μ_c = μ_s − r_c × m (g_vec − a) about the sensor, then moved
-        to the sole centre; world axes. a is the foot's commanded acceleration.
-        """
-        oMf = self._oMf
-        site = oMf[self._ft[side]]
-        (f0, f1, f2), (s0, s1, s2) = (site.rotation @ ft.reshape(2, 3).T).T.tolist()
-        p0, p1, p2 = site.translation.tolist()
-        c0, c1, c2 = oMf[self._foot[side]].act(self._foot_com[side]).tolist()
-        o0, o1, o2 = oMf[self._sole[side]].translation.tolist()
-        a0, a1, a2 = self._foot_acc_cmd[side]
-        m = self._foot_mass
-        # f_c = f_s − m g_vec + m a, with g_vec = (0, 0, −g).
-        fc0, fc1, fc2 = f0 + m * a0, f1 + m * a1, f2 + m * GRAVITY + m * a2
-        r0, r1, r2 = c0 - p0, c1 - p1, c2 - p2  # r_c: foot CoM from the sensor
-        h0, h1, h2 = -m * a0, -m * a1, m * (-GRAVITY - a2)  # m (g_vec − a)
-        mc0 = s0 - (r1 * h2 - r2 * h1)
-        mc1 = s1 - (r2 * h0 - r0 * h2)
-        d0, d1, d2 = p0 - o0, p1 - o1, p2 - o2  # sensor from the sole centre
-        return fc2, mc0 + (d1 * fc2 - d2 * fc1), mc1 + (d2 * fc0 - d0 * fc2)
-
-    def _enter_phase(self, index: int, t: float) -> None:
+    def _enter_phase(self, index: int) -> None:
         """Start a phase: a swing builds its trajectory from the foot's actual pose."""
         phase = self._plan.phases[index]
         self._phase_index = index
         if phase.swing < 0:
-            self._swing = None
             return
-        sole = self._oMf[self._sole[phase.swing]]
+        sole = self._data.oMf[self._sole[phase.swing]]
         rpy = pin.rpy.matrixToRpy(sole.rotation)
         start = np.array([*sole.translation, rpy[0], rpy[1]])
         target = np.array([*phase.target, 0.0, 0.0])
         p = self._p
-        self._swing = SwingTrajectory(
-            phase.t0, phase.t1 - phase.t0, start, target, p.swing_height, p.swing_rise_fraction
+        pack_swing(
+            phase.t0,
+            phase.t1 - phase.t0,
+            start,
+            target,
+            p.swing_height,
+            p.swing_rise_fraction,
+            self._swing_plan,
         )
-        self._stance[phase.swing] = np.array(phase.target)
+        self._stance_z[phase.swing] = phase.target[2]
 
-    def _orientation_task(self, fid: int, row: int, sqrt_w: float) -> None:
-        """Upright frame, heading +x: ẍ_r = K_P log(R⁻¹) − K_V ω, rows ``row:row+3``."""
-        model, data, p = self._model, self._data, self._p
-        jac = pin.getFrameJacobian(model, data, fid, LWA)[3:]
-        drift = pin.getFrameClassicalAcceleration(model, data, fid, LWA).angular
-        err = pin.log3(self._oMf[fid].rotation)  # minus the world rotation to identity
-        acc_r = -p.kp_orient * err - p.kv_orient * (jac @ self._v)
-        np.multiply(jac, sqrt_w, out=self._cost_rows[row : row + 3])
-        np.multiply(acc_r - drift, sqrt_w, out=self._cost_rhs[row : row + 3])
-
-    def _update_foot(
-        self, side: int, ft: np.ndarray, t: float, swing: int, signals: dict, events: list[dict]
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """A foot's state, wrench, impedance and (in swing) task rows (Eqs. 1–3).
-
-        Args:
-            side: LEFT or RIGHT.
-            ft: the foot's F/T reading (see :meth:`_contact_wrench`).
-            t: time [s].
-            swing: the swing foot, or −1.
-            signals: the tick's signals, updated in place.
-            events: the tick's events, appended to.
+    def _task_rows(
+        self,
+        t: float,
+        swing: int,
+        joint_pos: np.ndarray,
+        joint_vel: np.ndarray,
+        left_ft: np.ndarray,
+        right_ft: np.ndarray,
+    ) -> int:
+        """Gather Pinocchio's frame quantities and run :func:`.tasks.task_rows` on them.
 
         Returns:
-            The sole Jacobian (6, nv), its drift J̇ ξ̇ (6,) and rotation (3, 3), world axes.
+            A bit per foot (1 left, 2 right) whose impedance modification switched on.
         """
-        model, data, p = self._model, self._data, self._p
-        fid = self._sole[side]
-        jac = pin.getFrameJacobian(model, data, fid, LWA)
-        drift = pin.getFrameClassicalAcceleration(model, data, fid, LWA).vector
-        vel = jac @ self._v
-        sole = self._oMf[fid]
-        rot = sole.rotation
-        rpy = pin.rpy.matrixToRpy(rot)
-        acc_meas = (vel - self._prev_foot_vel[side]) / self._dt
-        self._prev_foot_vel[side] = vel
-        lam = self._contact_wrench(side, ft)
-        px, py, pz = sole.translation.tolist()
-        roll, pitch, yaw = rpy.tolist()
-        vl = vel.tolist()
-        al = acc_meas.tolist()
-        x_now = (pz, roll, pitch)
-        v_now = (vl[2], vl[3], vl[4])
-        signals.update(
-            zip(
-                self._foot_keys[side],
-                (*lam, px, pz, roll, pitch, vl[2], vl[3], vl[4], al[2], al[3], al[4]),
-                strict=True,
-            )
+        model, data = self._model, self._data
+        oMf = data.oMf
+        left, right = oMf[self._sole[LEFT]], oMf[self._sole[RIGHT]]
+        left_rot, right_rot = left.rotation, right.rotation
+        pelvis_rot, torso_rot = oMf[self._pelvis].rotation, oMf[self._torso].rotation
+        base = data.oMi[1]
+        drift = pin.getFrameClassicalAcceleration
+        return task_rows(
+            t,
+            swing,
+            data.J,
+            data.M,
+            data.nle,
+            data.g,
+            data.com[0],
+            data.vcom[0],
+            data.hg.angular,
+            base.rotation,
+            base.translation,
+            pin.log3(pelvis_rot),
+            drift(model, data, self._pelvis, LWA).angular,
+            pin.log3(torso_rot),
+            drift(model, data, self._torso, LWA).angular,
+            left_rot,
+            left.translation,
+            pin.rpy.matrixToRpy(left_rot),
+            drift(model, data, self._sole[LEFT], LWA).vector,
+            right_rot,
+            right.translation,
+            pin.rpy.matrixToRpy(right_rot),
+            drift(model, data, self._sole[RIGHT], LWA).vector,
+            self._v,
+            joint_pos,
+            joint_vel,
+            left_ft,
+            right_ft,
+            self._scalars,
+            self._chains,
+            self._posture_idx,
+            self._q_home_posture,
+            self._momentum_sqrt_w,
+            self._com_plan,
+            self._swing_plan,
+            self._stance_z,
+            self._sole_site_rotation,
+            self._sole_site_position,
+            self._sole_foot_com,
+            self._local_map,
+            self._impedance_gains,
+            self._impedance_state,
+            self._impedance_flags,
+            self._prev_foot_vel,
+            self._foot_acc_cmd,
+            self._cost_rows,
+            self._cost_rhs,
+            self._sole_jacobians,
+            self._sole_drifts,
+            self._wrench_maps,
+            self._signals,
         )
-        imp = self._impedance[side]
-        if side != swing:
-            z = float(self._stance[side][2])
-            imp.reset(x_now, 0.0, 0.0)  # type: ignore[arg-type]  # broadcast into x_m, ẋ_m, ẍ_m
-            self._foot_acc_cmd[side] = [0.0, 0.0, 0.0]
-            signals[self._impedance_keys[side]] = 0.0
-            zero = (0.0,) * 6
-            signals.update(
-                zip(self._ref_keys[side], (z, 0.0, 0.0, *zero, z, 0.0, 0.0, *zero), strict=True)
-            )
-            return jac, drift, rot
-        assert self._swing is not None
-        pos_d, vel_d, acc_d = self._swing.at(t)
-        xd, vd, ad = pos_d[2:5], vel_d[2:5], acc_d[2:5]  # (z, φx, φy)
-        was_active = imp.active
-        xm, vm, am = imp.update(xd, vd, ad, np.array(lam), self._dt, enabled=p.impedance)
-        if imp.active and not was_active:
-            events.append({"kind": "impedance_on", "foot": SIDES[side], "fz": float(lam[0])})
-        # Eq. (3), ẍ_r = ẍ_m + K_v (ẋ_m − ẋ) + K_p (x_m − x), for (z, φx, φy) with the
-        # modified reference; x, y and yaw follow the plan (the same form, unmodified).
-        kp, kv = p.kp_swing, p.kv_swing
-        pd, vd_, ad_ = pos_d.tolist(), vel_d.tolist(), acc_d.tolist()
-        xl, vml, aml = xm.tolist(), vm.tolist(), am.tolist()
-        acc_r_list = [
-            ad_[0] + kv * (vd_[0] - vl[0]) + kp * (pd[0] - px),
-            ad_[1] + kv * (vd_[1] - vl[1]) + kp * (pd[1] - py),
-            *(aml[i] + kv * (vml[i] - v_now[i]) + kp * (xl[i] - x_now[i]) for i in range(3)),
-            -kv * vl[5] - kp * yaw,
-        ]
-        self._foot_acc_cmd[side] = acc_r_list[:3]
-        acc_r = np.array(acc_r_list)
-        sqrt_w = self._sqrt_w["swing"]
-        row = self._rows_swing
-        np.multiply(jac, sqrt_w, out=self._cost_rows[row : row + 6])
-        np.multiply(acc_r - drift, sqrt_w, out=self._cost_rhs[row : row + 6])
-        signals[self._impedance_keys[side]] = float(imp.active)
-        signals.update(
-            zip(
-                self._ref_keys[side], (*pd[2:5], *vd_[2:5], *ad_[2:5], *xl, *vml, *aml), strict=True
-            )
-        )
-        return jac, drift, rot
 
     def step(self, t: float, s: SensorSnapshot) -> Command:
         """One tick of §III-D: tasks → QP → Eq. (9)."""
         t0 = time.perf_counter()
-        p, model, data = self._p, self._model, self._data
+        model, data = self._model, self._data
         q, v = self._state(s)
         # M, C ξ̇ + g, g, the joint Jacobians, the CoM and h_G. Its forward pass also leaves
         # the drift accelerations (ξ̈ = 0) in data.a, so J̇ ξ̇ needs no second kinematics pass.
         pin.computeAllTerms(model, data, q, v)
         pin.updateFramePlacements(model, data)
-        mass_matrix, nle = data.M, data.nle
         t1 = time.perf_counter()
 
         index = min(bisect_right(self._phase_ends, t), len(self._phase_ends) - 1)
         if index != self._phase_index:
-            self._enter_phase(index, t)
+            self._enter_phase(index)
         swing = self._plan.phases[index].swing
         support = SUPPORTS[swing + 1]
-
-        signals: dict[str, float] = {"t_plan": t, "swing_foot": float(swing)}
+        # Momentum, orientation, posture and swing rows; feet states, wrenches, impedance.
+        switched_on = self._task_rows(t, swing, s.joint_pos, s.joint_vel, s.left_ft, s.right_ft)
         events: list[dict] = []
-
-        # ---- centroidal momentum reference (§III-D) -------------------------------------
-        c0, c1, c2 = com = data.com[0].tolist()
-        v0, v1, v2 = data.vcom[0].tolist()
-        c_d, v_d, a_d = self._desired_com(t)
-        m, kh, ki = self._mass, p.k_h, p.k_i
-        # ḣ_lin = m (c̈_d + K_h (ċ_d − ċ) + K_I (c_d − c)), with ∫(h_d − h) = m (c_d − c).
-        l0 = m * (a_d[0] + kh * (v_d[0] - v0) + ki * (c_d[0] - c0))
-        l1 = m * (a_d[1] + kh * (v_d[1] - v1) + ki * (c_d[1] - c1))
-        l2 = m * (a_d[2] + kh * (v_d[2] - v2) + ki * (c_d[2] - c2))
-        k0, k1, k2 = (-p.k_h_angular * data.hg.angular).tolist()  # ḣ_ang = −K_h k
-        base = data.oMi[1]
-        b0, b1, b2 = base.translation.tolist()
-        r0, r1, r2 = c0 - b0, c1 - b1, c2 - b2
-        # (ḣ_lin, ḣ_ang + (c − p_B) × ḣ_lin) in the base frame: X_GBᵀ ḣ_{G,r} of Eq. (7).
-        h_world = np.array(
-            [
-                [l0, k0 + (r1 * l2 - r2 * l1)],
-                [l1, k1 + (r2 * l0 - r0 * l2)],
-                [l2, k2 + (r0 * l1 - r1 * l0)],
-            ]
-        )
-        rhs, rows = self._cost_rhs, self._cost_rows
-        rhs[0:6] = (base.rotation.T @ h_world).T.ravel()
-        rhs[0:6] -= nle[:6] - data.g[:6]  # b_1 = X_GBᵀ ḣ_{G,r} − C_B ξ̇
-        rhs[0:6] *= self._sqrt_w1[:, 0]
-        np.multiply(mass_matrix[:6], self._sqrt_w1, out=rows[:6])
-
-        # ---- tasks --------------------------------------------------------------------
-        self._orientation_task(self._pelvis, 6, self._sqrt_w["pelvis"])
-        self._orientation_task(self._torso, 9, self._sqrt_w["torso"])
-        # Arm and waist joints: hold home.
-        idx = self._posture_idx
-        acc_post = p.kp_posture * (self._q_home_posture - s.joint_pos[idx])
-        acc_post -= p.kv_posture * s.joint_vel[idx]
-        np.multiply(acc_post, self._sqrt_w["posture"], out=rhs[self._rows_post : self._rows_swing])
-        # Feet: measured contact wrench, state, impedance (and the swing rows).
-        feet = [
-            self._update_foot(LEFT, s.left_ft, t, swing, signals, events),
-            self._update_foot(RIGHT, s.right_ft, t, swing, signals, events),
-        ]
+        for side in (LEFT, RIGHT):
+            if switched_on >> side & 1:
+                fz = float(self._signals[SIGNAL_FEET + side * FOOT_BLOCK])
+                events.append({"kind": "impedance_on", "foot": SIDES[side], "fz": fz})
         n_rows = self._rows_swing + (6 if swing >= 0 else 0)
         t2 = time.perf_counter()
 
         # ---- QP and Eq. (9) -----------------------------------------------------------
         qp = self._qps[support]
-        qp.update(
-            mass_matrix,
-            nle,
-            rows[:n_rows],
-            rhs[:n_rows],
-            [feet[k][0] for k in support],
-            [feet[k][1] for k in support],
-            [feet[k][2] for k in support],
+        feet = self._support_slices[support]
+        qp.set_inputs(
+            data.M,
+            data.nle,
+            self._cost_rows[:n_rows],
+            self._cost_rhs[:n_rows],
+            self._sole_jacobians[feet],
+            self._sole_drifts[feet],
+            self._wrench_maps[feet],
         )
         t3 = time.perf_counter()
         solved = qp.solve(warm=support == self._warm_support)
         t4 = time.perf_counter()
-        self.qp_solve_times.append(t4 - t3)
+        values = self._signals.tolist()
+        signals: dict[str, float] = dict(zip(self._head_keys, values, strict=False))  # the head
         if not solved:
             self._qp_fail += 1
             self._warm_support = None
@@ -542,17 +487,12 @@ class QPImpedanceController(Controller):
             self._tau[:] = qp.tau
             for side, wrench in zip(support, qp.wrenches.tolist(), strict=True):
                 signals[self._fz_qp_keys[side]] = wrench[2]
-        zmp_x, zmp_y = self._plan.zmp_at(t)
         signals.update(
-            com_x=com[0],
-            com_y=com[1],
-            com_z=com[2],
-            com_x_d=c_d[0],
-            com_y_d=c_d[1],
-            com_z_d=c_d[2],
-            zmp_x_ref=zmp_x,
-            zmp_y_ref=zmp_y,
-            qp_failures=float(self._qp_fail),
+            zip(
+                TAIL_SIGNALS,
+                (*values[SIGNAL_COM:], *self._plan.zmp_at(t), float(self._qp_fail)),
+                strict=True,
+            )
         )
         command = Command(ctrl=self._tau.copy(), signals=signals, events=tuple(events))
         timing = self._timing
@@ -562,3 +502,33 @@ class QPImpedanceController(Controller):
         timing["qp_solve"] += t4 - t3
         timing["output"] += time.perf_counter() - t4
         return command
+
+
+def _foot_mass(robot: Robot) -> float:
+    """Mass of the foot body below the F/T sensor [kg] (both feet alike)."""
+    model = robot.pin_model
+    return float(model.inertias[model.frames[robot.pin_frame_id("left_foot")].parentJoint].mass)
+
+
+def _foot_geometry(robot: Robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each F/T sensor's placement and each foot body's CoM, in its sole frame.
+
+    Sole, sensor site and foot body hang on the same joint (the ankle), so these are
+    constants: per tick the sensor's and the CoM's world placements follow from the sole's.
+
+    Returns:
+        Sensor rotations (2, 3, 3), sensor positions (2, 3) [m], foot CoMs (2, 3) [m].
+    """
+    model = robot.pin_model
+    rotations, positions, coms = np.zeros((2, 3, 3)), np.zeros((2, 3)), np.zeros((2, 3))
+    for side, name in enumerate(SIDES):
+        sole, site, foot = (
+            model.frames[robot.pin_frame_id(f"{name}_{f}")] for f in ("sole", "foot_ft", "foot")
+        )
+        if not sole.parentJoint == site.parentJoint == foot.parentJoint:
+            raise ValueError(f"qpimpedance needs {name}_sole, _foot_ft and _foot on one body")
+        sole_site = sole.placement.actInv(site.placement)
+        rotations[side], positions[side] = sole_site.rotation, sole_site.translation
+        lever = model.inertias[foot.parentJoint].lever  # foot CoM in the foot frame
+        coms[side] = sole.placement.actInv(foot.placement.act(lever))
+    return rotations, positions, coms

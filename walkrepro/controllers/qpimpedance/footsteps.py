@@ -166,7 +166,8 @@ class SwingTrajectory:
 
     x, y and the roll/pitch angles blend by minimum jerk over the whole swing; z rises
     from the lift-off height to ``apex`` over the first ``rise_fraction`` of the swing, then
-    descends to the landing height (the flat floor, z = 0) by the end.
+    descends to the landing height (the flat floor, z = 0) by the end. The controller's tick
+    evaluates it with the compiled copy :func:`.tasks.swing_reference` (tested equal).
 
     Attributes:
         t0: lift-off time [s].

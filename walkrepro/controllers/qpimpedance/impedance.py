@@ -30,6 +30,9 @@ import numpy as np
 class ImpedanceFilter:
     """Eqs. (1)–(3) for one foot over (z [m], φ_x [rad], φ_y [rad]).
 
+    The controller's tick runs the compiled copy :func:`.tasks.advance_impedance`; this class
+    is its readable reference, and the tests hold the two equal.
+
     Args:
         m_d: desired mass / inertia M_d, shape (3,) [kg, kg m², kg m²].
         b_d: desired damping B_d, shape (3,) [N s/m, N m s/rad, N m s/rad].

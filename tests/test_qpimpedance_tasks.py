@@ -1,0 +1,306 @@
+"""Tests of the compiled per-tick task algebra of the qpimpedance controller (tasks.py).
+
+Each kernel is compared with its Python reference on random inputs: the footstep module's
+trajectories, the impedance filter, Pinocchio's frame Jacobians and plain numpy algebra.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from walkrepro.controllers import controller_class
+from walkrepro.controllers.qpimpedance import tasks
+from walkrepro.controllers.qpimpedance.footsteps import SwingTrajectory, quintic
+from walkrepro.controllers.qpimpedance.impedance import ImpedanceFilter
+from walkrepro.robot import load_robot
+
+LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+def test_quintic_equals_python() -> None:
+    """The compiled minimum-jerk blend equals footsteps.quintic, inside, outside and at the ends."""
+    rng = np.random.default_rng(0)
+    for s, duration in [*rng.uniform(-0.5, 1.5, (200, 2)), (0.3, 0.0), (0.0, 0.5), (0.5, 0.5)]:
+        np.testing.assert_allclose(tasks.quintic(s, duration), quintic(s, duration), rtol=1e-15)
+
+
+def test_swing_reference_equals_swing_trajectory() -> None:
+    """The compiled swing reference equals SwingTrajectory.at over random trajectories and times."""
+    rng = np.random.default_rng(1)
+    packed = np.empty(14)
+    pos, vel, acc = np.empty(5), np.empty(5), np.empty(5)
+    for _ in range(50):
+        traj = SwingTrajectory(
+            rng.uniform(0, 3),
+            rng.uniform(0.3, 0.8),
+            rng.normal(0, 0.1, 5),
+            rng.normal(0, 0.1, 5),
+            rng.uniform(0.02, 0.15),
+            rng.uniform(0.2, 0.8),
+        )
+        tasks.pack_swing(
+            traj.t0, traj.duration, traj.start, traj.target, traj.apex, traj.rise_fraction, packed
+        )
+        for t in traj.t0 + rng.uniform(-0.1, traj.duration + 0.1, 10):
+            tasks.swing_reference(packed, t, pos, vel, acc)
+            for got, want in zip((pos, vel, acc), traj.at(t), strict=True):
+                np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-13)
+
+
+@pytest.mark.parametrize("enabled", [True, False])
+def test_advance_impedance_equals_impedance_filter(enabled: bool) -> None:
+    """Over a random swing (unloaded, then loaded) the kernel's state and switch-on equal ImpedanceFilter's."""
+    rng = np.random.default_rng(2)
+    m_d, b_d, k_d = (
+        np.array([30.0, 0.3, 0.3]),
+        np.array([450.0, 3.0, 3.0]),
+        np.array([1500, 10, 10.0]),
+    )
+    reference = ImpedanceFilter(m_d, b_d, k_d, 10.0, 3.0)
+    gains = np.array([m_d, b_d, k_d, [10.0, 3.0, 3.0]])
+    state, flags = np.zeros((3, 3)), np.zeros(2, dtype=bool)
+    switches = 0
+    for k in range(400):
+        x_d, v_d, a_d = rng.normal(0, 0.05, 3), rng.normal(0, 0.3, 3), rng.normal(0, 2, 3)
+        # Loaded at first (lift-off), unloaded in flight, then a landing that grows.
+        scale = 20.0 if k < 20 else (1.0 if k < 200 else 0.1 * (k - 200))
+        wrench = scale * rng.normal(0, 1, 3)
+        was_active = reference.active
+        reference.update(x_d, v_d, a_d, wrench, 1e-3, enabled=enabled)
+        switched = tasks.advance_impedance(
+            state, flags, x_d, v_d, a_d, wrench, gains, 1e-3, enabled
+        )
+        assert switched == (reference.active and not was_active)
+        switches += switched
+        assert (flags[0], flags[1]) == (reference.armed, reference.active)
+        np.testing.assert_allclose(state, [reference.x_m, reference.v_m, reference.a_m], rtol=1e-14)
+    assert switches == (1 if enabled else 0)
+
+
+def _random_state(seed: int):  # noqa: ANN202
+    """kist_humanoid's Pinocchio model and data after computeAllTerms at a random state near home."""
+    robot = load_robot("kist_humanoid")
+    model = robot.pin_model
+    data = model.createData()
+    rng = np.random.default_rng(seed)
+    q, _ = robot.pin_state_from_mujoco(robot.home_qpos, np.zeros(robot.mj_model.nv))
+    q = pin.integrate(model, q, 0.2 * rng.standard_normal(model.nv))
+    v = rng.standard_normal(model.nv)
+    pin.computeAllTerms(model, data, q, v)
+    pin.updateFramePlacements(model, data)
+    return robot, model, data, q, v
+
+
+def test_frame_jacobian_equals_pinocchio() -> None:
+    """The kernel's frame Jacobian from data.J equals getFrameJacobian (LOCAL_WORLD_ALIGNED)."""
+    robot, model, data, _, _ = _random_state(3)
+    out = np.empty((6, model.nv))
+    for name in ("left_sole", "right_sole", "pelvis", "torso", "left_foot_ft"):
+        fid = robot.pin_frame_id(name)
+        chain = tasks.kinematic_chain(model, fid)
+        tasks.frame_jacobian(data.J, chain, data.oMf[fid].translation, out)
+        np.testing.assert_allclose(out, pin.getFrameJacobian(model, data, fid, LWA), atol=1e-14)
+
+
+def test_contact_wrench_equals_numpy() -> None:
+    """The kernel's contact wrench equals the Newton–Euler expression written with numpy."""
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        ft, acc = rng.normal(0, 50, 6), rng.normal(0, 3, 3)
+        rot = pin.exp3(rng.normal(0, 0.3, 3))
+        site, com, sole = rng.normal(0, 0.1, (3, 3))
+        mass = 1.4
+        got = tasks.contact_wrench(ft, rot, site, com, sole, acc, mass)
+        gravity = np.array([0.0, 0.0, -tasks.GRAVITY])
+        force = rot @ ft[:3] - mass * gravity + mass * acc
+        moment = rot @ ft[3:] - np.cross(com - site, mass * (gravity - acc))
+        moment += np.cross(site - sole, force)  # moved to the sole centre
+        np.testing.assert_allclose(got, (force[2], moment[0], moment[1]), rtol=1e-12, atol=1e-12)
+
+
+def test_desired_com_equals_numpy_interp() -> None:
+    """The CoM pattern is np.interp of its samples, and rests at the last sample after the plan."""
+    rng = np.random.default_rng(5)
+    plan = rng.standard_normal((50, 6))
+    dt, end, z = 0.005, 0.2, 0.8
+    pos, vel, acc = np.empty(3), np.empty(3), np.empty(3)
+    times = dt * np.arange(50)
+    for t in rng.uniform(0, end, 30):
+        tasks.desired_com(plan, t, dt, end, z, pos, vel, acc)
+        want = [np.interp(t, times, plan[:, j]) for j in range(6)]
+        np.testing.assert_allclose(pos, (want[0], want[3], z), rtol=1e-12)
+        np.testing.assert_allclose(vel, (want[1], want[4], 0.0), rtol=1e-12)
+        np.testing.assert_allclose(acc, (want[2], want[5], 0.0), rtol=1e-12)
+    tasks.desired_com(plan, end, dt, end, z, pos, vel, acc)
+    np.testing.assert_array_equal(np.r_[pos, vel, acc], [plan[-1, 0], plan[-1, 3], z] + [0.0] * 6)
+
+
+def test_pinocchio_state_equals_robot_pin_state() -> None:
+    """The compiled (q, v) equals Robot.pin_state for random base states and joints."""
+    robot = load_robot("kist_humanoid")
+    rng = np.random.default_rng(6)
+    q, v = np.empty(robot.pin_model.nq), np.empty(robot.pin_model.nv)
+    q_idx = np.asarray(robot.pin_q_idx, dtype=np.int64)
+    v_idx = np.asarray(robot.pin_v_idx, dtype=np.int64)
+    for _ in range(20):
+        quat = rng.standard_normal(4)
+        quat /= np.linalg.norm(quat)
+        args = (rng.normal(0, 1, 3), quat, rng.normal(0, 1, 3), rng.normal(0, 1, 3))
+        joints = rng.normal(0, 1, (2, robot.n_joints))
+        tasks.pinocchio_state(*args, *joints, q_idx, v_idx, q, v)
+        q_ref, v_ref = robot.pin_state(*args, *joints)
+        np.testing.assert_allclose(q, q_ref, rtol=1e-15, atol=1e-15)
+        np.testing.assert_allclose(v, v_ref, rtol=1e-14, atol=1e-14)
+
+
+def test_task_rows_equal_numpy_reference() -> None:
+    """A swing tick's cost rows, contact stacks and signals equal the §III-D algebra written with numpy and Pinocchio."""
+    robot, model, data, _, v = _random_state(7)
+    cls = controller_class("qpimpedance")
+    ctrl = cls()
+    p = cls.Params()
+    ctrl.reset(robot, p, 0.001)
+    swing_index = next(i for i, ph in enumerate(ctrl._plan.phases) if ph.swing >= 0)
+    phase = ctrl._plan.phases[swing_index]
+    ctrl._data = data  # the random state's terms
+    ctrl._v[:] = v
+    ctrl._enter_phase(swing_index)
+    rng = np.random.default_rng(8)
+    ctrl._impedance_state[:] = rng.normal(0, 0.1, (2, 3, 3))
+    ctrl._impedance_flags[:] = True  # armed and active: Eq. (2) integrates this tick
+    ctrl._foot_acc_cmd[:] = rng.normal(0, 1, (2, 3))
+    ctrl._stance_z[:] = rng.normal(0, 0.05, 2)  # planned heights (0 on flat ground)
+    prev_vel = ctrl._prev_foot_vel[:] = rng.normal(0, 1, (2, 6))
+    imp_before = ctrl._impedance_state.copy()
+    acc_before = ctrl._foot_acc_cmd.copy()
+    joint_pos, joint_vel = rng.normal(0, 0.3, (2, robot.n_joints))
+    fts = rng.normal(0, 50, (2, 6))
+    t = phase.t0 + 0.3 * (phase.t1 - phase.t0)
+    swing = phase.swing
+    ctrl._task_rows(t, swing, joint_pos, joint_vel, *fts)
+
+    rows, rhs = ctrl._cost_rows, ctrl._cost_rhs
+    # Momentum rows: √W_1 M_B ξ̈ ≈ √W_1 (X_GBᵀ ḣ_{G,r} − C_B ξ̇) (Eq. 7).
+    m = robot.total_mass
+    c_d, v_d, a_d = np.empty(3), np.empty(3), np.empty(3)
+    tasks.desired_com(
+        ctrl._com_plan, t, p.preview_dt, ctrl._plan.end, ctrl._scalars[tasks.COM_Z], c_d, v_d, a_d
+    )
+    h_lin = m * (a_d + p.k_h * (v_d - data.vcom[0]) + p.k_i * (c_d - data.com[0]))
+    h_ang = -p.k_h_angular * data.hg.angular + np.cross(
+        data.com[0] - data.oMi[1].translation, h_lin
+    )
+    base_rot = data.oMi[1].rotation
+    b1 = np.r_[base_rot.T @ h_lin, base_rot.T @ h_ang] - (data.nle[:6] - data.g[:6])
+    np.testing.assert_allclose(rows[:6], data.M[:6], rtol=1e-14)  # W_1 = I by default
+    np.testing.assert_allclose(rhs[:6], b1, rtol=1e-11, atol=1e-9)
+    # Pelvis and torso: ẍ_r = −K_P log R − K_V ω.
+    for frame, row, w in (("pelvis", 6, p.w_pelvis), ("torso", 9, p.w_torso)):
+        fid = robot.pin_frame_id(frame)
+        jac = pin.getFrameJacobian(model, data, fid, LWA)[3:]
+        drift = pin.getFrameClassicalAcceleration(model, data, fid, LWA).angular
+        acc = -p.kp_orient * pin.log3(data.oMf[fid].rotation) - p.kv_orient * jac @ v
+        np.testing.assert_allclose(rows[row : row + 3], np.sqrt(w) * jac, rtol=1e-14, atol=1e-14)
+        np.testing.assert_allclose(
+            rhs[row : row + 3], np.sqrt(w) * (acc - drift), rtol=1e-11, atol=1e-9
+        )
+    # Posture: K_P (q_home − q) − K_V q̇.
+    idx = ctrl._posture_idx
+    posture = p.kp_posture * (ctrl._q_home_posture - joint_pos[idx]) - p.kv_posture * joint_vel[idx]
+    np.testing.assert_allclose(rhs[12 : 12 + idx.size], np.sqrt(p.w_posture) * posture, rtol=1e-14)
+
+    signals = dict(zip(tasks.signal_names(("left", "right")), ctrl._signals, strict=True))
+    traj = SwingTrajectory(
+        phase.t0,
+        phase.t1 - phase.t0,
+        ctrl._swing_plan[2:7],
+        ctrl._swing_plan[7:12],
+        p.swing_height,
+        p.swing_rise_fraction,
+    )
+    pos_d, vel_d, acc_d = traj.at(t)
+    for side, name in enumerate(("left", "right")):
+        fid = robot.pin_frame_id(f"{name}_sole")
+        sole = data.oMf[fid]
+        jac = pin.getFrameJacobian(model, data, fid, LWA)
+        drift = pin.getFrameClassicalAcceleration(model, data, fid, LWA).vector
+        np.testing.assert_allclose(ctrl._sole_jacobians[side], jac, atol=1e-14)
+        np.testing.assert_array_equal(ctrl._sole_drifts[side], drift)
+        local = ctrl._local_map
+        np.testing.assert_allclose(
+            ctrl._wrench_maps[side],
+            np.r_[sole.rotation @ local[:3], sole.rotation @ local[3:]],
+            atol=1e-14,
+        )
+        vel = jac @ v
+        np.testing.assert_allclose(ctrl._prev_foot_vel[side], vel, rtol=1e-12, atol=1e-12)
+        site = data.oMf[robot.pin_frame_id(f"{name}_foot_ft")]
+        foot = data.oMf[robot.pin_frame_id(f"{name}_foot")]
+        foot_com = foot.act(
+            model.inertias[model.frames[robot.pin_frame_id(f"{name}_foot")].parentJoint].lever
+        )
+        wrench = tasks.contact_wrench(
+            fts[side],
+            site.rotation,
+            site.translation,
+            foot_com,
+            sole.translation,
+            acc_before[side],
+            ctrl._scalars[tasks.FOOT_MASS],
+        )
+        rpy = pin.rpy.matrixToRpy(sole.rotation)
+        acc_meas = (vel - prev_vel[side]) / 0.001
+        want = (
+            *wrench,
+            sole.translation[0],
+            sole.translation[2],
+            rpy[0],
+            rpy[1],
+            *vel[2:5],
+            *acc_meas[2:5],
+        )
+        got = [signals[f"{name}_{s}"] for s in tasks.FOOT_SIGNALS]
+        np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9)
+        refs = [
+            signals[f"{name}_{axis}{kind}"]
+            for kind in tasks.REFERENCE_SIGNALS
+            for axis in ("z", "roll", "pitch")
+        ]
+        if side != swing:
+            z = ctrl._stance_z[side]
+            assert refs == [z, 0, 0] + [0] * 6 + [z, 0, 0] + [0] * 6
+            assert signals[f"{name}_impedance_on"] == 0.0
+            np.testing.assert_array_equal(ctrl._foot_acc_cmd[side], 0.0)
+            np.testing.assert_allclose(
+                ctrl._impedance_state[side, 0], (sole.translation[2], *rpy[:2])
+            )
+            continue
+        # Swing: Eq. (2) advanced from the previous state, then Eq. (3) on all six axes.
+        reference = ImpedanceFilter(np.array(p.m_d), np.array(p.b_d), np.array(p.k_d), 1e9, 1e9)
+        reference.active = reference.armed = True
+        reference.x_m[:], reference.v_m[:], reference.a_m[:] = imp_before[side]
+        x_m, v_m, a_m = reference.update(
+            pos_d[2:5], vel_d[2:5], acc_d[2:5], np.array(wrench), 0.001
+        )
+        np.testing.assert_allclose(
+            ctrl._impedance_state[side], [x_m, v_m, a_m], rtol=1e-12, atol=1e-12
+        )
+        assert signals[f"{name}_impedance_on"] == 1.0
+        want_refs = np.r_[pos_d[2:5], vel_d[2:5], acc_d[2:5], x_m, v_m, a_m]
+        np.testing.assert_allclose(refs, want_refs, rtol=1e-12, atol=1e-12)
+        x_now = np.array([sole.translation[2], rpy[0], rpy[1]])
+        acc_ref = np.r_[
+            acc_d[:2]
+            + p.kv_swing * (vel_d[:2] - vel[:2])
+            + p.kp_swing * (pos_d[:2] - sole.translation[:2]),
+            a_m + p.kv_swing * (v_m - vel[2:5]) + p.kp_swing * (x_m - x_now),
+            -p.kv_swing * vel[5] - p.kp_swing * rpy[2],
+        ]
+        row = 12 + idx.size
+        np.testing.assert_allclose(rows[row : row + 6], np.sqrt(p.w_swing) * jac, atol=1e-13)
+        np.testing.assert_allclose(
+            rhs[row : row + 6], np.sqrt(p.w_swing) * (acc_ref - drift), rtol=1e-10, atol=1e-8
+        )
+        np.testing.assert_allclose(ctrl._foot_acc_cmd[side], acc_ref[:3], rtol=1e-12, atol=1e-10)

@@ -1,0 +1,720 @@
+"""The per-tick task algebra of §III-D in one compiled call: cost rows, contact terms, impedance.
+
+Each tick the controller turns Pinocchio's quantities and the sensor readings into
+
+- the stacked weighted cost rows √W Φ ξ̈ ≈ √W b of the QP, in a fixed order: centroidal
+  momentum (6, Eq. 7), pelvis (3) and torso (3) orientation, arm and waist posture (one per
+  joint), swing foot (6, Eq. 3, single support only);
+- each foot's sole Jacobian, drift J̇ ξ̇ and rotated wrench basis R̃ U_k (Eq. 8), which the
+  QP takes for the support feet;
+- each foot's contact wrench from its F/T sensor and the impedance modification of the
+  swing reference (Eqs. 1–3), with the signals the log records.
+
+Why numba: written in Python this is ≈ 70 small numpy calls and Python-float expressions on
+3- to 28-vectors, ≈ 65 µs of the ≈ 200 µs a 1 kHz tick may take at 5× real time (numpy
+costs about 1 µs per call on such small arrays). One compiled call, :func:`task_rows`, does
+the same arithmetic, in the same order, in a few µs; its inputs are Pinocchio's own results
+(M, C ξ̇ + g, the joint Jacobians, frame placements, drifts, log₃ and RPY angles), passed in
+without copies. The small kernels it calls are compiled functions too, each tested against
+its Python reference (:func:`.footsteps.quintic`, :meth:`.footsteps.SwingTrajectory.at`,
+:class:`.impedance.ImpedanceFilter`, Pinocchio's frame Jacobians, numpy expressions). Like
+:mod:`.condensed`, the kernels are cached on disk (``cache=True``) and compiled by
+:func:`warm_up` when the controller resets.
+
+Scalars travel in one float array (:data:`SCALARS` names its entries): numba checks each
+argument's type on every call, and one array is cheaper to check than twenty floats.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+import pinocchio as pin
+
+GRAVITY = 9.81  # [m/s^2]
+
+#: Entries of the ``scalars`` array of :func:`task_rows`, in order.
+SCALARS = (
+    "dt",  # control period [s]
+    "mass",  # robot mass m [kg]
+    "foot_mass",  # mass of the foot below the F/T sensor [kg]
+    "k_h",  # linear momentum gain K_h [1/s]
+    "k_i",  # linear momentum integral gain K_I [1/s²]
+    "k_h_angular",  # angular momentum gain [1/s]
+    "kp_orient",  # pelvis and torso K_P [1/s²]
+    "kv_orient",  # pelvis and torso K_V [1/s]
+    "kp_posture",  # arm and waist K_P [1/s²]
+    "kv_posture",  # arm and waist K_V [1/s]
+    "kp_swing",  # swing-foot K_P [1/s²]
+    "kv_swing",  # swing-foot K_V [1/s]
+    "sqrt_w_pelvis",  # √W_t of the pelvis rows
+    "sqrt_w_torso",  # √W_t of the torso rows
+    "sqrt_w_posture",  # √W_t of the posture rows
+    "sqrt_w_swing",  # √W_t of the swing-foot rows
+    "impedance",  # 1.0: modify the swing reference by Eqs. (1)–(3); 0.0: don't
+    "preview_dt",  # sample time of the CoM pattern [s]
+    "plan_end",  # time the footstep plan ends [s]
+    "com_z",  # desired CoM height [m]
+)
+(
+    DT,
+    MASS,
+    FOOT_MASS,
+    K_H,
+    K_I,
+    K_H_ANGULAR,
+    KP_ORIENT,
+    KV_ORIENT,
+    KP_POSTURE,
+    KV_POSTURE,
+    KP_SWING,
+    KV_SWING,
+    SQRT_W_PELVIS,
+    SQRT_W_TORSO,
+    SQRT_W_POSTURE,
+    SQRT_W_SWING,
+    IMPEDANCE,
+    PREVIEW_DT,
+    PLAN_END,
+    COM_Z,
+) = range(len(SCALARS))
+
+#: Cost rows of each task in the stacked rows: momentum 0–5, pelvis 6–8, torso 9–11,
+#: posture from 12 (one per joint), then the 6 swing-foot rows.
+ROW_PELVIS, ROW_TORSO, ROW_POSTURE = 6, 9, 12
+#: Rows of the ``chains`` array of :func:`task_rows`: the frames whose Jacobians it forms.
+CHAIN_LEFT_SOLE, CHAIN_RIGHT_SOLE, CHAIN_PELVIS, CHAIN_TORSO = range(4)
+#: Names of the per-foot signals, in the order :func:`task_rows` writes them.
+FOOT_SIGNALS = (
+    "fz", "mx", "my", "x", "z", "roll", "pitch", "vz", "wx", "wy", "az", "alphax", "alphay"
+)  # fmt: skip
+#: Names of the reference signals per axis, in the order of ``(x_d, ẋ_d, ẍ_d, x_m, ẋ_m, ẍ_m)``.
+REFERENCE_SIGNALS = ("_d", "_dot_d", "_ddot_d", "_m", "_dot_m", "_ddot_m")
+#: Signals per foot: :data:`FOOT_SIGNALS`, ``impedance_on``, 6 × 3 references.
+FOOT_BLOCK = len(FOOT_SIGNALS) + 1 + 3 * len(REFERENCE_SIGNALS)
+#: Where the feet's blocks, the CoM and the desired CoM sit in the signal vector.
+SIGNAL_FEET = 2  # after t_plan and swing_foot
+SIGNAL_COM = SIGNAL_FEET + 2 * FOOT_BLOCK
+N_SIGNALS = SIGNAL_COM + 6
+
+
+def signal_names(sides: tuple[str, ...]) -> tuple[str, ...]:
+    """Names of the signal vector of :func:`task_rows`, entry by entry."""
+    names = ["t_plan", "swing_foot"]
+    for side in sides:
+        names += [f"{side}_{s}" for s in FOOT_SIGNALS]
+        names.append(f"{side}_impedance_on")
+        names += [
+            f"{side}_{axis}{kind}" for kind in REFERENCE_SIGNALS for axis in ("z", "roll", "pitch")
+        ]
+    names += ["com_x", "com_y", "com_z", "com_x_d", "com_y_d", "com_z_d"]
+    assert len(names) == N_SIGNALS
+    return tuple(names)
+
+
+def kinematic_chain(model: pin.Model, frame_id: int) -> np.ndarray:
+    """Which velocities move a frame: those of its parent joint and the joints supporting it.
+
+    Returns:
+        Shape (nv,) bool: the columns Pinocchio's ``getFrameJacobian`` fills.
+    """
+    chain = np.zeros(model.nv, dtype=bool)
+    for joint in list(model.supports[model.frames[frame_id].parentJoint])[1:]:  # not universe
+        start = model.joints[joint].idx_v
+        chain[start : start + model.joints[joint].nv] = True
+    return chain
+
+
+@numba.njit(cache=True)
+def quintic(s: float, duration: float) -> tuple[float, float, float]:
+    """:func:`.footsteps.quintic`, compiled: minimum-jerk blend b(s), ḃ [1/s], b̈ [1/s²]."""
+    if duration <= 0:
+        return 1.0, 0.0, 0.0
+    u = min(max(s / duration, 0.0), 1.0)
+    # Float exponents: the same libm pow() as Python's float ** int (not repeated products).
+    b = u**3.0 * (10 - 15 * u + 6 * u**2.0)
+    db = 30 * u**2.0 * (1 - u) ** 2.0 / duration
+    ddb = 60 * u * (1 - u) * (1 - 2 * u) / duration**2.0
+    return b, db, ddb
+
+
+def pack_swing(
+    t0: float,
+    duration: float,
+    start: np.ndarray,
+    target: np.ndarray,
+    apex: float,
+    rise_fraction: float,
+    out: np.ndarray,
+) -> None:
+    """Write a :class:`.footsteps.SwingTrajectory`'s fields into the 14-array of
+    :func:`swing_reference`: (t0, duration, start (5), target (5), apex, rise_fraction)."""
+    out[0], out[1] = t0, duration
+    out[2:7], out[7:12] = start, target
+    out[12], out[13] = apex, rise_fraction
+
+
+@numba.njit(cache=True)
+def swing_reference(
+    swing: np.ndarray, t: float, pos: np.ndarray, vel: np.ndarray, acc: np.ndarray
+) -> None:
+    """:meth:`.footsteps.SwingTrajectory.at`, compiled, for the trajectory packed in ``swing``.
+
+    Args:
+        swing: see :func:`pack_swing`, shape (14,).
+        t: time [s].
+        pos, vel, acc: out, desired (x, y, z, roll, pitch), rates and accelerations, (5,).
+    """
+    t0, duration, apex, rise_fraction = swing[0], swing[1], swing[12], swing[13]
+    start, target = swing[2:7], swing[7:12]
+    s = t - t0
+    b, db, ddb = quintic(s, duration)
+    for i in range(5):
+        delta = target[i] - start[i]
+        pos[i] = start[i] + b * delta
+        vel[i] = db * delta
+        acc[i] = ddb * delta
+    top = max(start[2], target[2]) + apex
+    t_rise = rise_fraction * duration
+    if s < t_rise:
+        bz, dbz, ddbz = quintic(s, t_rise)
+        z0, z1 = start[2], top
+    else:
+        bz, dbz, ddbz = quintic(s - t_rise, duration - t_rise)
+        z0, z1 = top, target[2]
+    pos[2] = z0 + bz * (z1 - z0)
+    vel[2] = dbz * (z1 - z0)
+    acc[2] = ddbz * (z1 - z0)
+
+
+@numba.njit(cache=True)
+def advance_impedance(
+    state: np.ndarray,
+    flags: np.ndarray,
+    x_d: np.ndarray,
+    v_d: np.ndarray,
+    a_d: np.ndarray,
+    wrench: np.ndarray,
+    gains: np.ndarray,
+    dt: float,
+    enabled: bool,
+) -> bool:
+    """:meth:`.impedance.ImpedanceFilter.update`, compiled (Eqs. 1–3 over z, φ_x, φ_y).
+
+    Args:
+        state: (x_m, ẋ_m, ẍ_m), updated in place, shape (3, 3).
+        flags: (armed, active), updated in place, shape (2,) bool.
+        x_d, v_d, a_d: desired (z, φ_x, φ_y), rates and accelerations, shape (3,).
+        wrench: contact wrench λ = (f_z [N], μ_x [N m], μ_y [N m]).
+        gains: rows M_d, B_d, K_d and the switch-on thresholds, shape (4, 3).
+        dt: control period [s].
+        enabled: False runs without impedance (the modified reference is the desired one).
+
+    Returns:
+        Whether the modification switched on this tick.
+    """
+    over = False
+    for i in range(3):
+        if abs(wrench[i]) > gains[3, i]:
+            over = True
+    if not flags[0] and not over:
+        flags[0] = True  # the foot has left the ground: a new contact is unexpected
+    switched_on = False
+    if enabled and flags[0] and not flags[1] and over:
+        flags[1] = switched_on = True  # start from the desired state: continuous reference
+        state[0] = x_d
+        state[1] = v_d
+    if not flags[1]:
+        state[0] = x_d
+        state[1] = v_d
+        state[2] = a_d
+        return False
+    for i in range(3):
+        e = x_d[i] - state[0, i]
+        e_dot = v_d[i] - state[1, i]
+        state[2, i] = a_d[i] + (wrench[i] + gains[1, i] * e_dot + gains[2, i] * e) / gains[0, i]
+        state[1, i] += state[2, i] * dt
+        state[0, i] += state[1, i] * dt
+    return switched_on
+
+
+@numba.njit(cache=True)
+def frame_jacobian(
+    joint_jacobians: np.ndarray, chain: np.ndarray, position: np.ndarray, out: np.ndarray
+) -> None:
+    """A frame's Jacobian in LOCAL_WORLD_ALIGNED axes, as Pinocchio's ``getFrameJacobian``.
+
+    Column j of the world-axes joint Jacobian (``data.J``, velocities of the point at the
+    world origin) moves to the frame origin p: linear part v − p × ω. Columns off the frame's
+    kinematic chain are zero.
+
+    Args:
+        joint_jacobians: ``data.J`` after ``computeAllTerms``, shape (6, nv).
+        chain: whether each velocity moves the frame's parent joint, shape (nv,) bool.
+        position: frame origin in the world [m], shape (3,).
+        out: the Jacobian, shape (6, nv).
+    """
+    p0, p1, p2 = position[0], position[1], position[2]
+    for j in range(joint_jacobians.shape[1]):
+        if not chain[j]:
+            for i in range(6):
+                out[i, j] = 0.0
+            continue
+        w0, w1, w2 = joint_jacobians[3, j], joint_jacobians[4, j], joint_jacobians[5, j]
+        out[0, j] = joint_jacobians[0, j] - (p1 * w2 - p2 * w1)
+        out[1, j] = joint_jacobians[1, j] - (p2 * w0 - p0 * w2)
+        out[2, j] = joint_jacobians[2, j] - (p0 * w1 - p1 * w0)
+        out[3, j], out[4, j], out[5, j] = w0, w1, w2
+
+
+@numba.njit(cache=True)
+def contact_wrench(
+    ft: np.ndarray,
+    site_rotation: np.ndarray,
+    site_position: np.ndarray,
+    foot_com: np.ndarray,
+    sole_position: np.ndarray,
+    foot_acc: np.ndarray,
+    foot_mass: float,
+) -> tuple[float, float, float]:
+    """Contact wrench on a foot from its F/T reading: (f_z [N], μ_x, μ_y [N m]), world axes.
+
+    The sensor reads the foot-on-leg wrench, which includes the weight and inertia of the
+    foot below it (≈ 14 N). Newton–Euler of that foot body: f_c = f_s + m (g ẑ + a),
+    μ_c = μ_s − r_c × m (g_vec − a) about the sensor, then moved to the sole centre.
+
+    Args:
+        ft: the F/T reading (force, torque) in the sensor frame, shape (6,).
+        site_rotation: world-from-sensor rotation, shape (3, 3).
+        site_position: sensor origin in the world [m], shape (3,).
+        foot_com: centre of mass of the foot body in the world [m], shape (3,).
+        sole_position: sole centre in the world [m], shape (3,).
+        foot_acc: the foot's commanded acceleration a [m/s²], shape (3,).
+        foot_mass: mass of the foot body m [kg].
+    """
+    f = np.empty(3)
+    s = np.empty(3)
+    for i in range(3):  # sensor axes -> world axes
+        f[i] = (
+            site_rotation[i, 0] * ft[0] + site_rotation[i, 1] * ft[1] + site_rotation[i, 2] * ft[2]
+        )
+        s[i] = (
+            site_rotation[i, 0] * ft[3] + site_rotation[i, 1] * ft[4] + site_rotation[i, 2] * ft[5]
+        )
+    m = foot_mass
+    a0, a1, a2 = foot_acc[0], foot_acc[1], foot_acc[2]
+    p0, p1, p2 = site_position[0], site_position[1], site_position[2]
+    # f_c = f_s − m g_vec + m a, with g_vec = (0, 0, −g).
+    fc0, fc1, fc2 = f[0] + m * a0, f[1] + m * a1, f[2] + m * GRAVITY + m * a2
+    r0, r1, r2 = foot_com[0] - p0, foot_com[1] - p1, foot_com[2] - p2  # foot CoM from sensor
+    h0, h1, h2 = -m * a0, -m * a1, m * (-GRAVITY - a2)  # m (g_vec − a)
+    mc0 = s[0] - (r1 * h2 - r2 * h1)
+    mc1 = s[1] - (r2 * h0 - r0 * h2)
+    d0, d1, d2 = p0 - sole_position[0], p1 - sole_position[1], p2 - sole_position[2]
+    return fc2, mc0 + (d1 * fc2 - d2 * fc1), mc1 + (d2 * fc0 - d0 * fc2)
+
+
+@numba.njit(cache=True)
+def desired_com(
+    com_plan: np.ndarray,
+    t: float,
+    preview_dt: float,
+    plan_end: float,
+    com_z: float,
+    pos: np.ndarray,
+    vel: np.ndarray,
+    acc: np.ndarray,
+) -> None:
+    """CoM position, velocity, acceleration of the preview pattern at ``t`` [m, m/s, m/s²].
+
+    Linear between the pattern's samples; after the plan, its last position at rest.
+
+    Args:
+        com_plan: (x, ẋ, ẍ, y, ẏ, ÿ) per sample of the preview pattern, shape (N, 6).
+        t: time [s].
+        preview_dt: sample time of the pattern [s].
+        plan_end: time the plan ends [s].
+        com_z: desired CoM height [m].
+        pos, vel, acc: out, shape (3,).
+    """
+    n = com_plan.shape[0]
+    if t >= plan_end:
+        pos[0], pos[1], pos[2] = com_plan[n - 1, 0], com_plan[n - 1, 3], com_z
+        vel[:] = 0.0
+        acc[:] = 0.0
+        return
+    k = t / preview_dt
+    i = int(min(max(np.floor(k), 0.0), n - 2))
+    a = min(max(k - i, 0.0), 1.0)
+    for axis in range(2):
+        for order in range(3):
+            j = 3 * axis + order
+            value = (1 - a) * com_plan[i, j] + a * com_plan[i + 1, j]
+            if order == 0:
+                pos[axis] = value
+            elif order == 1:
+                vel[axis] = value
+            else:
+                acc[axis] = value
+    pos[2], vel[2], acc[2] = com_z, 0.0, 0.0
+
+
+@numba.njit(cache=True)
+def _weighted_rows(
+    source: np.ndarray,
+    first: int,
+    target: np.ndarray,
+    rhs: np.ndarray,
+    row: int,
+    n_rows: int,
+    acc_ref: np.ndarray,
+    drift: np.ndarray,
+    sqrt_w: float,
+) -> None:
+    """Cost rows √W Φ and √W (ẍ_r − Φ̇ ξ̇) of a task: Φ = ``source[first:first+n_rows]``."""
+    for r in range(n_rows):
+        for j in range(source.shape[1]):
+            target[row + r, j] = source[first + r, j] * sqrt_w
+        rhs[row + r] = (acc_ref[r] - drift[r]) * sqrt_w
+
+
+@numba.njit(cache=True)
+def _orientation_rows(
+    joint_jacobians: np.ndarray,
+    chain: np.ndarray,
+    velocity: np.ndarray,
+    log_r: np.ndarray,
+    drift: np.ndarray,
+    kp: float,
+    kv: float,
+    sqrt_w: float,
+    row: int,
+    frame_jac: np.ndarray,
+    cost_rows: np.ndarray,
+    cost_rhs: np.ndarray,
+) -> None:
+    """Rows ``row:row+3`` of a frame held upright, heading +x: ẍ_r = K_P log(R⁻¹) − K_V ω.
+
+    ``log_r`` is log₃ R of the frame's world rotation (so −log_r is the error), ``drift``
+    the angular part of its J̇ ξ̇; ``frame_jac`` is scratch (6, nv).
+    """
+    origin = np.zeros(3)  # the angular rows do not depend on the point
+    frame_jacobian(joint_jacobians, chain, origin, frame_jac)
+    acc_ref = np.empty(3)
+    for i in range(3):
+        omega = 0.0
+        for j in range(velocity.shape[0]):
+            omega += frame_jac[3 + i, j] * velocity[j]
+        acc_ref[i] = -kp * log_r[i] - kv * omega
+    _weighted_rows(frame_jac, 3, cost_rows, cost_rhs, row, 3, acc_ref, drift, sqrt_w)
+
+
+@numba.njit(cache=True)
+def task_rows(
+    t: float,
+    swing: int,
+    joint_jacobians: np.ndarray,
+    mass_matrix: np.ndarray,
+    nonlinear: np.ndarray,
+    gravity_torques: np.ndarray,
+    com: np.ndarray,
+    com_vel: np.ndarray,
+    angular_momentum: np.ndarray,
+    base_rotation: np.ndarray,
+    base_position: np.ndarray,
+    pelvis_log: np.ndarray,
+    pelvis_drift: np.ndarray,
+    torso_log: np.ndarray,
+    torso_drift: np.ndarray,
+    left_rotation: np.ndarray,
+    left_position: np.ndarray,
+    left_rpy: np.ndarray,
+    left_drift: np.ndarray,
+    right_rotation: np.ndarray,
+    right_position: np.ndarray,
+    right_rpy: np.ndarray,
+    right_drift: np.ndarray,
+    velocity: np.ndarray,
+    joint_pos: np.ndarray,
+    joint_vel: np.ndarray,
+    left_ft: np.ndarray,
+    right_ft: np.ndarray,
+    scalars: np.ndarray,
+    chains: np.ndarray,
+    posture_idx: np.ndarray,
+    posture_home: np.ndarray,
+    momentum_sqrt_w: np.ndarray,
+    com_plan: np.ndarray,
+    swing_plan: np.ndarray,
+    stance_z: np.ndarray,
+    sole_site_rotation: np.ndarray,
+    sole_site_position: np.ndarray,
+    sole_foot_com: np.ndarray,
+    local_wrench_map: np.ndarray,
+    impedance_gains: np.ndarray,
+    impedance_state: np.ndarray,
+    impedance_flags: np.ndarray,
+    prev_foot_vel: np.ndarray,
+    foot_acc_cmd: np.ndarray,
+    cost_rows: np.ndarray,
+    cost_rhs: np.ndarray,
+    sole_jacobians: np.ndarray,
+    sole_drifts: np.ndarray,
+    wrench_maps: np.ndarray,
+    signals: np.ndarray,
+) -> int:
+    """One tick's task rows (§III-D), foot states, contact wrenches and impedance (Eqs. 1–3).
+
+    Pinocchio inputs (after ``computeAllTerms`` and ``updateFramePlacements``):
+
+    Args:
+        t: time [s].
+        swing: the swing foot (0 left, 1 right), or −1 in double support.
+        joint_jacobians: ``data.J``, shape (6, nv).
+        mass_matrix: M (``data.M``), shape (nv, nv).
+        nonlinear: C ξ̇ + g (``data.nle``), shape (nv,).
+        gravity_torques: g (``data.g``), shape (nv,).
+        com, com_vel: CoM position [m] and velocity [m/s] in the world, shape (3,).
+        angular_momentum: k, the angular part of h_G [kg m²/s], shape (3,).
+        base_rotation, base_position: world-from-base placement (``data.oMi[1]``).
+        pelvis_log, torso_log: log₃ of the frame's world rotation [rad], shape (3,).
+        pelvis_drift, torso_drift: angular part of the frame's drift J̇ ξ̇ (LOCAL_WORLD_ALIGNED).
+        left_rotation, left_position: world placement of the left sole frame.
+        left_rpy: its roll, pitch, yaw [rad] (``pin.rpy.matrixToRpy``).
+        left_drift: its drift J̇ ξ̇ (classical, LOCAL_WORLD_ALIGNED), shape (6,).
+        right_*: the same for the right sole.
+        velocity: ξ̇ (Pinocchio's v), shape (nv,).
+
+    Sensor inputs: ``joint_pos``, ``joint_vel`` (actuator order) and each foot's F/T
+    reading ``left_ft``, ``right_ft`` (shape (6,), sensor frame).
+
+    Constants (set at reset):
+        scalars: gains, weights and times, named by :data:`SCALARS`.
+        chains: per frame of :data:`CHAIN_LEFT_SOLE` … whether each velocity moves it,
+            shape (4, nv) bool.
+        posture_idx: actuator indices of the arm and waist joints; posture_home their home
+            angles [rad].
+        momentum_sqrt_w: √W_1, shape (6,).
+        com_plan: the preview CoM pattern (see :func:`desired_com`), shape (N, 6).
+        swing_plan: this phase's swing trajectory (see :func:`pack_swing`), shape (14,).
+        stance_z: each foot's planned stance height [m], shape (2,).
+        sole_site_rotation, sole_site_position: each F/T sensor's placement in its sole
+            frame, shapes (2, 3, 3) and (2, 3).
+        sole_foot_com: each foot body's centre of mass in its sole frame, shape (2, 3).
+        local_wrench_map: U_k in the contact frame, shape (6, m N_c).
+        impedance_gains: M_d, B_d, K_d and thresholds (see :func:`advance_impedance`).
+
+    State, updated in place:
+        impedance_state, impedance_flags: each foot's (see :func:`advance_impedance`),
+            shapes (2, 3, 3) and (2, 2).
+        prev_foot_vel: each sole's spatial velocity of the previous tick, shape (2, 6).
+        foot_acc_cmd: each sole's commanded linear acceleration, shape (2, 3).
+
+    Outputs:
+        cost_rows, cost_rhs: the stacked weighted rows (see :data:`ROW_PELVIS`); the constant
+            posture rows are not written.
+        sole_jacobians, sole_drifts, wrench_maps: per foot, J_k (6, nv), J̇_k ξ̇ (6,) and
+            R̃ U_k (6, m N_c).
+        signals: the signal vector named by :func:`signal_names`.
+
+    Returns:
+        A bit per foot (1 left, 2 right) whose impedance modification switched on this tick.
+    """
+    nv = velocity.shape[0]
+    m = scalars[MASS]
+    # ---- centroidal momentum reference (§III-D) --------------------------------------
+    c_d, v_d, a_d = np.empty(3), np.empty(3), np.empty(3)
+    desired_com(com_plan, t, scalars[PREVIEW_DT], scalars[PLAN_END], scalars[COM_Z], c_d, v_d, a_d)
+    kh, ki = scalars[K_H], scalars[K_I]
+    # ḣ_lin = m (c̈_d + K_h (ċ_d − ċ) + K_I (c_d − c)), with ∫(h_d − h) = m (c_d − c).
+    lin = np.empty(3)
+    for i in range(3):
+        lin[i] = m * (a_d[i] + kh * (v_d[i] - com_vel[i]) + ki * (c_d[i] - com[i]))
+    r0, r1, r2 = com[0] - base_position[0], com[1] - base_position[1], com[2] - base_position[2]
+    ang = np.empty(3)  # ḣ_ang + (c − p_B) × ḣ_lin, with ḣ_ang = −K_h k
+    ang[0] = -scalars[K_H_ANGULAR] * angular_momentum[0] + (r1 * lin[2] - r2 * lin[1])
+    ang[1] = -scalars[K_H_ANGULAR] * angular_momentum[1] + (r2 * lin[0] - r0 * lin[2])
+    ang[2] = -scalars[K_H_ANGULAR] * angular_momentum[2] + (r0 * lin[1] - r1 * lin[0])
+    # b_1 = X_GBᵀ ḣ_{G,r} − C_B ξ̇ (Eq. 7): both halves in the base frame, minus (C ξ̇)_B.
+    for i in range(3):
+        h_lin = base_rotation[0, i] * lin[0] + base_rotation[1, i] * lin[1]
+        h_lin += base_rotation[2, i] * lin[2]
+        h_ang = base_rotation[0, i] * ang[0] + base_rotation[1, i] * ang[1]
+        h_ang += base_rotation[2, i] * ang[2]
+        cost_rhs[i] = (h_lin - (nonlinear[i] - gravity_torques[i])) * momentum_sqrt_w[i]
+        cost_rhs[3 + i] = (h_ang - (nonlinear[3 + i] - gravity_torques[3 + i])) * (
+            momentum_sqrt_w[3 + i]
+        )
+    for i in range(6):
+        for j in range(nv):
+            cost_rows[i, j] = mass_matrix[i, j] * momentum_sqrt_w[i]
+
+    # ---- pelvis and torso upright, heading +x ----------------------------------------
+    frame_jac = np.empty((6, nv))
+    kp, kv = scalars[KP_ORIENT], scalars[KV_ORIENT]
+    _orientation_rows(
+        joint_jacobians, chains[CHAIN_PELVIS], velocity, pelvis_log, pelvis_drift, kp, kv,
+        scalars[SQRT_W_PELVIS], ROW_PELVIS, frame_jac, cost_rows, cost_rhs,
+    )  # fmt: skip
+    _orientation_rows(
+        joint_jacobians, chains[CHAIN_TORSO], velocity, torso_log, torso_drift, kp, kv,
+        scalars[SQRT_W_TORSO], ROW_TORSO, frame_jac, cost_rows, cost_rhs,
+    )  # fmt: skip
+
+    # ---- arm and waist joints: hold home ---------------------------------------------
+    n_post = posture_idx.shape[0]
+    for r in range(n_post):
+        k = posture_idx[r]
+        acc = scalars[KP_POSTURE] * (posture_home[r] - joint_pos[k])
+        acc -= scalars[KV_POSTURE] * joint_vel[k]
+        cost_rhs[ROW_POSTURE + r] = acc * scalars[SQRT_W_POSTURE]
+    row_swing = ROW_POSTURE + n_post
+
+    # ---- feet: state, measured contact wrench, impedance, swing rows -----------------
+    signals[0], signals[1] = t, float(swing)
+    dt = scalars[DT]
+    switched_on = 0
+    acc_ref = np.empty(6)
+    site_rot, site_pos, foot_com = np.empty((3, 3)), np.empty(3), np.empty(3)
+    pos_d, vel_d, acc_d = np.empty(5), np.empty(5), np.empty(5)
+    for side in range(2):
+        if side == 0:
+            rot, pos, rpy, drift, ft = left_rotation, left_position, left_rpy, left_drift, left_ft
+        else:
+            rot, pos, rpy, drift = right_rotation, right_position, right_rpy, right_drift
+            ft = right_ft
+        sole_jac = sole_jacobians[side]
+        frame_jacobian(joint_jacobians, chains[CHAIN_LEFT_SOLE + side], pos, sole_jac)
+        sole_drifts[side] = drift
+        # R̃ U_k: both halves (forces, moments) of the contact-frame basis rotated.
+        for half in range(2):
+            for i in range(3):
+                for c in range(local_wrench_map.shape[1]):
+                    s = 0.0
+                    for k in range(3):
+                        s += rot[i, k] * local_wrench_map[3 * half + k, c]
+                    wrench_maps[side, 3 * half + i, c] = s
+        # Sensor and foot-CoM placements from the sole's (all on the ankle's body).
+        for i in range(3):
+            site_pos[i] = pos[i]
+            foot_com[i] = pos[i]
+            for k in range(3):
+                site_pos[i] += rot[i, k] * sole_site_position[side, k]
+                foot_com[i] += rot[i, k] * sole_foot_com[side, k]
+                s = 0.0
+                for j in range(3):
+                    s += rot[i, j] * sole_site_rotation[side, j, k]
+                site_rot[i, k] = s
+        vel = np.empty(6)
+        for i in range(6):
+            s = 0.0
+            for j in range(nv):
+                s += sole_jac[i, j] * velocity[j]
+            vel[i] = s
+        acc_meas = (vel - prev_foot_vel[side]) / dt
+        prev_foot_vel[side] = vel
+        fz, mx, my = contact_wrench(
+            ft, site_rot, site_pos, foot_com, pos, foot_acc_cmd[side], scalars[FOOT_MASS]
+        )
+        roll, pitch, yaw = rpy[0], rpy[1], rpy[2]
+        out = SIGNAL_FEET + side * FOOT_BLOCK
+        values = (
+            fz, mx, my, pos[0], pos[2], roll, pitch,
+            vel[2], vel[3], vel[4], acc_meas[2], acc_meas[3], acc_meas[4],
+        )  # fmt: skip
+        for i in range(13):
+            signals[out + i] = values[i]
+        refs = signals[out + 14 : out + FOOT_BLOCK]  # x_d, ẋ_d, ẍ_d, x_m, ẋ_m, ẍ_m
+        state = impedance_state[side]
+        if side != swing:
+            # Support: re-initialise the impedance at the foot's state (§IV), no command.
+            flags = impedance_flags[side]
+            flags[0] = flags[1] = False
+            state[0, 0], state[0, 1], state[0, 2] = pos[2], roll, pitch
+            state[1:] = 0.0
+            foot_acc_cmd[side] = 0.0
+            signals[out + 13] = 0.0
+            refs[:] = 0.0
+            refs[0] = refs[9] = stance_z[side]
+            continue
+        swing_reference(swing_plan, t, pos_d, vel_d, acc_d)
+        wrench = np.array((fz, mx, my))
+        if advance_impedance(
+            state,
+            impedance_flags[side],
+            pos_d[2:5],
+            vel_d[2:5],
+            acc_d[2:5],
+            wrench,
+            impedance_gains,
+            dt,
+            scalars[IMPEDANCE] != 0.0,
+        ):
+            switched_on |= 1 << side
+        # Eq. (3), ẍ_r = ẍ_m + K_v (ẋ_m − ẋ) + K_p (x_m − x), for (z, φx, φy) with the
+        # modified reference; x, y and yaw follow the plan (the same form, unmodified).
+        kp, kv = scalars[KP_SWING], scalars[KV_SWING]
+        x_now = (pos[2], roll, pitch)
+        acc_ref[0] = acc_d[0] + kv * (vel_d[0] - vel[0]) + kp * (pos_d[0] - pos[0])
+        acc_ref[1] = acc_d[1] + kv * (vel_d[1] - vel[1]) + kp * (pos_d[1] - pos[1])
+        for i in range(3):
+            acc_ref[2 + i] = (
+                state[2, i] + kv * (state[1, i] - vel[2 + i]) + kp * (state[0, i] - x_now[i])
+            )
+        acc_ref[5] = -kv * vel[5] - kp * yaw
+        foot_acc_cmd[side] = acc_ref[:3]
+        _weighted_rows(
+            sole_jac, 0, cost_rows, cost_rhs, row_swing, 6, acc_ref, drift, scalars[SQRT_W_SWING]
+        )
+        signals[out + 13] = 1.0 if impedance_flags[side, 1] else 0.0
+        refs[0:3], refs[3:6], refs[6:9] = pos_d[2:5], vel_d[2:5], acc_d[2:5]
+        refs[9:12], refs[12:15], refs[15:18] = state[0], state[1], state[2]
+    signals[SIGNAL_COM : SIGNAL_COM + 3] = com
+    signals[SIGNAL_COM + 3 : SIGNAL_COM + 6] = c_d
+    return switched_on
+
+
+@numba.njit(cache=True)
+def pinocchio_state(
+    base_pos: np.ndarray,
+    base_quat: np.ndarray,
+    base_linvel: np.ndarray,
+    base_angvel: np.ndarray,
+    joint_pos: np.ndarray,
+    joint_vel: np.ndarray,
+    q_idx: np.ndarray,
+    v_idx: np.ndarray,
+    q: np.ndarray,
+    v: np.ndarray,
+) -> None:
+    """Pinocchio's (q, v) from the sensed base state and encoders, as ``Robot.pin_state``.
+
+    The base's linear velocity moves from world to base axes (Rᵀ v); R is the normalised
+    quaternion's rotation, formed as Eigen's ``Quaternion::toRotationMatrix`` does.
+
+    Args:
+        base_pos: pelvis position in the world [m]; base_quat: world-from-pelvis (w, x, y, z).
+        base_linvel: pelvis velocity, world axes [m/s]; base_angvel: pelvis axes [rad/s].
+        joint_pos, joint_vel: encoders, actuator order [rad, rad/s].
+        q_idx, v_idx: each actuator's index in q and v.
+        q, v: out, shapes (nq,) and (nv,).
+    """
+    w, x, y, z = base_quat[0], base_quat[1], base_quat[2], base_quat[3]
+    q[0], q[1], q[2] = base_pos[0], base_pos[1], base_pos[2]
+    q[3], q[4], q[5], q[6] = x, y, z, w
+    norm = np.sqrt((x * x + z * z) + (y * y + w * w))  # Eigen's (SIMD) summation order
+    x, y, z, w = x / norm, y / norm, z / norm, w / norm
+    tx, ty, tz = 2 * x, 2 * y, 2 * z
+    twx, twy, twz = tx * w, ty * w, tz * w
+    txx, txy, txz = tx * x, ty * x, tz * x
+    tyy, tyz, tzz = ty * y, tz * y, tz * z
+    rot = np.empty((3, 3))
+    rot[0, 0], rot[0, 1], rot[0, 2] = 1 - (tyy + tzz), txy - twz, txz + twy
+    rot[1, 0], rot[1, 1], rot[1, 2] = txy + twz, 1 - (txx + tzz), tyz - twx
+    rot[2, 0], rot[2, 1], rot[2, 2] = txz - twy, tyz + twx, 1 - (txx + tyy)
+    for j in range(3):
+        v[j] = base_linvel[0] * rot[0, j] + base_linvel[1] * rot[1, j] + base_linvel[2] * rot[2, j]
+        v[3 + j] = base_angvel[j]
+    for i in range(q_idx.shape[0]):
+        q[q_idx[i]] = joint_pos[i]
+        v[v_idx[i]] = joint_vel[i]
