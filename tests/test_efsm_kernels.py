@@ -330,3 +330,17 @@ def test_warm_up_compiles_what_a_tick_uses() -> None:
     cmd = ctrl.step(0.0005, home)
     assert cmd.signals["efsm_phase"] != int(Phase.DS)
     assert {k: len(k.signatures) for k in compiled} == compiled
+
+
+def test_fresh_reads_give_the_same_tick_as_views() -> None:
+    """Where views of Pinocchio's Data could not be trusted, fresh reads give the same tick."""
+    robot = load_robot("dyros_red")
+    ticks = []
+    for refresh in (False, True):
+        ctrl = EfsmController()
+        ctrl.reset(robot, EfsmParams(), 0.0005)
+        assert not ctrl._refresh_pose  # this Pinocchio returns views of Data
+        ctrl._refresh_pose = refresh
+        home = ctrl._home_snapshot()
+        ticks.append([ctrl.step(0.0, home).ctrl, ctrl.step(0.0005, home).ctrl])
+    np.testing.assert_array_equal(ticks[0], ticks[1])

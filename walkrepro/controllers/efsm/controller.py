@@ -8,6 +8,11 @@ three prioritized tasks (Eq. 11):
 2. CoM y/z, upper-body yaw and, out of DS, the 6-D swing foot (Eq. 6, saturated F_s × ε);
 3. upper-body roll and pitch (Eq. 6), plus F_3^bal when the expected CoP leaves the
    shrunk support polygon (Appendix D-3, Eqs. 23–29).
+
+Speed (issue 6): the tick runs at 2 kHz, so it calls Pinocchio's combined algorithm once
+(``computeAllTerms``), reads its results through views of ``Data`` taken at reset, and does
+all the WBC algebra in one compiled numba call, :func:`.kernels.whole_body_torques` (why
+numba: see :mod:`.kernels`); :mod:`.wbc` keeps the same algebra in numpy as the reference.
 """
 
 from __future__ import annotations
