@@ -1,11 +1,10 @@
-"""The standing posture controller: its compiled gravity-relief algebra and its q-only state."""
+"""The standing posture controller's compiled gravity-relief algebra."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from walkrepro.controllers.posture import feet_gravity_torque
-from walkrepro.robot import load_robot
 
 
 def test_feet_gravity_torque_equals_the_minimum_norm_formula() -> None:
@@ -21,14 +20,3 @@ def test_feet_gravity_torque_equals_the_minimum_norm_formula() -> None:
         assert tau.shape == (nv - 6,)
         assert np.allclose(tau, expected, rtol=1e-10, atol=1e-10)
         assert np.allclose(jc[:, :6].T @ lam, g[:6])
-
-
-def test_pin_configuration_is_the_q_of_pin_state() -> None:
-    robot = load_robot("kist_humanoid")
-    rng = np.random.default_rng(5)
-    n = len(robot.joint_names)
-    quat = rng.normal(size=4)
-    args = (rng.normal(size=3), quat, rng.normal(size=3), rng.normal(size=3))
-    joints = rng.normal(size=n), rng.normal(size=n)
-    q, _ = robot.pin_state(*args, *joints)
-    assert np.array_equal(robot.pin_configuration(args[0], quat, joints[0]), q)

@@ -14,7 +14,7 @@ from walkrepro.controllers import controller_class
 from walkrepro.controllers.qpimpedance import tasks
 from walkrepro.controllers.qpimpedance.footsteps import SwingTrajectory, quintic
 from walkrepro.controllers.qpimpedance.impedance import ImpedanceFilter
-from walkrepro.robot import load_robot
+from walkrepro.robot import load_robot, pin_state_into
 from walkrepro.sensors import SensorSnapshot
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -136,24 +136,6 @@ def test_desired_com_equals_numpy_interp() -> None:
         np.testing.assert_allclose(acc, (want[2], want[5], 0.0), rtol=1e-12)
     tasks.desired_com(plan, end, dt, end, z, pos, vel, acc)
     np.testing.assert_array_equal(np.r_[pos, vel, acc], [plan[-1, 0], plan[-1, 3], z] + [0.0] * 6)
-
-
-def test_pinocchio_state_equals_robot_pin_state() -> None:
-    """The compiled (q, v) equals Robot.pin_state for random base states and joints."""
-    robot = load_robot("kist_humanoid")
-    rng = np.random.default_rng(6)
-    q, v = np.empty(robot.pin_model.nq), np.empty(robot.pin_model.nv)
-    q_idx = np.asarray(robot.pin_q_idx, dtype=np.int64)
-    v_idx = np.asarray(robot.pin_v_idx, dtype=np.int64)
-    for _ in range(20):
-        quat = rng.standard_normal(4)
-        quat /= np.linalg.norm(quat)
-        args = (rng.normal(0, 1, 3), quat, rng.normal(0, 1, 3), rng.normal(0, 1, 3))
-        joints = rng.normal(0, 1, (2, robot.n_joints))
-        tasks.pinocchio_state(*args, *joints, q_idx, v_idx, q, v)
-        q_ref, v_ref = robot.pin_state(*args, *joints)
-        np.testing.assert_allclose(q, q_ref, rtol=1e-15, atol=1e-15)
-        np.testing.assert_allclose(v, v_ref, rtol=1e-14, atol=1e-14)
 
 
 def test_task_rows_equal_numpy_reference() -> None:
@@ -313,7 +295,7 @@ def test_reset_compiles_the_tick_kernels_for_a_real_tick() -> None:
     cls = controller_class("qpimpedance")
     ctrl = cls()
     ctrl.reset(robot, cls.Params(), 0.001)
-    kernels = (tasks.task_rows, tasks.pinocchio_state)
+    kernels = (tasks.task_rows, pin_state_into)
     compiled = [len(k.signatures) for k in kernels]
     q = robot.home_qpos
     snapshot = SensorSnapshot(

@@ -623,3 +623,24 @@ def test_coman_neck_pull_reproduces_the_ankle_stiffness_experiment() -> None:
     assert 0.03 < p1 - p0 < 0.07
     assert 0.05 < n1 - n0 < 0.11
     assert 20.0 < apparent < 45.0
+
+
+@pytest.mark.parametrize("name", ["dyros_red", "coman", "kist_humanoid"])
+def test_pin_state_is_pinocchios_rotation_bit_for_bit(name: str) -> None:
+    """The compiled (q, v) equals the formula written with Pinocchio's own quaternion, bit for
+    bit, for random and near-upright base states (controllers' outcomes must not move)."""
+    robot = load_robot(name)
+    rng = np.random.default_rng(8)
+    n = len(robot.joint_names)
+    for k in range(300):
+        quat = rng.standard_normal(4) if k % 2 else np.r_[1.0, 0, 0, 0] + 0.02 * rng.normal(size=4)
+        pos, linvel, angvel = rng.normal(size=(3, 3))
+        joint_pos, joint_vel = rng.normal(size=(2, n))
+        q, v = robot.pin_state(pos, quat, linvel, angvel, joint_pos, joint_vel)
+        w, x, y, z = quat
+        rot = pin.Quaternion(w, x, y, z).normalized().toRotationMatrix()
+        q_ref, v_ref = np.zeros(robot.pin_model.nq), np.zeros(robot.pin_model.nv)
+        q_ref[0:3], q_ref[3:7], q_ref[robot.pin_q_idx] = pos, (x, y, z, w), joint_pos
+        v_ref[0:3], v_ref[3:6], v_ref[robot.pin_v_idx] = rot.T @ linvel, angvel, joint_vel
+        assert np.array_equal(q, q_ref) and np.array_equal(v, v_ref)
+        assert np.array_equal(robot.pin_configuration(pos, quat, joint_pos), q)

@@ -48,6 +48,7 @@ from pathlib import Path
 from typing import Literal, NamedTuple
 
 import mujoco
+import numba
 import numpy as np
 import pinocchio as pin
 
@@ -102,6 +103,63 @@ class LinkAddresses(NamedTuple):
         if len(self.adr) == len(self.starts):  # rigid joints only: one component each
             return np.asarray(x)[self.adr]
         return np.add.reduceat(np.asarray(x)[self.adr], self.starts)
+
+
+_READ = numba.types.Array(numba.types.float64, 1, "A", readonly=True)
+_INDEX = numba.types.Array(numba.types.int64, 1, "A", readonly=True)
+_WRITE = numba.types.Array(numba.types.float64, 1, "A")
+
+
+@numba.njit(
+    numba.types.void(_READ, _READ, _READ, _READ, _READ, _READ, _INDEX, _INDEX, _WRITE, _WRITE),
+    cache=True,
+)
+def pin_state_into(
+    base_pos: np.ndarray,
+    base_quat: np.ndarray,
+    base_linvel: np.ndarray,
+    base_angvel: np.ndarray,
+    joint_pos: np.ndarray,
+    joint_vel: np.ndarray,
+    q_idx: np.ndarray,
+    v_idx: np.ndarray,
+    q: np.ndarray,
+    v: np.ndarray,
+) -> None:
+    """Pinocchio's (q, v) written into ``q`` and ``v`` (see :meth:`Robot.pin_state`).
+
+    Compiled because whole-body controllers call it every tick at 1-2 kHz (5 µs in numpy and
+    Pinocchio's Python bindings, 1 µs here). The base's linear velocity moves from world to
+    base axes (Rᵀ v) with R the normalised quaternion's rotation, formed as Eigen's
+    ``Quaternion::normalized().toRotationMatrix()`` does, so the result is bit for bit the
+    same as with Pinocchio.
+
+    Args:
+        base_pos: pelvis position in the world [m]; base_quat: world-from-pelvis (w, x, y, z).
+        base_linvel: pelvis velocity, world axes [m/s]; base_angvel: pelvis axes [rad/s].
+        joint_pos, joint_vel: link-side joints, actuator order [rad, rad/s].
+        q_idx, v_idx: each actuated joint's index in q and v.
+        q, v: out, shapes (nq,) and (nv,); entries of joints not in q_idx/v_idx are left alone.
+    """
+    w, x, y, z = base_quat[0], base_quat[1], base_quat[2], base_quat[3]
+    q[0], q[1], q[2] = base_pos[0], base_pos[1], base_pos[2]
+    q[3], q[4], q[5], q[6] = x, y, z, w
+    norm = np.sqrt((x * x + z * z) + (y * y + w * w))  # Eigen's (SIMD) summation order
+    x, y, z, w = x / norm, y / norm, z / norm, w / norm
+    tx, ty, tz = 2 * x, 2 * y, 2 * z
+    twx, twy, twz = tx * w, ty * w, tz * w
+    txx, txy, txz = tx * x, ty * x, tz * x
+    tyy, tyz, tzz = ty * y, tz * y, tz * z
+    rot = np.empty((3, 3))
+    rot[0, 0], rot[0, 1], rot[0, 2] = 1 - (tyy + tzz), txy - twz, txz + twy
+    rot[1, 0], rot[1, 1], rot[1, 2] = txy + twz, 1 - (txx + tzz), tyz - twx
+    rot[2, 0], rot[2, 1], rot[2, 2] = txz - twy, tyz + twx, 1 - (txx + tyy)
+    for j in range(3):
+        v[j] = base_linvel[0] * rot[0, j] + base_linvel[1] * rot[1, j] + base_linvel[2] * rot[2, j]
+        v[3 + j] = base_angvel[j]
+    for i in range(q_idx.shape[0]):
+        q[q_idx[i]] = joint_pos[i]
+        v[v_idx[i]] = joint_vel[i]
 
 
 @dataclass(frozen=True, eq=False)  # eq=False: compare by identity, arrays have no ==
@@ -222,14 +280,19 @@ class Robot:
             ``q`` (nq,) with the quaternion as (x, y, z, w), and ``v`` (nv,) with the base
             linear and angular velocity both in the pelvis frame.
         """
-        model = self.pin_model
-        w, x, y, z = np.asarray(base_quat_wxyz, dtype=float)
-        q = self.pin_configuration(base_pos, base_quat_wxyz, joint_pos)
-        rot = pin.Quaternion(w, x, y, z).normalized().toRotationMatrix()  # world-from-pelvis
-        v = np.zeros(model.nv)
-        v[0:3] = rot.T @ np.asarray(base_linvel_world, dtype=float)  # world -> pelvis frame
-        v[3:6] = base_angvel_local
-        v[self.pin_v_idx] = joint_vel
+        q, v = np.zeros(self.pin_model.nq), np.zeros(self.pin_model.nv)
+        pin_state_into(
+            np.asarray(base_pos, dtype=np.float64),
+            np.asarray(base_quat_wxyz, dtype=np.float64),
+            np.asarray(base_linvel_world, dtype=np.float64),
+            np.asarray(base_angvel_local, dtype=np.float64),
+            np.asarray(joint_pos, dtype=np.float64),
+            np.asarray(joint_vel, dtype=np.float64),
+            self.pin_q_idx,
+            self.pin_v_idx,
+            q,
+            v,
+        )
         return q, v
 
     def pin_configuration(
@@ -238,7 +301,7 @@ class Robot:
         """Pinocchio ``q`` (nq,) alone, quaternion as (x, y, z, w): for controllers that need
         no velocities (see :meth:`pin_state` for the arguments)."""
         quat = np.asarray(base_quat_wxyz, dtype=float)
-        q = np.empty(self.pin_model.nq)
+        q = np.zeros(self.pin_model.nq)
         q[0:3] = base_pos
         q[3:6] = quat[1:4]
         q[6] = quat[0]
@@ -296,8 +359,12 @@ def load_robot(name: str) -> Robot:
 
     series_elastic = _joint_id(mj_model, joint_names[0] + MOTOR_SUFFIX) >= 0
     pin_model = _build_pin_model(xml_path, rigid_twin=series_elastic)
-    pin_q_idx = np.array([pin_model.joints[pin_model.getJointId(j)].idx_q for j in joint_names])
-    pin_v_idx = np.array([pin_model.joints[pin_model.getJointId(j)].idx_v for j in joint_names])
+    pin_q_idx = np.array(
+        [pin_model.joints[pin_model.getJointId(j)].idx_q for j in joint_names], dtype=np.int64
+    )
+    pin_v_idx = np.array(
+        [pin_model.joints[pin_model.getJointId(j)].idx_v for j in joint_names], dtype=np.int64
+    )
 
     data = mujoco.MjData(mj_model)
     mujoco.mj_resetDataKeyframe(mj_model, data, mj_model.key(HOME_KEY).id)

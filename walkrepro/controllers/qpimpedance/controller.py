@@ -43,11 +43,10 @@ from walkrepro.controllers.qpimpedance.tasks import (
     SIGNAL_FEET,
     kinematic_chain,
     pack_swing,
-    pinocchio_state,
     signal_names,
     task_rows,
 )
-from walkrepro.robot import Robot
+from walkrepro.robot import Robot, pin_state_into
 from walkrepro.sensors import SensorSnapshot
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -307,7 +306,7 @@ class QPImpedanceController(Controller):
         home_pos, home_quat = robot.home_qpos[0:3].copy(), robot.home_qpos[3:7].copy()
         home_joints, zero_joints = robot.home_joint_pos.copy(), np.zeros(robot.n_joints)
         zero3, zero_ft = np.zeros(3), np.zeros(6)
-        pinocchio_state(
+        pin_state_into(
             home_pos, home_quat, zero3, zero3, home_joints, zero_joints,
             self._q_idx, self._v_idx, self._q, self._v,
         )  # fmt: skip
@@ -324,7 +323,7 @@ class QPImpedanceController(Controller):
         if s.base_pos is None or s.base_quat is None or s.base_linvel is None:
             return s.pinocchio_state(self._robot, "qpimpedance (as in §IV)")  # names the fix
         q, v = self._q, self._v
-        pinocchio_state(
+        pin_state_into(
             s.base_pos,
             s.base_quat,
             s.base_linvel,
