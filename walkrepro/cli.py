@@ -299,10 +299,13 @@ def bench(
             f"benchmarking {spec.name} ({spec.sim.duration:g} s simulated)…"
         )
         rows.append(bench_experiment(spec, repeat))
-    stages = sorted({k for r in rows for k in r.per_tick})
+    # The runner's stages as columns; a controller's own split (``controller.<part>``, which
+    # differs per controller) as one column of "part cost" pairs.
+    stages = ["physics", "sensors", "controller", "logging", "bookkeeping"]
     table = Table(title="walkrepro bench (per-tick costs in µs)")
     columns = ["experiment", "outcome", "RTF", *(["RTF before"] if before else [])]
     columns += ["floor ×", "tick median", "tick p99", "log %", "mem Δ MB", *stages]
+    columns += ["controller split"]
     for col in columns:
         table.add_column(col, justify="right" if col != "experiment" else "left")
     for r in rows:
@@ -318,6 +321,11 @@ def bench(
             f"{r.logging_share * 100:.0f}",
             f"{r.memory_growth / 1e6:.1f}",
             *(f"{r.per_tick.get(k, 0.0) * 1e6:.1f}" for k in stages),
+            " ".join(
+                f"{k.removeprefix('controller.')} {v * 1e6:.0f}"
+                for k, v in r.per_tick.items()
+                if k.startswith("controller.")
+            ),
         )
     _console().print(table)
     if json_out is not None:

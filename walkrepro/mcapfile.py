@@ -168,7 +168,7 @@ class McapFile:
         if not self._chunk:
             return
         indexes = {channel_id: flat for channel_id, flat in self._index.items() if flat}
-        raw = bytes(self._chunk)
+        raw = self._chunk  # zstd and crc32 read the bytearray in place: no 1 MB copy
         compressed = self._compressor.compress(raw)
         chunk = Chunk(
             message_start_time=min(min(flat[0::2]) for flat in indexes.values()),
