@@ -30,6 +30,7 @@ class _Active:
     rotation: np.ndarray | None = None  # world-from-frame, frozen at onset
     anchor: np.ndarray | None = None  # hold: the body's CoM at onset [m]
     wrench: np.ndarray | None = None  # constant/ramp: the world-frame wrench at scale 1
+    direction: np.ndarray | None = None  # hold: unit world-frame push direction
     on: bool = False
 
 
@@ -66,6 +67,7 @@ class DisturbanceSchedule:
                 item.rotation = rot = self._frame_rotation(s, frame_lookup)
                 if s.profile == "hold":
                     item.anchor = body_state(s.body)[0].copy()
+                    item.direction = _unit(rot @ np.asarray(s.force, dtype=float))
                 else:  # the frame is frozen at onset, so is the wrench's direction
                     item.wrench = np.concatenate(
                         [rot @ np.asarray(s.force), rot @ np.asarray(s.torque)]
@@ -77,8 +79,7 @@ class DisturbanceSchedule:
             if scale == 0:
                 continue
             if s.profile == "hold":
-                rot = item.rotation if item.rotation is not None else np.eye(3)
-                wrench = scale * _hold_wrench(s, rot, item.anchor, *body_state(s.body))
+                wrench = scale * _hold_wrench(s, item.direction, item.anchor, *body_state(s.body))
             else:
                 wrench = scale * item.wrench
             out[s.body] = out.get(s.body, np.zeros(6)) + wrench
@@ -106,12 +107,20 @@ def profile_scale(s: DisturbanceSpec, t: float) -> float:
     return float(min(1.0, (t - s.start) / s.ramp_time, (end - t) / s.ramp_time))
 
 
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v)
+
+
 def _hold_wrench(
-    s: DisturbanceSpec, rot: np.ndarray, anchor: np.ndarray | None, pos: np.ndarray, vel: np.ndarray
+    s: DisturbanceSpec,
+    u: np.ndarray | None,
+    anchor: np.ndarray | None,
+    pos: np.ndarray,
+    vel: np.ndarray,
 ) -> np.ndarray:
-    """A hand's push along the direction of ``force``: one-sided spring-damper, capped."""
-    assert anchor is not None and s.stiffness is not None and s.max_force is not None
-    u = rot @ np.asarray(s.force, dtype=float)
-    u /= np.linalg.norm(u)
+    """A hand's push along the unit direction ``u`` (of ``force``, frozen at onset): a
+    one-sided spring-damper from the grab point ``anchor``, capped at ``max_force``."""
+    assert u is not None and anchor is not None
+    assert s.stiffness is not None and s.max_force is not None
     push = s.stiffness * float((anchor - pos) @ u) - s.damping * float(vel @ u)
     return np.concatenate([min(max(push, 0.0), s.max_force) * u, np.zeros(3)])
