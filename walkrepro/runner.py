@@ -191,11 +191,12 @@ def run(
     sensors = SensorModel(robot, model, spec.sensors, spec.sim.control_period, spec.sim.seed)
     disturbances = DisturbanceSchedule(spec.disturbances)
     contacts = ContactReader(model)
+    body_ids = {d.body: model.body(d.body).id for d in spec.disturbances}
 
     def body_state(body: str) -> tuple[np.ndarray, np.ndarray]:
         """A body's CoM position and linear velocity, world frame, in the current state
         (``mj_step1`` has run; the resulting force is logged, so replay holds)."""
-        i = model.body(body).id
+        i = body_ids[body]
         vel = np.zeros(6)
         mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, i, vel, 0)
         return data.xipos[i].copy(), vel[3:].copy()
@@ -208,7 +209,6 @@ def run(
     substeps, n_steps = spec.sim.substeps, spec.sim.n_steps
     ctrl_json = b""
     wrenches: dict[str, np.ndarray] = {}
-    body_ids = {d.body: model.body(d.body).id for d in spec.disturbances}
     outcome, message, fall_time = "complete", "", None
     wall_start = time.perf_counter()
     last_report = wall_start
