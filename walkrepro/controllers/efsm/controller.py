@@ -34,12 +34,13 @@ from walkrepro.controllers.efsm.fsm import (
     capture_point,
     epsilon,
 )
-from walkrepro.robot import Robot
+from walkrepro.robot import Robot, pin_state_into
 from walkrepro.sensors import SensorSnapshot
 
 GRAVITY = 9.81  # [m/s^2]
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 FEET = ("left", "right")
+OTHER_FOOT = {"left": "right", "right": "left"}
 
 
 class EfsmParams(ControllerParams):
@@ -168,6 +169,8 @@ class EfsmController(Controller):
         self._pose = _PoseViews(self._data, self._sole, self._ft, self._pelvis_joint)
         self._refresh_pose = False
         self._nv = nv = model.nv
+        # Pinocchio's (q, v), rewritten in place every tick (nothing keeps them across ticks).
+        self._q, self._v = np.zeros(model.nq), np.zeros(nv)
         # Joint-torque row of each actuator (Γ is in joint order, ctrl in actuator order).
         self._actuator_rows = np.asarray(robot.pin_v_idx, dtype=np.int64) - 6
         self._tau = np.empty(len(self._actuator_rows))
@@ -220,8 +223,8 @@ class EfsmController(Controller):
         self._started = False
         self._steps_done = 0
         self._ds_start_xp: float | None = None
-        self._swing_target = np.zeros(3)
-        self._rot_w = np.eye(3)
+        self._swing_target = [0.0, 0.0, 0.0]  # [m], world; floats: read as floats per tick
+        self._rot_w = np.eye(3)  # world-from-O_w, rewritten in place every tick
 
     def _home_snapshot(self) -> SensorSnapshot:
         """The robot standing still in its home posture, as sensed."""
@@ -280,7 +283,7 @@ class EfsmController(Controller):
     def step(self, t: float, sensors: SensorSnapshot) -> Command:
         """One control period of the E-FSM + OS-WBC."""
         p, model, data, pose = self._p, self._model, self._data, self._pose
-        q, v = sensors.pinocchio_state(self._robot, "the E-FSM controller")
+        q, v = self._pin_state(sensors)
         # One pass: M, b + g, joint Jacobians, CoM and its Jacobian, and (with q̈ = 0) the
         # bias accelerations J̇ q̇ of every frame.
         pin.computeAllTerms(model, data, q, v)
@@ -293,9 +296,13 @@ class EfsmController(Controller):
         events: list[dict[str, Any]] = []
 
         # O_w and the E-FSM inputs (§III-A1, Eq. 2).
-        sup, sw = self._support, self._other(self._support)
+        sup, sw = self._support, OTHER_FOOT[self._support]
         p_sup, p_sw = pose.sole_pos[sup], pose.sole_pos[sw]
-        rot, com_w, vcom_w, x_s = _ow_frame(p_sup, p_sw, com, vcom)
+        # Python floats of this tick's positions: the scalar math below is cheaper on them.
+        sup_xyz, sw_xyz = p_sup.tolist(), p_sw.tolist()
+        com_xyz, vcom_xyz = com.tolist(), vcom.tolist()
+        rot = self._rot_w
+        cos_w, sin_w, com_w, vcom_w, x_s = _ow_frame(sup_xyz, sw_xyz, com_xyz, vcom_xyz, rot)
         x_cp = capture_point(com_w[0], vcom_w[0], self._z_m0)
         out = self._fsm.step(FsmInput(com_w[0], vcom_w[0], x_cp, x_s))
         for old, new in out.transitions:
@@ -305,30 +312,32 @@ class EfsmController(Controller):
             # DS ends: the swing foot becomes the support foot; next footstep target.
             self._support, sup, sw = sw, sw, sup
             p_sup, p_sw = p_sw, p_sup
+            sup_xyz, sw_xyz = sw_xyz, sup_xyz
             self._plan_next_step(p_sup, sw)
-            rot, com_w, vcom_w, x_s = _ow_frame(p_sup, p_sw, com, vcom)
+            cos_w, sin_w, com_w, vcom_w, x_s = _ow_frame(sup_xyz, sw_xyz, com_xyz, vcom_xyz, rot)
             x_cp = capture_point(com_w[0], vcom_w[0], self._z_m0)
             xp_des = 0.0
             self._fsm.reframe(xp_des)
             events.append({"kind": "support", "foot": sup, "step": self._steps_done})
-        self._rot_w = rot
         phase = self._fsm.phase
         double = phase is Phase.DS
 
         # Contact set: the support foot, plus the swing foot in DS (its rows second).
         jc_dot_v = self._jc_dot_v[2 if double else 1]
-        jc_dot_v[0:6] = pin.getFrameClassicalAcceleration(model, data, self._sole[sup], LWA)
+        sole = self._sole
+        jc_dot_v[0:6] = pin.getFrameClassicalAcceleration(model, data, sole[sup], LWA).vector
         if double:
-            jc_dot_v[6:12] = pin.getFrameClassicalAcceleration(model, data, self._sole[sw], LWA)
+            jc_dot_v[6:12] = pin.getFrameClassicalAcceleration(model, data, sole[sw], LWA).vector
         pin.cholesky.decompose(model, data)  # A = U D Uᵀ of the M from computeAllTerms
         a_inv = pin.cholesky.computeMinv(model, data)  # A⁻¹, both triangles
 
         # Task-space errors of Eq. (6) (Table II targets); the kernel forms ẍ* = k_p e − k_v ẋ.
         task_ref = self._task_ref
-        _, cw_y, cw_z = com_w
-        _, vw_y, vw_z = vcom_w
-        sw_ref = self._swing_ref(phase, p_sup)
-        task_ref[:] = (0.0 - cw_y, self._z_m0 - cw_z, vw_y, vw_z, *sw_ref)
+        sw_ref = self._swing_ref(phase, sup_xyz[2])
+        task_ref[0] = 0.0 - com_w[1]
+        task_ref[1] = self._z_m0 - com_w[2]
+        task_ref[2], task_ref[3] = vcom_w[1], vcom_w[2]
+        task_ref[4], task_ref[5], task_ref[6] = sw_ref
 
         # Γ = Γ_t + Γ_c + Γ_gc (Eqs. 7 and 11, Appendices A–D), saturated, actuator order.
         eps_on = 1.0
@@ -368,8 +377,8 @@ class EfsmController(Controller):
         )
 
         # Expected CoP from the reference torques (Eqs. 9, 18, 22), and measured CoP (F/T).
-        (r00, r01, _), (r10, r11, _) = rot[:2].tolist()
-        sup_x, sup_y, _ = p_sup.tolist()
+        r00, r01, r10, r11 = cos_w, -sin_w, sin_w, cos_w  # rot[:2, :2], as _ow_frame wrote it
+        sup_x, sup_y, _ = sup_xyz
         cop_exp_world = [
             sup_x + (r00 * cop_exp_x + r01 * cop_exp_y),
             sup_y + (r10 * cop_exp_x + r11 * cop_exp_y),
@@ -380,7 +389,6 @@ class EfsmController(Controller):
             cop_meas = [0.0, 0.0]
         fsm_state = 0 if double else (1 if sup == "left" else -1)
         xp_world = [sup_x + r00 * xp_des, sup_y + r10 * xp_des]
-        tau_ref = tau.tolist()
         signals = {
             "fsm_state": fsm_state,
             "efsm_phase": int(phase),
@@ -389,8 +397,8 @@ class EfsmController(Controller):
             "d": out.d if math.isfinite(out.d) else 1.0,
             "com_w": com_w,
             "com_vel_w": vcom_w,
-            "com_world": com.tolist(),
-            "com_vel_world": vcom.tolist(),
+            "com_world": com_xyz,
+            "com_vel_world": vcom_xyz,
             "cp_w": x_cp,
             "cp_ref_w": x_s - p.r,
             "x_s_w": x_s,
@@ -400,23 +408,42 @@ class EfsmController(Controller):
             "cop_exp_world": cop_exp_world,
             "cop_meas_world": cop_meas,
             "cop_meas_valid": int(meas_valid),
-            "swing_pos_world": p_sw.tolist(),
-            "swing_ref_world": sw_ref.tolist(),
+            "swing_pos_world": sw_xyz,
+            "swing_ref_world": sw_ref,
             "swing_foot": 0 if double else (1 if sw == "right" else -1),
-            "support_pos_world": p_sup.tolist(),
+            "support_pos_world": sup_xyz,
             "ow_yaw": math.atan2(r10, r00),
             "com_force_x": f1,
             "balancing": int(balancing),
-            "tau_ref": tau_ref,
+            "tau_ref": tau.tolist(),
             "steps_done": self._steps_done,
         }
         return Command(ctrl=tau.copy(), signals=signals, events=tuple(events))
 
     # ---- helpers -------------------------------------------------------------------------
 
-    @staticmethod
-    def _other(foot: str) -> str:
-        return "right" if foot == "left" else "left"
+    def _pin_state(self, sensors: SensorSnapshot) -> tuple[np.ndarray, np.ndarray]:
+        """Pinocchio's (q, v), as ``sensors.pinocchio_state`` gives them, into reused buffers.
+
+        The same compiled kernel as :meth:`Robot.pin_state`, without its two allocations and
+        argument conversions (a few µs per tick at 2 kHz).
+        """
+        if sensors.base_pos is None or sensors.base_quat is None:
+            return sensors.pinocchio_state(self._robot, "the E-FSM controller")  # raises
+        robot, q, v = self._robot, self._q, self._v
+        pin_state_into(
+            sensors.base_pos,
+            sensors.base_quat,
+            sensors.base_linvel,
+            sensors.base_angvel,
+            sensors.joint_pos,
+            sensors.joint_vel,
+            robot.pin_q_idx,
+            robot.pin_v_idx,
+            q,
+            v,
+        )
+        return q, v
 
     def _start(self, com: np.ndarray) -> None:
         """Record the initial targets (Table II) and start the first DS (Table I)."""
@@ -433,12 +460,12 @@ class EfsmController(Controller):
         self._z_m0 = float(com[2] - 0.5 * (p_left[2] + p_right[2]))
         # The first DS: O_w sits on the first swing foot, the CoP moves onto the support
         # foot (x_s); it starts where the CoM projects (standing still, CoP ≈ CoM).
-        sup, sw = self._other(self._support), self._support  # roles in the first DS
+        sup, sw = OTHER_FOOT[self._support], self._support  # roles in the first DS
         self._support = sup
         p_sup, p_sw = pose.sole_pos[sup], pose.sole_pos[sw]
         rot = self._ow_rotation(p_sup, p_sw)
         self._fsm.xp_des = float((rot.T @ (com - p_sup))[0])
-        self._rot_w = rot
+        self._rot_w[:] = rot
 
     def _plan_next_step(self, p_sup: np.ndarray, swing: str) -> None:
         """Footstep planner: the next swing-foot target, step_length ahead of the support.
@@ -451,14 +478,18 @@ class EfsmController(Controller):
         n = self._p.n_steps
         length = self._p.step_length if n is None or self._steps_done <= n else 0.0
         target = p_sup + self._heading * length + side * self._width * self._lateral
-        self._swing_target = target
+        self._swing_target = target.tolist()
 
-    def _swing_ref(self, phase: Phase, p_sup: np.ndarray) -> np.ndarray:
-        """Swing-foot position reference (Table II): planned xy, raise/land height."""
+    def _swing_ref(self, phase: Phase, support_z: float) -> list[float]:
+        """Swing-foot position reference (Table II) [m]: planned xy, raise/land height.
+
+        Args:
+            phase: E-FSM phase: SSD raises the foot, the others lower it.
+            support_z: height of the support sole centre [m].
+        """
         h = self._p.raise_height if phase is Phase.SSD else self._p.land_height
-        ref = self._swing_target.copy()
-        ref[2] = p_sup[2] + h
-        return ref
+        target_x, target_y, _ = self._swing_target
+        return [target_x, target_y, support_z + h]
 
     def _task2_force(
         self, lam: np.ndarray, acc: np.ndarray, double: bool, eps: float, phase: Phase
@@ -530,28 +561,36 @@ def _yaw_only(rot: np.ndarray) -> np.ndarray:
 
 
 def _ow_frame(
-    p_sup: np.ndarray, p_sw: np.ndarray, com: np.ndarray, vcom: np.ndarray
-) -> tuple[np.ndarray, list[float], list[float], float]:
+    p_sup: list[float],
+    p_sw: list[float],
+    com: list[float],
+    vcom: list[float],
+    rot: np.ndarray,
+) -> tuple[float, float, list[float], list[float], float]:
     """O_w (§III-A1) and the CoM and swing foot in it.
+
+    Plain float math: on three-vectors it costs less than numpy's per-call overhead.
 
     Args:
         p_sup: support sole centre, the origin of O_w [m].
         p_sw: swing sole centre [m]; O_w's x points to its ground projection.
         com: CoM in the world [m].
         vcom: CoM velocity in the world [m/s].
+        rot: out: the world-from-O_w rotation (3, 3); only its top-left 2 × 2 is written
+            (the rest stays that of a rotation about z).
 
     Returns:
-        world-from-O_w rotation (3, 3); com_w [m] and vcom_w [m/s] (3 floats each); x_s,
-        the swing sole centre along x of O_w [m].
+        cos and sin of O_w's yaw; com_w [m] and vcom_w [m/s] (3 floats each); x_s, the
+        swing sole centre along x of O_w [m].
     """
-    ox, oy, oz = p_sup.tolist()
-    sx, sy, _ = p_sw.tolist()
+    ox, oy, oz = p_sup
+    sx, sy, _ = p_sw
     yaw = math.atan2(sy - oy, sx - ox)
     c, s = math.cos(yaw), math.sin(yaw)
-    rot = _rot_z(c, s)
-    cx, cy, cz = com.tolist()
-    vx, vy, vz = vcom.tolist()
+    rot[0, 0], rot[0, 1], rot[1, 0], rot[1, 1] = c, -s, s, c
+    cx, cy, cz = com
+    vx, vy, vz = vcom
     dx, dy = cx - ox, cy - oy
     com_w = [c * dx + s * dy, c * dy - s * dx, cz - oz]
     vcom_w = [c * vx + s * vy, c * vy - s * vx, vz]
-    return rot, com_w, vcom_w, c * (sx - ox) + s * (sy - oy)
+    return c, s, com_w, vcom_w, c * (sx - ox) + s * (sy - oy)
