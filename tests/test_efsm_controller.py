@@ -97,3 +97,45 @@ def test_measured_cop_matches_the_wrench_sum() -> None:
         sensors = SimpleNamespace(left_ft=fts["left"], right_ft=fts["right"])
         cop = ctrl._measured_cop(sensors)  # type: ignore[arg-type]
         np.testing.assert_allclose(cop, _measured_cop_reference(ctrl, fts), rtol=1e-12, atol=1e-15)
+
+
+def test_pin_state_buffers_equal_the_snapshot_state() -> None:
+    """The tick's reused (q, v) buffers hold exactly what sensors.pinocchio_state gives."""
+    import dataclasses
+
+    robot = load_robot("dyros_red")
+    ctrl = EfsmController()
+    ctrl.reset(robot, EfsmParams(), 0.0005)
+    home = ctrl._home_snapshot()
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        quat = rng.normal(size=4)
+        snap = dataclasses.replace(
+            home,
+            joint_pos=home.joint_pos + rng.normal(scale=0.1, size=home.joint_pos.size),
+            joint_vel=rng.normal(size=home.joint_vel.size),
+            base_pos=rng.normal(size=3),
+            base_quat=quat / np.linalg.norm(quat),
+            base_linvel=rng.normal(size=3),
+            base_angvel=rng.normal(size=3),
+        )
+        q, v = ctrl._pin_state(snap)
+        q_ref, v_ref = snap.pinocchio_state(robot)
+        assert np.array_equal(q, q_ref) and np.array_equal(v, v_ref)
+
+
+def test_ow_frame_matches_the_rotation_it_writes() -> None:
+    """_ow_frame's CoM, velocity and x_s are Rᵀ (· − p_sup) with the rotation it writes."""
+    from walkrepro.controllers.efsm.controller import _ow_frame
+
+    rng = np.random.default_rng(5)
+    for _ in range(5):
+        p_sup, p_sw, com, vcom = rng.normal(size=(4, 3))
+        rot = np.eye(3)
+        c, s, com_w, vcom_w, x_s = _ow_frame(
+            p_sup.tolist(), p_sw.tolist(), com.tolist(), vcom.tolist(), rot
+        )
+        assert np.isclose(np.linalg.det(rot), 1.0) and (c, s) == (rot[0, 0], rot[1, 0])
+        np.testing.assert_allclose(com_w, rot.T @ (com - p_sup), atol=1e-12)
+        np.testing.assert_allclose(vcom_w, rot.T @ vcom, atol=1e-12)
+        np.testing.assert_allclose([x_s, 0.0], (rot.T @ (p_sw - p_sup))[:2], atol=1e-12)
