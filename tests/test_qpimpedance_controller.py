@@ -6,36 +6,15 @@ import numpy as np
 
 from walkrepro.controllers import controller_class
 from walkrepro.robot import load_robot
-from walkrepro.sensors import SensorSnapshot
 
 
-def _standing_snapshot() -> SensorSnapshot:
-    robot = load_robot("kist_humanoid")
-    q = robot.home_qpos
-    zero = np.zeros(robot.n_joints)
-    return SensorSnapshot(
-        t=0.0,
-        joint_pos=robot.home_joint_pos.copy(),
-        joint_vel=zero,
-        imu_quat=np.array([1.0, 0, 0, 0]),
-        imu_gyro=np.zeros(3),
-        imu_acc=np.array([0, 0, 9.81]),
-        left_ft=np.array([0, 0, 280.0, 0, 0, 0]),
-        right_ft=np.array([0, 0, 280.0, 0, 0, 0]),
-        base_pos=q[0:3].copy(),
-        base_quat=q[3:7].copy(),
-        base_linvel=np.zeros(3),
-        base_angvel=np.zeros(3),
-    )
-
-
-def test_standing_tick_puts_the_weight_on_both_feet() -> None:
+def test_standing_tick_puts_the_weight_on_both_feet(kist_home_snapshot) -> None:
     """At home in double support the QP's contact forces carry the robot's weight and the torques are finite."""
     robot = load_robot("kist_humanoid")
     cls = controller_class("qpimpedance")
     ctrl = cls()
     ctrl.reset(robot, cls.Params(), 0.001)
-    cmd = ctrl.step(0.0, _standing_snapshot())
+    cmd = ctrl.step(0.0, kist_home_snapshot())
     assert cmd.ctrl.shape == (robot.n_joints,)
     assert np.all(np.isfinite(cmd.ctrl))
     total = cmd.signals["left_fz_qp"] + cmd.signals["right_fz_qp"]
@@ -55,7 +34,7 @@ def test_unknown_solver_is_rejected_with_the_valid_names() -> None:
         raise AssertionError("expected a ValueError")
 
 
-def test_ticks_are_deterministic_and_signals_plain() -> None:
+def test_ticks_are_deterministic_and_signals_plain(kist_home_snapshot) -> None:
     """Two controllers fed the same snapshots agree (to SIMD rounding); signals are plain floats."""
     robot = load_robot("kist_humanoid")
     cls = controller_class("qpimpedance")
@@ -63,7 +42,7 @@ def test_ticks_are_deterministic_and_signals_plain() -> None:
     for _ in range(2):
         ctrl = cls()
         ctrl.reset(robot, cls.Params(), 0.001)
-        commands.append([ctrl.step(0.001 * k, _standing_snapshot()) for k in range(5)])
+        commands.append([ctrl.step(0.001 * k, kist_home_snapshot()) for k in range(5)])
     for a, b in zip(*commands, strict=True):
         # Within one process the arrays sit at different addresses, and Eigen's and BLAS's
         # SIMD sums round by alignment (≈ 1e-14); a fresh process repeats a run bit for bit.
@@ -73,12 +52,12 @@ def test_ticks_are_deterministic_and_signals_plain() -> None:
         assert all(type(v) is float for v in a.signals.values())
 
 
-def test_osqp_runs_through_qpsolvers() -> None:
+def test_osqp_runs_through_qpsolvers(kist_home_snapshot) -> None:
     """With solver osqp the tick goes through qpsolvers and still carries the robot's weight."""
     robot = load_robot("kist_humanoid")
     cls = controller_class("qpimpedance")
     ctrl = cls()
     ctrl.reset(robot, cls.Params(solver="osqp"), 0.001)
-    cmd = ctrl.step(0.0, _standing_snapshot())
+    cmd = ctrl.step(0.0, kist_home_snapshot())
     total = cmd.signals["left_fz_qp"] + cmd.signals["right_fz_qp"]
     assert abs(total - robot.total_mass * 9.81) < 0.05 * robot.total_mass * 9.81

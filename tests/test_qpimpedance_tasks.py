@@ -15,7 +15,6 @@ from walkrepro.controllers.qpimpedance import tasks
 from walkrepro.controllers.qpimpedance.footsteps import SwingTrajectory, quintic
 from walkrepro.controllers.qpimpedance.impedance import ImpedanceFilter
 from walkrepro.robot import load_robot, pin_state_into
-from walkrepro.sensors import SensorSnapshot
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
@@ -289,7 +288,7 @@ def test_task_rows_equal_numpy_reference() -> None:
         np.testing.assert_allclose(ctrl._foot_acc_cmd[side], acc_ref[:3], rtol=1e-12, atol=1e-10)
 
 
-def test_reset_compiles_the_tick_kernels_for_a_real_tick() -> None:
+def test_reset_compiles_the_tick_kernels_for_a_real_tick(kist_home_snapshot) -> None:  # noqa: ANN001
     """A tick after reset finds its kernels compiled for its argument types (no compile on tick 1)."""
     robot = load_robot("kist_humanoid")
     cls = controller_class("qpimpedance")
@@ -297,20 +296,6 @@ def test_reset_compiles_the_tick_kernels_for_a_real_tick() -> None:
     ctrl.reset(robot, cls.Params(), 0.001)
     kernels = (tasks.task_rows, pin_state_into)
     compiled = [len(k.signatures) for k in kernels]
-    q = robot.home_qpos
-    snapshot = SensorSnapshot(
-        t=0.0,
-        joint_pos=robot.home_joint_pos.copy(),
-        joint_vel=np.zeros(robot.n_joints),
-        imu_quat=np.array([1.0, 0, 0, 0]),
-        imu_gyro=np.zeros(3),
-        imu_acc=np.array([0, 0, 9.81]),
-        left_ft=np.array([0, 0, 280.0, 0, 0, 0]),
-        right_ft=np.array([0, 0, 280.0, 0, 0, 0]),
-        base_pos=q[0:3].copy(),
-        base_quat=q[3:7].copy(),
-        base_linvel=np.zeros(3),
-        base_angvel=np.zeros(3),
-    )
+    snapshot = kist_home_snapshot()
     ctrl.step(0.0, snapshot)
     assert [len(k.signatures) for k in kernels] == compiled
