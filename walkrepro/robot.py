@@ -162,6 +162,40 @@ def pin_state_into(
         v[v_idx[i]] = joint_vel[i]
 
 
+@numba.njit(cache=True)
+def frame_jacobian(
+    joint_jacobians: np.ndarray, chain: np.ndarray, position: np.ndarray, out: np.ndarray
+) -> None:
+    """A frame's Jacobian in LOCAL_WORLD_ALIGNED axes, as Pinocchio's ``getFrameJacobian``,
+    for the whole-body controllers' compiled ticks (one call per foot at 1-2 kHz).
+
+    Column j of the world-axes joint Jacobian (``data.J``, velocities of the point at the
+    world origin) moves to the frame origin p: linear part v − p × ω. Columns off the frame's
+    kinematic chain are zero.
+
+    numba's cache does not notice edits here in the compiled callers that inline this
+    (``efsm/kernels.py``, ``qpimpedance/tasks.py``): after changing it, delete their
+    ``__pycache__``.
+
+    Args:
+        joint_jacobians: ``data.J`` after ``computeAllTerms``, shape (6, nv).
+        chain: whether each velocity moves the frame's parent joint, shape (nv,) bool.
+        position: frame origin in the world [m], shape (3,).
+        out: the Jacobian, shape (6, nv).
+    """
+    p0, p1, p2 = position[0], position[1], position[2]
+    for j in range(joint_jacobians.shape[1]):
+        if not chain[j]:
+            for i in range(6):
+                out[i, j] = 0.0
+            continue
+        w0, w1, w2 = joint_jacobians[3, j], joint_jacobians[4, j], joint_jacobians[5, j]
+        out[0, j] = joint_jacobians[0, j] - (p1 * w2 - p2 * w1)  # v − p × ω
+        out[1, j] = joint_jacobians[1, j] - (p2 * w0 - p0 * w2)
+        out[2, j] = joint_jacobians[2, j] - (p0 * w1 - p1 * w0)
+        out[3, j], out[4, j], out[5, j] = w0, w1, w2
+
+
 @dataclass(frozen=True, eq=False)  # eq=False: compare by identity, arrays have no ==
 class Robot:
     """One robot, loaded from ``robots/<name>/robot.xml`` into MuJoCo and Pinocchio.

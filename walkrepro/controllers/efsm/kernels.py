@@ -22,6 +22,7 @@ import numba
 import numpy as np
 
 from walkrepro.controllers.efsm.wbc import PINV_RCOND
+from walkrepro.robot import frame_jacobian
 
 #: Rows of the two stacked foot wrenches other than the normal forces (Appendix C).
 TANGENTIAL_ROWS = np.array([0, 1, 3, 4, 5, 6, 7, 9, 10, 11])
@@ -299,32 +300,6 @@ def log3(rot: np.ndarray) -> np.ndarray:
 def orientation_error(rot_des: np.ndarray, rot: np.ndarray) -> np.ndarray:
     """log3(R_des Rᵀ), the orientation error in world axes [rad]."""
     return log3(matmul_bt(rot_des, rot))
-
-
-@_jit
-def frame_jacobian(
-    j_world: np.ndarray, support: np.ndarray, pos: np.ndarray, out: np.ndarray
-) -> None:
-    """A frame's Jacobian in LOCAL_WORLD_ALIGNED axes, as ``pinocchio.getFrameJacobian``.
-
-    Args:
-        j_world: Pinocchio's joint Jacobians ``data.J``: spatial velocity at the world
-            origin, world axes, per velocity coordinate, shape (6, n).
-        support: True for the velocity coordinates that move the frame, shape (n,).
-        pos: the frame's origin in the world [m].
-        out: the Jacobian, shape (6, n): linear velocity of the frame origin, then
-            angular velocity, world axes.
-    """
-    for col in range(j_world.shape[1]):
-        if not support[col]:
-            for i in range(6):
-                out[i, col] = 0.0
-            continue
-        wx, wy, wz = j_world[3, col], j_world[4, col], j_world[5, col]
-        out[0, col] = j_world[0, col] - (pos[1] * wz - pos[2] * wy)  # v − p × ω
-        out[1, col] = j_world[1, col] - (pos[2] * wx - pos[0] * wz)
-        out[2, col] = j_world[2, col] - (pos[0] * wy - pos[1] * wx)
-        out[3, col], out[4, col], out[5, col] = wx, wy, wz
 
 
 # ---- Appendix A: contact dynamics and the task hierarchy ---------------------------------
@@ -633,7 +608,7 @@ def whole_body_torques(
     Args:
         a_inv: A⁻¹, shape (n, n).
         nle: b + g, shape (n,).
-        j_world: Pinocchio's joint Jacobians ``data.J`` (see :func:`frame_jacobian`). The
+        j_world: Pinocchio's joint Jacobians ``data.J`` (see :func:`walkrepro.robot.frame_jacobian`). The
             pelvis (the rigid upper body) is the floating base: its first six columns.
         jc_dot_v: J̇_c q̇ of the contacts, world axes, shape (6 or 12,).
         support_sup, support_sw: the velocity coordinates moving each sole, shape (n,).

@@ -31,6 +31,8 @@ import numba
 import numpy as np
 import pinocchio as pin
 
+from walkrepro.robot import frame_jacobian
+
 GRAVITY = 9.81  # [m/s^2]
 
 #: Entries of the ``scalars`` array of :func:`task_rows`, in order.
@@ -236,35 +238,6 @@ def advance_impedance(
         state[1, i] += state[2, i] * dt
         state[0, i] += state[1, i] * dt
     return switched_on
-
-
-@numba.njit(cache=True)
-def frame_jacobian(
-    joint_jacobians: np.ndarray, chain: np.ndarray, position: np.ndarray, out: np.ndarray
-) -> None:
-    """A frame's Jacobian in LOCAL_WORLD_ALIGNED axes, as Pinocchio's ``getFrameJacobian``.
-
-    Column j of the world-axes joint Jacobian (``data.J``, velocities of the point at the
-    world origin) moves to the frame origin p: linear part v − p × ω. Columns off the frame's
-    kinematic chain are zero.
-
-    Args:
-        joint_jacobians: ``data.J`` after ``computeAllTerms``, shape (6, nv).
-        chain: whether each velocity moves the frame's parent joint, shape (nv,) bool.
-        position: frame origin in the world [m], shape (3,).
-        out: the Jacobian, shape (6, nv).
-    """
-    p0, p1, p2 = position[0], position[1], position[2]
-    for j in range(joint_jacobians.shape[1]):
-        if not chain[j]:
-            for i in range(6):
-                out[i, j] = 0.0
-            continue
-        w0, w1, w2 = joint_jacobians[3, j], joint_jacobians[4, j], joint_jacobians[5, j]
-        out[0, j] = joint_jacobians[0, j] - (p1 * w2 - p2 * w1)
-        out[1, j] = joint_jacobians[1, j] - (p2 * w0 - p0 * w2)
-        out[2, j] = joint_jacobians[2, j] - (p0 * w1 - p1 * w0)
-        out[3, j], out[4, j], out[5, j] = w0, w1, w2
 
 
 @numba.njit(cache=True)
