@@ -416,7 +416,7 @@ def test_fast_paths_write_the_same_bytes_as_write(tmp_path: Path, encoder: str) 
     paths = tmp_path / "slow.mcap", tmp_path / "fast.mcap"
     with new_writer(paths[0]) as slow, new_writer(paths[1]) as fast:
         slow.write(TOPIC_STATE, state, 0.006)
-        fast.write_float64(TOPIC_STATE, state, 0.006)
+        fast.write_state(3, 0.006, qpos, qvel, state["act"])
         for step, wrenches in ((3, {}), (4, xfrc)):
             slow.write(TOPIC_INPUTS, {"step": step, "ctrl": ctrl, "xfrc": wrenches}, 0.006)
             fast.write_inputs(step, fast.encode_ctrl(ctrl), wrenches, 0.006)
@@ -427,7 +427,9 @@ def test_fast_paths_write_the_same_bytes_as_write(tmp_path: Path, encoder: str) 
         with pytest.raises(UnknownNameError, match="link"):
             fast.write_inputs(5, b"[0.0]", {"bx": np.zeros(6)}, 0.008)
         with pytest.raises(ValueError, match="qvel has 6 entries"):
-            fast.write_float64(TOPIC_STATE, {**state, "qvel": qvel[:6]}, 0.006)
+            fast.write_state(3, 0.006, qpos, qvel[:6], state["act"])
+        with pytest.raises(ValueError, match=r"qpos\[2\] = inf"):
+            fast.write_state(3, 0.006, np.where(np.arange(8) == 2, math.inf, qpos), qvel, [])
     raw = []
     for path in paths:
         with open(path, "rb") as f:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import mujoco
 import numpy as np
 import pytest
@@ -9,7 +11,7 @@ import pytest
 from walkrepro.contacts import ContactReader
 from walkrepro.robot import load_robot
 from walkrepro.runner import _set_home
-from walkrepro.sensors import SensorModel
+from walkrepro.sensors import SensorModel, SensorSnapshot
 from walkrepro.spec import SensorsSpec, load_spec, resolve_spec
 from walkrepro.world import build_scene
 
@@ -60,6 +62,21 @@ def test_no_base_state_unless_the_spec_provides_it(coman) -> None:  # noqa: ANN0
     with pytest.raises(ValueError, match="base_state"):
         snap.pinocchio_state(robot)
     assert set(snap.as_message()) >= {"joint_pos", "left_ft", "base_pos"}
+
+
+def test_a_reading_is_a_whole_frozen_snapshot(coman) -> None:  # noqa: ANN001
+    """The reader builds snapshots without the dataclass __init__: each must still hold every
+    field in field order (the /sensors message's key order), compare equal to one built by
+    __init__, and refuse assignment."""
+    robot, model, data = coman
+    for base_state in (True, False):
+        snap = SensorModel(robot, model, SensorsSpec(base_state=base_state), 0.002, 0).read(
+            model, data
+        )
+        assert list(vars(snap)) == [f.name for f in dataclasses.fields(SensorSnapshot)]
+        assert snap == SensorSnapshot(**vars(snap))
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            snap.t = 1.0  # type: ignore[misc]
 
 
 def test_noise_is_seeded_has_the_given_spread_and_leaves_exact_channels_alone(coman) -> None:  # noqa: ANN001

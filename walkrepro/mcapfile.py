@@ -56,6 +56,10 @@ _CHANNEL_ID = struct.Struct("<H")
 #: 1 (2.7x) as at mcap's default 3 (2.4x), at under half the cost (≈ 3.4 vs 8.9 ms per MB
 #: here; at ≈ 6 kB of log per control tick, level 3 cost ≈ 50 µs per tick).
 ZSTD_LEVEL = 1
+#: Shortest match zstd looks for (level 1 uses 6). Repeats in this JSON are keys and digit
+#: runs of 7+ bytes, so 7 finds the same matches with fewer probes: ≈ 10-25 % faster on
+#: forward_walk's chunks at a slightly better ratio (4.14 vs 4.06).
+ZSTD_MIN_MATCH = 7
 
 
 class McapFile:
@@ -90,7 +94,11 @@ class McapFile:
         # message index (the chunk's time span is read off the indexes when it closes).
         self._chunk = bytearray()
         self._index: dict[int, list[int]] = {}
-        self._compressor = zstandard.ZstdCompressor(level=ZSTD_LEVEL)
+        self._compressor = zstandard.ZstdCompressor(
+            compression_params=zstandard.ZstdCompressionParameters.from_level(
+                ZSTD_LEVEL, min_match=ZSTD_MIN_MATCH
+            )
+        )
         self._out.write(MAGIC)
         self._write(Header(profile="", library=library))
 

@@ -143,6 +143,23 @@ def _encode_orjson_float64(message: Mapping[str, Any]) -> bytes:
     return data
 
 
+def _encode_numbers(message: Any) -> bytes | None:
+    """:func:`_encode_float64` for a message of numbers under keys without the letter "n"
+    (a float64 vector, or ``/sim/state``); None if a number is NaN or infinite.
+
+    orjson spells a non-finite number ``null`` and a finite one with digits, sign, point and
+    exponent only, so here any "n" is a null: one memchr-fast search decides, where the
+    general check needs a regex scan (0.1 instead of 0.3 µs for a 37-dof state).
+    """
+    if _encode_float64 is _encode_orjson_float64:
+        data = orjson.dumps(message, default=_json_default, option=orjson.OPT_SERIALIZE_NUMPY)
+        return None if data.find(b"n") >= 0 else data
+    try:  # the stdlib encoder raises on NaN/infinity itself
+        return _encode_float64(message)
+    except ValueError:
+        return None
+
+
 # orjson is optional: both spell every double as its shortest exact repr, so logs read back
 # bit for bit either way. With the stdlib, a 37-dof state costs ~35 us to encode, with orjson ~5.
 if orjson is None:
@@ -391,6 +408,7 @@ class LogWriter:
         self.path = Path(path)
         model = _compile_scene(scene_xml)
         self._dims = {"qpos": model.nq, "qvel": model.nv, "act": model.na, "ctrl": model.nu}
+        self._state_dims = (model.nq, model.nv, model.na)
         self._bodies = frozenset(
             mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, i) for i in range(model.nbody)
         )
@@ -445,6 +463,24 @@ class LogWriter:
         """
         self._write(topic, message, t, _encode_float64)
 
+    def write_state(
+        self, step: int, t: float, qpos: np.ndarray, qvel: np.ndarray, act: np.ndarray
+    ) -> None:
+        """One ``/sim/state`` message from MjData's float64 arrays: the bytes :meth:`write`
+        gives ``{"step", "t", "qpos", "qvel", "act"}``, with only the checks this fixed layout
+        needs (it is written at every control tick, up to 2 kHz).
+
+        Raises:
+            ValueError: wrong vector sizes, NaN/infinity, or a bad ``t``.
+        """
+        message = {"step": step, "t": t, "qpos": qpos, "qvel": qvel, "act": act}
+        if (len(qpos), len(qvel), len(act)) != self._state_dims:
+            self._check_sizes(TOPIC_STATE, message)
+        data = _encode_numbers(message)
+        if data is None:
+            _raise_nonfinite(TOPIC_STATE, message, t, ValueError("non-finite state"))
+        self._append(self._channels[TOPIC_STATE], TOPIC_STATE, data, t)
+
     def encode_ctrl(self, ctrl: np.ndarray) -> bytes:
         """The JSON of a float64 ``ctrl`` vector, checked once per control tick and passed to
         :meth:`write_inputs` for every physics step it is held.
@@ -456,7 +492,10 @@ class LogWriter:
             raise ValueError(
                 f"{TOPIC_INPUTS} ctrl has {len(ctrl)} entries, the scene has {self._dims['ctrl']}"
             )
-        return self._encode_checked(TOPIC_INPUTS, ctrl, _encode_float64, 0.0)
+        data = _encode_numbers(ctrl)
+        if data is None:
+            _raise_nonfinite(TOPIC_INPUTS, ctrl, 0.0, ValueError("non-finite ctrl"))
+        return data
 
     def write_inputs(
         self, step: int, ctrl_json: bytes, xfrc: Mapping[str, np.ndarray], t: float

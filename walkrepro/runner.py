@@ -223,6 +223,8 @@ def run(
         warnings[mujoco.mjtWarning.mjWARN_BADQVEL],
     )
     bad_qacc = warnings[mujoco.mjtWarning.mjWARN_BADQACC]
+    # MjData's arrays live as long as `data`: one view each instead of one per access.
+    qpos, qvel, act, ctrl_in = data.qpos, data.qvel, data.act, data.ctrl
     lap = clock.lap
     try:
         for step in range(n_steps):
@@ -241,7 +243,7 @@ def run(
                     raise SimulationError(f"simulation state became NaN/inf at t = {t:.4f} s")
                 reason = fall.check(data)
                 lap("bookkeeping")
-                writer.write_float64(record.TOPIC_STATE, _state_msg(step, data), t)
+                writer.write_state(step, t, qpos, qvel, act)
                 lap("logging")
                 if reason:
                     outcome, fall_time, message = "fell", t, f"fell at t = {t:.3f} s ({reason})"
@@ -252,9 +254,9 @@ def run(
                 command = controller.step(t, snapshot)
                 lap("controller")
                 # The command as MuJoCo will hold it (float64), checked and encoded once.
-                ctrl = np.array(command.ctrl, dtype=np.float64)
+                ctrl = np.asarray(command.ctrl, dtype=np.float64)
                 ctrl_json = _encoded_ctrl(writer, ctrl, model.nu, t)
-                data.ctrl[:] = ctrl  # mj_step leaves ctrl alone: held until the next tick
+                ctrl_in[:] = ctrl  # mj_step leaves ctrl alone: held until the next tick
                 writer.write_float64(record.TOPIC_SENSORS, snapshot.as_message(), t)
                 writer.write_float64(record.TOPIC_SIGNALS, {"t": t, **command.signals}, t)
                 for event in command.events:
@@ -300,7 +302,7 @@ def run(
         if outcome == "complete":
             # The state after the last step (a fall already logged the state it was seen in).
             _check_finite(data, data.time)
-            writer.write_float64(record.TOPIC_STATE, _state_msg(step, data), data.time)
+            writer.write_state(step, data.time, qpos, qvel, act)
     except KeyboardInterrupt:
         outcome, message = "interrupted", f"interrupted at t = {data.time:.3f} s"
     except SimulationError as exc:
@@ -358,11 +360,6 @@ def _set_home(robot: Robot, model: mujoco.MjModel, data: mujoco.MjData) -> None:
     """Start from the robot's ``home`` keyframe; obstacles keep their compiled pose."""
     data.qpos[: robot.home_qpos.size] = robot.home_qpos
     data.ctrl[:] = robot.home_ctrl
-
-
-def _state_msg(step: int, data: mujoco.MjData) -> dict:
-    """The ``/sim/state`` message; MjData's float64 arrays go to the encoder as they are."""
-    return {"step": step, "t": data.time, "qpos": data.qpos, "qvel": data.qvel, "act": data.act}
 
 
 def _check_finite(data: mujoco.MjData, t: float) -> None:
