@@ -20,6 +20,8 @@ from walkrepro.controllers.qpimpedance.condensed import (
     solve_eliminated,
     solve_lower,
     solve_lower_transposed,
+    solve_lower_transposed_vector,
+    solve_lower_vector,
 )
 
 
@@ -42,6 +44,24 @@ def test_cholesky_and_triangular_solves_equal_numpy() -> None:
         solve_lower_transposed(low, x)
         np.testing.assert_allclose(x, np.linalg.solve(a, b), rtol=1e-8, atol=1e-10)
     assert not cholesky_in_place(-np.eye(3))
+
+
+def test_vector_solves_equal_the_matrix_solves_on_one_column_bit_for_bit() -> None:
+    """The one-column triangular solves give solve_lower's and solve_lower_transposed's floats exactly."""
+    rng = np.random.default_rng(1)
+    for n in (1, 6, 18, 32):
+        low = _spd(rng, n)
+        assert cholesky_in_place(low)
+        low = np.triu(rng.standard_normal((n, n)), 1) + np.tril(low)  # junk above: unread
+        b = rng.standard_normal((n, 1))
+        for matrix_solve, vector_solve in (
+            (solve_lower, solve_lower_vector),
+            (solve_lower_transposed, solve_lower_transposed_vector),
+        ):
+            want, got = b.copy(), b.copy()
+            matrix_solve(low, want)
+            vector_solve(low, got[:, 0])  # a column view, as the kernels pass it
+            np.testing.assert_array_equal(got, want)
 
 
 @pytest.mark.parametrize("seed", range(5))

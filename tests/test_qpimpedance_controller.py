@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from walkrepro.controllers import controller_class
+from walkrepro.controllers.qpimpedance.controller import SUPPORTS, TAIL_SIGNALS
+from walkrepro.controllers.qpimpedance.tasks import SIGNAL_COM, signal_names
 from walkrepro.robot import load_robot
 
 
@@ -61,3 +63,69 @@ def test_osqp_runs_through_qpsolvers(kist_home_snapshot) -> None:
     cmd = ctrl.step(0.0, kist_home_snapshot())
     total = cmd.signals["left_fz_qp"] + cmd.signals["right_fz_qp"]
     assert abs(total - robot.total_mass * 9.81) < 0.05 * robot.total_mass * 9.81
+
+
+def _perturbed(snapshot, rng: np.random.Generator):  # noqa: ANN001, ANN202
+    """The home snapshot with noisy joints, base and F/T readings (exercises every row)."""
+    snapshot.joint_pos[:] += rng.normal(0, 0.02, snapshot.joint_pos.size)
+    snapshot.joint_vel[:] = rng.normal(0, 0.2, snapshot.joint_vel.size)
+    snapshot.base_linvel[:] = rng.normal(0, 0.05, 3)
+    snapshot.base_angvel[:] = rng.normal(0, 0.05, 3)
+    snapshot.left_ft[:] += rng.normal(0, 20, 6)
+    snapshot.right_ft[:] += rng.normal(0, 20, 6)
+    return snapshot
+
+
+def test_data_views_follow_and_equal_fresh_reads(kist_home_snapshot) -> None:
+    """The views of Data follow it; refreshing them every tick (the fallback) changes no output."""
+    robot = load_robot("kist_humanoid")
+    cls = controller_class("qpimpedance")
+    controllers = [cls(), cls()]
+    for ctrl in controllers:
+        ctrl.reset(robot, cls.Params(), 0.001)
+    assert not controllers[0]._refresh_views  # this Pinocchio returns views of Data
+    assert controllers[0]._views.follows()
+    controllers[1]._refresh_views = True
+    rng = np.random.default_rng(0)
+    for t in np.arange(0.0, 2.0, 0.05):  # double support, then the first swing
+        snapshot = _perturbed(kist_home_snapshot(), rng)
+        a, b = (ctrl.step(float(t), snapshot) for ctrl in controllers)
+        np.testing.assert_allclose(a.ctrl, b.ctrl, rtol=0, atol=1e-9)
+        assert a.signals.keys() == b.signals.keys() and a.events == b.events
+        np.testing.assert_allclose(list(a.signals.values()), list(b.signals.values()), atol=1e-9)
+        assert controllers[0]._views.follows()
+
+
+def test_signals_follow_the_documented_order(kist_home_snapshot) -> None:
+    """A tick logs the kernel's head, each support foot's QP f_z, then CoM, ZMP and failures."""
+    robot = load_robot("kist_humanoid")
+    cls = controller_class("qpimpedance")
+    ctrl = cls()
+    ctrl.reset(robot, cls.Params(), 0.001)
+    names = signal_names(("left", "right"))
+    seen = set()
+    for phase in ctrl._plan.phases[:4]:  # stand, swing, double support, other swing
+        cmd = ctrl.step(0.5 * (phase.t0 + phase.t1), kist_home_snapshot())
+        support = SUPPORTS[phase.swing + 1]
+        fz = [f"{('left', 'right')[side]}_fz_qp" for side in support]
+        assert list(cmd.signals) == [*names[:SIGNAL_COM], *fz, *TAIL_SIGNALS]
+        assert cmd.signals["swing_foot"] == phase.swing
+        seen.add(support)
+    assert len(seen) == 3  # both feet, then each foot alone
+
+
+def test_failed_qp_holds_the_last_torques_and_logs_it(kist_home_snapshot) -> None:
+    """When the QP finds no solution the tick repeats the last torques, logs qp_failed and no QP forces."""
+    robot = load_robot("kist_humanoid")
+    cls = controller_class("qpimpedance")
+    ctrl = cls()
+    ctrl.reset(robot, cls.Params(), 0.001)
+    first = ctrl.step(0.0, kist_home_snapshot())
+    for qp in ctrl._qps.values():
+        qp.solve = lambda warm: False
+    failed = ctrl.step(0.001, kist_home_snapshot())
+    np.testing.assert_array_equal(failed.ctrl, first.ctrl)
+    assert failed.ctrl is not first.ctrl
+    assert [e["kind"] for e in failed.events] == ["qp_failed"]
+    assert not any(key.endswith("_fz_qp") for key in failed.signals)
+    assert failed.signals["qp_failures"] == 1.0

@@ -79,11 +79,12 @@ def test_advance_impedance_equals_impedance_filter(enabled: bool) -> None:
     assert switches == (1 if enabled else 0)
 
 
-def _random_state(seed: int):  # noqa: ANN202
-    """kist_humanoid's Pinocchio model and data after computeAllTerms at a random state near home."""
+def _random_state(seed: int, data: pin.Data | None = None):  # noqa: ANN202
+    """kist_humanoid's Pinocchio model and data (a new one, or ``data``) after computeAllTerms
+    at a random state near home."""
     robot = load_robot("kist_humanoid")
     model = robot.pin_model
-    data = model.createData()
+    data = model.createData() if data is None else data
     rng = np.random.default_rng(seed)
     q, _ = robot.pin_state_from_mujoco(robot.home_qpos, np.zeros(robot.mj_model.nv))
     q = pin.integrate(model, q, 0.2 * rng.standard_normal(model.nv))
@@ -91,6 +92,56 @@ def _random_state(seed: int):  # noqa: ANN202
     pin.computeAllTerms(model, data, q, v)
     pin.updateFramePlacements(model, data)
     return robot, model, data, q, v
+
+
+def _random_rotations(rng: np.random.Generator) -> list[np.ndarray]:
+    """Rotations of every size: identity, tiny (log₃'s series), small, large, near π."""
+    rotations = [np.eye(3), pin.exp3(np.array([0.0, 0.0, np.pi]))]
+    for scale in (1e-9, 1e-6, 1e-4, 1e-2, 0.3, 1.5):
+        rotations += [pin.exp3(rng.normal(0, scale, 3)) for _ in range(200)]
+    for _ in range(200):  # within 1e-3 rad of a half turn
+        axis = rng.normal(size=3)
+        rotations.append(pin.exp3((np.pi - abs(rng.normal(0, 1e-3))) * axis / np.linalg.norm(axis)))
+    return rotations
+
+
+def test_log3_equals_pinocchio_bit_for_bit() -> None:
+    """The compiled log₃ returns pin.log3's floats exactly, near 0, in between and near π."""
+    out = np.empty(3)
+    for rotation in _random_rotations(np.random.default_rng(10)):
+        tasks.log3(rotation, out)
+        np.testing.assert_array_equal(out, pin.log3(rotation))
+
+
+def test_matrix_to_rpy_equals_pinocchio_bit_for_bit() -> None:
+    """The compiled roll–pitch–yaw returns pin.rpy.matrixToRpy's floats exactly, any yaw sign."""
+    out = np.empty(3)
+    rng = np.random.default_rng(11)
+    rotations = _random_rotations(rng)
+    rotations += [pin.rpy.rpyToMatrix(*rng.uniform(-3, 3, 3)) for _ in range(500)]
+    rotations.append(pin.rpy.rpyToMatrix(0.1, np.pi / 2, -0.2))  # gimbal lock
+    for rotation in rotations:
+        tasks.matrix_to_rpy(np.asfortranarray(rotation), out)  # Data's matrices are column-major
+        np.testing.assert_array_equal(out, pin.rpy.matrixToRpy(rotation))
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_classical_drift_equals_pinocchio_bit_for_bit(seed: int) -> None:
+    """The kernel's frame drift from data.v, data.a is getFrameClassicalAcceleration's exactly."""
+    robot, model, data, _, _ = _random_state(20 + seed)
+    out = np.empty(6)
+    for name in ("left_sole", "right_sole", "pelvis", "torso", "left_foot_ft"):
+        frame = model.frames[robot.pin_frame_id(name)]
+        joint = frame.parentJoint
+        tasks.classical_drift(
+            data.oMi[joint].rotation,
+            data.v[joint].vector,
+            data.a[joint].vector,
+            frame.placement.translation,
+            out,
+        )
+        want = pin.getFrameClassicalAcceleration(model, data, robot.pin_frame_id(name), LWA)
+        np.testing.assert_array_equal(out, want.vector)
 
 
 def test_frame_jacobian_equals_pinocchio() -> None:
@@ -139,14 +190,14 @@ def test_desired_com_equals_numpy_interp() -> None:
 
 def test_task_rows_equal_numpy_reference() -> None:
     """A swing tick's cost rows, contact stacks and signals equal the §III-D algebra written with numpy and Pinocchio."""
-    robot, model, data, _, v = _random_state(7)
+    robot = load_robot("kist_humanoid")
     cls = controller_class("qpimpedance")
     ctrl = cls()
     p = cls.Params()
     ctrl.reset(robot, p, 0.001)
     swing_index = next(i for i, ph in enumerate(ctrl._plan.phases) if ph.swing >= 0)
     phase = ctrl._plan.phases[swing_index]
-    ctrl._data = data  # the random state's terms
+    _, model, data, _, v = _random_state(7, ctrl._data)  # the tick reads views of this Data
     ctrl._v[:] = v
     ctrl._enter_phase(swing_index)
     rng = np.random.default_rng(8)

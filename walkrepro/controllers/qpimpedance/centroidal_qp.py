@@ -424,6 +424,10 @@ class CentroidalQP:
         self.wrenches = np.zeros((n_feet, 6))
         self.tau = np.zeros(nv - 6)
         self.fallbacks = 0  # ticks the active-set solve failed and ProxQP stepped in
+        self._kernel_args: tuple = ()  # solve_centroidal's arguments (set_inputs)
+        self.set_inputs(
+            self._mass_matrix, self._nonlinear, self._cost_rows, self._cost_rhs, *self._stacks
+        )
 
     def update(
         self,
@@ -478,6 +482,13 @@ class CentroidalQP:
         self._mass_matrix, self._nonlinear = mass_matrix, nonlinear
         self._cost_rows, self._cost_rhs = cost_rows, cost_rhs
         self._jacobians, self._drifts, self._maps = jacobians, drifts, wrench_maps
+        # One tuple for the compiled call: a caller whose inputs stay the same arrays (filled
+        # in place each tick) sets them once, and :meth:`solve` looks up no attributes.
+        self._kernel_args = (
+            cost_rows, cost_rhs, mass_matrix, nonlinear, jacobians, drifts, wrench_maps,
+            self._accel_weight, self._force_weight, self._beta, self.accel, self.wrenches,
+            self.tau,
+        )  # fmt: skip
 
     def build(self) -> QPProblem:
         """The full problem of this tick's inputs (as :func:`build_qp`), for inspection."""
@@ -505,22 +516,7 @@ class CentroidalQP:
         if self._solver == "active_set":
             if not warm:
                 self._beta[:] = 0.0  # cold: every β at its bound
-            iterations = solve_centroidal(
-                self._cost_rows,
-                self._cost_rhs,
-                self._mass_matrix,
-                self._nonlinear,
-                self._jacobians,
-                self._drifts,
-                self._maps,
-                self._accel_weight,
-                self._force_weight,
-                self._beta,
-                self.accel,
-                self.wrenches,
-                self.tau,
-            )
-            if iterations >= 0:
+            if solve_centroidal(*self._kernel_args) >= 0:
                 return True
             self.fallbacks += 1
             x = self._proxqp.solve(self.build(), warm=False)

@@ -86,6 +86,32 @@ def solve_lower_transposed(low: np.ndarray, b: np.ndarray) -> None:
 
 
 @numba.njit(cache=True)
+def solve_lower_vector(low: np.ndarray, b: np.ndarray) -> None:
+    """b ← L⁻¹ b for one right-hand side, b of shape (n,).
+
+    The same operations, in the same order, as :func:`solve_lower` on one column (so the same
+    result to the bit), written for a vector: on an (n, 1) matrix the column loop of
+    :func:`solve_lower` costs ≈ 3× the arithmetic.
+    """
+    for i in range(b.shape[0]):
+        s = b[i]
+        for k in range(i):
+            s -= low[i, k] * b[k]
+        b[i] = s / low[i, i]
+
+
+@numba.njit(cache=True)
+def solve_lower_transposed_vector(low: np.ndarray, b: np.ndarray) -> None:
+    """b ← L⁻ᵀ b for one right-hand side, b of shape (n,) (as :func:`solve_lower_vector`)."""
+    n = b.shape[0]
+    for i in range(n - 1, -1, -1):
+        s = b[i]
+        for k in range(i + 1, n):
+            s -= low[k, i] * b[k]
+        b[i] = s / low[i, i]
+
+
+@numba.njit(cache=True)
 def nonnegative_qp(hess: np.ndarray, grad: np.ndarray, x: np.ndarray, max_iter: int) -> int:
     """min ½ xᵀHx + gᵀx s.t. x ≥ 0 for positive definite H, by a primal active-set method.
 
@@ -106,7 +132,7 @@ def nonnegative_qp(hess: np.ndarray, grad: np.ndarray, x: np.ndarray, max_iter: 
     n = grad.size
     free = x > 0.0
     sub = np.empty((n, n))
-    rhs = np.empty((n, 1))
+    rhs = np.empty(n)
     idx = np.empty(n, dtype=np.int64)
     y = np.empty(n)
     for it in range(max_iter):
@@ -118,15 +144,15 @@ def nonnegative_qp(hess: np.ndarray, grad: np.ndarray, x: np.ndarray, max_iter: 
         for a in range(nf):
             for b in range(a + 1):
                 sub[a, b] = hess[idx[a], idx[b]]
-            rhs[a, 0] = -grad[idx[a]]
+            rhs[a] = -grad[idx[a]]
         low, r = sub[:nf, :nf], rhs[:nf]
         if not cholesky_in_place(low):
             return -1
-        solve_lower(low, r)
-        solve_lower_transposed(low, r)
+        solve_lower_vector(low, r)
+        solve_lower_transposed_vector(low, r)
         y[:] = 0.0
         for a in range(nf):
-            y[idx[a]] = r[a, 0]
+            y[idx[a]] = r[a]
         alpha, blocking = 1.0, -1
         for a in range(nf):
             i = idx[a]
@@ -185,13 +211,40 @@ def solve_eliminated(
         The active-set iterations, or −1 if a factorisation failed or the method did not
         converge (the outputs are then not to be used).
     """
-    nv, ne, nb = hess_accel.shape[0], eq_accel.shape[0], eq_beta.shape[1]
+    return _solve_condensed(
+        hess_accel,
+        grad_accel,
+        np.ascontiguousarray(eq_accel.T),
+        eq_beta.copy(),
+        eq_rhs,
+        force_weight,
+        beta,
+        accel,
+    )
+
+
+@numba.njit(cache=True)
+def _solve_condensed(
+    hess_accel: np.ndarray,
+    grad_accel: np.ndarray,
+    eq_accel_t: np.ndarray,
+    eq_beta: np.ndarray,
+    eq_rhs: np.ndarray,
+    force_weight: float,
+    beta: np.ndarray,
+    accel: np.ndarray,
+) -> int:
+    """:func:`solve_eliminated` on Eᵀ (C-contiguous, shape (nv, ne)) and F, both overwritten
+    (Eᵀ with Y = L⁻¹Eᵀ, F with L_S⁻¹F): :func:`solve_centroidal` builds them in place."""
+    nv, ne, nb = hess_accel.shape[0], eq_accel_t.shape[1], eq_beta.shape[1]
     if not cholesky_in_place(hess_accel):  # P = L Lᵀ
         return -1
+    # z, r, ν stay (n, 1) matrices where BLAS multiplies them (the same gemm calls, so the
+    # same floats); the triangular solves take their column as a vector.
     z = np.empty((nv, 1))
     z[:, 0] = grad_accel
-    solve_lower(hess_accel, z)  # z = L⁻¹ q
-    y = np.ascontiguousarray(eq_accel.T)
+    solve_lower_vector(hess_accel, z[:, 0])  # z = L⁻¹ q
+    y = eq_accel_t
     solve_lower(hess_accel, y)  # Y = L⁻¹ Eᵀ
     chol_s = y.T @ y  # S = YᵀY
     r = y.T @ z  # r = f + Yᵀz
@@ -199,9 +252,9 @@ def solve_eliminated(
         r[i, 0] += eq_rhs[i]
     if not cholesky_in_place(chol_s):
         return -1
-    zf = eq_beta.copy()
+    zf = eq_beta
     solve_lower(chol_s, zf)  # Z = L_S⁻¹ F
-    solve_lower(chol_s, r)  # L_S⁻¹ r
+    solve_lower_vector(chol_s, r[:, 0])  # L_S⁻¹ r
     hess = zf.T @ zf
     for i in range(nb):
         hess[i, i] += force_weight
@@ -210,9 +263,9 @@ def solve_eliminated(
     if iterations < 0:
         return -1
     nu = r - zf @ beta.reshape(-1, 1)
-    solve_lower_transposed(chol_s, nu)  # ν = L_S⁻ᵀ (L_S⁻¹ r − Z β)
+    solve_lower_transposed_vector(chol_s, nu[:, 0])  # ν = L_S⁻ᵀ (L_S⁻¹ r − Z β)
     a = y @ nu - z
-    solve_lower_transposed(hess_accel, a)  # ξ̈ = L⁻ᵀ (Y ν − z)
+    solve_lower_transposed_vector(hess_accel, a[:, 0])  # ξ̈ = L⁻ᵀ (Y ν − z)
     accel[:] = a[:, 0]
     return iterations
 
@@ -262,14 +315,18 @@ def solve_centroidal(
         hess_accel[i, i] += accel_weight
     grad_accel = -(cost_rhs @ cost_rows)
     # Floating-base rows of Eq. (5), M_B ξ̈ − Σ J_{k,B}ᵀ U_k β_k = −(C ξ̇ + g)_B, then the
-    # support feet, J_k ξ̈ = −J̇_k ξ̇.
-    eq_accel = np.empty((ne, nv))
+    # support feet, J_k ξ̈ = −J̇_k ξ̇; E is built transposed, as the elimination uses it.
+    eq_accel_t = np.empty((nv, ne))
     eq_beta = np.zeros((ne, n_feet * m))
     eq_rhs = np.empty(ne)
-    eq_accel[:6] = mass_matrix[:6]
+    for j in range(nv):
+        for i in range(6):
+            eq_accel_t[j, i] = mass_matrix[i, j]
+        for k in range(n_feet):
+            for i in range(6):
+                eq_accel_t[j, 6 + 6 * k + i] = jacobians[k, i, j]
     eq_rhs[:6] = -nonlinear[:6]
     for k in range(n_feet):
-        eq_accel[6 + 6 * k : 12 + 6 * k] = jacobians[k]
         eq_rhs[6 + 6 * k : 12 + 6 * k] = -drifts[k]
         for i in range(6):
             for c in range(m):
@@ -277,8 +334,8 @@ def solve_centroidal(
                 for j in range(6):
                     s += jacobians[k, j, i] * wrench_maps[k, j, c]
                 eq_beta[i, k * m + c] = -s
-    iterations = solve_eliminated(
-        hess_accel, grad_accel, eq_accel, eq_beta, eq_rhs, force_weight, beta, accel
+    iterations = _solve_condensed(
+        hess_accel, grad_accel, eq_accel_t, eq_beta, eq_rhs, force_weight, beta, accel
     )
     if iterations < 0:
         return -1

@@ -13,9 +13,13 @@ Each tick the controller turns Pinocchio's quantities and the sensor readings in
 Why numba: written in Python this is ≈ 70 small numpy calls and Python-float expressions on
 3- to 28-vectors, ≈ 65 µs of the ≈ 200 µs a 1 kHz tick may take at 5× real time (numpy
 costs about 1 µs per call on such small arrays). One compiled call, :func:`task_rows`, does
-the same arithmetic, in the same order, in a few µs; its inputs are Pinocchio's own results
-(M, C ξ̇ + g, the joint Jacobians, frame placements, drifts, log₃ and RPY angles), passed in
-without copies. The small kernels it calls are compiled functions too, each tested against
+the same arithmetic, in the same order, in a few µs. Its inputs are views of Pinocchio's
+``Data`` after ``computeAllTerms`` (M, C ξ̇ + g, the joint Jacobians, frame and joint
+placements, the joints' velocities and drift accelerations), passed without copies. The
+frames' drifts J̇ ξ̇, log₃ and roll–pitch–yaw angles are formed here (:func:`classical_drift`,
+:func:`log3`, :func:`matrix_to_rpy`) in Pinocchio's own operations and summation order, so
+bit for bit what its Python functions return, instead of eight calls from Python (≈ 0.6–1 µs
+each). The small kernels it calls are compiled functions too, each tested against
 its Python reference (:func:`.footsteps.quintic`, :meth:`.footsteps.SwingTrajectory.at`,
 :class:`.impedance.ImpedanceFilter`, Pinocchio's frame Jacobians, numpy expressions). Like
 :mod:`.condensed`, the kernels are cached on disk (``cache=True``) and compiled by
@@ -27,6 +31,8 @@ argument's type on every call, and one array is cheaper to check than twenty flo
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 import pinocchio as pin
@@ -34,6 +40,10 @@ import pinocchio as pin
 from walkrepro.robot import frame_jacobian
 
 GRAVITY = 9.81  # [m/s^2]
+_EPS = float(np.finfo(np.float64).eps)
+#: Pinocchio's ``TaylorSeriesExpansion<double>::precision<2>()``, ε^(1/3) (the same libm
+#: pow): where :func:`log3` switches to its series near 0 and to its form near π.
+_LOG3_PREC = math.pow(_EPS, 1.0 / 3.0)
 
 #: Entries of the ``scalars`` array of :func:`task_rows`, in order.
 SCALARS = (
@@ -125,6 +135,170 @@ def kinematic_chain(model: pin.Model, frame_id: int) -> np.ndarray:
         start = model.joints[joint].idx_v
         chain[start : start + model.joints[joint].nv] = True
     return chain
+
+
+@numba.njit(cache=True)
+def eigen_rotate(
+    rotation: np.ndarray, x0: float, x1: float, x2: float
+) -> tuple[float, float, float]:
+    """R x, with each row's sum in the order Pinocchio's compiled Eigen uses.
+
+    Eigen forms rows 0 and 1 of a 3×3 product as one SIMD pair, ((r₀x₀ + r₁x₁) + r₂x₂),
+    and row 2 alone as ((r₁x₁ + r₂x₂) + r₀x₀). Summing in the same order gives Pinocchio's
+    results bit for bit (tested against ``getFrameClassicalAcceleration``), so the
+    controller's output stays the same to the last bit.
+
+    Args:
+        rotation: R, shape (3, 3).
+        x0, x1, x2: x.
+    """
+    r = rotation
+    return (
+        r[0, 0] * x0 + r[0, 1] * x1 + r[0, 2] * x2,
+        r[1, 0] * x0 + r[1, 1] * x1 + r[1, 2] * x2,
+        (r[2, 1] * x1 + r[2, 2] * x2) + r[2, 0] * x0,
+    )
+
+
+@numba.njit(cache=True)
+def classical_drift(
+    joint_rotation: np.ndarray,
+    joint_velocity: np.ndarray,
+    joint_drift: np.ndarray,
+    offset: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """A frame's drift J̇ ξ̇ as ``getFrameClassicalAcceleration(..., LOCAL_WORLD_ALIGNED)``.
+
+    Pinocchio's formula, term by term: the parent joint's spatial velocity (v, ω) and drift
+    acceleration (a, α) (``data.v``, ``data.a`` after ``computeAllTerms``, joint axes) move
+    to the frame origin p (v + ω × p, a + α × p), turn to world axes, and the classical
+    acceleration adds ω × v to the linear part.
+
+    Args:
+        joint_rotation: world-from-joint rotation R (``data.oMi[j].rotation``).
+        joint_velocity: the joint's (v, ω) in its axes (``data.v[j].vector``), shape (6,).
+        joint_drift: its (a, α) at ξ̈ = 0 (``data.a[j].vector``), shape (6,).
+        offset: the frame's origin in the joint frame p [m] (its placement's translation).
+        out: (linear, angular) drift in world axes, shape (6,).
+    """
+    v, a, p, r = joint_velocity, joint_drift, offset, joint_rotation
+    v0, v1, v2 = eigen_rotate(  # R (v + ω × p)
+        r,
+        v[0] + (v[4] * p[2] - v[5] * p[1]),
+        v[1] + (v[5] * p[0] - v[3] * p[2]),
+        v[2] + (v[3] * p[1] - v[4] * p[0]),
+    )
+    w0, w1, w2 = eigen_rotate(r, v[3], v[4], v[5])  # R ω
+    a0, a1, a2 = eigen_rotate(  # R (a + α × p)
+        r,
+        a[0] + (a[4] * p[2] - a[5] * p[1]),
+        a[1] + (a[5] * p[0] - a[3] * p[2]),
+        a[2] + (a[3] * p[1] - a[4] * p[0]),
+    )
+    out[0] = a0 + (w1 * v2 - w2 * v1)
+    out[1] = a1 + (w2 * v0 - w0 * v2)
+    out[2] = a2 + (w0 * v1 - w1 * v0)
+    out[3], out[4], out[5] = eigen_rotate(r, a[3], a[4], a[5])
+
+
+@numba.njit(cache=True)
+def _log3_near_pi(val: float, m: np.ndarray, i0: int) -> tuple[float, float, float, float]:
+    """Pinocchio's ``internal::compute_theta_axis<i0>``: θ and the unit axis (θ ≈ π)."""
+    i1, i2 = (i0 + 1) % 3, (i0 + 2) % 3
+    sign = 1.0 if m[i2, i1] >= m[i1, i2] else -1.0
+    s = math.sqrt(val + _EPS + _EPS * _EPS) * sign  # ≥ 0 under the root, s ≠ 0
+    axis = np.empty(3)
+    axis[i0] = s / 2.0
+    axis[i1] = 1.0 / (2.0 * s) * (m[i1, i0] + m[i0, i1])
+    axis[i2] = 1.0 / (2.0 * s) * (m[i2, i0] + m[i0, i2])
+    w = 1.0 / (2.0 * s) * (m[i2, i1] - m[i1, i2])
+    norm = math.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])
+    return 2.0 * math.atan2(norm, w), axis[0] / norm, axis[1] / norm, axis[2] / norm
+
+
+@numba.njit(cache=True)
+def log3(rotation: np.ndarray, out: np.ndarray) -> None:
+    """``pin.log3``: the rotation vector θ u of R [rad], compiled in Pinocchio's operations.
+
+    Pinocchio's ``log3_impl`` step by step: re-orthonormalise R, θ from the trace (acos, its
+    series near 0, or from the largest diagonal entry near π), then θ / sin θ times the skew
+    part; with Eigen's summation order (a column's norm as (x₀² + x₁²) + x₂², the trace as
+    R₀₀ + (R₁₁ + R₂₂)), so the result is Pinocchio's to the bit (tested).
+
+    Args:
+        rotation: R, shape (3, 3).
+        out: log₃ R, shape (3,).
+    """
+    r, m = rotation, np.empty((3, 3))
+    # renormalize_rotation_matrix: columns 0 and 1 normalised, c₂ = c₀ × c₁, c₀ = c₁ × c₂.
+    for j in range(2):
+        norm = math.sqrt(r[0, j] * r[0, j] + r[1, j] * r[1, j] + r[2, j] * r[2, j])
+        for i in range(3):
+            m[i, j] = r[i, j] / norm
+    m[0, 2] = m[1, 0] * m[2, 1] - m[2, 0] * m[1, 1]
+    m[1, 2] = m[2, 0] * m[0, 1] - m[0, 0] * m[2, 1]
+    m[2, 2] = m[0, 0] * m[1, 1] - m[1, 0] * m[0, 1]
+    m[0, 0] = m[1, 1] * m[2, 2] - m[2, 1] * m[1, 2]
+    m[1, 0] = m[2, 1] * m[0, 2] - m[0, 1] * m[2, 2]
+    m[2, 0] = m[0, 1] * m[1, 2] - m[1, 1] * m[0, 2]
+    trace = m[0, 0] + (m[1, 1] + m[2, 2])
+    cos_value = (trace - 1.0) / 2.0
+    prec = _LOG3_PREC
+    if cos_value < -1.0 + prec:  # θ ≈ π: the axis from the largest 2 R_kk − tr + 1
+        val0, val1, val2 = (2.0 * m[0, 0] - trace + 1.0, 2.0 * m[1, 1] - trace + 1.0,
+                            2.0 * m[2, 2] - trace + 1.0)  # fmt: skip
+        if val0 >= val1:
+            k, val = (0, val0) if val0 >= val2 else (2, val2)
+        else:
+            k, val = (1, val1) if val1 >= val2 else (2, val2)
+        theta, u0, u1, u2 = _log3_near_pi(val, m, k)
+        out[0], out[1], out[2] = theta * u0, theta * u1, theta * u2
+        return
+    acos_expansion = math.sqrt(2.0 * (1.0 - cos_value) + _EPS * _EPS)
+    if trace <= 3.0 - prec:
+        theta = math.acos(cos_value) if trace >= -1.0 + prec else math.pi - acos_expansion
+    else:
+        theta = acos_expansion
+    a0 = 0.5 * (m[2, 1] - m[1, 2])  # unSkew
+    a1 = 0.5 * (m[0, 2] - m[2, 0])
+    a2 = 0.5 * (m[1, 0] - m[0, 1])
+    if theta >= prec:
+        t = theta / math.sin(theta)
+    else:
+        n2 = a0 * a0 + a1 * a1 + a2 * a2
+        t = 1.0 + n2 / 6.0 + n2 * n2 * 3.0 / 40.0
+    out[0], out[1], out[2] = t * a0, t * a1, t * a2
+
+
+@numba.njit(cache=True)
+def matrix_to_rpy(rotation: np.ndarray, out: np.ndarray) -> None:
+    """``pin.rpy.matrixToRpy``: roll, pitch, yaw [rad] with R = R_z(yaw) R_y(pitch) R_x(roll).
+
+    Eigen's ``eulerAngles(2, 1, 0)`` (Graphics Gems IV) reversed, then Pinocchio's fold of
+    the pitch into [−π/2, π/2], in the same operations, so bit for bit Pinocchio's (tested).
+
+    Args:
+        rotation: R, shape (3, 3).
+        out: (roll, pitch, yaw), shape (3,).
+    """
+    r = rotation
+    yaw = math.atan2(r[1, 0], r[0, 0])
+    c2 = math.sqrt(r[2, 2] * r[2, 2] + r[2, 1] * r[2, 1])
+    if yaw < 0.0:
+        yaw += math.pi
+        pitch = math.atan2(-r[2, 0], -c2)
+    else:
+        pitch = math.atan2(-r[2, 0], c2)
+    s1, c1 = math.sin(yaw), math.cos(yaw)
+    roll = math.atan2(s1 * r[0, 2] - c1 * r[1, 2], c1 * r[1, 1] - s1 * r[0, 1])
+    if pitch < -math.pi / 2:
+        pitch += 2 * math.pi
+    if pitch > math.pi / 2:
+        pitch = math.pi - pitch
+        roll = roll + math.pi if roll < 0.0 else roll - math.pi
+        yaw -= math.pi
+    out[0], out[1], out[2] = roll, pitch, yaw
 
 
 @numba.njit(cache=True)
@@ -395,18 +569,21 @@ def task_rows(
     angular_momentum: np.ndarray,
     base_rotation: np.ndarray,
     base_position: np.ndarray,
-    pelvis_log: np.ndarray,
-    pelvis_drift: np.ndarray,
-    torso_log: np.ndarray,
-    torso_drift: np.ndarray,
+    base_drift: np.ndarray,
+    pelvis_rotation: np.ndarray,
+    torso_rotation: np.ndarray,
+    torso_joint_rotation: np.ndarray,
+    torso_joint_drift: np.ndarray,
     left_rotation: np.ndarray,
     left_position: np.ndarray,
-    left_rpy: np.ndarray,
-    left_drift: np.ndarray,
+    left_joint_rotation: np.ndarray,
+    left_joint_velocity: np.ndarray,
+    left_joint_drift: np.ndarray,
     right_rotation: np.ndarray,
     right_position: np.ndarray,
-    right_rpy: np.ndarray,
-    right_drift: np.ndarray,
+    right_joint_rotation: np.ndarray,
+    right_joint_velocity: np.ndarray,
+    right_joint_drift: np.ndarray,
     velocity: np.ndarray,
     joint_pos: np.ndarray,
     joint_vel: np.ndarray,
@@ -423,6 +600,7 @@ def task_rows(
     sole_site_rotation: np.ndarray,
     sole_site_position: np.ndarray,
     sole_foot_com: np.ndarray,
+    sole_offset: np.ndarray,
     local_wrench_map: np.ndarray,
     impedance_gains: np.ndarray,
     impedance_state: np.ndarray,
@@ -438,7 +616,8 @@ def task_rows(
 ) -> int:
     """One tick's task rows (§III-D), foot states, contact wrenches and impedance (Eqs. 1–3).
 
-    Pinocchio inputs (after ``computeAllTerms`` and ``updateFramePlacements``):
+    Pinocchio inputs (after ``computeAllTerms`` and ``updateFramePlacements``; the drifts
+    J̇ ξ̇ follow from the joints' ``data.v``, ``data.a`` by :func:`classical_drift`):
 
     Args:
         t: time [s].
@@ -449,12 +628,15 @@ def task_rows(
         gravity_torques: g (``data.g``), shape (nv,).
         com, com_vel: CoM position [m] and velocity [m/s] in the world, shape (3,).
         angular_momentum: k, the angular part of h_G [kg m²/s], shape (3,).
-        base_rotation, base_position: world-from-base placement (``data.oMi[1]``).
-        pelvis_log, torso_log: log₃ of the frame's world rotation [rad], shape (3,).
-        pelvis_drift, torso_drift: angular part of the frame's drift J̇ ξ̇ (LOCAL_WORLD_ALIGNED).
+        base_rotation, base_position: world-from-base placement (``data.oMi[1]``), which
+            is also the pelvis frame's parent joint.
+        base_drift: the base joint's drift acceleration (``data.a[1].vector``), shape (6,).
+        pelvis_rotation, torso_rotation: the frame's world rotation (``data.oMf``).
+        torso_joint_rotation, torso_joint_drift: the torso frame's parent joint's world
+            rotation and drift acceleration (``data.oMi[j].rotation``, ``data.a[j].vector``).
         left_rotation, left_position: world placement of the left sole frame.
-        left_rpy: its roll, pitch, yaw [rad] (``pin.rpy.matrixToRpy``).
-        left_drift: its drift J̇ ξ̇ (classical, LOCAL_WORLD_ALIGNED), shape (6,).
+        left_joint_rotation, left_joint_velocity, left_joint_drift: its parent joint's
+            world rotation, spatial velocity and drift acceleration (joint axes).
         right_*: the same for the right sole.
         velocity: ξ̇ (Pinocchio's v), shape (nv,).
 
@@ -474,6 +656,7 @@ def task_rows(
         sole_site_rotation, sole_site_position: each F/T sensor's placement in its sole
             frame, shapes (2, 3, 3) and (2, 3).
         sole_foot_com: each foot body's centre of mass in its sole frame, shape (2, 3).
+        sole_offset: each sole frame's origin in its parent joint's frame [m], shape (2, 3).
         local_wrench_map: U_k in the contact frame, shape (6, m N_c).
         impedance_gains: M_d, B_d, K_d and thresholds (see :func:`advance_impedance`).
 
@@ -525,12 +708,22 @@ def task_rows(
     # ---- pelvis and torso upright, heading +x ----------------------------------------
     frame_jac = np.empty((6, nv))
     kp, kv = scalars[KP_ORIENT], scalars[KV_ORIENT]
+    drift = np.empty(3)  # angular part of the frame's J̇ ξ̇: the joint's α in world axes
+    log_r = np.empty(3)
+    drift[0], drift[1], drift[2] = eigen_rotate(
+        base_rotation, base_drift[3], base_drift[4], base_drift[5]
+    )
+    log3(pelvis_rotation, log_r)
     _orientation_rows(
-        joint_jacobians, chains[CHAIN_PELVIS], velocity, pelvis_log, pelvis_drift, kp, kv,
+        joint_jacobians, chains[CHAIN_PELVIS], velocity, log_r, drift, kp, kv,
         scalars[SQRT_W_PELVIS], ROW_PELVIS, frame_jac, cost_rows, cost_rhs,
     )  # fmt: skip
+    drift[0], drift[1], drift[2] = eigen_rotate(
+        torso_joint_rotation, torso_joint_drift[3], torso_joint_drift[4], torso_joint_drift[5]
+    )
+    log3(torso_rotation, log_r)
     _orientation_rows(
-        joint_jacobians, chains[CHAIN_TORSO], velocity, torso_log, torso_drift, kp, kv,
+        joint_jacobians, chains[CHAIN_TORSO], velocity, log_r, drift, kp, kv,
         scalars[SQRT_W_TORSO], ROW_TORSO, frame_jac, cost_rows, cost_rhs,
     )  # fmt: skip
 
@@ -550,15 +743,19 @@ def task_rows(
     acc_ref = np.empty(6)
     site_rot, site_pos, foot_com = np.empty((3, 3)), np.empty(3), np.empty(3)
     pos_d, vel_d, acc_d = np.empty(5), np.empty(5), np.empty(5)
+    rpy = np.empty(3)
     for side in range(2):
-        if side == 0:
-            rot, pos, rpy, drift, ft = left_rotation, left_position, left_rpy, left_drift, left_ft
+        if side == 0:  # the sole's placement, F/T reading and parent joint's R, v, a
+            rot, pos, ft = left_rotation, left_position, left_ft
+            joint_r, joint_v, joint_a = left_joint_rotation, left_joint_velocity, left_joint_drift
         else:
-            rot, pos, rpy, drift = right_rotation, right_position, right_rpy, right_drift
-            ft = right_ft
+            rot, pos, ft = right_rotation, right_position, right_ft
+            joint_r, joint_v = right_joint_rotation, right_joint_velocity
+            joint_a = right_joint_drift
         sole_jac = sole_jacobians[side]
         frame_jacobian(joint_jacobians, chains[CHAIN_LEFT_SOLE + side], pos, sole_jac)
-        sole_drifts[side] = drift
+        drift = sole_drifts[side]
+        classical_drift(joint_r, joint_v, joint_a, sole_offset[side], drift)
         # R̃ U_k: both halves (forces, moments) of the contact-frame basis rotated.
         for half in range(2):
             for i in range(3):
@@ -589,6 +786,7 @@ def task_rows(
         fz, mx, my = contact_wrench(
             ft, site_rot, site_pos, foot_com, pos, foot_acc_cmd[side], scalars[FOOT_MASS]
         )
+        matrix_to_rpy(rot, rpy)
         roll, pitch, yaw = rpy[0], rpy[1], rpy[2]
         out = SIGNAL_FEET + side * FOOT_BLOCK
         values = (
