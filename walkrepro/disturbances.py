@@ -20,6 +20,11 @@ FrameLookup = Callable[[str], "np.ndarray | None"]
 BodyState = Callable[[str], "tuple[np.ndarray, np.ndarray]"]
 
 
+#: What a body's wrench starts from before the disturbances on it are added (0.0 + x, as the
+#: sum onto an array of zeros gave: a lone -0.0 component is written as 0.0).
+_ZERO_WRENCH = (0.0,) * 6
+
+
 def _no_body_state(body: str) -> tuple[np.ndarray, np.ndarray]:
     raise RuntimeError(f"a hold on {body!r} needs the body state")
 
@@ -53,11 +58,15 @@ class DisturbanceSchedule:
     ) -> tuple[dict[str, np.ndarray], list[dict]]:
         """World-frame wrenches per body at time ``t`` [s], and on/off events.
 
+        Runs at every physics step while a disturbance is on, so the six components are
+        Python floats until the end (the same IEEE operations, in the same order, as the
+        array arithmetic they replace; about half the cost).
+
         Returns:
             ``({body: (fx, fy, fz, tx, ty, tz)}, events)`` with only non-zero bodies listed;
             several disturbances on one body add up.
         """
-        out: dict[str, np.ndarray] = {}
+        out: dict[str, list[float]] = {}
         events: list[dict] = []
         for item in self._items:
             s = item.spec
@@ -79,11 +88,15 @@ class DisturbanceSchedule:
             if scale == 0:
                 continue
             if s.profile == "hold":
-                wrench = scale * _hold_wrench(s, item.direction, item.anchor, *body_state(s.body))
+                assert item.direction is not None
+                push = _hold_push(s, item.direction, item.anchor, *body_state(s.body))
+                wrench = [scale * (push * u) for u in item.direction.tolist()] + [scale * 0.0] * 3
             else:
-                wrench = scale * item.wrench
-            out[s.body] = out.get(s.body, np.zeros(6)) + wrench
-        return {b: w for b, w in out.items() if np.any(w)}, events
+                assert item.wrench is not None
+                wrench = [scale * w for w in item.wrench.tolist()]
+            total = out.get(s.body, _ZERO_WRENCH)
+            out[s.body] = [a + b for a, b in zip(total, wrench, strict=True)]
+        return {b: np.array(w) for b, w in out.items() if any(w)}, events
 
     @staticmethod
     def _frame_rotation(s: DisturbanceSpec, frame_lookup: FrameLookup) -> np.ndarray:
@@ -111,16 +124,16 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-def _hold_wrench(
+def _hold_push(
     s: DisturbanceSpec,
-    u: np.ndarray | None,
+    u: np.ndarray,
     anchor: np.ndarray | None,
     pos: np.ndarray,
     vel: np.ndarray,
-) -> np.ndarray:
-    """A hand's push along the unit direction ``u`` (of ``force``, frozen at onset): a
+) -> float:
+    """A hand's push [N] along the unit direction ``u`` (of ``force``, frozen at onset): a
     one-sided spring-damper from the grab point ``anchor``, capped at ``max_force``."""
-    assert u is not None and anchor is not None
+    assert anchor is not None
     assert s.stiffness is not None and s.max_force is not None
     push = s.stiffness * float((anchor - pos) @ u) - s.damping * float(vel @ u)
-    return np.concatenate([min(max(push, 0.0), s.max_force) * u, np.zeros(3)])
+    return min(max(push, 0.0), s.max_force)

@@ -193,13 +193,15 @@ def run(
     contacts = ContactReader(model)
     body_ids = {d.body: model.body(d.body).id for d in spec.disturbances}
 
+    body_vel = np.zeros(6)
+
     def body_state(body: str) -> tuple[np.ndarray, np.ndarray]:
         """A body's CoM position and linear velocity, world frame, in the current state
-        (``mj_step1`` has run; the resulting force is logged, so replay holds)."""
+        (``mj_step1`` has run; the resulting force is logged, so replay holds). Views, valid
+        until the next call or physics step: copy what must last."""
         i = body_ids[body]
-        vel = np.zeros(6)
-        mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, i, vel, 0)
-        return data.xipos[i].copy(), vel[3:].copy()
+        mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, i, body_vel, 0)
+        return data.xipos[i], body_vel[3:]
 
     fall = FallDetector(robot, model, spec)
 
