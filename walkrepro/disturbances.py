@@ -48,10 +48,10 @@ class DisturbanceSchedule:
     def active_at(self, t: float) -> bool:
         """Whether :meth:`wrenches` can give a wrench or an event at ``t`` [s]: a window is
         open, or a disturbance is still on. Lets the runner skip the quiet steps cheaply."""
-        return any(
-            item.on or item.spec.start <= t < item.spec.start + item.spec.duration
-            for item in self._items
-        )
+        for item in self._items:  # a loop, not any(generator): this runs every physics step
+            if item.on or item.spec.start <= t < item.spec.start + item.spec.duration:
+                return True
+        return False
 
     def wrenches(
         self, t: float, frame_lookup: FrameLookup, body_state: BodyState = _no_body_state
