@@ -125,17 +125,35 @@ def test_pin_state_buffers_equal_the_snapshot_state() -> None:
 
 
 def test_ow_frame_matches_the_rotation_it_writes() -> None:
-    """_ow_frame's CoM, velocity and x_s are Rᵀ (· − p_sup) with the rotation it writes."""
-    from walkrepro.controllers.efsm.controller import _ow_frame
+    """ow_frame's CoM, velocity and x_s are Rᵀ (· − p_sup) with the rotation it writes."""
+    from walkrepro.controllers.efsm.kernels import ow_frame
 
     rng = np.random.default_rng(5)
     for _ in range(5):
         p_sup, p_sw, com, vcom = rng.normal(size=(4, 3))
         rot = np.eye(3)
-        c, s, com_w, vcom_w, x_s = _ow_frame(
-            p_sup.tolist(), p_sw.tolist(), com.tolist(), vcom.tolist(), rot
-        )
+        c, s, com_w, vcom_w, x_s = ow_frame(p_sup, p_sw, com, vcom, rot)
         assert np.isclose(np.linalg.det(rot), 1.0) and (c, s) == (rot[0, 0], rot[1, 0])
         np.testing.assert_allclose(com_w, rot.T @ (com - p_sup), atol=1e-12)
         np.testing.assert_allclose(vcom_w, rot.T @ vcom, atol=1e-12)
         np.testing.assert_allclose([x_s, 0.0], (rot.T @ (p_sw - p_sup))[:2], atol=1e-12)
+
+
+def test_signals_follow_the_kernel_layout() -> None:
+    """Each logged signal reads the entries of kernels.SIGNALS that the tick wrote for it."""
+    from walkrepro.controllers.efsm.kernels import SIGNALS
+
+    robot = load_robot("dyros_red")
+    ctrl = EfsmController()
+    ctrl.reset(robot, EfsmParams(), 0.0005)
+    signals = ctrl.step(0.0, ctrl._home_snapshot()).signals
+    assert list(signals) == [name for name, _ in SIGNALS[:-1]] + ["tau_ref", "steps_done"]
+    flat = ctrl._signals.tolist()
+    start = 0
+    for name, size in SIGNALS:
+        want = flat[start : start + size]
+        got = signals[name] if size > 1 else [signals[name]]
+        assert got == want, name
+        start += size
+    assert start == len(flat)
+    assert signals["tau_ref"] == ctrl._tau.tolist()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -10,7 +11,14 @@ import pytest
 
 from walkrepro.controllers.efsm import kernels, wbc
 from walkrepro.controllers.efsm.controller import EfsmController, EfsmParams
-from walkrepro.controllers.efsm.fsm import Phase
+from walkrepro.controllers.efsm.fsm import (
+    EventFsm,
+    FsmInput,
+    FsmParams,
+    Phase,
+    capture_point,
+    epsilon,
+)
 from walkrepro.robot import load_robot
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -323,13 +331,13 @@ def test_warm_up_compiles_what_a_tick_uses() -> None:
     robot = load_robot("dyros_red")
     ctrl = EfsmController()
     ctrl.reset(robot, EfsmParams(), 0.0005)
-    compiled = {k: len(k.signatures) for k in (kernels.whole_body_torques, kernels.measured_cop)}
+    compiled = len(kernels.tick.signatures)
     home = ctrl._home_snapshot()
     ctrl.step(0.0, home)
-    ctrl._fsm.phase = Phase.SSD
+    ctrl._st["phase"] = int(Phase.SSD)
     cmd = ctrl.step(0.0005, home)
     assert cmd.signals["efsm_phase"] != int(Phase.DS)
-    assert {k: len(k.signatures) for k in compiled} == compiled
+    assert len(kernels.tick.signatures) == compiled
 
 
 def test_fresh_reads_give_the_same_tick_as_views() -> None:
@@ -344,3 +352,235 @@ def test_fresh_reads_give_the_same_tick_as_views() -> None:
         home = ctrl._home_snapshot()
         ticks.append([ctrl.step(0.0, home).ctrl, ctrl.step(0.0005, home).ctrl])
     np.testing.assert_array_equal(ticks[0], ticks[1])
+
+
+# ---- Pinocchio's last steps, the E-FSM and the whole tick, compiled -----------------------
+
+
+def _moving_dyros(seed: int) -> tuple:
+    """dyros_red near home, moving; computeAllTerms and the frames updated."""
+    robot = load_robot("dyros_red")
+    model, data = robot.pin_model, robot.pin_model.createData()
+    rng = np.random.default_rng(seed)
+    qpos = robot.home_qpos.copy()
+    qpos[7:] += rng.normal(scale=0.05, size=qpos.size - 7)
+    q, v = robot.pin_state_from_mujoco(qpos, rng.normal(scale=0.5, size=robot.mj_model.nv))
+    pin.computeAllTerms(model, data, q, v)
+    pin.updateFramePlacements(model, data)
+    return robot, model, data
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_mass_matrix_inverse_is_pinocchios(seed: int) -> None:
+    """A⁻¹ equals Pinocchio's cholesky.decompose + computeMinv bit for bit (same sums, same
+    order: Pinocchio's sums along U's strided rows are plain left-to-right sums)."""
+    _, model, data = _moving_dyros(seed)
+    tree = np.array([list(data.parents_fromRow), list(data.nvSubtree_fromRow)], dtype=np.int64)
+    out = np.empty((model.nv, model.nv))
+    kernels.mass_matrix_inverse(data.M, tree, out)
+    pin.cholesky.decompose(model, data)
+    np.testing.assert_array_equal(out, pin.cholesky.computeMinv(model, data))
+    _close(out @ (np.triu(data.M) + np.triu(data.M, 1).T), np.eye(model.nv), rel=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_frames_match_pinocchio(seed: int) -> None:
+    """The sole and F/T placements and J̇ q̇ of the soles equal Pinocchio's (updateFramePlacements,
+    getFrameClassicalAcceleration LWA); bit for bit on an SSE build, to rounding on others."""
+    robot, model, data = _moving_dyros(seed)
+    for name in ("left_sole", "right_sole", "left_foot_ft", "right_foot_ft"):
+        frame = model.frames[robot.pin_frame_id(name)]
+        joint = frame.parentJoint
+        rot, pos, acc = np.empty((3, 3)), np.empty(3), np.empty(6)
+        kernels.frame_placement(
+            data.oMi[joint].rotation,
+            data.oMi[joint].translation,
+            frame.placement.rotation,
+            frame.placement.translation,
+            rot,
+            pos,
+        )
+        want = data.oMf[robot.pin_frame_id(name)]
+        _close(rot, want.rotation, rel=1e-15)
+        _close(pos, want.translation, rel=1e-15)
+        kernels.frame_classical_acceleration(
+            data.oMi[joint].rotation,
+            data.v[joint].vector,
+            data.a[joint].vector,
+            frame.placement.translation,
+            acc,
+        )
+        acc_want = pin.getFrameClassicalAcceleration(model, data, robot.pin_frame_id(name), LWA)
+        _close(acc, acc_want.vector, rel=1e-14)
+
+
+def test_matmul_skips_zeros_without_changing_a_bit() -> None:
+    """a @ b with a's zero entries skipped equals the full left-to-right sums exactly."""
+    rng = np.random.default_rng(9)
+    a, b = rng.normal(size=(4, 7)), rng.normal(size=(7, 5))
+    a[rng.random(a.shape) < 0.4] = 0.0
+    a[0, 0] = -0.0
+    want = [[0.0] * 5 for _ in range(4)]
+    for i in range(4):
+        for j in range(5):
+            for k in range(7):
+                want[i][j] += float(a[i, k]) * float(b[k, j])
+    assert kernels.matmul(a, b).tolist() == want
+
+
+def test_fsm_step_matches_event_fsm() -> None:
+    """The compiled E-FSM step equals fsm.EventFsm.step tick by tick, through every state."""
+    params = FsmParams(use_epsilon=True)
+    fsm = EventFsm(params, Phase.SSD, 0.0)
+    phase, xp_des = int(Phase.SSD), 0.0
+    rng = np.random.default_rng(11)
+    x_m, xd_m = 0.05, -0.2
+    seen = set()
+    for _ in range(3000):  # a CoM that decelerates, turns, and runs to the swing foot
+        xd_m += rng.normal(scale=0.01) + (0.002 if fsm.phase is not Phase.DS else 0.0)
+        x_m += 0.0005 * xd_m
+        x_s = 0.28 + rng.normal(scale=0.001)
+        x_cp = capture_point(x_m, xd_m, 0.6)
+        want = fsm.step(FsmInput(x_m, xd_m, x_cp, x_s))
+        phase, xp_des, eps, d, bits = kernels.fsm_step(
+            phase, xp_des, x_m, xd_m, x_cp, x_s, params.zeta, params.r, params.dxp,
+            params.d_thr, params.v_stop, params.use_epsilon,
+        )  # fmt: skip
+        assert (phase, xp_des, eps, d) == (int(want.phase), want.xp_des, want.epsilon, want.d)
+        codes = {
+            (Phase.SSD, Phase.SSA): kernels.SSD_TO_SSA,
+            (Phase.SSA, Phase.DS): kernels.SSA_TO_DS,
+            (Phase.DS, Phase.SSD): kernels.DS_TO_SSD,
+        }
+        assert bits == sum(codes[tr] for tr in want.transitions)
+        seen.update(want.transitions)
+        if want.switched_support:
+            x_m, xd_m = x_m - x_s, -0.1  # the new O_w, and a fresh step
+            fsm.reframe(0.0)
+            xp_des = 0.0
+    assert len(seen) == 3
+
+
+def test_next_swing_target_is_the_planned_step() -> None:
+    """The planner's target: step_length ahead, width aside, in place after n_steps."""
+    p_sup, heading, lateral = (
+        np.array([0.3, -0.14, 0.0]),
+        np.array([1.0, 0, 0]),
+        np.array([0, 1.0, 0]),
+    )
+    ahead = kernels.next_swing_target(p_sup, 0, 3, 0.1, 12, 0.28, heading, lateral)
+    np.testing.assert_allclose(ahead, [0.4, 0.14, 0.0])
+    in_place = kernels.next_swing_target(p_sup, 1, 13, 0.1, 12, 0.28, heading, lateral)
+    np.testing.assert_allclose(in_place, [0.3, -0.42, 0.0])
+    unlimited = kernels.next_swing_target(p_sup, 0, 99, 0.1, -1, 0.28, heading, lateral)
+    np.testing.assert_allclose(unlimited, [0.4, 0.14, 0.0])
+
+
+SIDES = ("left", "right")
+
+
+def _reference_tick(ctrl: EfsmController, sensors, state: np.ndarray) -> tuple:
+    """One tick composed of the references, as the controller computed it before its tick was
+    one kernel: Pinocchio's frames, J̇ q̇ and A⁻¹, fsm.EventFsm, the footstep planner's numpy
+    formula, whole_body_torques and measured_cop. Returns Γ, the signal values in the order
+    of kernels.SIGNALS, and the transitions."""
+    st, p, model, data = state[0], ctrl._p, ctrl._model, ctrl._data
+    q, v = sensors.pinocchio_state(ctrl._robot)
+    pin.computeAllTerms(model, data, q, v)
+    pin.updateFramePlacements(model, data)
+    soles = [data.oMf[ctrl._sole[f]] for f in SIDES]
+    fsm = EventFsm(
+        FsmParams(p.zeta, p.r, p.dxp, p.d_thr, p.v_stop, p.use_epsilon),
+        Phase(int(st["phase"])),
+        float(st["xp_des"]),
+    )
+    sup = int(st["support"])
+    sw = 1 - sup
+    com, vcom, rot, z_m0 = data.com[0], data.vcom[0], st["rot"].copy(), float(st["z_m0"])
+    ow = kernels.ow_frame(soles[sup].translation, soles[sw].translation, com, vcom, rot)
+    x_cp = capture_point(ow[2][0], ow[3][0], z_m0)
+    out = fsm.step(FsmInput(ow[2][0], ow[3][0], x_cp, ow[4]))
+    xp_des, target, steps = out.xp_des, st["swing_target"].copy(), int(st["steps_done"])
+    if out.switched_support:
+        sup, sw, steps = sw, sup, steps + 1
+        length = p.step_length if p.n_steps is None or steps <= p.n_steps else 0.0
+        side = 1.0 if sw == 0 else -1.0
+        target = soles[sup].translation + st["heading"] * length
+        target = target + side * float(st["width"]) * st["lateral"]
+        ow = kernels.ow_frame(soles[sup].translation, soles[sw].translation, com, vcom, rot)
+        x_cp = capture_point(ow[2][0], ow[3][0], z_m0)
+        xp_des = 0.0
+    (c, s, com_w, vcom_w, x_s), double = ow, out.phase is Phase.DS
+    p_sup, p_sw = soles[sup].translation, soles[sw].translation
+    h = p.raise_height if out.phase is Phase.SSD else p.land_height
+    sw_ref = [target[0], target[1], p_sup[2] + h]
+    task_ref = np.array([0.0 - com_w[1], z_m0 - com_w[2], vcom_w[1], vcom_w[2], *sw_ref])
+    eps_on, ds_start = 1.0, float(st["ds_start_xp"])
+    if double:
+        ds_start = xp_des if math.isnan(ds_start) else ds_start
+        eps_on = epsilon(abs(xp_des - ds_start), p.d_thr)
+    contacts = (sup, sw) if double else (sup,)
+    jc_dot_v = np.concatenate(
+        [pin.getFrameClassicalAcceleration(model, data, ctrl._sole[SIDES[f]], LWA).vector
+         for f in contacts]
+    )  # fmt: skip
+    pin.cholesky.decompose(model, data)
+    tau = np.empty(st["tau"].size)
+    f1, balancing, cop_x, cop_y = kernels.whole_body_torques(
+        pin.cholesky.computeMinv(model, data), data.nle, data.J, jc_dot_v,
+        st["sole_support"][sup], st["sole_support"][sw], data.Jcom, v, rot, p_sup, p_sw,
+        soles[sup].rotation, soles[sw].rotation, data.oMi[1].rotation, st["rot_des"], task_ref,
+        int(out.phase), out.epsilon, eps_on, xp_des, x_s, st["params"], st["actuator_rows"], tau,
+    )  # fmt: skip
+    meas = ctrl._measured_cop(sensors)
+    valid = all(math.isfinite(x) for x in meas)
+    signals = [
+        0.0 if double else (1.0 if sup == 0 else -1.0), int(out.phase), out.epsilon, eps_on,
+        out.d if math.isfinite(out.d) else 1.0, *com_w, *vcom_w, *com, *vcom, x_cp, x_s - p.r,
+        x_s, xp_des, p_sup[0] + c * xp_des, p_sup[1] + s * xp_des, cop_x, cop_y,
+        p_sup[0] + (c * cop_x - s * cop_y), p_sup[1] + (s * cop_x + c * cop_y),
+        *(meas if valid else (0.0, 0.0)), valid, *p_sw, *sw_ref,
+        0.0 if double else (1.0 if sw == 1 else -1.0), *p_sup, math.atan2(s, c), f1, balancing,
+        steps,
+    ]  # fmt: skip
+    return tau, np.array(signals, dtype=float), [tr for tr in out.transitions]
+
+
+@pytest.mark.parametrize("case", ["SSD", "SSA", "DS", "DS_ends"])
+def test_tick_matches_the_reference_composition(case: str) -> None:
+    """The compiled tick (O_w, E-FSM, footsteps, WBC, CoPs) equals the tick composed of the
+    references, in each phase and when DS ends (the feet swap roles, the next step is planned)."""
+    robot = load_robot("dyros_red")
+    ctrl = EfsmController()
+    ctrl.reset(robot, EfsmParams(step_length=0.1, step_width=0.28, n_steps=3), 0.0005)
+    home = ctrl._home_snapshot()
+    ctrl.step(0.0, home)  # the first tick: the initial targets
+    rng = np.random.default_rng(len(case))
+    sensors = dataclasses.replace(
+        home,
+        joint_pos=home.joint_pos + rng.normal(scale=0.02, size=home.joint_pos.size),
+        joint_vel=rng.normal(scale=0.3, size=home.joint_vel.size),
+        base_linvel=rng.normal(scale=0.1, size=3),
+        left_ft=np.r_[0.0, 0.0, 300.0, rng.normal(size=3)],
+        right_ft=np.r_[0.0, 0.0, 200.0, rng.normal(size=3)],
+    )
+    st = ctrl._st
+    st["phase"] = int(Phase[case.removesuffix("_ends")])
+    st["swing_target"] = [0.1, 0.14, 0.0]
+    if case == "DS_ends":  # x_p^des one Δ short of x_s: the ramp ends this tick
+        q, v = sensors.pinocchio_state(robot)
+        pin.computeAllTerms(ctrl._model, ctrl._data, q, v)
+        pin.updateFramePlacements(ctrl._model, ctrl._data)
+        sup = int(st["support"])
+        p_sup, p_sw = (ctrl._data.oMf[ctrl._sole[SIDES[f]]].translation for f in (sup, 1 - sup))
+        x_s = kernels.ow_frame(p_sup, p_sw, ctrl._data.com[0], ctrl._data.vcom[0], np.eye(3))[4]
+        st["xp_des"], st["ds_start_xp"] = x_s - 0.5 * ctrl._p.dxp, x_s - 0.05
+    state = ctrl._state.copy()
+    tau_want, signals_want, transitions = _reference_tick(ctrl, sensors, state)
+    cmd = ctrl.step(0.0005, sensors)
+    assert [(e["from"], e["to"]) for e in cmd.events if e["kind"] == "fsm"] == [
+        (a.name, b.name) for a, b in transitions
+    ]
+    assert (case == "DS_ends") == any(e["kind"] == "support" for e in cmd.events)
+    _close(cmd.ctrl, tau_want, rel=1e-9)
+    _close(ctrl._signals, signals_want, rel=1e-9)

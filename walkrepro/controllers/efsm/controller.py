@@ -11,14 +11,16 @@ three prioritized tasks (Eq. 11):
 
 Speed (issue 6): the tick runs at 2 kHz, so it calls Pinocchio's combined algorithm once
 (``computeAllTerms``), reads its results through views of ``Data`` taken at reset, and does
-all the WBC algebra in one compiled numba call, :func:`.kernels.whole_body_torques` (why
-numba: see :mod:`.kernels`); :mod:`.wbc` keeps the same algebra in numpy as the reference.
+everything else (O_w, the E-FSM, footsteps, the WBC algebra, the CoPs) in one compiled numba
+call, :func:`.kernels.tick` (why numba: see :mod:`.kernels`). Python keeps the first tick's
+set-up, the events and the signal dict. :mod:`.fsm` and :mod:`.wbc` keep the E-FSM and the
+algebra in plain Python/numpy as the references the tests compare the kernels with.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any, Literal
+from typing import Literal
 
 import numpy as np
 import pinocchio as pin
@@ -26,21 +28,14 @@ from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
 from walkrepro.controllers.efsm import kernels
-from walkrepro.controllers.efsm.fsm import (
-    EventFsm,
-    FsmInput,
-    FsmParams,
-    Phase,
-    capture_point,
-    epsilon,
-)
+from walkrepro.controllers.efsm.fsm import Phase
 from walkrepro.robot import Robot, pin_state_into
 from walkrepro.sensors import SensorSnapshot
 
 GRAVITY = 9.81  # [m/s^2]
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-FEET = ("left", "right")
-OTHER_FOOT = {"left": "right", "right": "left"}
+FEET = ("left", "right")  # a foot is its index here: 0 left, 1 right; 1 - i the other one
+PELVIS_JOINT = 1  # the free-flyer root: the rigid upper body
 
 
 class EfsmParams(ControllerParams):
@@ -102,40 +97,43 @@ class _PoseViews:
     Pinocchio returns its vectors and matrices as views of ``Data``'s own memory, which
     the algorithms overwrite in place, so views taken once stay current: reading a field
     per tick then costs nothing. :meth:`aliases` proves that on this Pinocchio; where it
-    does not hold, the controller calls :meth:`refresh` every tick.
+    does not hold, the controller calls :meth:`refresh` every tick. Per-foot fields are
+    pairs (left, right), indexed like :data:`FEET`: the joint carrying each foot's sole and
+    F/T frame.
     """
 
-    def __init__(self, data: pin.Data, sole: dict[str, int], ft: dict[str, int], pelvis: int):
-        self._data, self._sole, self._ft, self._pelvis = data, sole, ft, pelvis
+    def __init__(self, data: pin.Data, foot: tuple[int, int]):
+        """Views of ``data``; ``foot``: the joint of each foot."""
+        self._data, self._foot = data, foot
         self.refresh()
 
     def refresh(self) -> None:
         """(Re)take every view from ``Data``."""
         data = self._data
         self.com, self.vcom = data.com[0], data.vcom[0]  # [m], [m/s], world
-        self.nle, self.j_com, self.j_world = data.nle, data.Jcom, data.J
-        self.sole_pos = {f: data.oMf[i].translation for f, i in self._sole.items()}
-        self.sole_rot = {f: data.oMf[i].rotation for f, i in self._sole.items()}
-        self.ft_pos = tuple(data.oMf[self._ft[f]].translation for f in FEET)
-        self.ft_rot = tuple(data.oMf[self._ft[f]].rotation for f in FEET)
-        self.pelvis_rot = data.oMi[self._pelvis].rotation
+        self.mass, self.nle, self.j_com, self.j_world = data.M, data.nle, data.Jcom, data.J
+        self.foot_rot = tuple(data.oMi[j].rotation for j in self._foot)
+        self.foot_pos = tuple(data.oMi[j].translation for j in self._foot)
+        self.foot_vel = tuple(data.v[j].vector for j in self._foot)  # (v, ω), joint axes
+        self.foot_acc = tuple(data.a[j].vector for j in self._foot)  # bias (q̈ = 0)
+        self.pelvis_rot = data.oMi[PELVIS_JOINT].rotation
 
     def aliases(self) -> bool:
         """True if every view holds what a fresh read of ``Data`` gives."""
-        fresh = _PoseViews(self._data, self._sole, self._ft, self._pelvis)
-        pairs = [
-            (self.com, fresh.com),
-            (self.vcom, fresh.vcom),
-            (self.nle, fresh.nle),
-            (self.j_com, fresh.j_com),
-            (self.j_world, fresh.j_world),
-            (self.pelvis_rot, fresh.pelvis_rot),
-            *zip(self.ft_pos, fresh.ft_pos, strict=True),
-            *zip(self.ft_rot, fresh.ft_rot, strict=True),
-            *((self.sole_pos[f], fresh.sole_pos[f]) for f in FEET),
-            *((self.sole_rot[f], fresh.sole_rot[f]) for f in FEET),
-        ]
+        fresh = _PoseViews(self._data, self._foot)
+        names = ("com", "vcom", "mass", "nle", "j_com", "j_world", "pelvis_rot")
+        pairs = [(getattr(self, k), getattr(fresh, k)) for k in names]
+        for k in ("foot_rot", "foot_pos", "foot_vel", "foot_acc"):
+            pairs += zip(getattr(self, k), getattr(fresh, k), strict=True)
         return all(np.array_equal(a, b) for a, b in pairs)
+
+
+#: The E-FSM transitions of kernels.tick's result bits, as logged.
+_TRANSITIONS = (
+    (kernels.SSD_TO_SSA, Phase.SSD, Phase.SSA),
+    (kernels.SSA_TO_DS, Phase.SSA, Phase.DS),
+    (kernels.DS_TO_SSD, Phase.DS, Phase.SSD),
+)
 
 
 class EfsmController(Controller):
@@ -147,7 +145,7 @@ class EfsmController(Controller):
     def reset(self, robot: Robot, params: ControllerParams, control_period: float) -> None:
         """Cache models and start in DS with the CoP moving onto the first support foot.
 
-        Also compiles the WBC kernels (or loads them from numba's cache) with a throwaway
+        Also compiles the tick kernel (or loads it from numba's cache) with a throwaway
         tick in DS and one out of DS, so that the first real tick is not slow.
         """
         self._setup(robot, params)
@@ -161,75 +159,71 @@ class EfsmController(Controller):
             raise ValueError("the E-FSM controller needs a torque-controlled robot")
         self._robot, self._p = robot, params
         self._model = model = robot.pin_model
-        self._data = model.createData()
+        self._data = data = model.createData()
         self._sole = {f: robot.pin_frame_id(f"{f}_sole") for f in FEET}
         self._ft = {f: robot.pin_frame_id(f"{f}_foot_ft") for f in FEET}
-        foot_joint = {f: robot.pin_joint_id(f"{f[0]}_ankle_roll") for f in FEET}
-        self._pelvis_joint = 1  # the free-flyer root: the rigid upper body
-        self._pose = _PoseViews(self._data, self._sole, self._ft, self._pelvis_joint)
-        self._refresh_pose = False
-        self._nv = nv = model.nv
-        # Pinocchio's (q, v), rewritten in place every tick (nothing keeps them across ticks).
-        self._q, self._v = np.zeros(model.nq), np.zeros(nv)
-        # Joint-torque row of each actuator (Γ is in joint order, ctrl in actuator order).
-        self._actuator_rows = np.asarray(robot.pin_v_idx, dtype=np.int64) - 6
-        self._tau = np.empty(len(self._actuator_rows))
-        half_sole = np.asarray(robot.sole_size, dtype=float) / 2.0
-        # The parameters of kernels.whole_body_torques, in its order.
-        self._kernel_params = np.array(
-            [
-                params.kp,
-                params.kv,
-                params.fs_max_force,
-                params.fs_max_moment,
-                float(params.fs_decoupled_saturation),
-                float(params.balance),
-                params.cop_margin,
-                params.torque_limit,
-                *half_sole,
-            ]
-        )
-        # The velocity coordinates that move each sole (its joint's ancestors in the tree).
-        self._sole_support = {}
-        for f, frame_id in self._sole.items():
-            joint = model.frames[frame_id].parentJoint
-            support = np.zeros(nv, dtype=np.bool_)
-            for j in model.supports[joint][1:]:  # without the universe
-                support[model.joints[j].idx_v : model.joints[j].idx_v + model.joints[j].nv] = True
-            self._sole_support[f] = support
-        if model.joints[self._pelvis_joint].nv != 6 or model.joints[self._pelvis_joint].idx_v:
+        ankle = tuple(robot.pin_joint_id(f"{f[0]}_ankle_roll") for f in FEET)
+        for f, joint in zip(FEET, ankle, strict=True):
+            for frame in (self._sole[f], self._ft[f]):
+                if model.frames[frame].parentJoint != joint:
+                    raise ValueError(f"{model.frames[frame].name} must be on {f[0]}_ankle_roll")
+        if model.joints[PELVIS_JOINT].nv != 6 or model.joints[PELVIS_JOINT].idx_v:
             raise ValueError("the E-FSM controller needs the pelvis as the free-flyer root")
-        # Buffers the kernel reads: J̇_c q̇ (support foot first), the targets of Eq. (6).
-        self._jc_dot_v = {1: np.empty(6), 2: np.empty(12)}
-        self._task_ref = np.zeros(7)
-        self._rot_des = np.zeros((2, 3, 3))  # Table II: pelvis, swing sole
-        # The part of each foot below its F/T sensor (the ankle-roll link): its weight and
-        # its CoM in the sensor frame (both on that link, so the offset is constant).
-        self._foot_weight = np.empty(2)
-        self._foot_com_ft = np.empty((2, 3))
+        self._pose = _PoseViews(data, ankle)
+        self._refresh_pose = False
+        nv, n_act = model.nv, len(robot.pin_v_idx)
+        # Everything the tick kernel keeps or reads besides Pinocchio's Data, as one record;
+        # the controller works through views of its fields.
+        self._state = state = kernels.tick_state(nv, n_act)
+        self._st = st = state[0]
+        # Pinocchio's (q, v), rewritten in place every tick (nothing keeps them across ticks).
+        self._q, self._v = np.zeros(model.nq), st["v"]
+        self._tau, self._signals, self._rot_w = st["tau"], st["signals"], st["rot"]
+        # Γ is in joint order, ctrl in actuator order: the joint-torque row of each actuator.
+        st["actuator_rows"] = np.asarray(robot.pin_v_idx, dtype=np.int64) - 6
+        half_sole = np.asarray(robot.sole_size, dtype=float) / 2.0
+        st["params"] = [
+            params.kp,
+            params.kv,
+            params.fs_max_force,
+            params.fs_max_moment,
+            float(params.fs_decoupled_saturation),
+            float(params.balance),
+            params.cop_margin,
+            params.torque_limit,
+            *half_sole,
+        ]
+        for name in ("zeta", "r", "dxp", "d_thr", "v_stop", "step_length"):
+            st[name] = getattr(params, name)
+        st["use_epsilon"], st["ds_onset_ramp"] = params.use_epsilon, params.ds_onset_ramp
+        st["raise_height"], st["land_height"] = params.raise_height, params.land_height
+        st["n_steps"] = -1 if params.n_steps is None else params.n_steps
+        # The kinematic tree as Pinocchio's Cholesky factorisation walks it.
+        st["cholesky_tree"] = [list(data.parents_fromRow), list(data.nvSubtree_fromRow)]
         for i, f in enumerate(FEET):
-            frame = model.frames[self._ft[f]]
-            if frame.parentJoint != foot_joint[f]:
-                raise ValueError(f"{f}_foot_ft must be on the {f[0]}_ankle_roll link")
-            inertia = model.inertias[foot_joint[f]]
-            self._foot_weight[i] = inertia.mass * GRAVITY  # [N]
-            self._foot_com_ft[i] = frame.placement.actInv(inertia.lever)  # [m]
-        self._fsm = EventFsm(
-            FsmParams(
-                params.zeta, params.r, params.dxp, params.d_thr, params.v_stop, params.use_epsilon
-            )
-        )
-        self._support = "left" if params.first_swing == "right" else "right"
+            # Each sole and F/T frame in its joint, and the coordinates that move the sole
+            # (the joint's ancestors in the tree).
+            for key, frame in (("sole", self._sole[f]), ("ft", self._ft[f])):
+                st[f"{key}_local_rot"][i] = model.frames[frame].placement.rotation
+                st[f"{key}_local_pos"][i] = model.frames[frame].placement.translation
+            for j in model.supports[ankle[i]][1:]:  # without the universe
+                first = model.joints[j].idx_v
+                st["sole_support"][i, first : first + model.joints[j].nv] = 1
+            # The part of the foot below its F/T sensor (the ankle-roll link): its weight and
+            # its CoM in the sensor frame (both on that link, so the offset is constant).
+            inertia = model.inertias[ankle[i]]
+            st["foot_weight"][i] = inertia.mass * GRAVITY  # [N]
+            st["foot_com"][i] = model.frames[self._ft[f]].placement.actInv(inertia.lever)  # [m]
+        st["support"] = 0 if params.first_swing == "right" else 1  # index into FEET
+        st["phase"] = int(Phase.DS)  # Table I: the first footstep starts in DS
+        st["ds_start_xp"] = math.nan
+        self._rot_w[:] = np.eye(3)  # world-from-O_w, rewritten in place every tick
         self._started = False
-        self._steps_done = 0
-        self._ds_start_xp: float | None = None
-        self._swing_target = [0.0, 0.0, 0.0]  # [m], world; floats: read as floats per tick
-        self._rot_w = np.eye(3)  # world-from-O_w, rewritten in place every tick
 
     def _home_snapshot(self) -> SensorSnapshot:
         """The robot standing still in its home posture, as sensed."""
         robot, qpos = self._robot, self._robot.home_qpos
-        n, zeros3 = len(self._actuator_rows), np.zeros(3)
+        n, zeros3 = len(self._tau), np.zeros(3)
         return SensorSnapshot(
             t=0.0,
             joint_pos=robot.link_joint_pos(qpos),
@@ -252,7 +246,6 @@ class EfsmController(Controller):
         for scale in (0.0, 0.01):  # two states: the views must follow
             dq = np.full(model.nv, scale)
             pin.computeAllTerms(model, data, pin.integrate(model, q, dq), v + scale)
-            pin.updateFramePlacements(model, data)
             if not self._pose.aliases():
                 self._refresh_pose = True
 
@@ -263,7 +256,7 @@ class EfsmController(Controller):
         twin._refresh_pose = self._refresh_pose
         home = self._home_snapshot()
         twin.step(0.0, home)
-        twin._fsm.phase = Phase.SSD
+        twin._st["phase"] = int(Phase.SSD)
         twin.step(0.0, home)
 
     # ---- frames ------------------------------------------------------------------------
@@ -281,146 +274,90 @@ class EfsmController(Controller):
     # ---- the control tick ----------------------------------------------------------------
 
     def step(self, t: float, sensors: SensorSnapshot) -> Command:
-        """One control period of the E-FSM + OS-WBC."""
-        p, model, data, pose = self._p, self._model, self._data, self._pose
+        """One control period of the E-FSM + OS-WBC.
+
+        (q, v) from the snapshot, Pinocchio's computeAllTerms, then :func:`.kernels.tick`
+        (frames, O_w, E-FSM, footsteps, Γ, CoPs) in one compiled call; Python turns its
+        outputs into the logged signals and events.
+        """
         q, v = self._pin_state(sensors)
-        # One pass: M, b + g, joint Jacobians, CoM and its Jacobian, and (with q̈ = 0) the
-        # bias accelerations J̇ q̇ of every frame.
-        pin.computeAllTerms(model, data, q, v)
-        pin.updateFramePlacements(model, data)
+        # One pass: M, b + g, joint Jacobians and placements, CoM and its Jacobian, and (with
+        # q̈ = 0) the bias accelerations of every joint.
+        pin.computeAllTerms(self._model, self._data, q, v)
+        pose = self._pose
         if self._refresh_pose:
             pose.refresh()
-        com, vcom = pose.com, pose.vcom  # views: read within this tick only
         if not self._started:
-            self._start(com)
-        events: list[dict[str, Any]] = []
-
-        # O_w and the E-FSM inputs (§III-A1, Eq. 2).
-        sup, sw = self._support, OTHER_FOOT[self._support]
-        p_sup, p_sw = pose.sole_pos[sup], pose.sole_pos[sw]
-        # Python floats of this tick's positions: the scalar math below is cheaper on them.
-        sup_xyz, sw_xyz = p_sup.tolist(), p_sw.tolist()
-        com_xyz, vcom_xyz = com.tolist(), vcom.tolist()
-        rot = self._rot_w
-        cos_w, sin_w, com_w, vcom_w, x_s = _ow_frame(sup_xyz, sw_xyz, com_xyz, vcom_xyz, rot)
-        x_cp = capture_point(com_w[0], vcom_w[0], self._z_m0)
-        out = self._fsm.step(FsmInput(com_w[0], vcom_w[0], x_cp, x_s))
-        for old, new in out.transitions:
-            events.append({"kind": "fsm", "from": old.name, "to": new.name})
-        xp_des, eps = out.xp_des, out.epsilon
-        if out.switched_support:
-            # DS ends: the swing foot becomes the support foot; next footstep target.
-            self._support, sup, sw = sw, sw, sup
-            p_sup, p_sw = p_sw, p_sup
-            sup_xyz, sw_xyz = sw_xyz, sup_xyz
-            self._plan_next_step(p_sup, sw)
-            cos_w, sin_w, com_w, vcom_w, x_s = _ow_frame(sup_xyz, sw_xyz, com_xyz, vcom_xyz, rot)
-            x_cp = capture_point(com_w[0], vcom_w[0], self._z_m0)
-            xp_des = 0.0
-            self._fsm.reframe(xp_des)
-            events.append({"kind": "support", "foot": sup, "step": self._steps_done})
-        phase = self._fsm.phase
-        double = phase is Phase.DS
-
-        # Contact set: the support foot, plus the swing foot in DS (its rows second).
-        jc_dot_v = self._jc_dot_v[2 if double else 1]
-        sole = self._sole
-        jc_dot_v[0:6] = pin.getFrameClassicalAcceleration(model, data, sole[sup], LWA).vector
-        if double:
-            jc_dot_v[6:12] = pin.getFrameClassicalAcceleration(model, data, sole[sw], LWA).vector
-        pin.cholesky.decompose(model, data)  # A = U D Uᵀ of the M from computeAllTerms
-        a_inv = pin.cholesky.computeMinv(model, data)  # A⁻¹, both triangles
-
-        # Task-space errors of Eq. (6) (Table II targets); the kernel forms ẍ* = k_p e − k_v ẋ.
-        task_ref = self._task_ref
-        sw_ref = self._swing_ref(phase, sup_xyz[2])
-        task_ref[0] = 0.0 - com_w[1]
-        task_ref[1] = self._z_m0 - com_w[2]
-        task_ref[2], task_ref[3] = vcom_w[1], vcom_w[2]
-        task_ref[4], task_ref[5], task_ref[6] = sw_ref
-
-        # Γ = Γ_t + Γ_c + Γ_gc (Eqs. 7 and 11, Appendices A–D), saturated, actuator order.
-        eps_on = 1.0
-        if double:
-            if self._ds_start_xp is None:
-                self._ds_start_xp = xp_des
-            if p.use_epsilon and p.ds_onset_ramp:
-                eps_on = epsilon(abs(xp_des - self._ds_start_xp), p.d_thr)
-        else:
-            self._ds_start_xp = None  # Γ_c = 0
-        tau = self._tau
-        f1, balancing, cop_exp_x, cop_exp_y = kernels.whole_body_torques(
-            a_inv,
+            self._start()
+        (rot_l, rot_r), (pos_l, pos_r) = pose.foot_rot, pose.foot_pos
+        (vel_l, vel_r), (acc_l, acc_r) = pose.foot_vel, pose.foot_acc
+        transitions = kernels.tick(
+            pose.mass,
             pose.nle,
             pose.j_world,
-            jc_dot_v,
-            self._sole_support[sup],
-            self._sole_support[sw],
             pose.j_com,
-            v,
-            rot,
-            p_sup,
-            p_sw,
-            pose.sole_rot[sup],
-            pose.sole_rot[sw],
+            pose.com,
+            pose.vcom,
+            rot_l,
+            pos_l,
+            vel_l,
+            acc_l,
+            rot_r,
+            pos_r,
+            vel_r,
+            acc_r,
             pose.pelvis_rot,
-            self._rot_des,
-            task_ref,
-            int(phase),
-            eps,
-            eps_on,
-            xp_des,
-            x_s,
-            self._kernel_params,
-            self._actuator_rows,
-            tau,
+            sensors.left_ft,
+            sensors.right_ft,
+            self._state,
         )
-
-        # Expected CoP from the reference torques (Eqs. 9, 18, 22), and measured CoP (F/T).
-        r00, r01, r10, r11 = cos_w, -sin_w, sin_w, cos_w  # rot[:2, :2], as _ow_frame wrote it
-        sup_x, sup_y, _ = sup_xyz
-        cop_exp_world = [
-            sup_x + (r00 * cop_exp_x + r01 * cop_exp_y),
-            sup_y + (r10 * cop_exp_x + r11 * cop_exp_y),
-        ]
-        cop_meas = list(self._measured_cop(sensors))
-        meas_valid = math.isfinite(cop_meas[0]) and math.isfinite(cop_meas[1])
-        if not meas_valid:  # no foot loaded: logs hold finite numbers only
-            cop_meas = [0.0, 0.0]
-        fsm_state = 0 if double else (1 if sup == "left" else -1)
-        xp_world = [sup_x + r00 * xp_des, sup_y + r10 * xp_des]
+        s = self._signals.tolist()  # in the order of kernels.SIGNALS
+        tau = self._tau
         signals = {
-            "fsm_state": fsm_state,
-            "efsm_phase": int(phase),
-            "epsilon": eps,
-            "epsilon_onset": eps_on,
-            "d": out.d if math.isfinite(out.d) else 1.0,
-            "com_w": com_w,
-            "com_vel_w": vcom_w,
-            "com_world": com_xyz,
-            "com_vel_world": vcom_xyz,
-            "cp_w": x_cp,
-            "cp_ref_w": x_s - p.r,
-            "x_s_w": x_s,
-            "xp_des_w": xp_des,
-            "xp_des_world": xp_world,
-            "cop_exp_w": [cop_exp_x, cop_exp_y],
-            "cop_exp_world": cop_exp_world,
-            "cop_meas_world": cop_meas,
-            "cop_meas_valid": int(meas_valid),
-            "swing_pos_world": sw_xyz,
-            "swing_ref_world": sw_ref,
-            "swing_foot": 0 if double else (1 if sw == "right" else -1),
-            "support_pos_world": sup_xyz,
-            "ow_yaw": math.atan2(r10, r00),
-            "com_force_x": f1,
-            "balancing": int(balancing),
+            "fsm_state": int(s[0]),
+            "efsm_phase": int(s[1]),
+            "epsilon": s[2],
+            "epsilon_onset": s[3],
+            "d": s[4],
+            "com_w": s[5:8],
+            "com_vel_w": s[8:11],
+            "com_world": s[11:14],
+            "com_vel_world": s[14:17],
+            "cp_w": s[17],
+            "cp_ref_w": s[18],
+            "x_s_w": s[19],
+            "xp_des_w": s[20],
+            "xp_des_world": s[21:23],
+            "cop_exp_w": s[23:25],
+            "cop_exp_world": s[25:27],
+            "cop_meas_world": s[27:29],
+            "cop_meas_valid": int(s[29]),
+            "swing_pos_world": s[30:33],
+            "swing_ref_world": s[33:36],
+            "swing_foot": int(s[36]),
+            "support_pos_world": s[37:40],
+            "ow_yaw": s[40],
+            "com_force_x": s[41],
+            "balancing": int(s[42]),
             "tau_ref": tau.tolist(),
-            "steps_done": self._steps_done,
+            "steps_done": int(s[43]),
         }
-        return Command(ctrl=tau.copy(), signals=signals, events=tuple(events))
+        events = self._events(transitions, signals["steps_done"]) if transitions else ()
+        return Command(ctrl=tau.copy(), signals=signals, events=events)
 
     # ---- helpers -------------------------------------------------------------------------
+
+    def _events(self, transitions: int, steps_done: int) -> tuple[dict, ...]:
+        """The E-FSM transitions of a tick, then the footstep when the feet swapped roles."""
+        events: list[dict] = [
+            {"kind": "fsm", "from": old.name, "to": new.name}
+            for bit, old, new in _TRANSITIONS
+            if transitions & bit
+        ]
+        if transitions & kernels.DS_TO_SSD:
+            foot = FEET[int(self._st["support"])]
+            events.append({"kind": "support", "foot": foot, "step": steps_done})
+        return tuple(events)
 
     def _pin_state(self, sensors: SensorSnapshot) -> tuple[np.ndarray, np.ndarray]:
         """Pinocchio's (q, v), as ``sensors.pinocchio_state`` gives them, into reused buffers.
@@ -445,51 +382,29 @@ class EfsmController(Controller):
         )
         return q, v
 
-    def _start(self, com: np.ndarray) -> None:
+    def _start(self) -> None:
         """Record the initial targets (Table II) and start the first DS (Table I)."""
-        p, pose = self._p, self._pose
+        p, model, data, st = self._p, self._model, self._data, self._st
         self._started = True
-        rot_ub_des = _yaw_only(pose.pelvis_rot)
-        self._rot_des[0] = rot_ub_des  # Table II: the upper body level, initial heading
-        self._rot_des[1] = _yaw_only(pose.sole_rot["left"])  # the swing sole level
-        self._heading = rot_ub_des[:, 0].copy()
-        self._lateral = rot_ub_des[:, 1].copy()
-        p_left, p_right = pose.sole_pos["left"], pose.sole_pos["right"]
-        spacing = float(self._lateral @ (p_left - p_right))
-        self._width = spacing if p.step_width is None else p.step_width
-        self._z_m0 = float(com[2] - 0.5 * (p_left[2] + p_right[2]))
+        pin.updateFramePlacements(model, data)  # once: the kernel places the frames it needs
+        p_left, p_right = (data.oMf[self._sole[f]].translation for f in FEET)
+        rot_ub_des = _yaw_only(data.oMi[PELVIS_JOINT].rotation)
+        st["rot_des"][0] = rot_ub_des  # Table II: the upper body level, initial heading
+        st["rot_des"][1] = _yaw_only(data.oMf[self._sole["left"]].rotation)  # swing sole level
+        st["heading"], st["lateral"] = rot_ub_des[:, 0], rot_ub_des[:, 1]
+        spacing = float(rot_ub_des[:, 1] @ (p_left - p_right))
+        st["width"] = spacing if p.step_width is None else p.step_width
+        com = data.com[0]
+        st["z_m0"] = float(com[2] - 0.5 * (p_left[2] + p_right[2]))
         # The first DS: O_w sits on the first swing foot, the CoP moves onto the support
         # foot (x_s); it starts where the CoM projects (standing still, CoP ≈ CoM).
-        sup, sw = OTHER_FOOT[self._support], self._support  # roles in the first DS
-        self._support = sup
-        p_sup, p_sw = pose.sole_pos[sup], pose.sole_pos[sw]
+        sw = int(st["support"])  # roles in the first DS
+        sup = 1 - sw
+        st["support"] = sup
+        p_sup, p_sw = (p_left, p_right) if sup == 0 else (p_right, p_left)
         rot = self._ow_rotation(p_sup, p_sw)
-        self._fsm.xp_des = float((rot.T @ (com - p_sup))[0])
+        st["xp_des"] = float((rot.T @ (com - p_sup))[0])
         self._rot_w[:] = rot
-
-    def _plan_next_step(self, p_sup: np.ndarray, swing: str) -> None:
-        """Footstep planner: the next swing-foot target, step_length ahead of the support.
-
-        After ``n_steps`` footsteps the targets are beside the support foot (stepping in
-        place), so the E-FSM keeps its cycle without a separate stopping state.
-        """
-        self._steps_done += 1
-        side = 1.0 if swing == "left" else -1.0
-        n = self._p.n_steps
-        length = self._p.step_length if n is None or self._steps_done <= n else 0.0
-        target = p_sup + self._heading * length + side * self._width * self._lateral
-        self._swing_target = target.tolist()
-
-    def _swing_ref(self, phase: Phase, support_z: float) -> list[float]:
-        """Swing-foot position reference (Table II) [m]: planned xy, raise/land height.
-
-        Args:
-            phase: E-FSM phase: SSD raises the foot, the others lower it.
-            support_z: height of the support sole centre [m].
-        """
-        h = self._p.raise_height if phase is Phase.SSD else self._p.land_height
-        target_x, target_y, _ = self._swing_target
-        return [target_x, target_y, support_z + h]
 
     def _task2_force(
         self, lam: np.ndarray, acc: np.ndarray, double: bool, eps: float, phase: Phase
@@ -525,27 +440,25 @@ class EfsmController(Controller):
         Each sensor reads the wrench the foot applies to the leg; adding back the static
         weight of the part below the sensor (the ankle-roll link, i.e. the foot) gives the
         ground reaction. Feet carrying no vertical load are left out
-        (:func:`.kernels.measured_cop`).
+        (:func:`.kernels.measured_cop`; the tick calls it with the frames it places). Reads
+        the F/T frames of ``Data``'s last ``updateFramePlacements``.
         """
-        (rot_left, rot_right), (pos_left, pos_right) = self._pose.ft_rot, self._pose.ft_pos
+        left, right = (self._data.oMf[self._ft[f]] for f in FEET)
         return kernels.measured_cop(
-            rot_left,
-            pos_left,
+            left.rotation,
+            left.translation,
             sensors.left_ft,
-            rot_right,
-            pos_right,
+            right.rotation,
+            right.translation,
             sensors.right_ft,
-            self._foot_com_ft,
-            self._foot_weight,
+            self._st["foot_com"],
+            self._st["foot_weight"],
         )
-
-
-_EYE3 = np.eye(3)
 
 
 def _rot_z(c: float, s: float) -> np.ndarray:
     """Rotation about z with cosine ``c`` and sine ``s``."""
-    rot = _EYE3.copy()
+    rot = np.eye(3)
     rot[0, 0], rot[0, 1], rot[1, 0], rot[1, 1] = c, -s, s, c
     return rot
 
@@ -558,39 +471,3 @@ def _yaw_rotation(yaw: float) -> np.ndarray:
 def _yaw_only(rot: np.ndarray) -> np.ndarray:
     """The yaw part of a rotation: level, with the same heading."""
     return _yaw_rotation(math.atan2(rot[1, 0], rot[0, 0]))
-
-
-def _ow_frame(
-    p_sup: list[float],
-    p_sw: list[float],
-    com: list[float],
-    vcom: list[float],
-    rot: np.ndarray,
-) -> tuple[float, float, list[float], list[float], float]:
-    """O_w (§III-A1) and the CoM and swing foot in it.
-
-    Plain float math: on three-vectors it costs less than numpy's per-call overhead.
-
-    Args:
-        p_sup: support sole centre, the origin of O_w [m].
-        p_sw: swing sole centre [m]; O_w's x points to its ground projection.
-        com: CoM in the world [m].
-        vcom: CoM velocity in the world [m/s].
-        rot: out: the world-from-O_w rotation (3, 3); only its top-left 2 × 2 is written
-            (the rest stays that of a rotation about z).
-
-    Returns:
-        cos and sin of O_w's yaw; com_w [m] and vcom_w [m/s] (3 floats each); x_s, the
-        swing sole centre along x of O_w [m].
-    """
-    ox, oy, oz = p_sup
-    sx, sy, _ = p_sw
-    yaw = math.atan2(sy - oy, sx - ox)
-    c, s = math.cos(yaw), math.sin(yaw)
-    rot[0, 0], rot[0, 1], rot[1, 0], rot[1, 1] = c, -s, s, c
-    cx, cy, cz = com
-    vx, vy, vz = vcom
-    dx, dy = cx - ox, cy - oy
-    com_w = [c * dx + s * dy, c * dy - s * dx, cz - oz]
-    vcom_w = [c * vx + s * vy, c * vy - s * vx, vz]
-    return c, s, com_w, vcom_w, c * (sx - ox) + s * (sy - oy)

@@ -3,6 +3,10 @@
 Everything here is one-dimensional along the x-axis of the frame O_w (origin at the
 support-foot centre, x toward the swing foot's ground projection). No clock appears in
 any transition: each state ends on an event of the measured state (Table I).
+
+This is the readable reference: the controller's tick runs the same E-FSM compiled,
+:func:`.kernels.fsm_step`, which ``tests/test_efsm_kernels.py`` compares with
+:meth:`EventFsm.step`.
 """
 
 from __future__ import annotations

@@ -7,8 +7,16 @@ experiments near real time. Why numba: fused into one compiled call the same alg
 a few µs, with no C extension to build. The kernels follow :mod:`.wbc` (the readable numpy
 reference, checked against Pinocchio's constrained dynamics) step by step, and
 ``tests/test_efsm_kernels.py`` checks that they agree with it. ``cache=True`` keeps the
-machine code on disk, so only the first process compiles; :func:`warm_up`, called by the
-controller's reset, compiles or loads them before the first tick.
+machine code on disk, so only the first process compiles; the controller's reset compiles
+or loads them with two throwaway ticks.
+
+The whole tick after Pinocchio's ``computeAllTerms`` is one call, :func:`tick`: the frames,
+O_w, the E-FSM (:mod:`.fsm` is its reference), the footstep planner, A⁻¹ and J̇_c q̇ (as
+Pinocchio computes them, bit for bit), Γ and the CoPs. Python around it cost more than the
+algebra: each numba call pays ≈ 50 ns per array argument (hence :func:`tick_state`, one
+record for the controller's own arrays), a Pinocchio call ≈ 1 µs, a line of Python
+≈ 0.1 µs. Inside, temporary arrays are kept few: each is an allocation, and at 2 kHz
+between MuJoCo steps little of the tick's memory is still in cache.
 
 Matrices here are small, so products are plain loops: they take any memory layout
 (Pinocchio's arrays are column-major views) without copies, and cost less than a BLAS call.
@@ -34,7 +42,7 @@ _LSTSQ_RCOND = float(np.finfo(np.float64).eps) * 10
 _jit = numba.njit(cache=True, error_model="numpy")
 
 # Phases of fsm.Phase, as plain ints for the compiled code.
-_SSA, _DS = 1, 2
+_SSD, _SSA, _DS = 0, 1, 2
 
 
 # ---- small dense algebra ------------------------------------------------------------------
@@ -42,12 +50,19 @@ _SSA, _DS = 1, 2
 
 @_jit
 def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a @ b."""
+    """a @ b, for a finite b.
+
+    Zero entries of ``a`` are skipped: the tick's Jacobians are a third zeros (joints off a
+    foot's chain), and with every sum starting at +0.0 a ±0 term changes no bit of it (it
+    would only turn an inf or NaN of ``b`` into NaN).
+    """
     n, m, p = a.shape[0], a.shape[1], b.shape[1]
     out = np.zeros((n, p))
     for i in range(n):
         for k in range(m):
             a_ik = a[i, k]
+            if a_ik == 0.0:
+                continue
             for j in range(p):
                 out[i, j] += a_ik * b[k, j]
     return out
@@ -81,15 +96,15 @@ def matvec(a: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 @_jit
-def lu_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a⁻¹ b for b of shape (n, p), LU with partial pivoting (as LAPACK's gesv).
+def _lu_solve_in_place(lu: np.ndarray, x: np.ndarray) -> None:
+    """x ← lu⁻¹ x for x of shape (n, p), LU with partial pivoting (as LAPACK's gesv).
 
-    An exactly singular ``a`` gives infs/NaNs rather than an error, like the numpy kernels
-    the reference uses, so callers can test the result.
+    ``lu`` is overwritten by the factors: callers pass copies they own (a tick solves about
+    ten systems, and each copy is an allocation). An exactly singular matrix gives
+    infs/NaNs rather than an error, like the numpy kernels the reference uses, so callers
+    can test the result.
     """
-    n, p = a.shape[0], b.shape[1]
-    lu = a.copy()
-    x = b.copy()
+    n, p = lu.shape[0], x.shape[1]
     for col in range(n):
         piv = col
         for r in range(col + 1, n):
@@ -116,19 +131,37 @@ def lu_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
             f = lu[r, col]
             for j in range(p):
                 x[r, j] -= f * x[col, j]
-    return x
 
 
 @_jit
 def inverse(a: np.ndarray) -> np.ndarray:
     """a⁻¹ (infs/NaNs if a is singular)."""
-    return lu_solve(a, np.eye(a.shape[0]))
+    return _invert(a.copy())
+
+
+@_jit
+def _invert(a: np.ndarray) -> np.ndarray:
+    """a⁻¹ of a temporary ``a``, which is overwritten (one copy fewer than :func:`inverse`)."""
+    x = np.eye(a.shape[0])
+    _lu_solve_in_place(a, x)
+    return x
 
 
 @_jit
 def solve_vec(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a⁻¹ b for a vector b (infs/NaNs if a is singular)."""
-    return lu_solve(a, b.reshape((b.shape[0], 1)).copy())[:, 0]
+    x = b.copy().reshape((b.shape[0], 1))
+    _lu_solve_in_place(a.copy(), x)
+    return x[:, 0]
+
+
+@_jit
+def _any_nonzero(x: np.ndarray) -> bool:
+    """np.any(x != 0.0) without the temporary array."""
+    for i in range(x.shape[0]):
+        if x[i] != 0.0:
+            return True
+    return False
 
 
 @_jit
@@ -233,14 +266,6 @@ _EPS = float(np.finfo(np.float64).eps)
 
 
 @_jit
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b of 3-vectors."""
-    return np.array(
-        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-    )
-
-
-@_jit
 def _log3_singular_axis(rot: np.ndarray, i0: int, val: float) -> tuple[float, np.ndarray]:
     """Angle and axis of a rotation by ≈ π from its i0-th diagonal (Pinocchio's
     ``internal::compute_theta_axis``)."""
@@ -263,43 +288,233 @@ def log3(rot: np.ndarray) -> np.ndarray:
     The rotation is renormalized first; below θ = ε^(1/3) a Taylor expansion replaces
     θ / sin θ, and near θ = π the axis comes from the largest diagonal entry.
     """
-    c0 = rot[:, 0] / math.sqrt(rot[0, 0] ** 2 + rot[1, 0] ** 2 + rot[2, 0] ** 2)
-    c1 = rot[:, 1] / math.sqrt(rot[0, 1] ** 2 + rot[1, 1] ** 2 + rot[2, 1] ** 2)
-    c2 = _cross(c0, c1)
-    c0 = _cross(c1, c2)
-    r = np.empty((3, 3))
-    r[:, 0], r[:, 1], r[:, 2] = c0, c1, c2
-    tr = r[0, 0] + r[1, 1] + r[2, 2]
+    out = np.empty(3)
+    out[0], out[1], out[2] = _log3(
+        rot[0, 0], rot[0, 1], rot[0, 2], rot[1, 0], rot[1, 1], rot[1, 2],
+        rot[2, 0], rot[2, 1], rot[2, 2],
+    )  # fmt: skip
+    return out
+
+
+@_jit
+def _log3(
+    r00: float, r01: float, r02: float,
+    r10: float, r11: float, r12: float,
+    r20: float, r21: float, r22: float,
+) -> tuple[float, float, float]:  # fmt: skip
+    """:func:`log3` of the rotation with entries r_ij, on scalars: as arrays, the 3-vectors
+    cost more in allocations than in arithmetic."""
+    n0 = math.sqrt(r00**2 + r10**2 + r20**2)
+    n1 = math.sqrt(r01**2 + r11**2 + r21**2)
+    x0, x1, x2 = r00 / n0, r10 / n0, r20 / n0  # column 0
+    y0, y1, y2 = r01 / n1, r11 / n1, r21 / n1  # column 1
+    z0, z1, z2 = x1 * y2 - x2 * y1, x2 * y0 - x0 * y2, x0 * y1 - x1 * y0  # column 2 = x × y
+    x0, x1, x2 = y1 * z2 - y2 * z1, y2 * z0 - y0 * z2, y0 * z1 - y1 * z0  # column 0 = y × z
+    tr = x0 + y1 + z2
     cos_value = (tr - 1.0) / 2.0
     prec = _LOG3_PREC
     if cos_value < -1.0 + prec:  # θ ≈ π
+        r = np.empty((3, 3))
+        r[0, 0], r[1, 0], r[2, 0] = x0, x1, x2
+        r[0, 1], r[1, 1], r[2, 1] = y0, y1, y2
+        r[0, 2], r[1, 2], r[2, 2] = z0, z1, z2
         vals = np.array([2.0 * r[i, i] - tr + 1.0 for i in range(3)])
         if vals[0] >= vals[1]:
             i0 = 0 if vals[0] >= vals[2] else 2
         else:
             i0 = 1 if vals[1] >= vals[2] else 2
         theta, axis = _log3_singular_axis(r, i0, vals[i0])
-        return theta * axis
+        return theta * axis[0], theta * axis[1], theta * axis[2]
     acos_expansion = math.sqrt(2.0 * (1.0 - cos_value) + _EPS * _EPS)
     if tr <= 3.0 - prec:
         theta = math.acos(cos_value) if tr >= -1.0 + prec else math.pi - acos_expansion
     else:
         theta = acos_expansion
-    antisym = np.array(
-        [0.5 * (r[2, 1] - r[1, 2]), 0.5 * (r[0, 2] - r[2, 0]), 0.5 * (r[1, 0] - r[0, 1])]
-    )
-    sq = antisym[0] ** 2 + antisym[1] ** 2 + antisym[2] ** 2
+    w0, w1, w2 = 0.5 * (y2 - z1), 0.5 * (z0 - x2), 0.5 * (x1 - y0)  # the antisymmetric part
+    sq = w0**2 + w1**2 + w2**2
     if theta >= prec:
         t = theta / math.sin(theta)
     else:
         t = 1.0 + sq / 6.0 + sq * sq * 3.0 / 40.0
-    return t * antisym
+    return t * w0, t * w1, t * w2
 
 
 @_jit
-def orientation_error(rot_des: np.ndarray, rot: np.ndarray) -> np.ndarray:
-    """log3(R_des Rᵀ), the orientation error in world axes [rad]."""
-    return log3(matmul_bt(rot_des, rot))
+def _row_row(a: np.ndarray, i: int, b: np.ndarray, j: int) -> float:
+    """(a bᵀ)[i, j] of 3 × 3 matrices, summed from 0.0 as :func:`matmul_bt`."""
+    acc = 0.0
+    for k in range(3):
+        acc += a[i, k] * b[j, k]
+    return acc
+
+
+@_jit
+def orientation_error(rot_des: np.ndarray, rot: np.ndarray) -> tuple[float, float, float]:
+    """log3(R_des Rᵀ), the orientation error in world axes [rad] (a tuple: no allocation)."""
+    return _log3(
+        _row_row(rot_des, 0, rot, 0), _row_row(rot_des, 0, rot, 1), _row_row(rot_des, 0, rot, 2),
+        _row_row(rot_des, 1, rot, 0), _row_row(rot_des, 1, rot, 1), _row_row(rot_des, 1, rot, 2),
+        _row_row(rot_des, 2, rot, 0), _row_row(rot_des, 2, rot, 1), _row_row(rot_des, 2, rot, 2),
+    )  # fmt: skip
+
+
+# ---- Pinocchio's last steps, in the tick ----------------------------------------------------
+# After computeAllTerms a tick also called Pinocchio's cholesky.decompose, computeMinv and
+# getFrameClassicalAcceleration: about 1 µs of Python binding each, and a fresh 18 × 18 array.
+# These kernels do the same arithmetic in the same order (Pinocchio's C++ read side by side),
+# so their results are Pinocchio's bit for bit on this build; tests/test_efsm_kernels.py
+# checks that, and a Pinocchio built otherwise would still agree to rounding.
+
+
+@_jit
+def mass_matrix_inverse(mass: np.ndarray, tree: np.ndarray, out: np.ndarray) -> None:
+    """A⁻¹ from A's upper triangle, as Pinocchio's ``cholesky.decompose`` + ``computeMinv``.
+
+    A = U D Uᵀ along the kinematic tree (U unit upper triangular, non-zero only between a
+    velocity coordinate and its ancestors); then column c of A⁻¹ is U⁻ᵀ D⁻¹ U⁻¹ e_c, of which
+    the upper triangle is kept and mirrored. Every entry gets the terms of Pinocchio's sums
+    in Pinocchio's order (left to right: its dot products run along strided rows, which
+    Eigen does not vectorize). Only the loops are turned, so that independent sums
+    (ancestors; columns) run side by side rather than one after the other: a direct port
+    of Pinocchio's column-by-column loops cost as much as the two Python calls it replaces.
+
+    Args:
+        mass: A (``data.M`` after computeAllTerms; only its upper triangle is read), (n, n).
+        tree: ``data.parents_fromRow`` (row 0) and ``data.nvSubtree_fromRow`` (row 1), (2, n).
+        out: A⁻¹, both triangles, (n, n).
+    """
+    n = mass.shape[0]
+    parent, subtree = tree[0], tree[1]
+    u = np.zeros((n, n))  # U's strict upper triangle
+    d, d_inv, du, acc = np.empty((4, n))  # D, D⁻¹ and two work vectors: one allocation
+    rows = np.empty(n, dtype=np.int64)
+    # cholesky.decompose, last coordinate first: D_j = A_jj − Σ_k U_jk D_k U_jk and
+    # U_ij = (A_ij − Σ_k U_ik D_k U_jk) / D_j for each ancestor i, k over j's subtree.
+    for j in range(n - 1, -1, -1):
+        below = subtree[j] - 1  # the coordinates j + 1 … j + below move with j
+        for k in range(below):
+            du[k] = u[j, j + 1 + k] * d[j + 1 + k]
+        n_rows, i = 0, j  # j, then its ancestors
+        while i >= 0:
+            rows[n_rows] = i
+            n_rows += 1
+            i = parent[i]
+        for r in range(n_rows):  # Eigen's sums: the first term, then + each next one
+            acc[r] = u[rows[r], j + 1] * du[0] if below else 0.0
+        for k in range(1, below):
+            for r in range(n_rows):
+                acc[r] = acc[r] + u[rows[r], j + 1 + k] * du[k]
+        d[j] = mass[j, j] - acc[0]
+        d_inv[j] = 1.0 / d[j]
+        for r in range(1, n_rows):
+            u[rows[r], j] = (mass[rows[r], j] - acc[r]) * d_inv[j]
+    # computeMinv: column c is e_c, then U⁻¹ (back substitution), D⁻¹ on rows ≤ c, and U⁻ᵀ
+    # (forward substitution); all columns at once, the rows > c left out (Pinocchio
+    # computes them, then overwrites them with the mirror image).
+    # In U⁻¹ e_c only the ancestors of c (and c) are non-zero: the other terms of
+    # Pinocchio's sums are ±0, which change no non-zero sum, so they are skipped; the
+    # non-zero ones are added in its order, from +0.0 (its first term may be ±0: the same).
+    for i in range(n):
+        for c in range(n):
+            out[i, c] = 1.0 if i == c else 0.0
+    for k in range(n - 2, -1, -1):
+        end = k + subtree[k]  # the columns below k: k + 1 … end − 1
+        acc[k + 1 : end] = 0.0
+        for i in range(k + 1, end):
+            u_ki = u[k, i]
+            for c in range(i, i + subtree[i]):  # the columns with row i non-zero
+                acc[c] = acc[c] + u_ki * out[i, c]
+        for c in range(k + 1, end):
+            out[k, c] = -acc[c]
+    for k in range(n):
+        for c in range(k, n):
+            out[k, c] *= d_inv[k]
+    for k in range(n):
+        for i in range(k + 1, k + subtree[k]):
+            u_ki = u[k, i]
+            for c in range(i, n):
+                out[i, c] -= u_ki * out[k, c]
+    for i in range(n):
+        for c in range(i):
+            out[i, c] = out[c, i]
+
+
+@_jit
+def _rotate(rot: np.ndarray, x0: float, x1: float, x2: float) -> tuple[float, float, float]:
+    """rot · x summed as Eigen's 3 × 3 product in Pinocchio: rows 0 and 1 as one two-lane
+    packet, (r₀x₀ + r₁x₁) + r₂x₂; row 2 alone as a tree, r₀x₀ + (r₁x₁ + r₂x₂)."""
+    return (
+        (rot[0, 0] * x0 + rot[0, 1] * x1) + rot[0, 2] * x2,
+        (rot[1, 0] * x0 + rot[1, 1] * x1) + rot[1, 2] * x2,
+        rot[2, 0] * x0 + (rot[2, 1] * x1 + rot[2, 2] * x2),
+    )
+
+
+@_jit
+def frame_classical_acceleration(
+    joint_rot: np.ndarray,
+    joint_vel: np.ndarray,
+    joint_acc: np.ndarray,
+    offset: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """J̇ q̇ of a frame fixed to a joint's body, world axes at the frame origin, as Pinocchio's
+    ``getFrameClassicalAcceleration(..., LOCAL_WORLD_ALIGNED)`` after computeAllTerms.
+
+    The joint's spatial velocity (v, ω) and bias acceleration (a, α) (q̈ = 0), in joint axes,
+    move to the frame origin (v + ω × o, a + α × o), turn to world axes, and the classical
+    acceleration adds ω × v.
+
+    Args:
+        joint_rot: world-from-joint rotation (``data.oMi[j].rotation``).
+        joint_vel, joint_acc: ``data.v[j].vector`` and ``data.a[j].vector`` (linear first).
+        offset: the frame origin in joint axes (the frame placement's translation) [m].
+        out: (linear, angular) [m/s², rad/s²], shape (6,).
+    """
+    ox, oy, oz = offset[0], offset[1], offset[2]
+    w0, w1, w2 = joint_vel[3], joint_vel[4], joint_vel[5]
+    v0, v1, v2 = _rotate(
+        joint_rot,
+        joint_vel[0] + (w1 * oz - w2 * oy),
+        joint_vel[1] + (w2 * ox - w0 * oz),
+        joint_vel[2] + (w0 * oy - w1 * ox),
+    )
+    w0, w1, w2 = _rotate(joint_rot, w0, w1, w2)
+    al0, al1, al2 = joint_acc[3], joint_acc[4], joint_acc[5]
+    a0, a1, a2 = _rotate(
+        joint_rot,
+        joint_acc[0] + (al1 * oz - al2 * oy),
+        joint_acc[1] + (al2 * ox - al0 * oz),
+        joint_acc[2] + (al0 * oy - al1 * ox),
+    )
+    out[0] = a0 + (w1 * v2 - w2 * v1)  # + ω × v
+    out[1] = a1 + (w2 * v0 - w0 * v2)
+    out[2] = a2 + (w0 * v1 - w1 * v0)
+    out[3], out[4], out[5] = _rotate(joint_rot, al0, al1, al2)
+
+
+@_jit
+def frame_placement(
+    joint_rot: np.ndarray,
+    joint_pos: np.ndarray,
+    local_rot: np.ndarray,
+    local_pos: np.ndarray,
+    rot: np.ndarray,
+    pos: np.ndarray,
+) -> None:
+    """A frame's world placement, as Pinocchio's ``updateFramePlacements`` (oMf = oMi · iMf).
+
+    Args:
+        joint_rot, joint_pos: ``data.oMi[j]`` of the frame's joint.
+        local_rot, local_pos: the frame's placement in the joint (``model.frames[f]``).
+        rot, pos: out: the frame's world rotation (3, 3) and position (3,) [m].
+    """
+    for col in range(3):
+        rot[0, col], rot[1, col], rot[2, col] = _rotate(
+            joint_rot, local_rot[0, col], local_rot[1, col], local_rot[2, col]
+        )
+    x0, x1, x2 = _rotate(joint_rot, local_pos[0], local_pos[1], local_pos[2])
+    pos[0], pos[1], pos[2] = joint_pos[0] + x0, joint_pos[1] + x1, joint_pos[2] + x2
 
 
 # ---- Appendix A: contact dynamics and the task hierarchy ---------------------------------
@@ -320,7 +535,7 @@ def contact_dynamics(
     """
     c, n = jc.shape
     jc_a_inv = matmul(jc, a_inv)  # J_c A⁻¹ = (A⁻¹ J_cᵀ)ᵀ, shape (c, n)
-    lam_c = inverse(matmul_bt(jc_a_inv, jc))  # Λ_c = (J_c A⁻¹ J_cᵀ)⁻¹
+    lam_c = _invert(matmul_bt(jc_a_inv, jc))  # Λ_c = (J_c A⁻¹ J_cᵀ)⁻¹
     if not math.isfinite(np.trace(lam_c)):
         raise np.linalg.LinAlgError("singular contact inertia J_c A⁻¹ J_cᵀ")
     jbar_t = matmul(lam_c, jc_a_inv)  # J̄_cᵀ = Λ_c J_c A⁻¹, shape (c, n)
@@ -330,14 +545,17 @@ def contact_dynamics(
             f = jbar_t[r, i]
             for j in range(n):
                 P[i, j] -= f * jc_a_inv[r, j]
-    W = P[6:, 6:].copy()
-    well, W_pinv = inv_if_well_conditioned(W) if c <= 6 else (False, W)
-    w_eigvec = np.empty((0, 0))  # only built with W⁺ from the eigen-decomposition
+    W = P[6:, 6:]  # a view: what inverts it copies it
+    well, W_pinv = False, np.empty((0, 0))
+    w_eigvec = W_pinv  # only built with W⁺ from the eigen-decomposition
+    if c <= 6:
+        well, W_pinv = inv_if_well_conditioned(W)
     if not well:
         W_pinv, w_eigvec = pinv_eigh(W)
     # Eq. (8): f_c = J̄_cᵀ (SᵀΓ − b − g) + Λ_c J̇_c q̇.
     psi = jbar_t[:, 6:].copy()  # J̄_cᵀ Sᵀ, shape (c, k)
-    f_bias = matvec(lam_c, jc_dot_v) - matvec(jbar_t, nle)
+    f_bias = matvec(lam_c, jc_dot_v)
+    f_bias -= matvec(jbar_t, nle)
     # Appendix B: S q̈ = W Γ − S P (b+g) − S A⁻¹ J_cᵀ Λ_c J̇_c q̇.
     bias_acc = matvec(P[6:, :], nle)
     for r in range(c):
@@ -383,15 +601,25 @@ def task_hierarchy(
     m12 = m1 + m2
     jt = matmul_bt(W_pinv, phi)  # J̃ᵀ of every row, shape (k, m)
     gram = matmul(phi, jt)  # Φ W⁺ Φᵀ
-    ok1, lam1 = inv_if_well_conditioned(gram[:m1, :m1].copy())
-    ok12, lam12 = inv_if_well_conditioned(gram[:m12, :m12].copy())
+    ok1, lam1 = inv_if_well_conditioned(gram[:m1, :m1])
+    ok12, lam12 = inv_if_well_conditioned(gram[:m12, :m12])
     if ok1 and ok12:
         # torque_map = J̃ᵀ (I − U), U strictly block-upper:
         # Ñ_1ᵀ J̃_2ᵀ = J̃_2ᵀ − J̃_1ᵀ Λ_1 G_12, Ñ_12ᵀ J̃_3ᵀ = J̃_3ᵀ − J̃_12ᵀ Λ_12 G_12,3.
-        u = np.zeros((m, m))
-        u[:m1, m1:m12] = matmul(lam1, gram[:m1, m1:m12])
-        u[:m12, m12:] = matmul(lam12, gram[:m12, m12:])
-        torque_map = jt - matmul(jt, u)
+        # U's non-zero blocks only: its zeros would add ±0 terms, which change no sum.
+        u_2 = matmul(lam1, gram[:m1, m1:m12])  # U[:m1, m1:m12]
+        u_3 = matmul(lam12, gram[:m12, m12:])  # U[:m12, m12:]
+        torque_map = jt.copy()
+        for i in range(k):
+            for j in range(m1, m):
+                acc = 0.0  # (J̃ᵀ U)[i, j], summed as matmul does
+                if j < m12:
+                    for r in range(m1):
+                        acc += jt[i, r] * u_2[r, j - m1]
+                else:
+                    for r in range(m12):
+                        acc += jt[i, r] * u_3[r, j - m12]
+                torque_map[i, j] = jt[i, j] - acc
         ok3, lam3 = inv_if_well_conditioned(matmul(phi[m12:], torque_map[:, m12:]))
         if ok3:
             return torque_map, lam1, lam12[m1:, m1:].copy(), lam3
@@ -413,13 +641,15 @@ def grasp_map(rot_o: np.ndarray, origin: np.ndarray, contact_points: np.ndarray)
     n_feet = contact_points.shape[0]
     kmap = np.zeros((6, 6 * n_feet))
     for foot in range(n_feet):
-        d = np.empty(3)  # distance from O's origin, O axes
-        for i in range(3):
-            d[i] = (
-                rot_o[0, i] * (contact_points[foot, 0] - origin[0])
-                + rot_o[1, i] * (contact_points[foot, 1] - origin[1])
-                + rot_o[2, i] * (contact_points[foot, 2] - origin[2])
-            )
+        dx = contact_points[foot, 0] - origin[0]
+        dy = contact_points[foot, 1] - origin[1]
+        dz = contact_points[foot, 2] - origin[2]
+        # The distance from O's origin in O axes (Rᵀ (p − o)), as scalars.
+        d = (
+            rot_o[0, 0] * dx + rot_o[1, 0] * dy + rot_o[2, 0] * dz,
+            rot_o[0, 1] * dx + rot_o[1, 1] * dy + rot_o[2, 1] * dz,
+            rot_o[0, 2] * dx + rot_o[1, 2] * dy + rot_o[2, 2] * dz,
+        )
         c = 6 * foot
         for i in range(3):
             for j in range(3):
@@ -475,7 +705,7 @@ def redistribution_torque(
         f_all = f_now[:6] + shifted
         target = eps_onset * target + (1.0 - eps_onset) * f_all
     f_ref = eps * target
-    alpha = solve_vec(g[:6].copy(), f_ref - f_now[:6])  # Y_c f_c^cor (Eq. 16)
+    alpha = solve_vec(g[:6], f_ref - f_now[:6])  # Y_c f_c^cor (Eq. 16)
     return matvec(v2, alpha), f_ref
 
 
@@ -508,8 +738,8 @@ def task2_force(
         for i in range(3):
             fs[i] = _clip(fs[i], f_max)
             cut[i] = fs[i] - f_free[3 + i]
-        if np.any(cut != 0.0):
-            fs[3:] += matvec(lam[6:9, 3:6], solve_vec(lam[3:6, 3:6].copy(), cut))
+        if _any_nonzero(cut):
+            fs[3:] += matvec(lam[6:9, 3:6], solve_vec(lam[3:6, 3:6], cut))
     for i in range(3):
         fs[i] = _clip(fs[i], f_max)
         fs[3 + i] = _clip(fs[3 + i], m_max)
@@ -517,8 +747,8 @@ def task2_force(
         fs *= scale_swing
     cut = fs - f_free[3:9]
     f2 = f_free
-    if np.any(cut != 0.0):
-        f2[:3] += matvec(lam[0:3, 3:9], solve_vec(lam[3:9, 3:9].copy(), cut))
+    if _any_nonzero(cut):
+        f2[:3] += matvec(lam[0:3, 3:9], solve_vec(lam[3:9, 3:9], cut))
     f2[3:] = fs
     return f2
 
@@ -598,7 +828,7 @@ def whole_body_torques(
     actuator_rows: np.ndarray,
     tau: np.ndarray,
 ) -> tuple[float, bool, float, float]:
-    """Γ = Γ_t + Γ_c + Γ_gc (Eq. 7) of one tick, as ``EfsmController.step`` computes it.
+    """Γ = Γ_t + Γ_c + Γ_gc (Eq. 7) of one tick (:func:`tick` calls it with its frames).
 
     The three tasks of Eq. (11): task 1 the CoM x-force for x_p^des (Appendix D-1); task 2
     CoM y/z, pelvis yaw and, out of DS, the 6-D swing foot; task 3 pelvis roll/pitch, plus
@@ -640,10 +870,10 @@ def whole_body_torques(
     double = phase == _DS
 
     # Contact and task Jacobians, world axes.
-    jc = np.empty((12 if double else 6, n))
-    frame_jacobian(j_world, support_sup, p_sup, jc[0:6])
-    j_swing = np.empty((6, n))
-    frame_jacobian(j_world, support_sw, p_sw, jc[6:12] if double else j_swing)
+    jacobians = np.empty((12, n))  # the support sole's, then the swing sole's
+    frame_jacobian(j_world, support_sup, p_sup, jacobians[0:6])
+    frame_jacobian(j_world, support_sw, p_sw, jacobians[6:12])
+    jc, j_swing = jacobians[0 : 12 if double else 6], jacobians[6:12]
     P, W_pinv, psi, f_bias, gamma_gc, w_eigvec, _ = contact_dynamics(a_inv, nle, jc, jc_dot_v)
 
     # Task Jacobians, stacked [CoM x | CoM y, z, pelvis yaw, (swing foot) | pelvis roll, pitch],
@@ -686,8 +916,8 @@ def whole_body_torques(
             acc3[i] += rot[j, i] * (kp * e_pelvis[j] - kv * w_pelvis[j])
 
     # The hierarchy (Eq. 11, Appendix A): rows [task 1 (1), task 2 (m2), task 3 (2)].
-    phi = matmul(j_all, P[:, 6:])  # Φ = J P Sᵀ
-    tmap, _, lam2, lam3 = task_hierarchy(P[6:, 6:].copy(), W_pinv, phi, 1, m2)
+    phi = matmul(j_all, P[:, 6:].copy())  # Φ = J P Sᵀ (a contiguous P Sᵀ vectorizes)
+    tmap, _, lam2, lam3 = task_hierarchy(P[6:, 6:], W_pinv, phi, 1, m2)
     f_all = np.empty(m)  # [F_1; F_2; F_3]
     scale_swing = eps if phase == _SSA else 1.0
     f_all[1 : m2 + 1] = task2_force(lam2, acc2, double, scale_swing, f_max, m_max, decoupled)
@@ -702,34 +932,49 @@ def whole_body_torques(
     kpsi = matmul(kmap, psi)
     kt = matmul(kpsi, tmap)  # resultant wrench per task force, shape (6, m)
     fc23 = matvec(kt[:, 1:], f_all[1:])  # of tasks 2 and 3
-    fcb = matvec(kmap, matvec(psi, gamma_gc) + f_bias)
+    f_gc = matvec(psi, gamma_gc)
+    f_gc += f_bias
+    fcb = matvec(kmap, f_gc)
     f1 = -((fc23[2] + fcb[2]) * xp_des + fcb[4]) / kt[4, 0]  # Eqs. (20)-(21)
     f_all[0] = f1
 
     # Balancing (Appendix D-3): expected CoP out of the shrunk polygon -> F_3^bal.
-    fc = kt[:, 0] * f1 + fc23 + fcb
+    fc = np.empty(6)
+    for i in range(6):
+        fc[i] = (kt[i, 0] * f1 + fc23[i]) + fcb[i]
     balancing = False
     if balance:
-        kt3 = kt[:, m2 + 1 :].copy()
-        f3 = f_all[m2 + 1 :].copy()
+        kt3 = kt[:, m2 + 1 :]
+        f3 = f_all[m2 + 1 :]
         balancing, f3_new = balance_force(
             fc, kt3, f3, rot, sole_rot_sup, params[8:10], margin, x_s if double else math.nan
         )
         if balancing:
-            fc = fc + matvec(kt3, f3_new - f3)  # F_3 replaced
+            fc += matvec(kt3, f3_new - f3)  # F_3 replaced
             f_all[m2 + 1 :] = f3_new
-    gamma = matvec(tmap, f_all) + gamma_gc  # Γ_t + Γ_gc
+    gamma = matvec(tmap, f_all)
+    gamma += gamma_gc  # Γ_t + Γ_gc
 
     # Contact wrench redistribution in DS (Appendix C) with ε (§IV-B).
     if double:
-        f_now = matvec(psi, gamma) + f_bias
+        f_now = matvec(psi, gamma)
+        f_now += f_bias
         gamma_c, _ = redistribution_torque(psi, w_eigvec, f_now, eps, eps_onset, p_sup - p_sw)
         gamma += gamma_c  # Γ = Γ_t + Γ_c + Γ_gc, Eq. (7)
-        fc = fc + matvec(kpsi, gamma_c)
+        fc += matvec(kpsi, gamma_c)
     for i in range(tau.shape[0]):
         tau[i] = min(max(gamma[actuator_rows[i]], -tau_lim), tau_lim)
     cop_x, cop_y = cop_of(fc)
     return f1, balancing, cop_x, cop_y
+
+
+@_jit
+def _row_dot3(rot: np.ndarray, i: int, x: np.ndarray, start: int) -> float:
+    """Row i of a 3 × 3 ``rot`` times x[start : start + 3], summed from 0.0 as matvec does."""
+    acc = 0.0
+    for j in range(3):
+        acc += rot[i, j] * x[start + j]
+    return acc
 
 
 @_jit
@@ -762,12 +1007,13 @@ def measured_cop(
         rot = ft_rot_left if foot == 0 else ft_rot_right
         pos = ft_pos_left if foot == 0 else ft_pos_right
         wrench = wrench_left if foot == 0 else wrench_right
-        f = np.zeros(3)
-        tq = np.zeros(3)
-        for i in range(3):  # world axes
-            for j in range(3):
-                f[i] += rot[i, j] * wrench[j]
-                tq[i] += rot[i, j] * wrench[3 + j]
+        # Force and torque in world axes (scalars: no temporary arrays).
+        f = (
+            _row_dot3(rot, 0, wrench, 0),
+            _row_dot3(rot, 1, wrench, 0),
+            _row_dot3(rot, 2, wrench, 0),
+        )
+        tq = (_row_dot3(rot, 0, wrench, 3), _row_dot3(rot, 1, wrench, 3))
         weight = foot_weight[foot]  # [N], along +z
         if f[2] + weight <= 0.0:
             continue
@@ -783,3 +1029,387 @@ def measured_cop(
         return math.nan, math.nan
     # Ground-level CoP: the point on z = 0 about which the moment has no x/y part.
     return -mom_y / force_z, mom_x / force_z
+
+
+# ---- the control tick: O_w, E-FSM, footsteps, OS-WBC ----------------------------------------
+# The tick after computeAllTerms is one compiled call (why: a numba call costs ≈ 50 ns per
+# array argument, a Pinocchio call ≈ 1 µs, and a line of Python 50–100 ns, at 2 kHz).
+# tests/test_efsm_kernels.py compares it with the same tick composed of the readable
+# references (fsm.EventFsm, Pinocchio's frames and A⁻¹, numpy), phase by phase.
+
+#: Bits of :func:`tick`'s result: the E-FSM transitions of the tick (they happen in this order).
+SSD_TO_SSA, SSA_TO_DS, DS_TO_SSD = 1, 2, 4
+#: ``g`` of the capture point, Eq. (2), as fsm.capture_point [m/s²].
+_GRAVITY = 9.81
+
+#: The signals :func:`tick` writes into ``state["signals"]``, in order: (name, length).
+SIGNALS = (
+    ("fsm_state", 1),
+    ("efsm_phase", 1),
+    ("epsilon", 1),
+    ("epsilon_onset", 1),
+    ("d", 1),
+    ("com_w", 3),
+    ("com_vel_w", 3),
+    ("com_world", 3),
+    ("com_vel_world", 3),
+    ("cp_w", 1),
+    ("cp_ref_w", 1),
+    ("x_s_w", 1),
+    ("xp_des_w", 1),
+    ("xp_des_world", 2),
+    ("cop_exp_w", 2),
+    ("cop_exp_world", 2),
+    ("cop_meas_world", 2),
+    ("cop_meas_valid", 1),
+    ("swing_pos_world", 3),
+    ("swing_ref_world", 3),
+    ("swing_foot", 1),
+    ("support_pos_world", 3),
+    ("ow_yaw", 1),
+    ("com_force_x", 1),
+    ("balancing", 1),
+    ("steps_done", 1),
+)
+
+
+def tick_state(nv: int, n_actuators: int) -> np.ndarray:
+    """A zeroed state of :func:`tick`: one numpy record (a structured array of length 1).
+
+    The controller's own arrays and numbers, as one argument: numba unboxes a record in one
+    step, where two dozen separate arrays and numbers cost ≈ 50 ns each. The controller
+    keeps views of the fields it writes or reads (``state["tau"][0]`` is a view).
+
+    Fields (per foot: left, right):
+        params: k_p, k_v, F_s bounds, ..., as :func:`whole_body_torques`' ``params``.
+        zeta, r, dxp, d_thr, v_stop, use_epsilon, ds_onset_ramp: fsm.FsmParams and the onset
+            ramp switch (1/0) of EfsmParams.
+        step_length, n_steps (−1: no limit), width, heading, lateral: the footstep planner.
+        z_m0, raise_height, land_height: CoM height (Eq. 2) and swing heights (Table II) [m].
+        rot_des: orientation targets (Table II): pelvis, swing sole.
+        actuator_rows, cholesky_tree, sole_support: as :func:`whole_body_torques` and
+            :func:`mass_matrix_inverse`; sole_support per foot, 1/0.
+        sole_local_rot/pos, ft_local_rot/pos: each sole and F/T frame in its joint.
+        foot_com, foot_weight: as :func:`measured_cop`.
+        support (0 left, 1 right), phase (fsm.Phase), xp_des [m], ds_start_xp (x_p^des when
+            DS started; NaN out of DS) [m], steps_done, swing_target [m]: the E-FSM's state.
+        rot: world-from-O_w, rewritten every tick.
+        v: the generalized velocity of the tick (written by the controller).
+        tau: out: actuator torques [Nm]. signals: out: :data:`SIGNALS`, flattened.
+    """
+    f8, i8 = np.float64, np.int64
+    n_signals = sum(n for _, n in SIGNALS)
+    fields = [
+        ("params", f8, (10,)),
+        ("zeta", f8),
+        ("r", f8),
+        ("dxp", f8),
+        ("d_thr", f8),
+        ("v_stop", f8),
+        ("use_epsilon", i8),
+        ("ds_onset_ramp", i8),
+        ("step_length", f8),
+        ("n_steps", i8),
+        ("width", f8),
+        ("heading", f8, (3,)),
+        ("lateral", f8, (3,)),
+        ("z_m0", f8),
+        ("raise_height", f8),
+        ("land_height", f8),
+        ("rot_des", f8, (2, 3, 3)),
+        ("actuator_rows", i8, (n_actuators,)),
+        ("cholesky_tree", i8, (2, nv)),
+        ("sole_support", i8, (2, nv)),
+        ("sole_local_rot", f8, (2, 3, 3)),
+        ("sole_local_pos", f8, (2, 3)),
+        ("ft_local_rot", f8, (2, 3, 3)),
+        ("ft_local_pos", f8, (2, 3)),
+        ("foot_com", f8, (2, 3)),
+        ("foot_weight", f8, (2,)),
+        ("support", i8),
+        ("phase", i8),
+        ("xp_des", f8),
+        ("ds_start_xp", f8),
+        ("steps_done", i8),
+        ("swing_target", f8, (3,)),
+        ("rot", f8, (3, 3)),
+        ("v", f8, (nv,)),
+        ("tau", f8, (n_actuators,)),
+        ("signals", f8, (n_signals,)),
+    ]
+    return np.zeros(1, dtype=np.dtype(fields, align=True))
+
+
+@_jit
+def ow_frame(
+    p_sup: np.ndarray, p_sw: np.ndarray, com: np.ndarray, vcom: np.ndarray, rot: np.ndarray
+) -> tuple[float, float, tuple[float, float, float], tuple[float, float, float], float]:
+    """O_w (§III-A1) and the CoM and swing foot in it.
+
+    Args:
+        p_sup: support sole centre, the origin of O_w [m].
+        p_sw: swing sole centre [m]; O_w's x points to its ground projection.
+        com, vcom: CoM position [m] and velocity [m/s] in the world.
+        rot: out: the world-from-O_w rotation (3, 3); only its top-left 2 × 2 is written
+            (the rest stays that of a rotation about z).
+
+    Returns:
+        cos and sin of O_w's yaw; com_w [m] and vcom_w [m/s]; x_s, the swing sole centre
+        along x of O_w [m].
+    """
+    ox, oy, oz = p_sup[0], p_sup[1], p_sup[2]
+    sx, sy = p_sw[0], p_sw[1]
+    yaw = math.atan2(sy - oy, sx - ox)
+    c, s = math.cos(yaw), math.sin(yaw)
+    rot[0, 0], rot[0, 1], rot[1, 0], rot[1, 1] = c, -s, s, c
+    dx, dy = com[0] - ox, com[1] - oy
+    com_w = (c * dx + s * dy, c * dy - s * dx, com[2] - oz)
+    vcom_w = (c * vcom[0] + s * vcom[1], c * vcom[1] - s * vcom[0], vcom[2])
+    return c, s, com_w, vcom_w, c * (sx - ox) + s * (sy - oy)
+
+
+@_jit
+def _epsilon(d: float, d_thr: float) -> float:
+    """ε(d) (§IV-B), as fsm.epsilon."""
+    if d <= 0.0:
+        return 0.0
+    if d < d_thr:
+        return d / d_thr
+    return 1.0
+
+
+@_jit
+def fsm_step(
+    phase: int,
+    xp_des: float,
+    x_m: float,
+    xd_m: float,
+    x_cp: float,
+    x_s: float,
+    zeta: float,
+    r: float,
+    dxp: float,
+    d_thr: float,
+    v_stop: float,
+    use_epsilon: bool,
+) -> tuple[int, float, float, float, int]:
+    """One control period of the E-FSM (Table I), as :meth:`.fsm.EventFsm.step`.
+
+    Returns:
+        The phase after the tick's transitions, x_p^des (Eqs. 3–4), ε, d, and the
+        transitions as bits (:data:`SSD_TO_SSA`, :data:`SSA_TO_DS`, :data:`DS_TO_SSD`).
+    """
+    transitions = 0
+    if phase == _SSD and xd_m >= -v_stop:
+        transitions |= SSD_TO_SSA
+        phase = _SSA
+    if phase == _SSA and x_cp >= x_s - r:
+        transitions |= SSA_TO_DS
+        phase = _DS
+    if phase == _DS:  # Eq. (4): steps of Δx_p^des toward x_s
+        delta = x_s - xp_des
+        xp_des = xp_des + math.copysign(dxp, delta) if abs(delta) > dxp else x_s
+    else:  # Eq. (3)
+        xp_des = 0.0 if x_m > zeta else x_m - zeta
+    if phase == _DS:  # d (§IV-B; fsm.transition_distance)
+        d = x_s - xp_des
+    elif phase == _SSA:
+        d = (x_s - r) - x_cp
+    else:
+        d = math.inf
+    eps = _epsilon(d, d_thr) if use_epsilon else 1.0
+    if phase == _DS and abs(x_s - xp_des) <= 0.0:
+        transitions |= DS_TO_SSD
+        phase = _SSD
+    return phase, xp_des, eps, d, transitions
+
+
+@_jit
+def next_swing_target(
+    p_sup: np.ndarray,
+    swing: int,
+    steps_done: int,
+    step_length: float,
+    n_steps: int,
+    width: float,
+    heading: np.ndarray,
+    lateral: np.ndarray,
+) -> tuple[float, float, float]:
+    """Footstep planner: the next swing-foot target, step_length ahead of the support [m].
+
+    After ``n_steps`` footsteps (``n_steps`` ≥ 0) the targets are beside the support foot
+    (stepping in place), so the E-FSM keeps its cycle without a separate stopping state.
+
+    Args:
+        p_sup: the new support sole centre [m]; swing: the new swing foot (0 left, 1 right).
+        steps_done: footsteps so far, this one included.
+        heading, lateral: the walking direction and the left-pointing lateral axis.
+    """
+    side = 1.0 if swing == 0 else -1.0
+    length = step_length if n_steps < 0 or steps_done <= n_steps else 0.0
+    offset = side * width
+    return (
+        p_sup[0] + heading[0] * length + offset * lateral[0],
+        p_sup[1] + heading[1] * length + offset * lateral[1],
+        p_sup[2] + heading[2] * length + offset * lateral[2],
+    )
+
+
+@_jit
+def tick(
+    mass: np.ndarray,
+    nle: np.ndarray,
+    j_world: np.ndarray,
+    j_com: np.ndarray,
+    com: np.ndarray,
+    vcom: np.ndarray,
+    joint_rot_left: np.ndarray,
+    joint_pos_left: np.ndarray,
+    joint_vel_left: np.ndarray,
+    joint_acc_left: np.ndarray,
+    joint_rot_right: np.ndarray,
+    joint_pos_right: np.ndarray,
+    joint_vel_right: np.ndarray,
+    joint_acc_right: np.ndarray,
+    pelvis_rot: np.ndarray,
+    wrench_left: np.ndarray,
+    wrench_right: np.ndarray,
+    state: np.ndarray,
+) -> int:
+    """``EfsmController.step`` after computeAllTerms: O_w, the E-FSM, the footstep planner,
+    Γ (Eq. 7) and the expected and measured CoP.
+
+    Args:
+        mass, nle, j_world, j_com, com, vcom: ``data.M`` (upper triangle), ``data.nle``,
+            ``data.J``, ``data.Jcom``, ``data.com[0]``, ``data.vcom[0]`` of computeAllTerms.
+        joint_*_left, joint_*_right: the placement (``data.oMi[j]`` rotation, translation),
+            velocity (``data.v[j]``) and bias acceleration (``data.a[j]``) of the joint
+            carrying each foot's sole and F/T frame.
+        pelvis_rot: world-from-pelvis rotation.
+        wrench_left, wrench_right: the F/T readings (see :func:`measured_cop`).
+        state: :func:`tick_state`, read and updated; ``tau`` and ``signals`` are written.
+
+    Returns:
+        The E-FSM transitions of the tick as bits (:data:`DS_TO_SSD`: the feet swapped roles).
+    """
+    st = state[0]
+    n = mass.shape[0]
+    # The soles and the F/T frames (left, right), as updateFramePlacements.
+    frames = np.empty((4, 4, 3))  # [sole left, sole right, F/T left, F/T right]: R; p
+    sole_rot, sole_pos = frames[0:2, 0:3], frames[0:2, 3]
+    ft_rot, ft_pos = frames[2:4, 0:3], frames[2:4, 3]
+    for f in range(2):
+        joint_rot = joint_rot_left if f == 0 else joint_rot_right
+        joint_pos = joint_pos_left if f == 0 else joint_pos_right
+        frame_placement(
+            joint_rot,
+            joint_pos,
+            st.sole_local_rot[f],
+            st.sole_local_pos[f],
+            sole_rot[f],
+            sole_pos[f],
+        )
+        frame_placement(
+            joint_rot, joint_pos, st.ft_local_rot[f], st.ft_local_pos[f], ft_rot[f], ft_pos[f]
+        )
+
+    # O_w and the E-FSM inputs (§III-A1, Eq. 2); the E-FSM (Table I).
+    sup = st.support
+    sw = 1 - sup
+    rot = st.rot
+    cos_w, sin_w, com_w, vcom_w, x_s = ow_frame(sole_pos[sup], sole_pos[sw], com, vcom, rot)
+    x_cp = math.sqrt(st.z_m0 / _GRAVITY) * vcom_w[0] + com_w[0]
+    phase, xp_des, eps, d, transitions = fsm_step(
+        st.phase, st.xp_des, com_w[0], vcom_w[0], x_cp, x_s,
+        st.zeta, st.r, st.dxp, st.d_thr, st.v_stop, st.use_epsilon != 0,
+    )  # fmt: skip
+    if transitions & DS_TO_SSD:
+        # DS ends: the swing foot becomes the support foot; next footstep target; O_w moves
+        # (x_p^des, the new support centre, is 0 in it).
+        sup, sw = sw, sup
+        st.support = sup
+        st.steps_done += 1
+        st.swing_target[0], st.swing_target[1], st.swing_target[2] = next_swing_target(
+            sole_pos[sup], sw, st.steps_done, st.step_length, st.n_steps, st.width,
+            st.heading, st.lateral,
+        )  # fmt: skip
+        cos_w, sin_w, com_w, vcom_w, x_s = ow_frame(sole_pos[sup], sole_pos[sw], com, vcom, rot)
+        x_cp = math.sqrt(st.z_m0 / _GRAVITY) * vcom_w[0] + com_w[0]
+        xp_des = 0.0
+    st.phase, st.xp_des = phase, xp_des
+    double = phase == _DS
+
+    # Task-space errors of Eq. (6) (Table II targets): CoM y, z and their velocities in O_w;
+    # the swing-foot reference: the planned xy, raised in SSD, lowered otherwise.
+    sup_x, sup_y, sup_z = sole_pos[sup, 0], sole_pos[sup, 1], sole_pos[sup, 2]
+    task_ref = np.empty(7)
+    task_ref[0] = 0.0 - com_w[1]
+    task_ref[1] = st.z_m0 - com_w[2]
+    task_ref[2], task_ref[3] = vcom_w[1], vcom_w[2]
+    task_ref[4], task_ref[5] = st.swing_target[0], st.swing_target[1]
+    task_ref[6] = sup_z + (st.raise_height if phase == _SSD else st.land_height)
+
+    # ε's ramp at DS onset (EfsmParams.ds_onset_ramp): the landing foot's wrench grows
+    # from 0 over the first d^thr of the x_p^des ramp.
+    eps_on = 1.0
+    if double:
+        if math.isnan(st.ds_start_xp):
+            st.ds_start_xp = xp_des
+        if st.use_epsilon != 0 and st.ds_onset_ramp != 0:
+            eps_on = _epsilon(abs(xp_des - st.ds_start_xp), st.d_thr)
+    else:
+        st.ds_start_xp = math.nan  # Γ_c = 0
+
+    # A⁻¹ and J̇_c q̇ (support foot first, the swing foot's rows in DS), as Pinocchio.
+    a_inv = np.empty((n, n))
+    mass_matrix_inverse(mass, st.cholesky_tree, a_inv)
+    jc_dot_v = np.empty(12 if double else 6)
+    for i in range(2 if double else 1):
+        f = sup if i == 0 else sw
+        frame_classical_acceleration(
+            joint_rot_left if f == 0 else joint_rot_right,
+            joint_vel_left if f == 0 else joint_vel_right,
+            joint_acc_left if f == 0 else joint_acc_right,
+            st.sole_local_pos[f],
+            jc_dot_v[6 * i : 6 * i + 6],
+        )
+
+    # Γ = Γ_t + Γ_c + Γ_gc (Eqs. 7 and 11, Appendices A–D), saturated, actuator order.
+    f1, balancing, cop_exp_x, cop_exp_y = whole_body_torques(
+        a_inv, nle, j_world, jc_dot_v, st.sole_support[sup], st.sole_support[sw], j_com,
+        st.v, rot, sole_pos[sup], sole_pos[sw], sole_rot[sup], sole_rot[sw], pelvis_rot,
+        st.rot_des, task_ref, phase, eps, eps_on, xp_des, x_s, st.params,
+        st.actuator_rows, st.tau,
+    )  # fmt: skip
+    meas_x, meas_y = measured_cop(
+        ft_rot[0], ft_pos[0], wrench_left, ft_rot[1], ft_pos[1], wrench_right,
+        st.foot_com, st.foot_weight,
+    )  # fmt: skip
+    meas_valid = math.isfinite(meas_x) and math.isfinite(meas_y)
+    if not meas_valid:  # no foot loaded: logs hold finite numbers only
+        meas_x, meas_y = 0.0, 0.0
+
+    # The signals, in the order of SIGNALS; O_w's rot[:2, :2] is (c, −s; s, c).
+    r00, r01, r10, r11 = cos_w, -sin_w, sin_w, cos_w
+    out = st.signals
+    out[0] = 0.0 if double else (1.0 if sup == 0 else -1.0)  # fsm_state
+    out[1] = phase
+    out[2], out[3] = eps, eps_on
+    out[4] = d if math.isfinite(d) else 1.0
+    out[5], out[6], out[7] = com_w
+    out[8], out[9], out[10] = vcom_w
+    out[11], out[12], out[13] = com[0], com[1], com[2]
+    out[14], out[15], out[16] = vcom[0], vcom[1], vcom[2]
+    out[17], out[18], out[19], out[20] = x_cp, x_s - st.r, x_s, xp_des
+    out[21], out[22] = sup_x + r00 * xp_des, sup_y + r10 * xp_des  # xp_des_world
+    out[23], out[24] = cop_exp_x, cop_exp_y
+    out[25] = sup_x + (r00 * cop_exp_x + r01 * cop_exp_y)  # cop_exp_world
+    out[26] = sup_y + (r10 * cop_exp_x + r11 * cop_exp_y)
+    out[27], out[28], out[29] = meas_x, meas_y, meas_valid
+    out[30], out[31], out[32] = sole_pos[sw, 0], sole_pos[sw, 1], sole_pos[sw, 2]
+    out[33], out[34], out[35] = task_ref[4], task_ref[5], task_ref[6]  # swing_ref_world
+    out[36] = 0.0 if double else (1.0 if sw == 1 else -1.0)  # swing_foot
+    out[37], out[38], out[39] = sup_x, sup_y, sup_z
+    out[40] = math.atan2(r10, r00)  # ow_yaw
+    out[41], out[42], out[43] = f1, balancing, st.steps_done
+    return transitions
