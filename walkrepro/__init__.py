@@ -8,6 +8,12 @@ from pathlib import Path
 if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
     os.environ["MUJOCO_GL"] = "osmesa"
 
+# A run is one simulation loop on one core, and its matrices are small (at most 60 x 60):
+# there OpenBLAS's worker threads only add hand-offs (≈ 2.5 µs on Paper I's 12 x 12 eigh at
+# 2 kHz), and `walkrepro check --jobs N` would oversubscribe the cores. It reads this when
+# numpy loads it, so it is set before anything imports numpy; users may override it.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 __version__ = "0.1.0"
 
 #: Repository root when run from a checkout (robots/, experiments/ live there).
