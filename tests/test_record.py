@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import collections
 import json
 import math
 from collections.abc import Iterator
@@ -494,3 +495,115 @@ def test_none_fields_do_not_hide_a_nan(tmp_path: Path, encoder: str) -> None:
         with pytest.raises(ValueError, match=r"note = nan"):
             log.write(TOPIC_SIGNALS, {"t": 0.0, "s": "null", "note": math.nan}, 0.0)
     assert read_log(path).messages(TOPIC_SENSORS) == [{"base_pos": None, "q": [1.0, 2.0]}]
+
+
+def _raw_messages(path: Path) -> list[tuple[int, int, int, int, bytes]]:
+    """Every message's channel, sequence, log and publish time, and data, in file order."""
+    with open(path, "rb") as f:
+        messages = make_reader(f).iter_messages(log_time_order=False)
+        return [
+            (m.channel_id, m.sequence, m.log_time, m.publish_time, m.data) for _, _, m in messages
+        ]
+
+
+def test_write_signals_writes_the_bytes_of_write(tmp_path: Path, encoder: str) -> None:
+    """write_signals(t, signals) gives byte for byte what write() gives {"t": t, **signals}."""
+    cases: list[tuple[Any, dict[str, Any]]] = [
+        (0.0005, {"state": 2, "com": [0.1, -2.5e-7, 0.0], "v": np.array([1e300, -0.0])}),
+        (np.float64(0.001), {"phase": "SS", "ok": True, "none": None, "n": np.int64(3)}),
+        (0.002, {}),
+        (0.003, {"t": 9.5, "x": 1.0}),  # signals' own "t" wins, as in the dict
+        (0.004, collections.OrderedDict(x=[1.5], y=2)),
+    ]
+    paths = tmp_path / "write.mcap", tmp_path / "signals.mcap"
+    with new_writer(paths[0]) as slow, new_writer(paths[1]) as fast:
+        for t, signals in cases:
+            slow.write(TOPIC_SIGNALS, {"t": t, **signals}, t)
+            fast.write_signals(t, signals)
+    raw = [_raw_messages(path) for path in paths]
+    assert raw[0] == raw[1] and len(raw[0]) == len(cases)
+
+
+def test_write_signals_still_checks(tmp_path: Path, encoder: str) -> None:
+    """write_signals names a non-finite signal, refuses a bad time and a closed log."""
+    log = new_writer(tmp_path / "a.mcap")
+    with pytest.raises(ValueError, match=r"ref\[1\] = nan"):
+        log.write_signals(0.0, {"ok": 1.0, "ref": [0.0, math.nan]})
+    with pytest.raises(ValueError, match=r"ref = inf"):
+        log.write_signals(0.0, {"none": None, "ref": np.float64(math.inf)})
+    with pytest.raises(TypeError):
+        log.write_signals(0.0, [("ok", 1.0)])  # type: ignore[arg-type]
+    for bad in (-1.0, math.nan, math.inf):
+        with pytest.raises(ValueError, match="finite and >= 0"):
+            log.write_signals(bad, {"ok": 1.0})
+    log.write_signals(0.0, {"ok": 1.0})
+    log.close("complete")
+    with pytest.raises(ValueError, match="closed"):
+        log.write_signals(0.0, {"ok": 1.0})
+    assert read_log(tmp_path / "a.mcap").messages(TOPIC_SIGNALS) == [{"t": 0.0, "ok": 1.0}]
+
+
+def test_every_write_method_checks_like_write(tmp_path: Path, encoder: str) -> None:
+    """The fast paths keep write()'s checks: topic, keys, non-finite numbers, time, closed."""
+    log = new_writer(tmp_path / "a.mcap")
+    state = (0, 0.0, np.zeros(8), np.zeros(7), np.zeros(0))
+    with pytest.raises(ValueError, match="unknown topic"):
+        log.write_float64("/sensor", {"q": np.zeros(2)}, 0.0)
+    with pytest.raises(ValueError, match="lacks key"):
+        log.write_float64(TOPIC_SIGNALS, {"u": 1.0}, 0.0)
+    with pytest.raises(ValueError, match="lacks key"):
+        log.write_float64(TOPIC_CONTACTS, {"step": 0, "t": 0.0}, 0.0)
+    with pytest.raises(ValueError, match=r"q\[1\] = nan"):
+        log.write_float64(TOPIC_SENSORS, {"q": np.array([0.0, math.nan])}, 0.0)
+    with pytest.raises(ValueError, match=r"pairs.a/b\[2\] = inf"):
+        log.write_float64(
+            TOPIC_CONTACTS, {"step": 0, "t": 0.0, "pairs": {"a/b": [0, 0, math.inf]}}, 0.0
+        )
+    with pytest.raises(ValueError, match="qpos has 7 entries"):
+        log.write_float64(TOPIC_STATE, {"step": 0, "t": 0.0, "qpos": np.zeros(7),
+                                        "qvel": np.zeros(7), "act": np.zeros(0)}, 0.0)  # fmt: skip
+    with pytest.raises(ValueError, match="must have 6 entries"):
+        log.write_inputs(0, b"[0.0]", {"box": np.zeros(5)}, 0.0)
+    with pytest.raises(ValueError, match=r"box\[0\] = nan"):
+        log.write_inputs(0, b"[0.0]", {"box": np.full(6, math.nan)}, 0.0)
+    for bad in (-0.5, math.nan, math.inf):  # a NaN "t" in the state is its non-finite number
+        with pytest.raises(ValueError, match="finite"):
+            log.write_state(*state[:1], bad, *state[2:])
+        with pytest.raises(ValueError, match="finite and >= 0"):
+            log.write_inputs(0, b"[0.0]", {}, bad)
+        with pytest.raises(ValueError, match="finite and >= 0"):
+            log.write_float64(TOPIC_SENSORS, {"q": np.zeros(2)}, bad)
+    log.write_state(*state)
+    log.close("complete")
+    for write in (
+        lambda: log.write_state(*state),
+        lambda: log.write_inputs(0, b"[0.0]", {}, 0.0),
+        lambda: log.write_float64(TOPIC_SENSORS, {"q": np.zeros(2)}, 0.0),
+        lambda: log.write(TOPIC_EVENTS, {"t": 0.0, "kind": "x"}, 0.0),
+    ):
+        with pytest.raises(ValueError, match="closed"):
+            write()
+    read = read_log(tmp_path / "a.mcap")
+    assert [len(read.messages(topic)) for topic in TOPICS] == [1, 0, 0, 0, 0, 0]
+
+
+def test_chunks_carry_a_zstd_checksum_in_place_of_the_crc(
+    written_log: tuple[Path, dict],
+) -> None:
+    """Each chunk's records are guarded by its zstd frame's checksum (MCAP's CRC is 0)."""
+    import struct
+
+    import zstandard
+
+    path, _ = written_log
+    raw = path.read_bytes()
+    with open(path, "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    for chunk_index in summary.chunk_indexes:
+        body = chunk_index.chunk_start_offset + 9
+        (crc,) = struct.unpack_from("<I", raw, body + 24)
+        frame = raw[body + 44 : body + 44 + chunk_index.compressed_size]
+        assert crc == 0
+        assert zstandard.get_frame_parameters(frame).has_checksum
+        assert len(zstandard.ZstdDecompressor().decompress(frame)) == chunk_index.uncompressed_size

@@ -260,7 +260,7 @@ def run(
                 ctrl_json = _encoded_ctrl(writer, ctrl, model.nu, t)
                 ctrl_in[:] = ctrl  # mj_step leaves ctrl alone: held until the next tick
                 writer.write_float64(record.TOPIC_SENSORS, snapshot.as_message(), t)
-                writer.write_float64(record.TOPIC_SIGNALS, {"t": t, **command.signals}, t)
+                writer.write_signals(t, command.signals)
                 for event in command.events:
                     writer.write(record.TOPIC_EVENTS, {"t": t, **_jsonable(event)}, t)
                 lap("logging")
