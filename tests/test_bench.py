@@ -84,3 +84,32 @@ def test_repeat_keeps_the_fastest_run_and_floor(monkeypatch: pytest.MonkeyPatch)
     r = bench.bench_experiment(spec, repeat=3)
     assert r.wall_time == 1.0 and r.floor_wall_time == 0.4
     assert r.floor_ratio == pytest.approx(2.5) and r.real_time_factor == pytest.approx(0.2)
+
+
+def test_repeats_go_round_the_experiments(monkeypatch: pytest.MonkeyPatch) -> None:
+    """--repeat runs A, B, A, B (not A, A, B, B), so a slow spell of the host does not meet
+    every run of one experiment; each experiment keeps its own fastest run and floor."""
+    from walkrepro import bench
+    from walkrepro.runner import RunResult, RunTiming
+
+    order: list[str] = []
+    walls = iter([2.0, 5.0, 1.0, 6.0])  # A, B, A, B
+
+    def fake_run(spec, log_path):  # noqa: ANN001, ANN202
+        order.append(spec.name)
+        timing = RunTiming(stages={"logging": 0.1}, tick_median=1e-4, tick_p99=2e-4, n_ticks=100)
+        return RunResult(spec.name, log_path, "complete", 0.2, next(walls), None, "", timing)
+
+    monkeypatch.setattr(bench, "run", fake_run)
+    monkeypatch.setattr(bench, "floor_time", lambda spec, duration: 0.5)
+    specs = [
+        resolve_spec(load_spec(name, ["sim.duration=0.2"])).spec
+        for name in ("stand_coman", "stand_dyros_red")
+    ]
+    started: list[tuple[str, int]] = []
+    a, b = bench.bench_experiments(specs, 2, on_start=lambda s, r: started.append((s.name, r)))
+    assert order == ["stand_coman", "stand_dyros_red"] * 2
+    assert started == [("stand_coman", 0), ("stand_dyros_red", 0), ("stand_coman", 1),
+                       ("stand_dyros_red", 1)]  # fmt: skip
+    assert (a.experiment, a.wall_time) == ("stand_coman", 1.0)
+    assert (b.experiment, b.wall_time) == ("stand_dyros_red", 5.0)

@@ -13,6 +13,7 @@ import os
 import platform
 import tempfile
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -20,7 +21,7 @@ import mujoco
 
 from walkrepro.errors import WalkreproError
 from walkrepro.robot import load_robot
-from walkrepro.runner import run
+from walkrepro.runner import RunResult, run
 from walkrepro.spec import ExperimentSpec
 from walkrepro.world import build_scene
 
@@ -66,17 +67,48 @@ class BenchResult:
 
 
 def bench_experiment(spec: ExperimentSpec, repeat: int = 1) -> BenchResult:
-    """Run ``spec`` with logging on (to a temporary file) and measure the floor, ``repeat``
-    times each, keeping the fastest of each: on a shared or virtual machine the speed drifts
-    (here by up to 2x over minutes), and the fastest run is the one least disturbed."""
-    result, floor = None, math.inf
-    for _ in range(max(repeat, 1)):
-        with tempfile.TemporaryDirectory(prefix="walkrepro-bench-") as tmp:
-            attempt = run(spec, Path(tmp) / "log.mcap")
-        if result is None or attempt.wall_time < result.wall_time:
-            result = attempt
-        floor = min(floor, floor_time(spec, attempt.sim_time))
-    assert result is not None
+    """:func:`bench_experiments` for one experiment."""
+    return bench_experiments([spec], repeat)[0]
+
+
+def bench_experiments(
+    specs: Sequence[ExperimentSpec],
+    repeat: int = 1,
+    on_start: Callable[[ExperimentSpec, int], None] | None = None,
+) -> list[BenchResult]:
+    """Run each spec with logging on (to a temporary file) and measure its floor, ``repeat``
+    times each, keeping the fastest run and the fastest floor of each.
+
+    On a shared or virtual machine the speed drifts (here by up to 40 % for a minute or
+    more, for MuJoCo alone as much as for the whole stack), and the fastest run is the one
+    least disturbed. The repeats go round the experiments (A, B, …, A, B, …), so one slow
+    spell of the host does not meet every run of the same experiment.
+
+    Args:
+        specs: the experiments, in order.
+        repeat: runs per experiment.
+        on_start: called as ``on_start(spec, round)`` before each run (progress output).
+    """
+    best: list[RunResult | None] = [None] * len(specs)
+    floors = [math.inf] * len(specs)
+    for round_ in range(max(repeat, 1)):
+        for i, spec in enumerate(specs):
+            if on_start is not None:
+                on_start(spec, round_)
+            with tempfile.TemporaryDirectory(prefix="walkrepro-bench-") as tmp:
+                attempt = run(spec, Path(tmp) / "log.mcap")
+            current = best[i]
+            if current is None or attempt.wall_time < current.wall_time:
+                best[i] = attempt
+            floors[i] = min(floors[i], floor_time(spec, attempt.sim_time))
+    return [
+        _bench_result(spec, result, floor)
+        for spec, result, floor in zip(specs, best, floors, strict=True)
+        if result is not None
+    ]
+
+
+def _bench_result(spec: ExperimentSpec, result: RunResult, floor: float) -> BenchResult:
     timing = result.timing
     assert timing is not None
     n_ticks = max(timing.n_ticks, 1)

@@ -12,7 +12,7 @@ import sys
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
-from typing import Annotated, Any, TypeVar
+from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 
 import typer
 from rich.console import Console
@@ -22,6 +22,9 @@ from rich.table import Table
 
 from walkrepro import results
 from walkrepro.errors import WalkreproError
+
+if TYPE_CHECKING:
+    from walkrepro.spec import ExperimentSpec
 
 app = typer.Typer(
     help="Reproduce published biped-walking controllers in MuJoCo and check the reproduction.",
@@ -269,7 +272,9 @@ def bench(
     repeat: Annotated[
         int,
         typer.Option(
-            min=1, help="Runs per experiment; the fastest counts (the machine's speed drifts)."
+            min=1,
+            help="Runs per experiment, taken round the experiments; the fastest counts "
+            "(the machine's speed drifts).",
         ),
     ] = 1,
     compare: Annotated[
@@ -287,18 +292,20 @@ def bench(
     """
     import json
 
-    from walkrepro.bench import bench_experiment, load_bench, machine_info
+    from walkrepro.bench import bench_experiments, load_bench, machine_info
     from walkrepro.spec import experiment_names
 
     names = list(experiments or experiment_names())
     specs = [_resolved(n, set_ or []) for n in names]
     before = load_bench(compare) if compare is not None else None
-    rows = []
-    for spec in specs:
+
+    def announce(spec: ExperimentSpec, round_: int) -> None:
+        of = f", run {round_ + 1} of {repeat}" if repeat > 1 else ""
         _console(stderr=True).print(
-            f"benchmarking {spec.name} ({spec.sim.duration:g} s simulated)…"
+            f"benchmarking {spec.name} ({spec.sim.duration:g} s simulated{of})…"
         )
-        rows.append(bench_experiment(spec, repeat))
+
+    rows = bench_experiments(specs, repeat, on_start=announce)
     # The runner's stages as columns; a controller's own split (``controller.<part>``, which
     # differs per controller) as one column of "part cost" pairs.
     stages = ["physics", "sensors", "controller", "logging", "bookkeeping"]
