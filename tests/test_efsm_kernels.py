@@ -19,7 +19,7 @@ from walkrepro.controllers.efsm.fsm import (
     capture_point,
     epsilon,
 )
-from walkrepro.robot import load_robot
+from walkrepro.robot import frame_classical_acceleration, load_robot
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 FEET = ("left_sole", "right_sole")
@@ -403,7 +403,7 @@ def test_frames_match_pinocchio(seed: int) -> None:
         want = data.oMf[robot.pin_frame_id(name)]
         _close(rot, want.rotation, rel=1e-15)
         _close(pos, want.translation, rel=1e-15)
-        kernels.frame_classical_acceleration(
+        frame_classical_acceleration(
             data.oMi[joint].rotation,
             data.v[joint].vector,
             data.a[joint].vector,

@@ -14,7 +14,7 @@ from walkrepro.controllers import controller_class
 from walkrepro.controllers.qpimpedance import tasks
 from walkrepro.controllers.qpimpedance.footsteps import SwingTrajectory, quintic
 from walkrepro.controllers.qpimpedance.impedance import ImpedanceFilter
-from walkrepro.robot import load_robot, pin_state_into
+from walkrepro.robot import frame_classical_acceleration, load_robot, pin_state_into
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
@@ -126,14 +126,15 @@ def test_matrix_to_rpy_equals_pinocchio_bit_for_bit() -> None:
 
 
 @pytest.mark.parametrize("seed", range(5))
-def test_classical_drift_equals_pinocchio_bit_for_bit(seed: int) -> None:
-    """The kernel's frame drift from data.v, data.a is getFrameClassicalAcceleration's exactly."""
+def test_frame_drift_equals_pinocchio_bit_for_bit(seed: int) -> None:
+    """The shared kernel's frame drift from data.v, data.a (robot.frame_classical_acceleration,
+    which task_rows inlines) is getFrameClassicalAcceleration's exactly on kist_humanoid."""
     robot, model, data, _, _ = _random_state(20 + seed)
     out = np.empty(6)
     for name in ("left_sole", "right_sole", "pelvis", "torso", "left_foot_ft"):
         frame = model.frames[robot.pin_frame_id(name)]
         joint = frame.parentJoint
-        tasks.classical_drift(
+        frame_classical_acceleration(
             data.oMi[joint].rotation,
             data.v[joint].vector,
             data.a[joint].vector,

@@ -196,6 +196,66 @@ def frame_jacobian(
         out[3, j], out[4, j], out[5, j] = w0, w1, w2
 
 
+@numba.njit(cache=True)
+def eigen_rotate(rot: np.ndarray, x0: float, x1: float, x2: float) -> tuple[float, float, float]:
+    """rot · x summed as Eigen's 3 × 3 product in Pinocchio: rows 0 and 1 as one two-lane
+    packet, (r₀x₀ + r₁x₁) + r₂x₂; row 2 alone as a tree, r₀x₀ + (r₁x₁ + r₂x₂). Summing in
+    Pinocchio's order keeps the compiled controllers' results Pinocchio's to the last bit.
+
+    Like :func:`frame_jacobian`, inlined into compiled callers whose numba cache does not
+    notice edits here: after changing it, delete their ``__pycache__``.
+    """
+    return (
+        (rot[0, 0] * x0 + rot[0, 1] * x1) + rot[0, 2] * x2,
+        (rot[1, 0] * x0 + rot[1, 1] * x1) + rot[1, 2] * x2,
+        rot[2, 0] * x0 + (rot[2, 1] * x1 + rot[2, 2] * x2),
+    )
+
+
+@numba.njit(cache=True)
+def frame_classical_acceleration(
+    joint_rot: np.ndarray,
+    joint_vel: np.ndarray,
+    joint_acc: np.ndarray,
+    offset: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """J̇ q̇ of a frame fixed to a joint's body, world axes at the frame origin, as Pinocchio's
+    ``getFrameClassicalAcceleration(..., LOCAL_WORLD_ALIGNED)`` after ``computeAllTerms``,
+    bit for bit (its operations in its order), for the whole-body controllers' ticks.
+
+    The joint's spatial velocity (v, ω) and bias acceleration (a, α) (q̈ = 0), in joint axes,
+    move to the frame origin (v + ω × o, a + α × o), turn to world axes, and the classical
+    acceleration adds ω × v. Inlined like :func:`frame_jacobian` (same cache caveat).
+
+    Args:
+        joint_rot: world-from-joint rotation (``data.oMi[j].rotation``).
+        joint_vel, joint_acc: ``data.v[j].vector`` and ``data.a[j].vector`` (linear first).
+        offset: the frame origin in joint axes (the frame placement's translation) [m].
+        out: (linear, angular) [m/s², rad/s²], shape (6,).
+    """
+    ox, oy, oz = offset[0], offset[1], offset[2]
+    w0, w1, w2 = joint_vel[3], joint_vel[4], joint_vel[5]
+    v0, v1, v2 = eigen_rotate(
+        joint_rot,
+        joint_vel[0] + (w1 * oz - w2 * oy),
+        joint_vel[1] + (w2 * ox - w0 * oz),
+        joint_vel[2] + (w0 * oy - w1 * ox),
+    )
+    w0, w1, w2 = eigen_rotate(joint_rot, w0, w1, w2)
+    al0, al1, al2 = joint_acc[3], joint_acc[4], joint_acc[5]
+    a0, a1, a2 = eigen_rotate(
+        joint_rot,
+        joint_acc[0] + (al1 * oz - al2 * oy),
+        joint_acc[1] + (al2 * ox - al0 * oz),
+        joint_acc[2] + (al0 * oy - al1 * ox),
+    )
+    out[0] = a0 + (w1 * v2 - w2 * v1)  # + ω × v
+    out[1] = a1 + (w2 * v0 - w0 * v2)
+    out[2] = a2 + (w0 * v1 - w1 * v0)
+    out[3], out[4], out[5] = eigen_rotate(joint_rot, al0, al1, al2)
+
+
 @dataclass(frozen=True, eq=False)  # eq=False: compare by identity, arrays have no ==
 class Robot:
     """One robot, loaded from ``robots/<name>/robot.xml`` into MuJoCo and Pinocchio.

@@ -30,7 +30,7 @@ import numba
 import numpy as np
 
 from walkrepro.controllers.efsm.wbc import PINV_RCOND
-from walkrepro.robot import frame_jacobian
+from walkrepro.robot import eigen_rotate, frame_classical_acceleration, frame_jacobian
 
 #: Rows of the two stacked foot wrenches other than the normal forces (Appendix C).
 TANGENTIAL_ROWS = np.array([0, 1, 3, 4, 5, 6, 7, 9, 10, 11])
@@ -361,7 +361,8 @@ def orientation_error(rot_des: np.ndarray, rot: np.ndarray) -> tuple[float, floa
 # ---- Pinocchio's last steps, in the tick ----------------------------------------------------
 # After computeAllTerms a tick also called Pinocchio's cholesky.decompose, computeMinv and
 # getFrameClassicalAcceleration: about 1 µs of Python binding each, and a fresh 18 × 18 array.
-# These kernels do the same arithmetic in the same order (Pinocchio's C++ read side by side),
+# These kernels (and robot.frame_classical_acceleration, shared with Paper III's controller)
+# do the same arithmetic in the same order (Pinocchio's C++ read side by side),
 # so their results are Pinocchio's bit for bit on this build; tests/test_efsm_kernels.py
 # checks that, and a Pinocchio built otherwise would still agree to rounding.
 
@@ -440,60 +441,6 @@ def mass_matrix_inverse(mass: np.ndarray, tree: np.ndarray, out: np.ndarray) -> 
 
 
 @_jit
-def _rotate(rot: np.ndarray, x0: float, x1: float, x2: float) -> tuple[float, float, float]:
-    """rot · x summed as Eigen's 3 × 3 product in Pinocchio: rows 0 and 1 as one two-lane
-    packet, (r₀x₀ + r₁x₁) + r₂x₂; row 2 alone as a tree, r₀x₀ + (r₁x₁ + r₂x₂)."""
-    return (
-        (rot[0, 0] * x0 + rot[0, 1] * x1) + rot[0, 2] * x2,
-        (rot[1, 0] * x0 + rot[1, 1] * x1) + rot[1, 2] * x2,
-        rot[2, 0] * x0 + (rot[2, 1] * x1 + rot[2, 2] * x2),
-    )
-
-
-@_jit
-def frame_classical_acceleration(
-    joint_rot: np.ndarray,
-    joint_vel: np.ndarray,
-    joint_acc: np.ndarray,
-    offset: np.ndarray,
-    out: np.ndarray,
-) -> None:
-    """J̇ q̇ of a frame fixed to a joint's body, world axes at the frame origin, as Pinocchio's
-    ``getFrameClassicalAcceleration(..., LOCAL_WORLD_ALIGNED)`` after computeAllTerms.
-
-    The joint's spatial velocity (v, ω) and bias acceleration (a, α) (q̈ = 0), in joint axes,
-    move to the frame origin (v + ω × o, a + α × o), turn to world axes, and the classical
-    acceleration adds ω × v.
-
-    Args:
-        joint_rot: world-from-joint rotation (``data.oMi[j].rotation``).
-        joint_vel, joint_acc: ``data.v[j].vector`` and ``data.a[j].vector`` (linear first).
-        offset: the frame origin in joint axes (the frame placement's translation) [m].
-        out: (linear, angular) [m/s², rad/s²], shape (6,).
-    """
-    ox, oy, oz = offset[0], offset[1], offset[2]
-    w0, w1, w2 = joint_vel[3], joint_vel[4], joint_vel[5]
-    v0, v1, v2 = _rotate(
-        joint_rot,
-        joint_vel[0] + (w1 * oz - w2 * oy),
-        joint_vel[1] + (w2 * ox - w0 * oz),
-        joint_vel[2] + (w0 * oy - w1 * ox),
-    )
-    w0, w1, w2 = _rotate(joint_rot, w0, w1, w2)
-    al0, al1, al2 = joint_acc[3], joint_acc[4], joint_acc[5]
-    a0, a1, a2 = _rotate(
-        joint_rot,
-        joint_acc[0] + (al1 * oz - al2 * oy),
-        joint_acc[1] + (al2 * ox - al0 * oz),
-        joint_acc[2] + (al0 * oy - al1 * ox),
-    )
-    out[0] = a0 + (w1 * v2 - w2 * v1)  # + ω × v
-    out[1] = a1 + (w2 * v0 - w0 * v2)
-    out[2] = a2 + (w0 * v1 - w1 * v0)
-    out[3], out[4], out[5] = _rotate(joint_rot, al0, al1, al2)
-
-
-@_jit
 def frame_placement(
     joint_rot: np.ndarray,
     joint_pos: np.ndarray,
@@ -510,10 +457,10 @@ def frame_placement(
         rot, pos: out: the frame's world rotation (3, 3) and position (3,) [m].
     """
     for col in range(3):
-        rot[0, col], rot[1, col], rot[2, col] = _rotate(
+        rot[0, col], rot[1, col], rot[2, col] = eigen_rotate(
             joint_rot, local_rot[0, col], local_rot[1, col], local_rot[2, col]
         )
-    x0, x1, x2 = _rotate(joint_rot, local_pos[0], local_pos[1], local_pos[2])
+    x0, x1, x2 = eigen_rotate(joint_rot, local_pos[0], local_pos[1], local_pos[2])
     pos[0], pos[1], pos[2] = joint_pos[0] + x0, joint_pos[1] + x1, joint_pos[2] + x2
 
 

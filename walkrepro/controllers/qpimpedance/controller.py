@@ -271,7 +271,7 @@ class QPImpedanceController(Controller):
         parents = tuple(model.frames[fid].parentJoint for fid in frames)
         if parents[2] != 1:
             raise ValueError("qpimpedance needs the pelvis frame on the floating base")
-        # Each sole's origin in its ankle joint's frame, for its drift (tasks.classical_drift).
+        # Each sole's origin in its ankle joint's frame, for its drift (robot.frame_classical_acceleration).
         self._sole_offset = np.array([model.frames[f].placement.translation for f in frames[:2]])
         self._views = _DataViews(self._data, frames, parents)
         scalars = {

@@ -16,7 +16,7 @@ costs about 1 µs per call on such small arrays). One compiled call, :func:`task
 the same arithmetic, in the same order, in a few µs. Its inputs are views of Pinocchio's
 ``Data`` after ``computeAllTerms`` (M, C ξ̇ + g, the joint Jacobians, frame and joint
 placements, the joints' velocities and drift accelerations), passed without copies. The
-frames' drifts J̇ ξ̇, log₃ and roll–pitch–yaw angles are formed here (:func:`classical_drift`,
+frames' drifts J̇ ξ̇, log₃ and roll–pitch–yaw angles are formed here (:func:`~walkrepro.robot.frame_classical_acceleration`,
 :func:`log3`, :func:`matrix_to_rpy`) in Pinocchio's own operations and summation order, so
 bit for bit what its Python functions return, instead of eight calls from Python (≈ 0.6–1 µs
 each). The small kernels it calls are compiled functions too, each tested against
@@ -37,7 +37,7 @@ import numba
 import numpy as np
 import pinocchio as pin
 
-from walkrepro.robot import frame_jacobian
+from walkrepro.robot import eigen_rotate, frame_classical_acceleration, frame_jacobian
 
 GRAVITY = 9.81  # [m/s^2]
 _EPS = float(np.finfo(np.float64).eps)
@@ -135,71 +135,6 @@ def kinematic_chain(model: pin.Model, frame_id: int) -> np.ndarray:
         start = model.joints[joint].idx_v
         chain[start : start + model.joints[joint].nv] = True
     return chain
-
-
-@numba.njit(cache=True)
-def eigen_rotate(
-    rotation: np.ndarray, x0: float, x1: float, x2: float
-) -> tuple[float, float, float]:
-    """R x, with each row's sum in the order Pinocchio's compiled Eigen uses.
-
-    Eigen forms rows 0 and 1 of a 3×3 product as one SIMD pair, ((r₀x₀ + r₁x₁) + r₂x₂),
-    and row 2 alone as ((r₁x₁ + r₂x₂) + r₀x₀). Summing in the same order gives Pinocchio's
-    results bit for bit (tested against ``getFrameClassicalAcceleration``), so the
-    controller's output stays the same to the last bit.
-
-    Args:
-        rotation: R, shape (3, 3).
-        x0, x1, x2: x.
-    """
-    r = rotation
-    return (
-        r[0, 0] * x0 + r[0, 1] * x1 + r[0, 2] * x2,
-        r[1, 0] * x0 + r[1, 1] * x1 + r[1, 2] * x2,
-        (r[2, 1] * x1 + r[2, 2] * x2) + r[2, 0] * x0,
-    )
-
-
-@numba.njit(cache=True)
-def classical_drift(
-    joint_rotation: np.ndarray,
-    joint_velocity: np.ndarray,
-    joint_drift: np.ndarray,
-    offset: np.ndarray,
-    out: np.ndarray,
-) -> None:
-    """A frame's drift J̇ ξ̇ as ``getFrameClassicalAcceleration(..., LOCAL_WORLD_ALIGNED)``.
-
-    Pinocchio's formula, term by term: the parent joint's spatial velocity (v, ω) and drift
-    acceleration (a, α) (``data.v``, ``data.a`` after ``computeAllTerms``, joint axes) move
-    to the frame origin p (v + ω × p, a + α × p), turn to world axes, and the classical
-    acceleration adds ω × v to the linear part.
-
-    Args:
-        joint_rotation: world-from-joint rotation R (``data.oMi[j].rotation``).
-        joint_velocity: the joint's (v, ω) in its axes (``data.v[j].vector``), shape (6,).
-        joint_drift: its (a, α) at ξ̈ = 0 (``data.a[j].vector``), shape (6,).
-        offset: the frame's origin in the joint frame p [m] (its placement's translation).
-        out: (linear, angular) drift in world axes, shape (6,).
-    """
-    v, a, p, r = joint_velocity, joint_drift, offset, joint_rotation
-    v0, v1, v2 = eigen_rotate(  # R (v + ω × p)
-        r,
-        v[0] + (v[4] * p[2] - v[5] * p[1]),
-        v[1] + (v[5] * p[0] - v[3] * p[2]),
-        v[2] + (v[3] * p[1] - v[4] * p[0]),
-    )
-    w0, w1, w2 = eigen_rotate(r, v[3], v[4], v[5])  # R ω
-    a0, a1, a2 = eigen_rotate(  # R (a + α × p)
-        r,
-        a[0] + (a[4] * p[2] - a[5] * p[1]),
-        a[1] + (a[5] * p[0] - a[3] * p[2]),
-        a[2] + (a[3] * p[1] - a[4] * p[0]),
-    )
-    out[0] = a0 + (w1 * v2 - w2 * v1)
-    out[1] = a1 + (w2 * v0 - w0 * v2)
-    out[2] = a2 + (w0 * v1 - w1 * v0)
-    out[3], out[4], out[5] = eigen_rotate(r, a[3], a[4], a[5])
 
 
 @numba.njit(cache=True)
@@ -617,7 +552,7 @@ def task_rows(
     """One tick's task rows (§III-D), foot states, contact wrenches and impedance (Eqs. 1–3).
 
     Pinocchio inputs (after ``computeAllTerms`` and ``updateFramePlacements``; the drifts
-    J̇ ξ̇ follow from the joints' ``data.v``, ``data.a`` by :func:`classical_drift`):
+    J̇ ξ̇ follow from the joints' ``data.v``, ``data.a`` by :func:`~walkrepro.robot.frame_classical_acceleration`):
 
     Args:
         t: time [s].
@@ -755,7 +690,7 @@ def task_rows(
         sole_jac = sole_jacobians[side]
         frame_jacobian(joint_jacobians, chains[CHAIN_LEFT_SOLE + side], pos, sole_jac)
         drift = sole_drifts[side]
-        classical_drift(joint_r, joint_v, joint_a, sole_offset[side], drift)
+        frame_classical_acceleration(joint_r, joint_v, joint_a, sole_offset[side], drift)
         # R̃ U_k: both halves (forces, moments) of the contact-frame basis rotated.
         for half in range(2):
             for i in range(3):
