@@ -19,7 +19,7 @@ from walkrepro.controllers.efsm.fsm import (
     capture_point,
     epsilon,
 )
-from walkrepro.robot import frame_classical_acceleration, load_robot
+from walkrepro.robot import load_robot
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 FEET = ("left_sole", "right_sole")
@@ -35,14 +35,7 @@ def _close(actual: np.ndarray, expected: np.ndarray, rel: float = 1e-9) -> None:
 
 def _robot_state(seed: int) -> dict[str, np.ndarray]:
     """Dynamics of dyros_red near its home posture, moving (random joint offsets, velocities)."""
-    robot = load_robot("dyros_red")
-    model, data = robot.pin_model, robot.pin_model.createData()
-    rng = np.random.default_rng(seed)
-    qpos = robot.home_qpos.copy()
-    qpos[7:] += rng.normal(scale=0.03, size=qpos.size - 7)
-    q, v = robot.pin_state_from_mujoco(qpos, rng.normal(scale=0.3, size=robot.mj_model.nv))
-    pin.computeAllTerms(model, data, q, v)
-    pin.updateFramePlacements(model, data)
+    robot, model, data, v = _moving_dyros(seed, joint_scale=0.03, velocity_scale=0.3)
     ids = [robot.pin_frame_id(f) for f in FEET]
     a = np.triu(data.M) + np.triu(data.M, 1).T
     support = [np.any(pin.getFrameJacobian(model, data, i, LWA) != 0.0, axis=0) for i in ids]
@@ -357,24 +350,28 @@ def test_fresh_reads_give_the_same_tick_as_views() -> None:
 # ---- Pinocchio's last steps, the E-FSM and the whole tick, compiled -----------------------
 
 
-def _moving_dyros(seed: int) -> tuple:
-    """dyros_red near home, moving; computeAllTerms and the frames updated."""
+def _moving_dyros(seed: int, joint_scale: float = 0.05, velocity_scale: float = 0.5) -> tuple:
+    """dyros_red near home with random joint offsets and velocities (standard deviations
+    ``joint_scale`` [rad], ``velocity_scale``); computeAllTerms and the frames updated.
+    Returns robot, Pinocchio model and data, and the velocity v."""
     robot = load_robot("dyros_red")
     model, data = robot.pin_model, robot.pin_model.createData()
     rng = np.random.default_rng(seed)
     qpos = robot.home_qpos.copy()
-    qpos[7:] += rng.normal(scale=0.05, size=qpos.size - 7)
-    q, v = robot.pin_state_from_mujoco(qpos, rng.normal(scale=0.5, size=robot.mj_model.nv))
+    qpos[7:] += rng.normal(scale=joint_scale, size=qpos.size - 7)
+    q, v = robot.pin_state_from_mujoco(
+        qpos, rng.normal(scale=velocity_scale, size=robot.mj_model.nv)
+    )
     pin.computeAllTerms(model, data, q, v)
     pin.updateFramePlacements(model, data)
-    return robot, model, data
+    return robot, model, data, v
 
 
 @pytest.mark.parametrize("seed", range(3))
 def test_mass_matrix_inverse_is_pinocchios(seed: int) -> None:
     """A⁻¹ equals Pinocchio's cholesky.decompose + computeMinv bit for bit (same sums, same
     order: Pinocchio's sums along U's strided rows are plain left-to-right sums)."""
-    _, model, data = _moving_dyros(seed)
+    _, model, data, _ = _moving_dyros(seed)
     tree = np.array([list(data.parents_fromRow), list(data.nvSubtree_fromRow)], dtype=np.int64)
     out = np.empty((model.nv, model.nv))
     kernels.mass_matrix_inverse(data.M, tree, out)
@@ -385,13 +382,14 @@ def test_mass_matrix_inverse_is_pinocchios(seed: int) -> None:
 
 @pytest.mark.parametrize("seed", range(3))
 def test_frames_match_pinocchio(seed: int) -> None:
-    """The sole and F/T placements and J̇ q̇ of the soles equal Pinocchio's (updateFramePlacements,
-    getFrameClassicalAcceleration LWA); bit for bit on an SSE build, to rounding on others."""
-    robot, model, data = _moving_dyros(seed)
+    """The sole and F/T placements equal Pinocchio's updateFramePlacements (bit for bit on an
+    SSE build, to rounding on others). Their J̇ q̇ comes from robot.frame_classical_acceleration,
+    tested against Pinocchio in test_qpimpedance_tasks.py."""
+    robot, model, data, _ = _moving_dyros(seed)
     for name in ("left_sole", "right_sole", "left_foot_ft", "right_foot_ft"):
         frame = model.frames[robot.pin_frame_id(name)]
         joint = frame.parentJoint
-        rot, pos, acc = np.empty((3, 3)), np.empty(3), np.empty(6)
+        rot, pos = np.empty((3, 3)), np.empty(3)
         kernels.frame_placement(
             data.oMi[joint].rotation,
             data.oMi[joint].translation,
@@ -403,15 +401,6 @@ def test_frames_match_pinocchio(seed: int) -> None:
         want = data.oMf[robot.pin_frame_id(name)]
         _close(rot, want.rotation, rel=1e-15)
         _close(pos, want.translation, rel=1e-15)
-        frame_classical_acceleration(
-            data.oMi[joint].rotation,
-            data.v[joint].vector,
-            data.a[joint].vector,
-            frame.placement.translation,
-            acc,
-        )
-        acc_want = pin.getFrameClassicalAcceleration(model, data, robot.pin_frame_id(name), LWA)
-        _close(acc, acc_want.vector, rel=1e-14)
 
 
 def test_matmul_skips_zeros_without_changing_a_bit() -> None:

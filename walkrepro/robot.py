@@ -41,6 +41,7 @@ springs exist only in MuJoCo, as on the real robot.
 from __future__ import annotations
 
 import functools
+import math
 import tempfile
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
@@ -254,6 +255,29 @@ def frame_classical_acceleration(
     out[1] = a1 + (w2 * v0 - w0 * v2)
     out[2] = a2 + (w0 * v1 - w1 * v0)
     out[3], out[4], out[5] = eigen_rotate(joint_rot, al0, al1, al2)
+
+
+_EPS = float(np.finfo(np.float64).eps)
+
+
+@numba.njit(cache=True)
+def log3_theta_axis(val: float, m: np.ndarray, i0: int) -> tuple[float, float, float, float]:
+    """θ and the unit axis of a rotation by ≈ π, from its i0-th diagonal term ``val`` =
+    2 m[i0, i0] − tr m + 1 (the largest): Pinocchio's ``internal::compute_theta_axis<i0>``,
+    its operations in its order, for the whole-body controllers' compiled log₃.
+
+    Inlined like :func:`frame_jacobian` (same cache caveat).
+    """
+    i1, i2 = (i0 + 1) % 3, (i0 + 2) % 3
+    sign = 1.0 if m[i2, i1] >= m[i1, i2] else -1.0
+    s = math.sqrt(val + _EPS + _EPS * _EPS) * sign  # ≥ 0 under the root, s ≠ 0
+    axis = np.empty(3)
+    axis[i0] = s / 2.0
+    axis[i1] = 1.0 / (2.0 * s) * (m[i1, i0] + m[i0, i1])
+    axis[i2] = 1.0 / (2.0 * s) * (m[i2, i0] + m[i0, i2])
+    w = 1.0 / (2.0 * s) * (m[i2, i1] - m[i1, i2])
+    norm = math.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])
+    return 2.0 * math.atan2(norm, w), axis[0] / norm, axis[1] / norm, axis[2] / norm
 
 
 @dataclass(frozen=True, eq=False)  # eq=False: compare by identity, arrays have no ==

@@ -30,7 +30,12 @@ import numba
 import numpy as np
 
 from walkrepro.controllers.efsm.wbc import PINV_RCOND
-from walkrepro.robot import eigen_rotate, frame_classical_acceleration, frame_jacobian
+from walkrepro.robot import (
+    eigen_rotate,
+    frame_classical_acceleration,
+    frame_jacobian,
+    log3_theta_axis,
+)
 
 #: Rows of the two stacked foot wrenches other than the normal forces (Appendix C).
 TANGENTIAL_ROWS = np.array([0, 1, 3, 4, 5, 6, 7, 9, 10, 11])
@@ -266,22 +271,6 @@ _EPS = float(np.finfo(np.float64).eps)
 
 
 @_jit
-def _log3_singular_axis(rot: np.ndarray, i0: int, val: float) -> tuple[float, np.ndarray]:
-    """Angle and axis of a rotation by ≈ π from its i0-th diagonal (Pinocchio's
-    ``internal::compute_theta_axis``)."""
-    i1, i2 = (i0 + 1) % 3, (i0 + 2) % 3
-    sign = 1.0 if rot[i2, i1] >= rot[i1, i2] else -1.0
-    s = math.sqrt(val + _EPS + _EPS * _EPS) * sign
-    axis = np.empty(3)
-    axis[i0] = s / 2.0
-    axis[i1] = 1.0 / (2.0 * s) * (rot[i1, i0] + rot[i0, i1])
-    axis[i2] = 1.0 / (2.0 * s) * (rot[i2, i0] + rot[i0, i2])
-    w = 1.0 / (2.0 * s) * (rot[i2, i1] - rot[i1, i2])
-    norm = math.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])
-    return 2.0 * math.atan2(norm, w), axis / norm
-
-
-@_jit
 def log3(rot: np.ndarray) -> np.ndarray:
     """The rotation vector of ``rot`` [rad], as ``pinocchio.log3`` (same branches).
 
@@ -323,8 +312,8 @@ def _log3(
             i0 = 0 if vals[0] >= vals[2] else 2
         else:
             i0 = 1 if vals[1] >= vals[2] else 2
-        theta, axis = _log3_singular_axis(r, i0, vals[i0])
-        return theta * axis[0], theta * axis[1], theta * axis[2]
+        theta, u0, u1, u2 = log3_theta_axis(vals[i0], r, i0)
+        return theta * u0, theta * u1, theta * u2
     acos_expansion = math.sqrt(2.0 * (1.0 - cos_value) + _EPS * _EPS)
     if tr <= 3.0 - prec:
         theta = math.acos(cos_value) if tr >= -1.0 + prec else math.pi - acos_expansion

@@ -37,7 +37,12 @@ import numba
 import numpy as np
 import pinocchio as pin
 
-from walkrepro.robot import eigen_rotate, frame_classical_acceleration, frame_jacobian
+from walkrepro.robot import (
+    eigen_rotate,
+    frame_classical_acceleration,
+    frame_jacobian,
+    log3_theta_axis,
+)
 
 GRAVITY = 9.81  # [m/s^2]
 _EPS = float(np.finfo(np.float64).eps)
@@ -138,21 +143,6 @@ def kinematic_chain(model: pin.Model, frame_id: int) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def _log3_near_pi(val: float, m: np.ndarray, i0: int) -> tuple[float, float, float, float]:
-    """Pinocchio's ``internal::compute_theta_axis<i0>``: θ and the unit axis (θ ≈ π)."""
-    i1, i2 = (i0 + 1) % 3, (i0 + 2) % 3
-    sign = 1.0 if m[i2, i1] >= m[i1, i2] else -1.0
-    s = math.sqrt(val + _EPS + _EPS * _EPS) * sign  # ≥ 0 under the root, s ≠ 0
-    axis = np.empty(3)
-    axis[i0] = s / 2.0
-    axis[i1] = 1.0 / (2.0 * s) * (m[i1, i0] + m[i0, i1])
-    axis[i2] = 1.0 / (2.0 * s) * (m[i2, i0] + m[i0, i2])
-    w = 1.0 / (2.0 * s) * (m[i2, i1] - m[i1, i2])
-    norm = math.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])
-    return 2.0 * math.atan2(norm, w), axis[0] / norm, axis[1] / norm, axis[2] / norm
-
-
-@numba.njit(cache=True)
 def log3(rotation: np.ndarray, out: np.ndarray) -> None:
     """``pin.log3``: the rotation vector θ u of R [rad], compiled in Pinocchio's operations.
 
@@ -187,7 +177,7 @@ def log3(rotation: np.ndarray, out: np.ndarray) -> None:
             k, val = (0, val0) if val0 >= val2 else (2, val2)
         else:
             k, val = (1, val1) if val1 >= val2 else (2, val2)
-        theta, u0, u1, u2 = _log3_near_pi(val, m, k)
+        theta, u0, u1, u2 = log3_theta_axis(val, m, k)
         out[0], out[1], out[2] = theta * u0, theta * u1, theta * u2
         return
     acos_expansion = math.sqrt(2.0 * (1.0 - cos_value) + _EPS * _EPS)
