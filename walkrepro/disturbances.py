@@ -25,6 +25,18 @@ BodyState = Callable[[str], "tuple[np.ndarray, np.ndarray]"]
 _ZERO_WRENCH = (0.0,) * 6
 
 
+#: Two times closer than this are the same instant [s]. Spec times are decimals that binary
+#: floats round, so ``start + duration`` (0.2 + 0.1 = 0.30000000000000004) and the step time
+#: ``step * timestep`` (600 * 0.0005 = 0.3) can differ in the last bit; a window is
+#: [start, end) up to this resolution, far below any timestep.
+TIME_RESOLUTION = 1e-9
+
+
+def in_window(s: DisturbanceSpec, t: float) -> bool:
+    """Whether ``t`` [s] lies in the disturbance's window [start, start + duration)."""
+    return s.start - TIME_RESOLUTION <= t < s.start + s.duration - TIME_RESOLUTION
+
+
 def _no_body_state(body: str) -> tuple[np.ndarray, np.ndarray]:
     raise RuntimeError(f"a hold on {body!r} needs the body state")
 
@@ -49,7 +61,7 @@ class DisturbanceSchedule:
         """Whether :meth:`wrenches` can give a wrench or an event at ``t`` [s]: a window is
         open, or a disturbance is still on. Lets the runner skip the quiet steps cheaply."""
         for item in self._items:  # a loop, not any(generator): this runs every physics step
-            if item.on or item.spec.start <= t < item.spec.start + item.spec.duration:
+            if item.on or in_window(item.spec, t):
                 return True
         return False
 
@@ -111,7 +123,7 @@ class DisturbanceSchedule:
 def profile_scale(s: DisturbanceSpec, t: float) -> float:
     """Magnitude factor in [0, 1] of a disturbance at time ``t`` [s] (window is [start, end))."""
     end = s.start + s.duration
-    if not s.start <= t < end:
+    if not in_window(s, t):
         return 0.0
     if s.profile == "constant" or (s.profile == "hold" and s.ramp_time == 0):
         return 1.0

@@ -228,6 +228,7 @@ def run(
     # MjData's arrays live as long as `data`: one view each instead of one per access.
     qpos, qvel, act, ctrl_in = data.qpos, data.qvel, data.act, data.ctrl
     lap = clock.lap
+    timestep = spec.sim.timestep
     try:
         for step in range(n_steps):
             if interrupt.requested:
@@ -237,9 +238,12 @@ def run(
                 clock.tick()
             # Positions, velocities, collisions and their sensors for this state; the
             # acceleration stage (constraint forces, F/T, accelerometer) comes after the command.
+            # Time is the step count times the timestep, never accumulated by addition (which
+            # drifts: 7.257999999998697). MuJoCo's clock is set to it; no dynamics reads it.
+            t = step * timestep
+            data.time = t
             mujoco.mj_step1(model, data)
             lap("physics")
-            t = data.time
             if tick:
                 if bad_state[0].number or bad_state[1].number:
                     raise SimulationError(f"simulation state became NaN/inf at t = {t:.4f} s")
@@ -301,12 +305,13 @@ def run(
                 lap("logging")
         else:
             step = n_steps
+            data.time = n_steps * timestep
         if outcome == "complete":
             # The state after the last step (a fall already logged the state it was seen in).
             _check_finite(data, data.time)
             writer.write_state(step, data.time, qpos, qvel, act)
     except KeyboardInterrupt:
-        outcome, message = "interrupted", f"interrupted at t = {data.time:.3f} s"
+        outcome, message = "interrupted", f"interrupted at t = {step * timestep:.3f} s"
     except SimulationError as exc:
         outcome, message = "error", str(exc)
     except BaseException as exc:
@@ -315,22 +320,24 @@ def run(
     finally:
         interrupt.restore()
     wall = time.perf_counter() - wall_start
-    extra = {"sim_time": repr(float(data.time)), "wall_time": f"{wall:.3f}"}
+    # Steps completed (a fall or Ctrl-C stops at the top of a step, whose state is the last).
+    sim_time = step * timestep
+    extra = {"sim_time": repr(sim_time), "wall_time": f"{wall:.3f}"}
     if fall_time is not None:
         extra["fall_time"] = repr(float(fall_time))
     if message:
         extra["message"] = message
     writer.close(outcome, extra)
     if progress is not None:
-        progress(float(data.time), spec.sim.duration, data.time / max(wall, 1e-9))
+        progress(sim_time, spec.sim.duration, sim_time / max(wall, 1e-9))
     return RunResult(
         experiment=spec.name,
         log_path=log_path,
         outcome=outcome,
-        sim_time=float(data.time),
+        sim_time=sim_time,
         wall_time=wall,
         fall_time=fall_time,
-        message=message or f"completed {data.time:.3f} s",
+        message=message or f"completed {sim_time:.3f} s",
         timing=clock.summary(controller.timing()),
     )
 
