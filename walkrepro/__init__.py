@@ -3,10 +3,20 @@
 import os
 from pathlib import Path
 
-# MuJoCo picks its OpenGL backend when it is first imported. walkrepro renders headless,
-# so without a display default to OSMesa (software); users may set MUJOCO_GL=egl.
-if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
-    os.environ["MUJOCO_GL"] = "osmesa"
+# No OpenGL backend is chosen at import: only rendering needs one, and walkrepro.gl picks it
+# when something renders (the user's MUJOCO_GL if set, else EGL, else OSMesa). MuJoCo binds
+# a backend on its first import and fails to import at all if that backend's library is
+# missing (MUJOCO_GL=osmesa without libosmesa6), so it is first imported with GL disabled
+# and the user's setting is put back for walkrepro.gl to honour.
+_user_gl = os.environ.get("MUJOCO_GL")
+os.environ["MUJOCO_GL"] = "disable"
+try:
+    import mujoco  # noqa: E402, F401
+finally:
+    if _user_gl is None:
+        del os.environ["MUJOCO_GL"]
+    else:
+        os.environ["MUJOCO_GL"] = _user_gl
 
 # A run is one simulation loop on one core, and its matrices are small (at most 60 x 60):
 # there OpenBLAS's worker threads only add hand-offs (≈ 2.5 µs on Paper I's 12 x 12 eigh at

@@ -1,8 +1,12 @@
 """The paper's expectations evaluated against a run's metrics: a verdict table.
 
-An expectation passes when ``measured op value`` holds. A missing measurement (NaN) fails.
-An expectation marked ``known_deviation`` is evaluated and shown as such, with its reason;
-it does not fail the verdict, and it is never turned into a pass.
+An expectation passes (``reproduced``) when ``measured op value`` holds. A missing
+measurement (NaN, or a metric that is not measurable, with its reason) fails.
+
+An expectation marked ``known_deviation`` carries the band the reproduction measures today
+(``observed``). Its row is a ``known deviation`` while the measurement stays inside that
+band, and fails when it leaves it in either direction: worse is a regression, better means
+the deviation may be gone and the spec must be updated. A NaN never stays in a band.
 """
 
 from __future__ import annotations
@@ -29,7 +33,9 @@ class CheckRow:
         measured: the run's value (NaN if unavailable).
         status: ``pass``, ``fail`` or ``known deviation``.
         source: where in the paper the expectation comes from.
-        note: free text from the spec, plus the deviation reason if any.
+        note: free text from the spec, plus the deviation reason (and, when a known
+            deviation left its band, which way), or why the metric is not measurable.
+        observed: a known deviation's observed band ``(low, high)``, else None.
     """
 
     metric: str
@@ -39,6 +45,7 @@ class CheckRow:
     status: str
     source: str
     note: str
+    observed: tuple[float, float] | None = None
 
     @property
     def band(self) -> str:
@@ -47,6 +54,34 @@ class CheckRow:
             lo, hi = self.paper  # type: ignore[misc]
             return f"[{lo:g}, {hi:g}]"
         return f"{self.op} {self.paper:g}"
+
+    @property
+    def observed_band(self) -> str:
+        """A known deviation's observed band as text, ``""`` for other rows."""
+        return "" if self.observed is None else f"[{self.observed[0]:g}, {self.observed[1]:g}]"
+
+
+@dataclass(frozen=True)
+class Counts:
+    """Rows by status over one or more verdicts (a bad run outcome counts as a failed row)."""
+
+    reproduced: int
+    known: int
+    failed: int
+
+    def __str__(self) -> str:
+        known = "known deviation" if self.known == 1 else "known deviations"
+        return f"{self.reproduced} reproduced, {self.known} {known}, {self.failed} failed"
+
+
+def count(verdicts: list[Verdict]) -> Counts:
+    """Count the rows of ``verdicts`` (and each run that did not end ``complete`` or ``fell``)."""
+    rows = [r for v in verdicts for r in v.rows]
+    return Counts(
+        reproduced=sum(r.status == PASS for r in rows),
+        known=sum(r.status == KNOWN for r in rows),
+        failed=sum(r.status == FAIL for r in rows) + sum(not v.run_ok for v in verdicts),
+    )
 
 
 @dataclass(frozen=True)
@@ -58,9 +93,14 @@ class Verdict:
     rows: tuple[CheckRow, ...]
 
     @property
+    def run_ok(self) -> bool:
+        """The run ended as a run can (``complete`` or ``fell``), not interrupted or broken."""
+        return self.outcome in ("complete", "fell")
+
+    @property
     def passed(self) -> bool:
         """No failing row, and the run was not interrupted or broken."""
-        return self.outcome in ("complete", "fell") and all(r.status != FAIL for r in self.rows)
+        return self.run_ok and all(r.status != FAIL for r in self.rows)
 
     def to_json(self) -> dict:
         """Plain data for ``check.json``."""
@@ -76,6 +116,7 @@ class Verdict:
                 }
                 for r in self.rows
             ],
+            "counts": asdict(count([self])),
         }
 
 
@@ -96,6 +137,10 @@ def holds(op: str, measured: float, value: float | tuple[float, float]) -> bool:
     }[op]
 
 
+def _has_nan(value: float | tuple[float, float]) -> bool:
+    return any(math.isnan(v) for v in (value if isinstance(value, tuple) else (value,)))
+
+
 #: Looks up another experiment's metric: ``(experiment, metric) -> (value, where from)``.
 ReferenceLookup = Callable[[str, str], tuple[float, str]]
 
@@ -110,55 +155,97 @@ def evaluate(
     metrics: dict[str, float],
     outcome: str,
     references: ReferenceLookup = no_references,
+    reasons: dict[str, str] | None = None,
 ) -> Verdict:
     """Evaluate every expectation of ``spec`` against ``metrics``.
 
     Relative expectations (``relative_to``) take their value from ``references``.
+    ``reasons`` says why a metric is not measurable (it then is NaN and its row fails).
     """
-    rows = tuple(_row(e, metrics.get(e.metric, math.nan), references) for e in spec.expect)
+    why = reasons or {}
+    rows = tuple(
+        _row(e, metrics.get(e.metric, math.nan), references, why.get(e.metric, ""))
+        for e in spec.expect
+    )
     return Verdict(experiment=spec.name, outcome=outcome, rows=rows)
 
 
-def _row(e: Expectation, measured: float, references: ReferenceLookup) -> CheckRow:
+def _row(
+    e: Expectation, measured: float, references: ReferenceLookup, unmeasurable: str
+) -> CheckRow:
     source = e.source
     value = e.value
+    notes = [e.note] if e.note else []
     if e.relative_to is not None:
         ref, origin = references(e.relative_to.experiment, e.reference_metric)
         value = e.relative_to.scale * ref
-        source = (
-            f"{source} [value = {e.relative_to.scale:g} × {e.relative_to.experiment}."
-            f"{e.reference_metric} = {value:.4g}, from {origin}]"
-        )
+        if math.isnan(ref):
+            notes.append(f"no comparison value: {origin}")
+            source = f"{source} [compared with {e.relative_to.experiment}: {origin}]"
+        else:
+            source = (
+                f"{source} [value = {e.relative_to.scale:g} × {e.relative_to.experiment}."
+                f"{e.reference_metric} = {value:.4g}, from {origin}]"
+            )
     assert value is not None
-    ok = holds(e.op, measured, value)
-    note = e.note
-    if e.known_deviation:
-        status = PASS if ok else KNOWN
-        if not ok:
-            note = f"{note} Known deviation: {e.known_deviation}".strip()
+    if math.isnan(measured):
+        notes.append(f"not measurable: {unmeasurable or 'the metric gave no value'}")
+    dev = e.known_deviation
+    if dev is None:
+        status = PASS if holds(e.op, measured, value) else FAIL
+        return CheckRow(e.metric, e.op, value, measured, status, source, " ".join(notes))
+    lo, hi = dev.observed
+    comparable = not math.isnan(measured) and not _has_nan(value)
+    if comparable and lo <= measured <= hi:
+        status = KNOWN
+        notes.append(f"Known deviation: {dev.reason}")
     else:
-        status = PASS if ok else FAIL
-    return CheckRow(e.metric, e.op, value, measured, status, source, note)
+        status = FAIL
+        if not comparable:
+            notes.append("Known deviation, but nothing to compare with its observed band.")
+        elif holds(e.op, measured, value):
+            notes.append(
+                "Left the known deviation's observed band and now meets the paper: the "
+                "deviation may be gone; update the spec."
+            )
+        else:
+            side = "below" if measured < lo else "above"
+            notes.append(
+                f"Regression: {side} the known deviation's observed band. "
+                f"Known deviation: {dev.reason}"
+            )
+    return CheckRow(e.metric, e.op, value, measured, status, source, " ".join(notes), (lo, hi))
 
 
 def write_junit(verdicts: list[Verdict], path: Path) -> None:
     """JUnit XML: one test suite per experiment, one test case per expectation."""
-    root = ET.Element("testsuites", name="walkrepro check")
+    total = count(verdicts)
+    root = ET.Element(
+        "testsuites",
+        name="walkrepro check",
+        tests=str(total.reproduced + total.known + total.failed),
+        failures=str(total.failed),
+        skipped=str(total.known),
+    )
     for v in verdicts:
-        failures = sum(r.status == FAIL for r in v.rows) + (
-            0 if v.outcome in ("complete", "fell") else 1
-        )
+        c = count([v])
         suite = ET.SubElement(
-            root, "testsuite", name=v.experiment, tests=str(len(v.rows) + 1), failures=str(failures)
+            root,
+            "testsuite",
+            name=v.experiment,
+            tests=str(c.reproduced + c.known + c.failed),
+            failures=str(c.failed),
+            skipped=str(c.known),
         )
-        run_case = ET.SubElement(suite, "testcase", classname=v.experiment, name="run")
-        if v.outcome not in ("complete", "fell"):
+        if not v.run_ok:  # a broken or interrupted run is one failed case, as in the counts
+            run_case = ET.SubElement(suite, "testcase", classname=v.experiment, name="run")
             ET.SubElement(run_case, "failure", message=f"run outcome: {v.outcome}")
         for r in v.rows:
             case = ET.SubElement(
                 suite, "testcase", classname=v.experiment, name=f"{r.metric} {r.band}"
             )
-            text = f"measured {r.measured:g}; source: {r.source}; {r.note}"
+            observed = f"; observed band {r.observed_band}" if r.observed else ""
+            text = f"measured {r.measured:g}{observed}; source: {r.source}; {r.note}"
             if r.status == FAIL:
                 ET.SubElement(case, "failure", message=text)
             elif r.status == KNOWN:

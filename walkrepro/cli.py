@@ -31,7 +31,42 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    context_settings={"help_option_names": ["-h", "--help"]},
 )
+
+
+def version_text() -> str:
+    """walkrepro's version and git commit, and the MuJoCo and Pinocchio versions."""
+    import mujoco
+
+    from walkrepro import __version__
+    from walkrepro.provenance import git_commit, pinocchio_version
+
+    return (
+        f"walkrepro {__version__} (git {git_commit()}), MuJoCo {mujoco.__version__}, "
+        f"Pinocchio {pinocchio_version()}"
+    )
+
+
+def _show_version(value: bool) -> None:
+    if value:
+        print(version_text())
+        raise typer.Exit()
+
+
+@app.callback()
+def _main(
+    version: Annotated[
+        bool,
+        typer.Option(
+            "--version",
+            callback=_show_version,
+            is_eager=True,
+            help="Show walkrepro's version, git commit, and the MuJoCo and Pinocchio versions.",
+        ),
+    ] = False,
+) -> None:
+    """Reproduce published biped-walking controllers in MuJoCo and check the reproduction."""
 
 
 def _console(stderr: bool = False) -> Console:
@@ -394,30 +429,36 @@ def _plot_comparisons(summaries: list) -> None:  # list[RunSummary]
 
 
 def _print_verdicts(verdicts: list) -> None:  # list[checks.Verdict]
-    from walkrepro.checks import FAIL, KNOWN, PASS
+    """The verdict table (paper value, measured value and a known deviation's observed band
+    side by side) and the count line ``N reproduced, M known deviations, K failed``."""
+    from walkrepro.checks import FAIL, KNOWN, PASS, count
 
-    colour = {PASS: "green", FAIL: "red", KNOWN: "yellow"}
+    label = {
+        PASS: "[green]reproduced[/]",
+        FAIL: "[red]fail[/]",
+        KNOWN: "[yellow]known deviation[/]",
+    }
     table = Table(title="paper expectations")
-    for col in ("experiment", "metric", "paper", "measured", "band", "result", "source"):
+    for col in ("experiment", "metric", "paper", "measured", "observed", "result", "source / note"):
         table.add_column(col, overflow="fold")
     for v in verdicts:
-        if v.outcome not in ("complete", "fell"):
-            table.add_row(v.experiment, "run", "", v.outcome, "", "[red]fail[/]", "")
+        if not v.run_ok:
+            table.add_row(v.experiment, "run", "", v.outcome, "", label[FAIL], "")
         for r in v.rows:
-            paper = r.band.split(" ", 1)[-1] if r.op != "between" else r.band
+            note = f" — {r.note}" if r.note else ""
             table.add_row(
                 v.experiment,
                 r.metric,
-                paper,
-                f"{r.measured:.4g}",
                 r.band,
-                f"[{colour[r.status]}]{r.status}[/]",
-                escape(r.source if r.status != KNOWN else f"{r.source} — {r.note}"),
+                f"{r.measured:.4g}",
+                r.observed_band,
+                label[r.status],
+                escape(f"{r.source}{note}"),
             )
     _console().print(table)
-    n_fail = sum(not v.passed for v in verdicts)
-    summary = "all expectations hold" if n_fail == 0 else f"{n_fail} experiment(s) failed"
-    _console().print(f"[bold]{summary}[/]")
+    counts = count(verdicts)
+    colour = "red" if counts.failed else ("yellow" if counts.known else "green")
+    _console().print(f"[bold {colour}]{counts}[/]")
 
 
 def main() -> None:  # pragma: no cover - console entry point alias

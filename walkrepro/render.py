@@ -1,7 +1,8 @@
 """Snapshot strips of a run, rendered headless from the log (like the papers' photo strips).
 
 Rendering reads only the log: the scene XML and the logged states. It is also the quickest
-way to check by eye that a robot really walks.
+way to check by eye that a robot really walks. The OpenGL backend is chosen here, when a
+strip is rendered, never at import (:mod:`walkrepro.gl`).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
-from walkrepro import record  # noqa: E402
+from walkrepro import gl, record  # noqa: E402
 from walkrepro.errors import WalkreproError  # noqa: E402
 
 
@@ -34,28 +35,24 @@ def render_strip(log_path: Path, times: list[float], out: Path, width: int, heig
     model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
     model.vis.global_.offheight = max(model.vis.global_.offheight, height)
     data = mujoco.MjData(model)
-    try:
-        renderer = mujoco.Renderer(model, height=height, width=width)
-    except Exception as exc:  # backend missing: say how to get one
-        raise WalkreproError(
-            f"cannot create an OpenGL context for rendering ({exc}). Install OSMesa "
-            "(apt-get install libosmesa6) and set MUJOCO_GL=osmesa, or use MUJOCO_GL=egl."
-        ) from None
     camera = mujoco.MjvCamera()
     camera.type = mujoco.mjtCamera.mjCAMERA_FREE
     camera.azimuth, camera.elevation, camera.distance = 90.0, -15.0, 3.2
     frames, shown = [], []
     pelvis = model.body("pelvis").id
-    for when in times:
-        i = int(np.argmin(np.abs(t - when)))
-        data.qpos[:] = states[i]["qpos"]
-        data.qvel[:] = states[i]["qvel"]
-        mujoco.mj_forward(model, data)
-        camera.lookat[:] = [data.xpos[pelvis, 0], data.xpos[pelvis, 1], 0.6 * data.xpos[pelvis, 2]]
-        renderer.update_scene(data, camera)
-        frames.append(renderer.render().copy())
-        shown.append(float(t[i]))
-    renderer.close()
+    with _Offscreen(model, width, height) as view:
+        for when in times:
+            i = int(np.argmin(np.abs(t - when)))
+            data.qpos[:] = states[i]["qpos"]
+            data.qvel[:] = states[i]["qvel"]
+            mujoco.mj_forward(model, data)
+            camera.lookat[:] = [
+                data.xpos[pelvis, 0],
+                data.xpos[pelvis, 1],
+                0.6 * data.xpos[pelvis, 2],
+            ]
+            frames.append(view.render(data, camera))
+            shown.append(float(t[i]))
 
     fig, axes = plt.subplots(1, len(frames), figsize=(2.4 * len(frames), 2.4 * height / width))
     for ax, frame, ti in zip(np.atleast_1d(axes), frames, shown, strict=True):
@@ -69,3 +66,42 @@ def render_strip(log_path: Path, times: list[float], out: Path, width: int, heig
     fig.savefig(out, dpi=120)
     plt.close(fig)
     return out
+
+
+class _Offscreen:
+    """An offscreen MuJoCo render target on the backend :func:`walkrepro.gl.gl_context_class`
+    chose (MuJoCo's public ``mjr_*`` API, so the backend need not be the one MuJoCo picked
+    when it was imported)."""
+
+    def __init__(self, model: mujoco.MjModel, width: int, height: int) -> None:
+        self._model = model
+        self._viewport = mujoco.MjrRect(0, 0, width, height)
+        self._context = gl.gl_context_class()(width, height)
+        self._context.make_current()
+        self._scene = mujoco.MjvScene(model, maxgeom=10000)
+        self._mjr = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150)
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._mjr)
+        self._option, self._perturb = mujoco.MjvOption(), mujoco.MjvPerturb()
+        self._pixels = np.empty((height, width, 3), dtype=np.uint8)
+
+    def render(self, data: mujoco.MjData, camera: mujoco.MjvCamera) -> np.ndarray:
+        """One RGB frame (height x width x 3, uint8, top row first)."""
+        mujoco.mjv_updateScene(
+            self._model,
+            data,
+            self._option,
+            self._perturb,
+            camera,
+            mujoco.mjtCatBit.mjCAT_ALL,
+            self._scene,
+        )
+        mujoco.mjr_render(self._viewport, self._scene, self._mjr)
+        mujoco.mjr_readPixels(self._pixels, None, self._viewport, self._mjr)
+        return np.flipud(self._pixels).copy()
+
+    def __enter__(self) -> _Offscreen:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._mjr.free()
+        self._context.free()

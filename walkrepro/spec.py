@@ -250,12 +250,32 @@ class RelativeTo(_Strict):
     scale: float = 1.0
 
 
+class KnownDeviation(_Strict):
+    """What the reproduction measures today where it misses the paper, and why.
+
+    A known deviation is an observed band, not an excuse: the expectation's row fails when
+    the measured value leaves ``observed`` in either direction (worse is a regression;
+    better means the deviation may be gone and the spec must be updated).
+    """
+
+    reason: str = Field(description="why the reproduction misses the paper, with the evidence")
+    observed: tuple[float, float] = Field(
+        description="[low, high]: the band the reproduction measures today (closed interval)"
+    )
+
+    @model_validator(mode="after")
+    def _band_is_ordered(self) -> KnownDeviation:
+        if not self.observed[0] <= self.observed[1]:
+            raise ValueError("observed needs [low, high] with low <= high")
+        return self
+
+
 class Expectation(_Strict):
     """One of the paper's expectations: ``metric op value``, with its source in the paper.
 
     The value is either given (``value``) or taken from another experiment's run
     (``relative_to``). ``known_deviation`` marks an expectation the reproduction is known to
-    miss, with the reason; it is still evaluated and reported, never silently passed.
+    miss: the reason and the band it measures today (:class:`KnownDeviation`).
     """
 
     metric: str
@@ -264,7 +284,7 @@ class Expectation(_Strict):
     relative_to: RelativeTo | None = None
     source: str
     note: str = ""
-    known_deviation: str | None = None
+    known_deviation: KnownDeviation | None = None
 
     @model_validator(mode="after")
     def _value_matches_op(self) -> Expectation:
