@@ -7,12 +7,10 @@ geom carries a foot (``/sim/contacts``) and the foot's motion (``/sim/state``).
 
 from __future__ import annotations
 
-import math
-
 import mujoco
 import numpy as np
 
-from walkrepro.metrics import GRAVITY, TOUCHDOWN_WEIGHT_FRACTION, LogData, metric
+from walkrepro.metrics import GRAVITY, TOUCHDOWN_WEIGHT_FRACTION, LogData, NotMeasurable, metric
 from walkrepro.world import FLOOR_NAME
 
 #: World geoms that are obstacles (spec: names start with "obstacle").
@@ -25,6 +23,8 @@ SETTLED_SPEED = 0.05
 #: Settling is judged within this time after the first obstacle contact [s] (shorter
 #: than the 0.7 s step, so the foot's next lift-off is outside it).
 SETTLE_WINDOW = 0.6
+#: The landing peak of Fig. 4 is looked for within this time after the first contact [s].
+LANDING_WINDOW = 0.3
 
 
 def _foot_arg(arg: str) -> str:
@@ -41,44 +41,72 @@ def _floor_force(d: LogData, foot: str) -> np.ndarray:
     return d.contact_wrench(f"{foot}/{FLOOR_NAME}")[:, 2]
 
 
+#: A touchdown is judged by what carries the foot this long after it [s] (the landing
+#: transient of Fig. 4 is over by then).
+JUDGE_DELAY = 0.05
+
+
 @metric(
     "stepped_on_off",
-    "1 if the foot (arg, default right_foot) landed on an obstacle* and a later touchdown "
-    "of it was on the floor alone, without a fall; else 0",
+    "1 if the foot (arg, default right_foot) stepped onto an obstacle* and a later step of "
+    "it landed on the floor alone, without a fall; else 0",
 )
 def _stepped_on_off(d: LogData, arg: str) -> float:
+    """Whole run, with falls measured: the claim of the no-impedance specs is "does not
+    overcome", so a fall (before or after stepping off) is a measured 0, not a missing value.
+    A run interrupted (or broken) before stepping off is not measurable; one that stepped
+    off before it stopped is a measured 1.
+
+    Steps are :attr:`LogData.footsteps` (the sole cleared both the floor it left and the
+    block it lands on by 1 cm), each judged by the contact forces JUDGE_DELAY after it.
+    """
     foot = _foot_arg(arg)
-    if d.outcome == "fell" or not d.contacts:
+    if d.outcome == "fell":
         return 0.0
+    d.require_states()
+    d.require_contacts()
+    if stepped_on_off(d, foot):
+        return 1.0
+    if d.outcome != "complete":
+        raise NotMeasurable(f"{d.stop_reason()}, before the foot stepped onto and off the obstacle")
+    return 0.0
+
+
+def stepped_on_off(d: LogData, foot: str) -> bool:
+    """Whether a step of ``foot`` landed on an obstacle and a later one on the floor alone."""
     on_obstacle = _obstacle_force(d, foot)
     on_floor = _floor_force(d, foot)
     load = TOUCHDOWN_WEIGHT_FRACTION * d.robot_mass * GRAVITY
-    touchdowns = [s.t for s in d.footsteps if s.foot == foot]
-    stepped_on = None
-    for t in touchdowns:
-        # Judge each touchdown by what carries the foot a little after it (50 ms).
-        i = min(int(np.searchsorted(d.contact_t, t + 0.05)), d.contact_t.size - 1)
-        if stepped_on is None and on_obstacle[i] > load:
-            stepped_on = t
-        elif stepped_on is not None and on_floor[i] > load and on_obstacle[i] < CONTACT_FORCE:
-            return 1.0
-    return 0.0
+    stepped_on = False
+    for step in d.footsteps:
+        if step.foot != foot:
+            continue
+        i = min(int(np.searchsorted(d.contact_t, step.t + JUDGE_DELAY)), d.contact_t.size - 1)
+        if not stepped_on and on_obstacle[i] > load:
+            stepped_on = True
+        elif stepped_on and on_floor[i] > load and on_obstacle[i] < CONTACT_FORCE:
+            return True
+    return False
 
 
 @metric(
     "time_after_last_step",
-    "simulated time after the last touchdown [s] (the issue asks for >= 2 s without a fall)",
+    "simulated time after the last step's touchdown [s] (the issue asks for >= 2 s without a fall)",
 )
 def _time_after_last_step(d: LogData, arg: str) -> float:
-    if not d.footsteps or not d.t.size:
-        return math.nan
-    falls = [e["t"] for e in d.events if e.get("kind") == "fall"]
-    end = float(falls[0]) if falls else float(d.t[-1])
-    return end - d.footsteps[-1].t
+    """Completed: "stands ≥ 2 s after the last step without a fall" needs a completed run;
+    a fall or an early stop makes it not measurable."""
+    d.require_states()
+    d.require_contacts()
+    d.require_completed("the standing time after the last step was judged")
+    if not d.footsteps:
+        raise NotMeasurable("no step found")
+    return d.data_end - d.footsteps[-1].t
 
 
 def _first_obstacle_contact(d: LogData, foot: str) -> int | None:
     """Index of the first contact message where an obstacle pushes the foot (> 10 N)."""
+    d.require_contacts()
     idx = np.flatnonzero(_obstacle_force(d, foot) > CONTACT_FORCE)
     return int(idx[0]) if idx.size else None
 
@@ -108,20 +136,32 @@ def sole_velocity_z(d: LogData, foot: str, i0: int, i1: int) -> tuple[np.ndarray
     f"z velocity stays below {SETTLED_SPEED} m/s, within {SETTLE_WINDOW} s [s] (Fig. 5b)",
 )
 def _swing_z_settling_time(d: LogData, arg: str) -> float:
+    """Window: the data must cover SETTLE_WINDOW after the first obstacle contact (a fall
+    within it makes the metric not measurable). Sole velocity from the logged state."""
     foot = _foot_arg(arg)
-    c = _first_obstacle_contact(d, foot)
-    if c is None:
-        return math.nan
-    t_contact = float(d.contact_t[c])
-    t_end = min(t_contact + SETTLE_WINDOW, float(d.t[-1]))
+    t_contact = _contact_time(d, foot)
+    t_end = t_contact + SETTLE_WINDOW
+    d.require_until(t_end, "the settling window after the obstacle contact ended")
     i0, i1 = np.searchsorted(d.t, [t_contact, t_end])
     if i1 <= i0:
-        return math.nan
+        raise NotMeasurable("no state logged in the settling window")
     t, vz = sole_velocity_z(d, foot, int(i0), int(i1))
+    return settling_time(t, vz, t_contact)
+
+
+def settling_time(t: np.ndarray, vz: np.ndarray, t_contact: float) -> float:
+    """Time from ``t_contact`` until |vz| stays below SETTLED_SPEED (0 if it always is) [s]."""
     moving = np.flatnonzero(np.abs(vz) >= SETTLED_SPEED)
     if not moving.size:
         return 0.0
     return float(t[moving[-1]] - t_contact)
+
+
+def _contact_time(d: LogData, foot: str) -> float:
+    c = _first_obstacle_contact(d, foot)
+    if c is None:
+        raise NotMeasurable(f"no obstacle pushed {foot} with > {CONTACT_FORCE} N{d.stopped_note()}")
+    return float(d.contact_t[c])
 
 
 @metric(
@@ -130,11 +170,11 @@ def _swing_z_settling_time(d: LogData, arg: str) -> float:
     "first obstacle contact [N] (Fig. 4)",
 )
 def _peak_landing_force(d: LogData, arg: str) -> float:
+    """Window: the data must cover LANDING_WINDOW after the first obstacle contact (a fall
+    within it makes the metric not measurable)."""
     foot = _foot_arg(arg)
-    c = _first_obstacle_contact(d, foot)
-    if c is None:
-        return math.nan
-    t0 = d.contact_t[c]
-    window = (d.contact_t >= t0) & (d.contact_t <= t0 + 0.3)
+    t0 = _contact_time(d, foot)
+    d.require_until(t0 + LANDING_WINDOW, "the landing window after the obstacle contact ended")
+    window = (d.contact_t >= t0) & (d.contact_t <= t0 + LANDING_WINDOW)
     force = np.linalg.norm(d.contact_wrench(f"{foot}/*")[window, :3], axis=1)
-    return float(force.max()) if force.size else math.nan
+    return float(force.max())

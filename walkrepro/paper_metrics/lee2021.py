@@ -1,130 +1,112 @@
 """Metrics specific to the lee2021 reproduction (computed from the log alone).
 
 Paper I (Lee et al. 2021): the E-FSM controller logs ``efsm_phase`` (0 SSD, 1 SSA, 2 DS),
-``fsm_state`` (−1/0/1 of Fig. 8), the CoM and x_p^des in O_w, the expected and measured
-CoP and the reference torques. Steps are read from the feet's motion: a *lifted step* is a
-touchdown after the sole centre rose above :data:`LIFT_HEIGHT`, so a foot that is only
-unloaded (weight shift) or scraped along the floor does not count.
+``swing_foot`` (1 right, −1 left, 0 DS), the expected and measured CoP and the reference
+torques. Steps are :attr:`walkrepro.metrics.LogData.footsteps`: touchdowns after the sole
+left the floor (:func:`walkrepro.metrics.detect_steps`), so a foot that is only unloaded
+(weight shift) or slid along the floor does not count.
+
+The CoM, the feet and the CoP these metrics judge are the simulated ones (logged state and
+contact wrenches). A controller signal is read only where the paper's claim is about it
+(the E-FSM's phases, which say *when* a claim applies; the reference torques of Fig. 14; the
+expected CoP of Fig. 15), and each docstring says so.
 """
 
 from __future__ import annotations
 
 import math
-from functools import lru_cache
 
 import mujoco
 import numpy as np
 
-from walkrepro.metrics import LogData, metric
+from walkrepro.metrics import Footstep, LogData, NotMeasurable, metric, window_arg
+from walkrepro.world import FLOOR_NAME
 
 FEET = ("left", "right")
-#: A step lifts the sole centre at least this high [m] (the paper's swing height is 0.05 m).
-LIFT_HEIGHT = 0.01
-#: ... and ends when it is back below this height [m] (the landing height is 0.005 m).
-LAND_HEIGHT = 0.006
-#: A step advances when the foot lands this far ahead of the other foot [m].
+#: A step advances when the foot lands this far ahead (x) of the other foot [m]: half the
+#: paper's 0.1 m step length (§VI-A), so a step in place or a closing step does not count.
 ADVANCE = 0.05
-#: A foot placement is new when it is this far from the foot's previous one [m].
-MOVED = 0.02
 #: E-FSM phases as logged in ``efsm_phase`` (Table I).
 PHASES = {"SSD": 0.0, "SSA": 1.0, "DS": 2.0}
 #: A foot touches an obstacle above this contact force [N].
 OBSTACLE_CONTACT_FORCE = 1.0
+#: Margin parameter ζ of Eq. (3) [m] when the spec does not set ``zeta`` (§VI: ζ = 0.03 m).
+ZETA = 0.03
 
 
-@lru_cache(maxsize=8)
 def _sole_tracks(d: LogData) -> dict[str, np.ndarray]:
-    """World position of each sole centre at every logged state, shape (N, 3) per foot."""
-    model = d.model
-    data = mujoco.MjData(model)
-    sites = {f: model.site(f"{f}_sole").id for f in FEET}
-    out = {f: np.zeros((d.t.size, 3)) for f in FEET}
-    for i, qpos in enumerate(d.qpos):
-        data.qpos[:] = qpos
-        mujoco.mj_kinematics(model, data)
-        for f in FEET:
-            out[f][i] = data.site_xpos[sites[f]]
-    return out
+    """World position of each sole centre at every logged state, shape (N, 3) per side."""
+    return {f: d.sole_tracks[f"{f}_foot"].centre for f in FEET}
 
 
 def lifted_steps(d: LogData) -> list[tuple[str, float, np.ndarray]]:
-    """Touchdowns after a lift above LIFT_HEIGHT: (foot, time [s], sole position [m])."""
-    steps = []
-    for foot, track in _sole_tracks(d).items():
-        lifted = False
-        for i in range(d.t.size):
-            z = track[i, 2]
-            if not lifted and z > LIFT_HEIGHT:
-                lifted = True
-            elif lifted and z < LAND_HEIGHT:
-                lifted = False
-                steps.append((foot, float(d.t[i]), track[i].copy()))
-    return sorted(steps, key=lambda s: s[1])
+    """Steps (``LogData.footsteps``) as (side, touchdown time [s], sole position [m])."""
+    return [(s.foot.split("_")[0], s.t, np.array(s.position)) for s in d.footsteps]
 
 
-def _window(arg: str, default: tuple[float, float]) -> tuple[float, float]:
-    if not arg:
-        return default
-    lo, _, hi = arg.partition("-")
-    return float(lo), float(hi)
-
-
-def _advancing(d: LogData) -> list[tuple[str, float, np.ndarray]]:
-    """Touchdowns (from contact forces) ≥ ADVANCE ahead of the other foot, one per placement.
-
-    A touchdown counts when the foot lands at least ADVANCE ahead of the other foot and
-    at least MOVED from its previously counted placement (so load chatter is not a step).
-    """
+def advancing_steps(d: LogData) -> list[Footstep]:
+    """Steps whose foot lands ≥ ADVANCE ahead (world x) of the other foot's sole centre."""
     tracks = _sole_tracks(d)
-    last: dict[str, np.ndarray] = {}
     out = []
     for step in d.footsteps:
-        foot = step.foot.split("_")[0]
-        pos = np.asarray(step.position)
-        other = tracks["right" if foot == "left" else "left"]
-        i = min(int(np.searchsorted(d.t, step.t)), d.t.size - 1)
-        moved = foot not in last or np.linalg.norm(pos[:2] - last[foot][:2]) >= MOVED
-        if moved and pos[0] - other[i, 0] >= ADVANCE:
-            out.append((foot, step.t, pos))
-            last[foot] = pos
+        other = tracks["right" if step.foot == "left_foot" else "left"]
+        i = int(d.state_index(np.array([step.t]))[0])
+        if step.position[0] - other[i, 0] >= ADVANCE:
+            out.append(step)
     return out
 
 
-@metric("lifted_steps", "touchdowns after the sole rose > 1 cm (arg 't0-t1': window [s])")
+def _need_walk(d: LogData) -> None:
+    d.require_states(2)
+    d.require_contacts()
+
+
+@metric(
+    "lifted_steps",
+    "steps: touchdowns after the sole cleared the floor by 1 cm for 50 ms (arg 't0-t1': window [s])",
+)
 def _lifted_steps(d: LogData, arg: str) -> float:
-    t0, t1 = _window(arg, (-math.inf, math.inf))
-    return float(sum(1 for _, t, _ in lifted_steps(d) if t0 <= t <= t1))
+    """Pre-fall count of steps with touchdowns in the window."""
+    _need_walk(d)
+    t0, t1 = window_arg(arg, (-math.inf, math.inf))
+    return float(sum(1 for s in d.footsteps if t0 <= s.t <= t1))
 
 
-@metric("advancing_steps", "touchdowns landing ≥ 5 cm ahead of the other foot (new placements)")
+@metric(
+    "advancing_steps",
+    f"steps (the sole left the floor) landing ≥ {ADVANCE} m ahead of the other foot",
+)
 def _advancing_steps(d: LogData, arg: str) -> float:
-    return float(len(_advancing(d)))
+    """Pre-fall count of :func:`advancing_steps` (§VI-A: "11 steps of 0.1 m")."""
+    _need_walk(d)
+    return float(len(advancing_steps(d)))
 
 
 @metric(
     "walk_speed",
-    "pelvis x speed from the first lift-off to the last advancing touchdown [m/s]",
+    "pelvis x speed from the first step's lift-off to the last advancing step's touchdown [m/s]",
 )
 def _walk_speed(d: LogData, arg: str) -> float:
-    adv = _advancing(d)
+    """Completed: §VI-A's speed is that of the whole walk, so a fall or an early stop makes
+    it not measurable. Steps as in ``advancing_steps``."""
+    _need_walk(d)
+    d.require_completed("the walk was completed")
+    adv = advancing_steps(d)
     if not adv:
-        return math.nan
-    tracks = _sole_tracks(d)
-    lift = min(
-        float(d.t[np.argmax(tracks[f][:, 2] > LIFT_HEIGHT)])
-        for f in FEET
-        if np.any(tracks[f][:, 2] > LIFT_HEIGHT)
-    )
-    t_end = adv[-1][1]
-    i0, i1 = np.searchsorted(d.t, [lift, t_end])
+        raise NotMeasurable("no advancing step")
+    lift = min(s.liftoff_t for s in d.footsteps)
+    i0, i1 = d.state_index(np.array([lift, adv[-1].t]))
+    if d.t[i1] <= d.t[i0]:
+        raise NotMeasurable("the first lift-off is not before the last advancing touchdown")
     return float((d.qpos[i1, 0] - d.qpos[i0, 0]) / (d.t[i1] - d.t[i0]))
 
 
-def _visits(d: LogData, phase: float) -> list[tuple[float, float]]:
-    """(start, end) of every complete visit of an E-FSM phase [s]."""
-    t, v = d.signal("efsm_phase")
+def phase_visits(
+    t: np.ndarray, phase_signal: np.ndarray, phase: float
+) -> list[tuple[float, float]]:
+    """(start, end) [s] of every complete visit of an E-FSM phase in a phase signal."""
     out, start = [], None
-    for ti, vi in zip(t, v, strict=True):
+    for ti, vi in zip(t, phase_signal, strict=True):
         if vi == phase and start is None:
             start = ti
         elif vi != phase and start is not None:
@@ -133,56 +115,161 @@ def _visits(d: LogData, phase: float) -> list[tuple[float, float]]:
     return out
 
 
+def _visits(d: LogData, phase: float) -> list[tuple[float, float]]:
+    t, v = d.require_signal("efsm_phase")
+    return phase_visits(t, v, phase)
+
+
 @metric(
     "phase_duration_spread",
     "std/mean of the durations of complete visits of an E-FSM phase (arg SSD|SSA|DS) [-]",
 )
 def _phase_duration_spread(d: LogData, arg: str) -> float:
+    """Pre-fall. Reads ``efsm_phase``: §VI-A's claim is about the E-FSM's state durations
+    (Fig. 8), which are the controller's states, not contact states."""
     visits = _visits(d, PHASES[arg or "SSA"])[1:]  # the first footstep starts from rest
     durations = np.array([b - a for a, b in visits])
     if durations.size < 2:
-        return math.nan
+        raise NotMeasurable(f"{durations.size} complete {arg or 'SSA'} visit(s) after the first")
     return float(np.std(durations) / np.mean(durations))
 
 
 @metric("first_ssd_duration", "duration of the first SSD (after the first DS) [s]")
 def _first_ssd_duration(d: LogData, arg: str) -> float:
+    """Pre-fall. Reads ``efsm_phase`` (Fig. 8's claim is about the E-FSM's first SSD)."""
     visits = _visits(d, PHASES["SSD"])
-    return visits[0][1] - visits[0][0] if visits else math.nan
+    if not visits:
+        raise NotMeasurable(f"the E-FSM never completed an SSD{d.stopped_note()}")
+    return visits[0][1] - visits[0][0]
 
 
-def _single_support(d: LogData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    t, phase = d.signal("efsm_phase")
-    _, com_w = d.signal("com_w")
-    _, xp = d.signal("xp_des_w")
-    ss = phase < PHASES["DS"]
-    return com_w[ss, 0], xp[ss], t[ss]
+def _com_world(d: LogData) -> np.ndarray:
+    """The robot's CoM in the world at every logged state, (N, 3) [m] (cached on ``d``)."""
+    cached = d.__dict__.get("_lee_com_world")
+    if cached is not None:
+        return cached
+    model = d.model
+    data = mujoco.MjData(model)
+    root = model.body("pelvis").id
+    out = np.zeros((d.t.size, 3))
+    for i, qpos in enumerate(d.qpos):
+        data.qpos[:] = qpos
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        out[i] = data.subtree_com[root]
+    d.__dict__["_lee_com_world"] = out
+    return out
+
+
+class SingleSupport:
+    """The single-support samples of a run along x of O_w (§III-A1), from the logged state.
+
+    O_w: origin at the support sole centre, x towards the swing sole's ground projection.
+    Which foot supports is the E-FSM's (``swing_foot`` signal): Eq. (3) applies in its SSD
+    and SSA states, so that signal says *when* the claims hold; every position is simulated.
+
+    Attributes:
+        t: times [s]; phase: E-FSM phase (0 SSD, 1 SSA).
+        com_x: CoM along x of O_w [m]; cop_x: measured CoP (floor contact wrench) along x
+            of O_w [m], NaN where the floor carries nothing.
+    """
+
+    def __init__(self, d: LogData) -> None:
+        d.require_states()
+        t_sig, phase = d.require_signal("efsm_phase")
+        _, swing = d.require_signal("swing_foot")
+        i = d.state_index(t_sig)
+        ss = (phase < PHASES["DS"]) & (swing != 0) & (np.abs(d.t[i] - t_sig) < 1e-9)
+        if not np.any(ss):
+            raise NotMeasurable(f"the E-FSM was never in single support{d.stopped_note()}")
+        i, swing = i[ss], swing[ss]
+        tracks = _sole_tracks(d)
+        right_swings = (swing == 1.0)[:, None]
+        p_sup = np.where(right_swings, tracks["left"][i], tracks["right"][i])[:, :2]
+        p_sw = np.where(right_swings, tracks["right"][i], tracks["left"][i])[:, :2]
+        self.t, self.phase = t_sig[ss], phase[ss]
+        self.com_x = ow_x(_com_world(d)[i, :2], p_sup, p_sw)
+        self.cop_x = ow_x(_measured_cop(d, self.t), p_sup, p_sw)
+
+
+def ow_x(points: np.ndarray, p_sup: np.ndarray, p_sw: np.ndarray) -> np.ndarray:
+    """Coordinate along x of O_w (§III-A1) of horizontal points, each sample its own O_w.
+
+    Args:
+        points, p_sup, p_sw: world xy of the points, the support and the swing sole centres,
+            shape (n, 2) [m].
+
+    Returns:
+        shape (n,) [m]: 0 at the support centre, positive toward the swing foot.
+    """
+    axis = p_sw - p_sup
+    axis = axis / np.linalg.norm(axis, axis=1, keepdims=True)
+    return np.sum((points - p_sup) * axis, axis=1)
+
+
+def eq3_cop_lead(com_x: np.ndarray, cop_x: np.ndarray, zeta: float) -> float:
+    """Smallest x_m − x_p over the samples with x_m ≤ ζ and a CoP [m] (``eq3_cop_lead``)."""
+    near = (com_x <= zeta) & np.isfinite(cop_x)
+    if not np.any(near):
+        raise NotMeasurable("the CoM never came within ζ of the support centre in single support")
+    return float(np.min(com_x[near] - cop_x[near]))
+
+
+def _measured_cop(d: LogData, times: np.ndarray) -> np.ndarray:
+    """CoP of the floor's contact wrench on the robot at given times, (n, 2) world [m].
+
+    The logged torque is about the world origin and the floor is z = 0, so the CoP is
+    x = −M_y / F_z, y = M_x / F_z. NaN where the floor carries less than 1 N.
+    """
+    d.require_contacts()
+    wrench = d.contact_wrench(f"*/{FLOOR_NAME}")
+    k = np.clip(np.searchsorted(d.contact_t, times), 0, d.contact_t.size - 1)
+    w = wrench[k]
+    fz = np.where(w[:, 2] > 1.0, w[:, 2], np.nan)
+    return np.stack([-w[:, 4] / fz, w[:, 3] / fz], axis=1)
+
+
+def _zeta(d: LogData) -> float:
+    return float(d.spec.controller.params.get("zeta", ZETA))
 
 
 @metric("min_com_x_ss", "smallest CoM x in O_w in SSD/SSA (< 0: past the support centre) [m]")
 def _min_com_x_ss(d: LogData, arg: str) -> float:
-    x_m, _, _ = _single_support(d)
-    return float(np.min(x_m)) if x_m.size else math.nan
+    """Pre-fall. §VI-A, Fig. 7(b): "the CoM stops its motion successfully before it advances
+    beyond the supporting foot". CoM and O_w from the logged state (:class:`SingleSupport`)."""
+    return float(np.min(SingleSupport(d).com_x))
 
 
 @metric(
-    "eq3_margin",
-    "smallest x_m − x_p^des in SSD/SSA (Eq. 3 keeps x_p^des ≥ ζ behind the CoM) [m]",
+    "eq3_cop_lead",
+    "smallest x_m − x_p along x of O_w in SSD/SSA while the CoM is within ζ of the support "
+    "centre (Eq. 3's x_m ≤ ζ case), x_p the measured CoP (> 0: the CoP stays behind the "
+    "CoM, so by law L1 the CoM accelerates away from the support centre) [m]",
 )
-def _eq3_margin(d: LogData, arg: str) -> float:
-    x_m, xp, _ = _single_support(d)
-    return float(np.min(x_m - xp)) if x_m.size else math.nan
+def _eq3_cop_lead(d: LogData, arg: str) -> float:
+    """Pre-fall. Eq. (3) puts x_p^des ζ behind the CoM once x_m ≤ ζ so that, by law L1, the
+    CoM accelerates away from the CoP: it does not pass the support centre in SSD and moves
+    on toward the swing foot in SSA (§III-B1/2). The observable consequence is that the
+    *measured* CoP (floor contact wrench) lies behind the simulated CoM in those samples;
+    the controller's x_p^des is not read (it is Eq. (3)'s clamp itself). ζ is the spec's
+    ``zeta`` (default 0.03 m).
+    """
+    ss = SingleSupport(d)
+    return eq3_cop_lead(ss.com_x, ss.cop_x, _zeta(d))
 
 
 @metric("max_torque_jump", "largest tick-to-tick change of a reference torque (arg 't0-t1') [Nm]")
 def _max_torque_jump(d: LogData, arg: str) -> float:
-    t, tau = d.signal("tau_ref")
+    """Pre-fall. Reads ``tau_ref``: §VI-D1's claim (Fig. 14) is about the reference torques."""
+    t, tau = d.require_signal("tau_ref")
     if t.size < 2:
-        return math.nan
-    t0, t1 = _window(arg, (-math.inf, math.inf))
+        raise NotMeasurable("fewer than two reference torques logged")
+    t0, t1 = window_arg(arg, (-math.inf, math.inf))
     keep = (t[1:] >= t0) & (t[1:] <= t1)
     jumps = np.max(np.abs(np.diff(tau, axis=0)), axis=1)[keep]
-    return float(np.max(jumps)) if jumps.size else math.nan
+    if not jumps.size:
+        raise NotMeasurable(f"no reference torques in the window {arg}{d.stopped_note()}")
+    return float(np.max(jumps))
 
 
 @metric(
@@ -190,70 +277,91 @@ def _max_torque_jump(d: LogData, arg: str) -> float:
     "90th percentile of |expected − measured CoP| while walking (Fig. 15) [m]",
 )
 def _cop_error_p90(d: LogData, arg: str) -> float:
-    _, exp = d.signal("cop_exp_world")
-    _, meas = d.signal("cop_meas_world")
-    _, valid = d.signal("cop_meas_valid")
-    if not valid.size:
-        return math.nan
+    """Pre-fall. Reads ``cop_exp_world`` (the expected CoP of Eqs. 18, 22 from the reference
+    torques) and ``cop_meas_world`` (the F/T sensors' CoP): Fig. 15 compares exactly these."""
+    _, exp = d.require_signal("cop_exp_world")
+    _, meas = d.require_signal("cop_meas_world")
+    _, valid = d.require_signal("cop_meas_valid")
     err = np.linalg.norm(exp - meas, axis=1)[valid > 0]
-    return float(np.percentile(err, 90)) if err.size else math.nan
+    if not err.size:
+        raise NotMeasurable("the measured CoP was never valid (no foot loaded)")
+    return float(np.percentile(err, 90))
 
 
 def _first_obstacle_contact(d: LogData, pattern: str) -> float:
     force = np.linalg.norm(d.contact_wrench(pattern)[:, :3], axis=1)
     hit = np.nonzero(force > OBSTACLE_CONTACT_FORCE)[0]
-    return float(d.contact_t[hit[0]]) if hit.size else math.nan
+    if not hit.size:
+        raise NotMeasurable(f"no contact on {pattern}{d.stopped_note()}")
+    return float(d.contact_t[hit[0]])
 
 
 @metric(
     "steps_after_contact",
-    "lifted steps after the first contact on pairs 'body/geom' = arg (e.g. right_foot/obstacle*)",
+    "steps after the first contact on pairs 'body/geom' = arg (e.g. right_foot/obstacle*)",
 )
 def _steps_after_contact(d: LogData, arg: str) -> float:
+    """Completed: §VI-B's "keeps walking in the same place" needs the whole run after the
+    collision, so a fall or an early stop makes it not measurable."""
+    _need_walk(d)
     t_hit = _first_obstacle_contact(d, arg or "right_foot/obstacle*")
-    if math.isnan(t_hit):
-        return math.nan
-    return float(sum(1 for _, t, _ in lifted_steps(d) if t > t_hit))
+    d.require_completed("the run after the collision was completed")
+    return float(sum(1 for s in d.footsteps if s.t > t_hit))
 
 
 @metric("max_sole_x", "largest x of a sole centre (arg left|right) over the run [m]")
 def _max_sole_x(d: LogData, arg: str) -> float:
+    """Pre-fall (Fig. 10: the right foot cannot pass the obstacle)."""
+    d.require_states()
     return float(np.max(_sole_tracks(d)[arg or "right"][:, 0]))
 
 
 def _push_window(d: LogData) -> tuple[float, float]:
+    """(start, end) [s] of the spec's first disturbance, from the log's events where present."""
+    if not d.spec.disturbances:
+        raise NotMeasurable("the spec has no push (disturbances is empty)")
+    dist = d.spec.disturbances[0]
     on = [e["t"] for e in d.events if e.get("kind") == "disturbance_on"]
     off = [e["t"] for e in d.events if e.get("kind") == "disturbance_off"]
-    if not on:
-        return math.nan, math.nan
-    return float(on[0]), float(off[0]) if off else float(d.t[-1])
+    t0 = float(on[0]) if on else float(dist.start)
+    t1 = float(off[0]) if off else float(dist.start + dist.duration)
+    d.require_until(t1, "the push ended")
+    return t0, t1
 
 
 def _ds_entries(d: LogData) -> list[float]:
+    """E-FSM transitions into DS (events): §VI-C's claims are about the E-FSM's states."""
     return [e["t"] for e in d.events if e.get("kind") == "fsm" and e.get("to") == "DS"]
 
 
 @metric("ds_entries_during_push", "E-FSM transitions into DS while the push acts")
 def _ds_entries_during_push(d: LogData, arg: str) -> float:
+    """Window (the whole push must be logged). Reads the E-FSM's transition events: Fig.
+    12(a)'s claim is that the E-FSM stays in SSA while the upper body is held."""
     t0, t1 = _push_window(d)
-    if math.isnan(t0):
-        return math.nan
     return float(sum(1 for t in _ds_entries(d) if t0 < t <= t1))
 
 
-@metric("ds_delay_after_push", "time from the push's release to the next DS [s]")
+@metric("ds_delay_after_push", "time from the push's release to the next DS [s] (inf: never)")
 def _ds_delay_after_push(d: LogData, arg: str) -> float:
+    """Completed: a fall or an early stop before the next DS makes it not measurable; a
+    completed run that never reaches DS again gives inf. Reads the E-FSM's events (Fig.
+    12(a)(b): DS starts when the CP reaches x_s − r)."""
     _, t1 = _push_window(d)
     later = [t for t in _ds_entries(d) if t > t1]
-    return float(later[0] - t1) if later else math.inf
+    if later:
+        return float(later[0] - t1)
+    d.require_completed("the E-FSM entered DS after the push")
+    return math.inf
 
 
-@metric("steps_after_push", "lifted steps after the push's release")
+@metric("steps_after_push", "steps after the push's release")
 def _steps_after_push(d: LogData, arg: str) -> float:
+    """Completed: "walking resumes" (Fig. 11(e)) is judged over the rest of a completed run."""
+    _need_walk(d)
     _, t1 = _push_window(d)
-    if math.isnan(t1):
-        return math.nan
-    return float(sum(1 for _, t, _ in lifted_steps(d) if t > t1))
+    d.require_completed("walking after the push was judged")
+    return float(sum(1 for s in d.footsteps if s.t > t1))
 
 
 @metric(
@@ -261,10 +369,44 @@ def _steps_after_push(d: LogData, arg: str) -> float:
     "mean |CoM x-velocity in O_w| over the last second of the push (Fig. 12d) [m/s]",
 )
 def _push_com_speed(d: LogData, arg: str) -> float:
+    """Window (the push must be logged to its end). The CoM velocity is the simulated one,
+    along the E-FSM's O_w x-axis (``ow_yaw``: the frame in which Fig. 12(d) is drawn)."""
     t0, t1 = _push_window(d)
-    t, vel = d.signal("com_vel_w")
+    t, yaw = d.require_signal("ow_yaw")
     keep = (t >= max(t0, t1 - 1.0)) & (t <= t1)
-    return float(np.mean(np.abs(vel[keep, 0]))) if np.any(keep) else math.nan
+    if not np.any(keep):
+        raise NotMeasurable("no O_w logged in the last second of the push")
+    vel = _com_velocity_world(d, t[keep])
+    vx = np.cos(yaw[keep]) * vel[:, 0] + np.sin(yaw[keep]) * vel[:, 1]
+    return float(np.mean(np.abs(vx)))
+
+
+def _com_velocity_world(d: LogData, times: np.ndarray) -> np.ndarray:
+    """The robot's CoM velocity in the world at given times, (n, 3) [m/s]."""
+    model = d.model
+    data = mujoco.MjData(model)
+    root = model.body("pelvis").id
+    out = np.zeros((times.size, 3))
+    jac = np.zeros((3, model.nv))
+    for k, i in enumerate(d.state_index(times)):
+        data.qpos[:] = d.qpos[i]
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        mujoco.mj_jacSubtreeCom(model, data, jac, root)
+        out[k] = jac @ d.qvel[i]
+    return out
+
+
+def _swing_force(d: LogData, foot: str) -> tuple[np.ndarray, np.ndarray]:
+    """Obstacle force norm on a foot per contact message [N], and whether the E-FSM swings
+    it then (``swing_foot``: the paper's claim is about the force on the *swing* foot)."""
+    d.require_contacts()
+    force = np.linalg.norm(d.contact_wrench(f"{foot}_foot/obstacle*")[:, :3], axis=1)
+    t, swing = d.require_signal("swing_foot")
+    # swing_foot is 1 while the right foot swings, −1 for the left, 0 in DS.
+    code = 1.0 if foot == "right" else -1.0
+    i = np.clip(np.searchsorted(t, d.contact_t), 0, t.size - 1)
+    return force, swing[i] == code
 
 
 @metric(
@@ -272,15 +414,8 @@ def _push_com_speed(d: LogData, arg: str) -> float:
     "largest obstacle contact force on a foot while it is the E-FSM swing foot (arg left|right) [N]",
 )
 def _peak_swing_obstacle_force(d: LogData, arg: str) -> float:
-    foot = arg or "right"
-    force = np.linalg.norm(d.contact_wrench(f"{foot}_foot/obstacle*")[:, :3], axis=1)
-    t, swing = d.signal("swing_foot")
-    if not t.size or not force.size:
-        return math.nan
-    # swing_foot is 1 while the right foot swings, −1 for the left, 0 in DS.
-    code = 1.0 if foot == "right" else -1.0
-    i = np.clip(np.searchsorted(t, d.contact_t), 0, t.size - 1)
-    swinging = swing[i] == code
+    """Pre-fall; 0 when the swing foot never touches an obstacle."""
+    force, swinging = _swing_force(d, arg or "right")
     return float(np.max(force[swinging])) if np.any(swinging) else 0.0
 
 
@@ -297,24 +432,33 @@ BLOCKED_TIME = 0.05
     "BLOCKED_TIME (§VI-B; the impact transient before that is left out) [N]",
 )
 def _blocked_swing_obstacle_force(d: LogData, arg: str) -> float:
+    """Pre-fall; 0 when the swing foot is never blocked. Sole speed from the logged state."""
     foot = arg or "right"
-    force = np.linalg.norm(d.contact_wrench(f"{foot}_foot/obstacle*")[:, :3], axis=1)
-    t_sig, swing = d.signal("swing_foot")
-    if not t_sig.size or not force.size:
-        return math.nan
-    track = _sole_tracks(d)[foot]
-    speed = np.r_[0.0, np.linalg.norm(np.diff(track[:, :2], axis=0), axis=1) / np.diff(d.t)]
-    code = 1.0 if foot == "right" else -1.0
-    i_sig = np.clip(np.searchsorted(t_sig, d.contact_t), 0, t_sig.size - 1)
-    i_st = np.clip(np.searchsorted(d.t, d.contact_t), 0, d.t.size - 1)
+    d.require_states(2)
+    force, swinging = _swing_force(d, foot)
+    return blocked_force(d.t, _sole_tracks(d)[foot], d.contact_t, force, swinging)
+
+
+def blocked_force(
+    t: np.ndarray, sole: np.ndarray, contact_t: np.ndarray, force: np.ndarray, swinging: np.ndarray
+) -> float:
+    """Largest ``force`` once the foot is blocked (see ``blocked_swing_obstacle_force``).
+
+    Args:
+        t: state times (N,) [s]; sole: sole centre at those times (N, 3) [m].
+        contact_t: contact message times (M,) [s]; force: obstacle force norm (M,) [N];
+        swinging: whether the foot is the swing foot at each contact message (M,).
+    """
+    speed = np.r_[0.0, np.linalg.norm(np.diff(sole[:, :2], axis=0), axis=1) / np.diff(t)]
+    i_st = np.clip(np.searchsorted(t, contact_t), 0, t.size - 1)
     # Contact gaps of a few ticks (the foot chattering on the face) do not end a blockage.
     touching = force > OBSTACLE_CONTACT_FORCE
-    still = (speed[i_st] < BLOCKED_SPEED) & (swing[i_sig] == code)
+    still = (speed[i_st] < BLOCKED_SPEED) & swinging
     best, since = 0.0, math.nan
     for k in range(force.size):
         if still[k] and (touching[k] or not math.isnan(since)):
-            since = d.contact_t[k] if math.isnan(since) else since
-            if d.contact_t[k] - since >= BLOCKED_TIME:
+            since = contact_t[k] if math.isnan(since) else since
+            if contact_t[k] - since >= BLOCKED_TIME:
                 best = max(best, float(force[k]))
         else:
             since = math.nan

@@ -1,0 +1,476 @@
+"""Paper I (Lee et al.) metrics on small synthetic logs: one where the claim holds, one where
+it does not."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_metrics import (
+    DT,
+    Poser,
+    Tick,
+    floor_wrench,
+    home_sole,
+    make_spec,
+    standing_pairs,
+    write_log,
+)
+
+from walkrepro.metrics import LogData, evaluate
+from walkrepro.paper_metrics.lee2021 import eq3_cop_lead, ow_x
+
+ROBOT = "dyros_red"
+BOX = {"name": "obstacle_box", "size": [0.2, 0.2, 0.15], "position": [0.4, -0.1, 0.075]}
+PUSH = {
+    "name": "push",
+    "body": "pelvis",
+    "frame": "world",
+    "force": [-50, 0, 0],
+    "start": 0.5,
+    "duration": 0.5,
+}
+
+
+def _spec(**fields):  # noqa: ANN202
+    fields.setdefault("controller", {"type": "efsm", "params": {}})
+    return make_spec(ROBOT, **fields)
+
+
+def _value(d: LogData, name: str) -> float:
+    r = evaluate(d, [name])
+    assert name not in r.reasons, r.reasons.get(name)
+    return r.values[name]
+
+
+def _reason(d: LogData, name: str) -> str:
+    r = evaluate(d, [name])
+    assert math.isnan(r.values[name])
+    return r.reasons[name]
+
+
+@pytest.fixture(scope="module")
+def poser() -> Poser:
+    """The dyros_red poser (its IK warm start is shared by the tests)."""
+    return Poser(ROBOT)
+
+
+def _swing(
+    poser: Poser,
+    foot: str,
+    t0: float,
+    t1: float,
+    dx: float,
+    height: float,
+    n: int,
+    pelvis_speed: float = 0.0,
+    start_dx: float = 0.0,
+) -> list[Tick]:
+    """Ticks 0..n-1: ``foot`` is unloaded in [t0, t1) and its sole moves ``dx`` forward on
+    a sine arc of ``height`` (0: slides along the floor); the other foot carries the robot."""
+    other = "right_foot" if foot == "left_foot" else "left_foot"
+    x0, y0, _ = home_sole(ROBOT, foot)
+    ticks = []
+    for k in range(n):
+        t = k * DT
+        s = min(max((t - t0) / (t1 - t0), 0.0), 1.0)
+        sole = (x0 + start_dx + dx * s, y0, height * math.sin(math.pi * s))
+        swinging = t0 <= t < t1
+        ticks.append(
+            Tick(
+                t,
+                qpos=poser((pelvis_speed * t, 0, 0), **{foot: sole}),
+                pairs=standing_pairs(ROBOT, [other] if swinging else [foot, other]),
+            )
+        )
+    return ticks
+
+
+# ---- steps --------------------------------------------------------------------------------
+
+
+def test_lifted_step_counts(poser: Poser, tmp_path: Path) -> None:
+    """A foot that lifts 4 cm and lands is one lifted step."""
+    d = write_log(tmp_path / "a.mcap", _swing(poser, "left_foot", 0.2, 0.6, 0.1, 0.04, 80), _spec())
+    assert _value(d, "lifted_steps") == 1
+    assert _value(d, "lifted_steps:0.0-0.5") == 0  # the window holds no touchdown
+
+
+def test_sliding_foot_is_not_a_lifted_step(poser: Poser, tmp_path: Path) -> None:
+    """A foot unloaded and slid 10 cm along the floor is no step; it is reported as sliding."""
+    d = write_log(tmp_path / "a.mcap", _swing(poser, "left_foot", 0.2, 0.6, 0.1, 0.0, 80), _spec())
+    assert _value(d, "lifted_steps") == 0 and _value(d, "advancing_steps") == 0
+    assert _value(d, "slid_steps") == 1
+    assert _value(d, "sliding_distance") == pytest.approx(0.1, abs=1e-3)
+
+
+def test_advancing_step_lands_ahead(poser: Poser, tmp_path: Path) -> None:
+    """A lifted step landing 10 cm ahead of the other foot advances."""
+    d = write_log(tmp_path / "a.mcap", _swing(poser, "left_foot", 0.2, 0.6, 0.1, 0.04, 80), _spec())
+    assert _value(d, "advancing_steps") == 1
+
+
+def test_step_in_place_does_not_advance(poser: Poser, tmp_path: Path) -> None:
+    """A lifted step landing beside the other foot (2 cm ahead) does not advance."""
+    d = write_log(
+        tmp_path / "a.mcap", _swing(poser, "left_foot", 0.2, 0.6, 0.02, 0.04, 80), _spec()
+    )
+    assert _value(d, "lifted_steps") == 1 and _value(d, "advancing_steps") == 0
+
+
+def test_walk_speed_over_the_steps(poser: Poser, tmp_path: Path) -> None:
+    """With the pelvis at 0.1 m/s the walk speed is 0.1 m/s, in §VI-A's band."""
+    ticks = _swing(poser, "left_foot", 0.2, 0.6, 0.15, 0.04, 80, pelvis_speed=0.1)
+    d = write_log(tmp_path / "a.mcap", ticks, _spec())
+    assert _value(d, "walk_speed") == pytest.approx(0.1, abs=1e-6)
+
+
+def test_walk_speed_of_a_robot_that_stays_put(poser: Poser, tmp_path: Path) -> None:
+    """A pelvis that does not move while the foot steps gives 0 m/s, outside the band."""
+    d = write_log(tmp_path / "a.mcap", _swing(poser, "left_foot", 0.2, 0.6, 0.1, 0.04, 80), _spec())
+    assert _value(d, "walk_speed") == pytest.approx(0.0, abs=1e-9)
+
+
+def test_walk_speed_not_measurable_after_a_fall(poser: Poser, tmp_path: Path) -> None:
+    """A walk that ends in a fall has no walk speed, and says why."""
+    ticks = _swing(poser, "left_foot", 0.2, 0.6, 0.15, 0.04, 80, pelvis_speed=0.1)
+    ticks[70].events = [{"kind": "fall", "reason": "pelvis low"}]
+    d = write_log(tmp_path / "a.mcap", ticks, _spec(), "fell")
+    assert _reason(d, "walk_speed").startswith("the robot fell at t = 0.700 s")
+    assert _value(d, "advancing_steps") == 1  # pre-fall count
+
+
+# ---- E-FSM phases -------------------------------------------------------------------------
+
+
+def _phases(tmp_path: Path, durations: list[float]) -> LogData:
+    """A log whose efsm_phase cycles DS → SSD (given durations) → SSA (0.2 s) → DS ..."""
+    schedule = []
+    for ssd in durations:
+        schedule += [(2.0, 0.1), (0.0, ssd), (1.0, 0.2)]
+    schedule.append((2.0, 0.1))
+    ticks, t = [], 0.0
+    for phase, length in schedule:
+        for _ in range(max(1, round(length / DT))):
+            ticks.append(Tick(round(t, 6), signals={"efsm_phase": phase}))
+            t += DT
+    return write_log(
+        tmp_path / "p.mcap", ticks, _spec(sim={"duration": t, "timestep": DT, "control_period": DT})
+    )
+
+
+def test_phase_durations_that_vary(tmp_path: Path) -> None:
+    """SSD visits of 0.2, 0.3 and 0.45 s spread by more than 2 % (a time-independent FSM)."""
+    assert _value(_phases(tmp_path, [0.3, 0.2, 0.3, 0.45]), "phase_duration_spread:SSD") > 0.02
+
+
+def test_clock_like_phase_durations(tmp_path: Path) -> None:
+    """Equal SSD visits have no spread (a clock-driven FSM fails the claim)."""
+    spread = _value(_phases(tmp_path, [0.3, 0.3, 0.3, 0.3]), "phase_duration_spread:SSD")
+    assert spread == pytest.approx(0.0, abs=1e-9)
+
+
+def test_first_ssd_skipped(tmp_path: Path) -> None:
+    """A first SSD of one tick is (nearly) skipped: ≤ 0.05 s."""
+    assert _value(_phases(tmp_path, [DT, 0.3]), "first_ssd_duration") <= 0.05
+
+
+def test_first_ssd_not_skipped(tmp_path: Path) -> None:
+    """A first SSD of 0.3 s is not skipped."""
+    assert _value(_phases(tmp_path, [0.3, 0.3]), "first_ssd_duration") == pytest.approx(0.3)
+
+
+# ---- CoM and CoP in O_w -------------------------------------------------------------------
+
+
+def _single_support(tmp_path: Path, cop_along: float, zeta: float = 0.03) -> LogData:
+    """Standing at home, the E-FSM in SSD with the right foot swinging (support: left), the
+    floor's CoP ``cop_along`` [m] from the left sole centre toward the right one."""
+    lx, ly, _ = home_sole(ROBOT, "left_foot")
+    rx, ry, _ = home_sole(ROBOT, "right_foot")
+    u = np.array([rx - lx, ry - ly]) / math.hypot(rx - lx, ry - ly)
+    cop = np.array([lx, ly]) + cop_along * u
+    weight = sum(w[2] for w in standing_pairs(ROBOT).values())
+    ticks = [
+        Tick(
+            k * DT,
+            pairs={"left_foot/floor": floor_wrench(cop[0], cop[1], weight)},
+            signals={"efsm_phase": 0.0, "swing_foot": 1.0},
+        )
+        for k in range(20)
+    ]
+    spec = _spec(controller={"type": "efsm", "params": {"zeta": zeta}})
+    return write_log(tmp_path / "ss.mcap", ticks, spec)
+
+
+def test_com_between_the_feet(tmp_path: Path) -> None:
+    """At home the CoM lies half the feet's spacing toward the swing foot: it has not passed
+    the support foot (> −0.075 m)."""
+    d = _single_support(tmp_path, 0.0)
+    half = abs(home_sole(ROBOT, "left_foot")[1] - home_sole(ROBOT, "right_foot")[1]) / 2
+    assert _value(d, "min_com_x_ss") == pytest.approx(half, abs=0.01)
+    assert _value(d, "min_com_x_ss") > -0.075
+
+
+def test_com_past_the_support_foot() -> None:
+    """A CoM 0.1 m beyond the support centre, away from the swing foot, fails the claim."""
+    p_sup, p_sw = np.array([[0.0, 0.1]]), np.array([[0.0, -0.1]])
+    assert ow_x(np.array([[0.0, 0.2]]), p_sup, p_sw)[0] == pytest.approx(-0.1)
+    assert ow_x(np.array([[0.0, 0.2]]), p_sup, p_sw)[0] < -0.075
+
+
+def test_measured_cop_behind_the_com(tmp_path: Path) -> None:
+    """A measured CoP 5 cm from the support centre lies behind a CoM at ~10 cm (Eq. 3, L1)."""
+    d = _single_support(tmp_path, 0.05, zeta=0.2)
+    assert _value(d, "eq3_cop_lead") > 0
+    com_x = _value(d, "min_com_x_ss")
+    assert _value(d, "eq3_cop_lead") == pytest.approx(com_x - 0.05, abs=1e-6)
+
+
+def test_measured_cop_ahead_of_the_com(tmp_path: Path) -> None:
+    """A measured CoP beyond the CoM (toward the swing foot) fails Eq. (3)'s purpose."""
+    assert _value(_single_support(tmp_path, 0.15, zeta=0.2), "eq3_cop_lead") < 0
+
+
+def test_eq3_only_judges_a_com_within_zeta() -> None:
+    """Samples with the CoM farther than ζ from the support centre are not Eq. (3)'s case."""
+    com = np.array([0.10, 0.02])
+    cop = np.array([0.12, 0.00])
+    assert eq3_cop_lead(com, cop, 0.03) == pytest.approx(0.02)
+
+
+def test_eq3_not_measurable_when_com_never_near(tmp_path: Path) -> None:
+    """With the CoM never within ζ of the support centre, Eq. (3)'s lead is not measurable."""
+    assert "never came within ζ" in _reason(_single_support(tmp_path, 0.05), "eq3_cop_lead")
+
+
+# ---- torques and CoP error ----------------------------------------------------------------
+
+
+def _torques(tmp_path: Path, jump: float) -> LogData:
+    tau = [np.full(12, 0.01 * k) + (jump if k >= 50 else 0.0) for k in range(100)]
+    ticks = [Tick(k * DT, signals={"tau_ref": tau[k].tolist()}) for k in range(100)]
+    return write_log(tmp_path / "tau.mcap", ticks, _spec())
+
+
+def test_torque_jump_found(tmp_path: Path) -> None:
+    """A 50 Nm step in the reference torques is ≥ 5× a smooth run's largest change."""
+    smooth = _value(_torques(tmp_path, 0.0), "max_torque_jump")
+    assert _value(_torques(tmp_path, 50.0), "max_torque_jump") >= 5 * smooth
+
+
+def test_smooth_torques_have_no_jump(tmp_path: Path) -> None:
+    """Smooth reference torques change by their slope only (no ≥ 5× jump)."""
+    assert _value(_torques(tmp_path, 0.0), "max_torque_jump") == pytest.approx(0.01)
+    assert _value(_torques(tmp_path, 0.0), "max_torque_jump:0.6-1.0") == pytest.approx(0.01)
+
+
+def _cop_error(tmp_path: Path, err: float) -> LogData:
+    ticks = [
+        Tick(
+            k * DT,
+            signals={
+                "cop_exp_world": [0.0, 0.0],
+                "cop_meas_world": [err, 0.0] if k % 2 else [1.0, 1.0],
+                "cop_meas_valid": k % 2,
+            },
+        )
+        for k in range(50)
+    ]
+    return write_log(tmp_path / "cop.mcap", ticks, _spec())
+
+
+def test_cop_error_small(tmp_path: Path) -> None:
+    """Valid CoP samples 1 cm off give a p90 error ≤ 2 cm; invalid samples are ignored."""
+    assert _value(_cop_error(tmp_path, 0.01), "cop_error_p90") == pytest.approx(0.01)
+
+
+def test_cop_error_large(tmp_path: Path) -> None:
+    """CoP samples 5 cm off fail Fig. 15's 0–2 cm."""
+    assert _value(_cop_error(tmp_path, 0.05), "cop_error_p90") > 0.02
+
+
+# ---- the obstacle (§VI-B) -----------------------------------------------------------------
+
+
+def _collision(
+    poser: Poser, tmp_path: Path, left_height: float, outcome: str = "complete"
+) -> LogData:
+    """The right foot touches the box at 0.1 s; then the left foot swings twice (lifting
+    ``left_height``: 0 slides)."""
+    ticks = _swing(poser, "left_foot", 0.2, 0.5, 0.05, left_height, 60)
+    ticks += [
+        Tick(tk.t + 0.6, qpos=tk.qpos, pairs=tk.pairs)
+        for tk in _swing(poser, "left_foot", 0.1, 0.4, 0.05, left_height, 60, start_dx=0.05)
+    ]
+    for tk in ticks[10:15]:
+        tk.pairs = {**tk.pairs, "right_foot/obstacle_box": [-20.0, 0.0, 0.0, 0.0, 0.0, 0.0]}
+    if outcome == "fell":
+        ticks[-1].events = [{"kind": "fall", "reason": "pelvis low"}]
+    return write_log(tmp_path / "c.mcap", ticks, _spec(world={"obstacles": [BOX]}), outcome)
+
+
+def test_keeps_stepping_after_the_collision(poser: Poser, tmp_path: Path) -> None:
+    """Two lifted steps after the first obstacle contact count two."""
+    assert (
+        _value(_collision(poser, tmp_path, 0.04), "steps_after_contact:right_foot/obstacle*") == 2
+    )
+
+
+def test_shuffling_after_the_collision_is_no_stepping(poser: Poser, tmp_path: Path) -> None:
+    """A foot slid along the floor after the contact gives no steps."""
+    assert _value(_collision(poser, tmp_path, 0.0), "steps_after_contact:right_foot/obstacle*") == 0
+
+
+def test_steps_after_contact_not_measurable_after_a_fall(poser: Poser, tmp_path: Path) -> None:
+    """A run that falls after the collision does not answer "keeps walking"."""
+    d = _collision(poser, tmp_path, 0.04, "fell")
+    assert "fell" in _reason(d, "steps_after_contact:right_foot/obstacle*")
+
+
+def test_right_foot_stays_behind_the_box(tmp_path: Path) -> None:
+    """A right sole at home (x ≈ 0) stays behind the box face limit (< 0.14 m)."""
+    d = write_log(tmp_path / "a.mcap", [Tick(k * DT) for k in range(5)], _spec())
+    assert _value(d, "max_sole_x:right") < 0.14
+
+
+def test_right_foot_passing_the_box(poser: Poser, tmp_path: Path) -> None:
+    """A right sole carried to x = 0.2 m passes the limit."""
+    _, y, _ = home_sole(ROBOT, "right_foot")
+    ticks = [Tick(k * DT, qpos=poser(right_foot=(0.05 * k, y, 0.05))) for k in range(5)]
+    d = write_log(tmp_path / "a.mcap", ticks, _spec())
+    assert _value(d, "max_sole_x:right") == pytest.approx(0.2, abs=1e-4)
+
+
+def _swing_force(tmp_path: Path, force: float, swinging: bool = True) -> LogData:
+    ticks = []
+    for k in range(50):
+        pairs = standing_pairs(ROBOT)
+        if 10 <= k < 40:
+            pairs["right_foot/obstacle_box"] = [-force, 0.0, 0.0, 0.0, 0.0, 0.0]
+        ticks.append(Tick(k * DT, pairs=pairs, signals={"swing_foot": 1.0 if swinging else -1.0}))
+    return write_log(tmp_path / "f.mcap", ticks, _spec(world={"obstacles": [BOX]}))
+
+
+def test_swing_obstacle_force_in_band(tmp_path: Path) -> None:
+    """A 40 N push of the box on the swing foot is in §VI-B's 15–80 N band, blocked or not."""
+    d = _swing_force(tmp_path, 40.0)
+    assert _value(d, "peak_swing_obstacle_force:right") == pytest.approx(40.0)
+    # The foot stands still against the box for 0.3 s: completely blocked.
+    assert _value(d, "blocked_swing_obstacle_force:right") == pytest.approx(40.0)
+
+
+def test_swing_obstacle_force_out_of_band(tmp_path: Path) -> None:
+    """A 350 N push on the swing foot is out of the band; on the stance foot it is not counted."""
+    assert _value(_swing_force(tmp_path, 350.0), "peak_swing_obstacle_force:right") > 80
+    assert (
+        _value(_swing_force(tmp_path, 350.0, swinging=False), "peak_swing_obstacle_force:right")
+        == 0
+    )
+
+
+def test_moving_foot_is_not_blocked(poser: Poser, tmp_path: Path) -> None:
+    """A swing foot still moving (0.5 m/s) while it touches the box is not blocked: 0 N."""
+    _, y, _ = home_sole(ROBOT, "right_foot")
+    ticks = []
+    for k in range(50):
+        pairs = standing_pairs(ROBOT, ["left_foot"])
+        pairs["right_foot/obstacle_box"] = [-40.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+        ticks.append(
+            Tick(
+                k * DT,
+                qpos=poser(right_foot=(0.005 * k, y, 0.05)),
+                pairs=pairs,
+                signals={"swing_foot": 1.0},
+            )
+        )
+    d = write_log(tmp_path / "m.mcap", ticks, _spec(world={"obstacles": [BOX]}))
+    assert _value(d, "blocked_swing_obstacle_force:right") == 0
+
+
+# ---- the human push (§VI-C) ---------------------------------------------------------------
+
+
+def _push(
+    tmp_path: Path, ds_at: list[float], outcome: str = "complete", com_speed: float = 0.0
+) -> LogData:
+    ticks = []
+    for k in range(300):
+        t = round(k * DT, 6)
+        events = []
+        if t == 0.5:
+            events.append({"kind": "disturbance_on", "name": "push"})
+        if t == 1.0:
+            events.append({"kind": "disturbance_off", "name": "push"})
+        if any(abs(t - x) < 1e-9 for x in ds_at):
+            events.append({"kind": "fsm", "from": "SSA", "to": "DS"})
+        qvel = np.zeros(_nv())
+        qvel[0] = com_speed
+        ticks.append(Tick(t, qvel=qvel, signals={"ow_yaw": 0.0}, events=events))
+    return write_log(tmp_path / "push.mcap", ticks, _spec(disturbances=[PUSH]), outcome)
+
+
+def _nv() -> int:
+    from test_metrics import _robot
+
+    return int(_robot(ROBOT).home_qpos.size - 1)
+
+
+def test_no_ds_while_held(tmp_path: Path) -> None:
+    """A DS entry only after the release: none during the push."""
+    assert _value(_push(tmp_path, [1.3]), "ds_entries_during_push") == 0
+
+
+def test_ds_while_held(tmp_path: Path) -> None:
+    """A DS entry in the middle of the push fails Fig. 12(a)'s claim."""
+    assert _value(_push(tmp_path, [0.7, 1.3]), "ds_entries_during_push") == 1
+
+
+def test_ds_soon_after_release(tmp_path: Path) -> None:
+    """DS 0.3 s after the release is within 1.5 s."""
+    assert _value(_push(tmp_path, [1.3]), "ds_delay_after_push") == pytest.approx(0.3)
+
+
+def test_ds_late_or_never(tmp_path: Path) -> None:
+    """DS 1.8 s after the release fails; a completed run with no DS after it gives inf."""
+    assert _value(_push(tmp_path, [2.8]), "ds_delay_after_push") == pytest.approx(1.8)
+    assert _value(_push(tmp_path, []), "ds_delay_after_push") == math.inf
+
+
+def test_ds_delay_not_measurable_when_stopped_early(tmp_path: Path) -> None:
+    """A run stopped after the release, before any DS, does not answer the delay."""
+    d = _push(tmp_path, [], outcome="interrupted")
+    assert "before the E-FSM entered DS" in _reason(d, "ds_delay_after_push")
+
+
+def test_com_still_while_held(tmp_path: Path) -> None:
+    """A CoM moving at 1 cm/s while held is ≈ 0 (≤ 0.03 m/s)."""
+    assert _value(_push(tmp_path, [], com_speed=0.01), "push_com_speed") == pytest.approx(0.01)
+
+
+def test_com_moving_while_held(tmp_path: Path) -> None:
+    """A CoM still moving at 0.1 m/s while held fails Fig. 12(d)'s claim."""
+    assert _value(_push(tmp_path, [], com_speed=0.1), "push_com_speed") > 0.03
+
+
+def test_steps_after_release(poser: Poser, tmp_path: Path) -> None:
+    """A lifted step after the release counts; a foot slid after it does not."""
+    spec = _spec(disturbances=[PUSH])
+    lifted = _swing(poser, "left_foot", 1.1, 1.5, 0.05, 0.04, 160)
+    assert _value(write_log(tmp_path / "a.mcap", lifted, spec), "steps_after_push") == 1
+    slid = _swing(poser, "left_foot", 1.1, 1.5, 0.05, 0.0, 160)
+    assert _value(write_log(tmp_path / "b.mcap", slid, spec), "steps_after_push") == 0
+
+
+def test_no_push_in_the_spec(tmp_path: Path) -> None:
+    """Push metrics on a run without a push are not measurable, and say so."""
+    d = write_log(tmp_path / "a.mcap", [Tick(k * DT) for k in range(5)], _spec())
+    for name in (
+        "ds_entries_during_push",
+        "ds_delay_after_push",
+        "steps_after_push",
+        "push_com_speed",
+    ):
+        assert "no push" in _reason(d, name)
