@@ -6,7 +6,9 @@ import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from walkrepro.checks import FAIL, KNOWN, PASS, evaluate, holds, write_junit
+import pytest
+
+from walkrepro.checks import FAIL, KNOWN, PASS, count, evaluate, holds, write_junit
 from walkrepro.spec import Expectation, ExperimentSpec
 
 
@@ -34,16 +36,75 @@ def test_operators() -> None:
         assert not holds(op, math.nan, value)
 
 
-def test_failure_fails_verdict_and_known_deviation_does_not() -> None:
-    """A missed expectation fails; a missed known deviation is reported but not failed."""
+def known(low: float, high: float, **kw: object) -> Expectation:
+    """``footsteps >= 11``, known to be missed, observed in [low, high]."""
+    fields = {"metric": "footsteps", "op": ">=", "value": 11, "source": "s"}
+    fields["known_deviation"] = {"reason": "why", "observed": [low, high]}
+    fields.update(kw)
+    return Expectation.model_validate({k: v for k, v in fields.items() if v is not None})
+
+
+def test_failure_fails_verdict_and_known_deviation_in_its_band_does_not() -> None:
+    """A missed expectation fails; a known deviation inside its observed band is reported, not failed."""
     ok = Expectation(metric="fell", op="==", value=0, source="s")
     bad = Expectation(metric="footsteps", op=">=", value=11, source="s")
-    known = Expectation(metric="footsteps", op=">=", value=11, source="s", known_deviation="why")
     v = evaluate(make_spec(ok, bad), {"fell": 0.0, "footsteps": 3.0}, "complete")
     assert [r.status for r in v.rows] == [PASS, FAIL] and not v.passed
-    v = evaluate(make_spec(ok, known), {"fell": 0.0, "footsteps": 3.0}, "complete")
+    v = evaluate(make_spec(ok, known(2, 4)), {"fell": 0.0, "footsteps": 3.0}, "complete")
     assert [r.status for r in v.rows] == [PASS, KNOWN] and v.passed
-    assert "why" in v.rows[1].note
+    assert "why" in v.rows[1].note and v.rows[1].observed == (2.0, 4.0)
+
+
+def test_known_deviation_outside_its_band_fails_either_way() -> None:
+    """A known deviation fails when worse than its band (regression) and when better (the deviation may be gone)."""
+    worse = evaluate(make_spec(known(2, 4)), {"footsteps": 1.0}, "complete")
+    assert worse.rows[0].status == FAIL and "Regression: below" in worse.rows[0].note
+    better = evaluate(make_spec(known(2, 4)), {"footsteps": 12.0}, "complete")
+    assert better.rows[0].status == FAIL and "update the spec" in better.rows[0].note
+    above = evaluate(make_spec(known(2, 4)), {"footsteps": 5.0}, "complete")
+    assert above.rows[0].status == FAIL and "above" in above.rows[0].note
+
+
+def test_known_deviation_with_nan_fails() -> None:
+    """A known deviation whose metric is NaN (not measurable) fails and says why."""
+    v = evaluate(
+        make_spec(known(2, 4)),
+        {"footsteps": math.nan},
+        "complete",
+        reasons={"footsteps": "no steps"},
+    )
+    assert v.rows[0].status == FAIL and not v.passed and "no steps" in v.rows[0].note
+
+
+def test_relative_known_deviation_without_partner_fails() -> None:
+    """A relative known deviation with no partner value (NaN) fails, even with its measurement in the band."""
+    rel = known(2, 4, value=None, relative_to={"experiment": "other"})
+    v = evaluate(make_spec(rel), {"footsteps": 3.0}, "complete")
+    assert v.rows[0].status == FAIL and "no run of other" in v.rows[0].note
+
+
+def test_observed_band_must_be_ordered() -> None:
+    """A known deviation needs [low, high] with low <= high, and a reason."""
+    with pytest.raises(ValueError, match="low <= high"):
+        known(4, 2)
+    with pytest.raises(ValueError):
+        Expectation.model_validate(
+            {"metric": "fell", "op": "==", "value": 0, "source": "s", "known_deviation": "why"}
+        )
+
+
+def test_counts_line_and_junit_agree(tmp_path: Path) -> None:
+    """The summary counts reproduced rows, known deviations and failures (a broken run is one failure), as the JUnit file does."""
+    ok = Expectation(metric="fell", op="==", value=0, source="s")
+    bad = Expectation(metric="footsteps", op=">=", value=11, source="s")
+    a = evaluate(make_spec(ok, known(2, 4)), {"fell": 0.0, "footsteps": 3.0}, "complete")
+    b = evaluate(make_spec(ok, bad), {"fell": 0.0, "footsteps": 3.0}, "interrupted")
+    counts = count([a, b])
+    assert (counts.reproduced, counts.known, counts.failed) == (2, 1, 2)
+    assert str(counts) == "2 reproduced, 1 known deviation, 2 failed"
+    write_junit([a, b], tmp_path / "j.xml")
+    root = ET.parse(tmp_path / "j.xml").getroot()
+    assert (root.get("tests"), root.get("failures"), root.get("skipped")) == ("5", "2", "1")
 
 
 def test_missing_metric_and_broken_run_fail() -> None:

@@ -99,6 +99,9 @@ def friendly_errors(fn: F) -> F:
                 f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True
             )
             raise typer.Exit(code=exc.exit_code) from None
+        except KeyboardInterrupt:  # Ctrl-C outside a run (a run keeps its own directory)
+            _console(stderr=True).print("interrupted")
+            raise typer.Exit(code=130) from None
 
     return wrapper  # type: ignore[return-value]
 
@@ -134,7 +137,7 @@ def run(
     summary = _run_one(experiment, set_ or [], out, figures, show_progress=True)
     _print_verdicts([summary.verdict])
     _console().print(f"run directory: [bold]{summary.run_dir}[/]")
-    if summary.result.outcome == "interrupted":
+    if summary.interrupted:
         raise typer.Exit(code=130)
     if summary.result.outcome == "error":
         _console(stderr=True).print(f"[bold red]error:[/] {escape(summary.result.message)}")
@@ -163,49 +166,156 @@ def check(
         ),
     ] = False,
 ) -> None:
-    """Run experiments (or re-check runs) and compare them with the papers. Exit 1 on failure."""
+    """Run experiments (or re-check runs) and compare them with the papers. Exit 1 on failure.
+
+    An expectation relative to another experiment (its partner) compares with the partner's
+    run in this batch, else its committed reference. With --set, the partners run in the
+    same batch with the same overrides (paired runs).
+    """
     from walkrepro import checks
     from walkrepro.experiment import References, evaluate_log
     from walkrepro.spec import experiment_names
 
+    overrides = list(set_ or [])
+    if update_reference and overrides:
+        raise WalkreproError(
+            "--update-reference takes runs of the experiments as shipped; drop --set "
+            f"({' '.join(overrides)})."
+        )
     verdicts: list[checks.Verdict] = []
     for path in run_dir or []:
         directory, log = results.resolve_run(path)
-        # A run lives in <root>/<experiment>/<run>: compare with other runs under <root>.
-        verdicts.append(evaluate_log(log, directory, References(directory.parent.parent))[1])
+        made_with = _recorded_overrides(directory)
+        # A run lives in <root>/<experiment>/<run>: partners with the same overrides are
+        # looked for under <root>.
+        lookup = References(overrides=made_with, search_root=directory.parent.parent)
+        verdicts.append(evaluate_log(log, directory, lookup)[1])
     names = list(experiments or [])
-    summaries = []
     if not names and not run_dir:
         names = experiment_names()
-    for name in names:  # validate every spec before running any
-        _resolved(name, set_ or [])
-    if names:
-        _console().print(
-            f"running {len(names)} experiment(s) with {min(jobs, len(names))} process(es)…"
-        )
-        if jobs > 1 and len(names) > 1:
-            with ProcessPoolExecutor(max_workers=jobs) as pool:
-                futures = [pool.submit(_run_one, n, set_ or [], out, figures, False) for n in names]
-                summaries = [f.result() for f in futures]
-        else:
-            summaries = [_run_one(n, set_ or [], out, figures, False) for n in names]
-        for s in summaries:
-            _console().print(f"{s.verdict.experiment}: {s.result.message} → {s.run_dir}")
+    specs = {name: _resolved(name, overrides) for name in names}  # validate all before running
+    partners, unpaired = _paired_partners(specs, overrides)
+    batch_names = names + partners
+    summaries = _run_batch(batch_names, overrides, out, figures, jobs) if batch_names else []
+    if summaries:
         # Comparisons between experiments use this batch's runs, now that all are done.
-        batch = References(out, {s.verdict.experiment: s.result.log_path for s in summaries})
+        batch = References(
+            {s.verdict.experiment: s.result.log_path for s in summaries},
+            overrides,
+            unpaired=unpaired,
+        )
         verdicts += [
-            evaluate_log(s.result.log_path, s.run_dir, batch)[1] if s.relative else s.verdict
+            evaluate_log(s.result.log_path, s.run_dir, batch)[1]
+            if s.relative and s.result.log_path.is_file()
+            else s.verdict
             for s in summaries
         ]
         if figures:
             _plot_comparisons(summaries)
     _print_verdicts(verdicts)
-    if update_reference:
-        from walkrepro.render import render_strip
+    interrupted = any(s.interrupted for s in summaries)
+    if update_reference and not interrupted:
+        _update_references(summaries)
+    if junit is not None:
+        checks.write_junit(verdicts, junit)
+    if interrupted:
+        raise typer.Exit(code=130)
+    if not all(v.passed for v in verdicts):
+        raise typer.Exit(code=1)
 
-        for s in summaries:
-            # A snapshot strip over the run, like the papers' photo sequences.
-            times = [s.result.sim_time * k / 4 for k in range(5)]
+
+def _recorded_overrides(run_dir: Path) -> list[str]:
+    """The ``--set`` overrides a run was made with (its ``run.json``; none if unrecorded)."""
+    import json
+
+    record = run_dir / results.RUN_FILE
+    if not record.is_file():
+        return []
+    return list(json.loads(record.read_text()).get("overrides", []))
+
+
+def _paired_partners(
+    specs: dict[str, ExperimentSpec], overrides: list[str]
+) -> tuple[list[str], dict[str, str]]:
+    """With overrides, the partner experiments to run alongside (same overrides), and for
+    each partner that cannot take them, why. Without overrides, none: partners come from
+    the batch or the committed references."""
+    if not overrides:
+        return [], {}
+    wanted = [
+        e.relative_to.experiment
+        for spec in specs.values()
+        for e in spec.expect
+        if e.relative_to is not None and e.relative_to.experiment not in specs
+    ]
+    partners, unpaired = [], {}
+    for name in dict.fromkeys(wanted):
+        try:
+            _resolved(name, overrides)
+            partners.append(name)
+        except WalkreproError as exc:
+            unpaired[name] = f"the overrides do not apply to it ({exc})"
+    return partners, unpaired
+
+
+def _run_batch(names: list[str], overrides: list[str], out: Path, figures: bool, jobs: int) -> list:
+    """Run ``names`` over ``jobs`` processes, printing a line as each finishes.
+
+    Ctrl-C stops the runs under way (each keeps a complete, interrupted run directory) and
+    starts no more.
+    """
+    from concurrent.futures import as_completed
+
+    from walkrepro.checks import count
+    from walkrepro.interrupt import InterruptFlag
+
+    workers = max(1, min(jobs, len(names)))
+    _console().print(f"running {len(names)} experiment(s) with {workers} process(es)…")
+    done: list = []
+
+    def report(summary: Any) -> None:
+        done.append(summary)
+        wall = summary.result.wall_time
+        counts = count([summary.verdict])
+        _console().print(
+            f"[{len(done)}/{len(names)}] {summary.verdict.experiment}: {summary.result.message} "
+            f"in {wall:.0f} s ({counts}) → {summary.run_dir}",
+            highlight=False,
+        )
+
+    if workers == 1:
+        for name in names:
+            summary = _run_one(name, overrides, out, figures, False)
+            report(summary)
+            if summary.interrupted:
+                break
+        return done
+    with InterruptFlag() as flag, ProcessPoolExecutor(workers, initializer=_ignore_sigint) as pool:
+        futures = {pool.submit(_run_one, n, overrides, out, figures, False): n for n in names}
+        for future in as_completed(futures):
+            report(future.result())
+            if flag.requested:
+                for pending in futures:
+                    pending.cancel()
+    return done
+
+
+def _ignore_sigint() -> None:
+    """Pool workers ignore Ctrl-C between runs; during a run, the run's own flag takes it."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _update_references(summaries: list) -> None:
+    """Snapshot strips (when a GL backend exists) and the committed references."""
+    from walkrepro.gl import RenderingUnavailable
+    from walkrepro.render import render_strip
+
+    for s in summaries:
+        # A snapshot strip over the run, like the papers' photo sequences.
+        times = [s.result.sim_time * k / 4 for k in range(5)]
+        try:
             render_strip(
                 s.result.log_path,
                 times,
@@ -213,12 +323,10 @@ def check(
                 480,
                 640,
             )
-            target = results.save_reference(s.run_dir)
-            _console().print(f"reference updated: {target}")
-    if junit is not None:
-        checks.write_junit(verdicts, junit)
-    if not all(v.passed for v in verdicts):
-        raise typer.Exit(code=1)
+        except RenderingUnavailable as exc:
+            _console(stderr=True).print(f"[yellow]no snapshot strip:[/] {exc}", highlight=False)
+        target = results.save_reference(s.run_dir)
+        _console().print(f"reference updated: {target}")
 
 
 @app.command()
@@ -395,7 +503,7 @@ def _run_one(name: str, overrides: list[str], out: Path, figures: bool, show_pro
 
     spec = _resolved(name, overrides)
     if not show_progress:
-        return execute(spec, out, None, figures)
+        return execute(spec, out, None, figures, overrides)
     with Progress(
         TextColumn(f"[bold]{spec.name}[/]"),
         BarColumn(),
@@ -410,7 +518,7 @@ def _run_one(name: str, overrides: list[str], out: Path, figures: bool, show_pro
         def progress(t: float, duration: float, rtf: float) -> None:
             bar.update(task, completed=t, sim=f"{t:6.2f}/{duration:.2f} s", rtf=f"{rtf:5.2f}x")
 
-        return execute(spec, out, progress, figures)
+        return execute(spec, out, progress, figures, overrides)
 
 
 def _plot_comparisons(summaries: list) -> None:  # list[RunSummary]

@@ -6,13 +6,15 @@ simulation), exactly as ``walkrepro check --run DIR`` recomputes them later.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from walkrepro import RESULTS_DIR, checks, metrics, results
+from walkrepro.interrupt import InterruptFlag
 from walkrepro.runner import ProgressCallback, RunResult, run
 from walkrepro.spec import ExperimentSpec
 
@@ -22,7 +24,9 @@ class RunSummary:
     """A finished run: where it is, how the simulation ended, and the verdict.
 
     ``relative`` says whether the verdict compares with other experiments' runs (so a
-    batch re-evaluates it once every run of the batch is done).
+    batch re-evaluates it once every run of the batch is done). ``interrupted`` is true
+    when Ctrl-C stopped the run or the work after it (metrics and verdict are then still
+    written; figures are skipped).
     """
 
     run_dir: Path
@@ -30,39 +34,98 @@ class RunSummary:
     metrics: dict[str, float]
     verdict: checks.Verdict
     relative: bool = False
+    interrupted: bool = False
 
 
 class References:
-    """Finds another experiment's metric for a relative expectation.
+    """Finds another experiment's metric for a relative expectation (its *partner*).
 
-    In order: the run of that experiment in the current batch, else its latest run under
-    the output root, else the committed reference ``results/<experiment>/metrics.json``.
-    The answer says which, and the verdict table shows it.
+    Without spec overrides: that experiment's run in the current batch, else its committed
+    reference ``results/<experiment>/metrics.json`` (regenerated from runs of the landed
+    code). With overrides (``--set``), only a partner run with the same overrides counts:
+    the run in this batch, else, when re-checking an old run, the latest run of the
+    partner under ``search_root`` whose ``run.json`` records the same overrides. A
+    committed reference was run without overrides and is never used then. The answer says
+    which run it is, or why there is none, and the verdict table shows it.
     """
 
-    def __init__(self, out_root: Path, batch: Mapping[str, Path] | None = None) -> None:
-        self._out_root = out_root
+    def __init__(
+        self,
+        batch: Mapping[str, Path] | None = None,
+        overrides: Sequence[str] = (),
+        search_root: Path | None = None,
+        unpaired: Mapping[str, str] | None = None,
+    ) -> None:
         self._batch = dict(batch or {})
+        self._overrides = list(overrides)
+        self._search_root = search_root
+        self._unpaired = dict(unpaired or {})
         self._logs: dict[Path, metrics.LogData] = {}
 
     def __call__(self, experiment: str, metric: str) -> tuple[float, str]:
-        """``(value, where it came from)``; NaN when no run of ``experiment`` is found."""
-        log = self._batch.get(experiment)
-        origin = "this batch"
-        if log is None:
-            latest = results.latest_run(self._out_root, experiment)
-            if latest is not None and (latest / results.LOG_FILE).is_file():
-                log, origin = latest / results.LOG_FILE, f"run {latest.name}"
+        """``(value, where it came from)``; NaN and the reason when there is no partner."""
+        log, origin = self._batch.get(experiment), "this batch"
+        if log is None and self._search_root is not None:
+            run_dir = _latest_run_with(self._search_root, experiment, self._overrides)
+            if run_dir is not None:
+                log, origin = run_dir / results.LOG_FILE, f"run {run_dir}"
         if log is not None:
             if log not in self._logs:
                 self._logs[log] = metrics.LogData.from_path(log)
-            return metrics.compute(self._logs[log], [metric])[metric], origin
+            found = metrics.evaluate(self._logs[log], [metric])
+            if metric in found.reasons:
+                return (
+                    math.nan,
+                    f"{origin}, where {metric} is not measurable: {found.reasons[metric]}",
+                )
+            return found.values[metric], origin
+        if self._overrides:
+            why = self._unpaired.get(experiment, "it was not run in this batch")
+            return math.nan, (
+                f"no run of {experiment} with the same overrides ({' '.join(self._overrides)}): "
+                f"{why}"
+            )
         committed = RESULTS_DIR / experiment / results.METRICS_FILE
         if committed.is_file():
-            value = json.loads(committed.read_text()).get(metric)
+            saved = results.read_metrics(committed)
+            value = saved.values.get(metric)
             if value is not None:
-                return float(value), "the committed reference run"
-        return math.nan, f"no run of {experiment}"
+                return float(value), f"the committed reference results/{experiment}"
+            reason = saved.reasons.get(metric, "it does not hold this metric")
+            return math.nan, f"the committed reference results/{experiment}: {reason}"
+        return math.nan, f"no run of {experiment} and no committed reference"
+
+
+def _latest_run_with(root: Path, experiment: str, overrides: Sequence[str]) -> Path | None:
+    """The latest finished run of ``experiment`` under ``root`` made with ``overrides``."""
+    for run_dir in reversed(results.runs(root, experiment)):
+        record = run_dir / results.RUN_FILE
+        if record.is_file() and json.loads(record.read_text()).get("overrides", []) == list(
+            overrides
+        ):
+            return run_dir
+    return None
+
+
+@functools.cache
+def partner_metric_names(experiment: str) -> tuple[str, ...]:
+    """Metrics of ``experiment`` that other shipped experiments' relative expectations read,
+    so that its run (and its committed reference) holds them."""
+    from walkrepro.spec import experiment_names, load_spec
+
+    names = []
+    for other in experiment_names():
+        for e in load_spec(other).spec.expect:
+            if e.relative_to is not None and e.relative_to.experiment == experiment:
+                names.append(e.reference_metric)
+    return tuple(dict.fromkeys(names))
+
+
+def metric_names(spec: ExperimentSpec) -> list[str]:
+    """Every metric a run of ``spec`` reports: the defaults, its expectations', and those its
+    partners' relative expectations need from it."""
+    names = metrics.default_metric_names(spec)
+    return list(dict.fromkeys([*names, *partner_metric_names(spec.name)]))
 
 
 def execute(
@@ -70,32 +133,50 @@ def execute(
     out_root: Path = results.DEFAULT_ROOT,
     progress: ProgressCallback | None = None,
     figures: bool = True,
+    overrides: Sequence[str] = (),
 ) -> RunSummary:
-    """Run ``spec`` (already resolved) and write the complete run directory."""
-    run_dir = results.new_run_dir(out_root, spec.name)
-    try:
-        (run_dir.work / results.SPEC_FILE).write_text(spec.to_yaml())
-        result = run(spec, run_dir.work / results.LOG_FILE, progress)
-        results.write_json(
-            run_dir.work / results.RUN_FILE,
-            {
-                "experiment": spec.name,
-                "outcome": result.outcome,
-                "message": result.message,
-                "sim_time": result.sim_time,
-                "wall_time": result.wall_time,
-                "real_time_factor": result.real_time_factor,
-            },
-        )
-        values, verdict = evaluate_log(
-            run_dir.work / results.LOG_FILE, run_dir.work, References(out_root)
-        )
-        if figures and result.outcome != "interrupted":
-            from walkrepro.figures import plot_run
+    """Run ``spec`` (already resolved) and write the complete run directory.
 
-            plot_run(run_dir.work / results.LOG_FILE, run_dir.work / results.FIGURES_DIR)
-    finally:
-        final = run_dir.finish()
+    Ctrl-C at any moment still leaves a complete run directory: the log (closed, marked
+    ``interrupted``), ``run.json``, ``metrics.json`` (what cannot be computed is null, with
+    its reason) and ``check.json``. ``overrides`` are the ``--set`` strings the spec was
+    resolved with; ``run.json`` records them so partner runs can be matched later.
+    """
+    run_dir = results.new_run_dir(out_root, spec.name)
+    log_path = run_dir.work / results.LOG_FILE
+    with InterruptFlag() as flag:
+        try:
+            (run_dir.work / results.SPEC_FILE).write_text(spec.to_yaml())
+            try:
+                result = run(spec, log_path, progress, flag)
+            except KeyboardInterrupt:  # a second Ctrl-C in set-up, before the log was opened
+                result = RunResult(
+                    spec.name, log_path, "interrupted", 0.0, 0.0, None, "interrupted in set-up"
+                )
+            results.write_json(
+                run_dir.work / results.RUN_FILE,
+                {
+                    "experiment": spec.name,
+                    "outcome": result.outcome,
+                    "message": result.message,
+                    "sim_time": result.sim_time,
+                    "wall_time": result.wall_time,
+                    "real_time_factor": result.real_time_factor,
+                    "overrides": list(overrides),
+                },
+            )
+            values, verdict = _evaluate_interruptible(
+                spec, log_path, run_dir.work, result, References(overrides=overrides)
+            )
+            if figures and result.outcome != "interrupted" and not flag.requested:
+                from walkrepro.figures import plot_run
+
+                try:
+                    plot_run(log_path, run_dir.work / results.FIGURES_DIR)
+                except KeyboardInterrupt:  # figures are optional: the run is kept without
+                    flag.requested = True
+        finally:
+            final = run_dir.finish()
     relative = any(e.relative_to is not None for e in spec.expect)
     return RunSummary(
         run_dir=final,
@@ -103,19 +184,50 @@ def execute(
         metrics=values,
         verdict=verdict,
         relative=relative,
+        interrupted=flag.requested or result.outcome == "interrupted",
     )
 
 
-def evaluate_log(
-    log_path: Path, run_dir: Path, references: checks.ReferenceLookup = checks.no_references
+def _evaluate_interruptible(
+    spec: ExperimentSpec,
+    log_path: Path,
+    run_dir: Path,
+    result: RunResult,
+    references: checks.ReferenceLookup,
 ) -> tuple[dict[str, float], checks.Verdict]:
-    """Compute metrics and the verdict from a log; write ``metrics.json`` and ``check.json``."""
-    data = metrics.LogData.from_path(log_path)
-    values = metrics.compute(data, metrics.default_metric_names(data.spec))
-    verdict = checks.evaluate(data.spec, values, data.outcome, references)
-    results.write_json(run_dir / results.METRICS_FILE, values)
+    """:func:`evaluate_log`, or, without a log or on a second Ctrl-C, every metric null
+    with the reason (a verdict is written either way)."""
+    try:
+        if log_path.is_file():
+            return evaluate_log(log_path, run_dir, references)
+        reason = "the run was interrupted before its log was opened"
+    except KeyboardInterrupt:
+        reason = "interrupted again while the metrics were computed"
+    names = metric_names(spec)
+    values = {n: math.nan for n in names}
+    reasons = dict.fromkeys(names, reason)
+    verdict = checks.evaluate(spec, values, result.outcome, references, reasons)
+    results.write_metrics(run_dir / results.METRICS_FILE, values, reasons)
     results.write_json(run_dir / results.CHECK_FILE, verdict.to_json())
     return values, verdict
+
+
+def evaluate_log(
+    log_path: Path, run_dir: Path, references: checks.ReferenceLookup | None = None
+) -> tuple[dict[str, float], checks.Verdict]:
+    """Compute metrics and the verdict from a log; write ``metrics.json`` and ``check.json``.
+
+    ``references`` finds partner runs for relative expectations; by default the committed
+    references (the right partner for a run made without overrides).
+    """
+    data = metrics.LogData.from_path(log_path)
+    found = metrics.evaluate(data, metric_names(data.spec))
+    verdict = checks.evaluate(
+        data.spec, found.values, data.outcome, references or References(), found.reasons
+    )
+    results.write_metrics(run_dir / results.METRICS_FILE, found.values, found.reasons)
+    results.write_json(run_dir / results.CHECK_FILE, verdict.to_json())
+    return found.values, verdict
 
 
 def _moved(result: RunResult, final: Path) -> RunResult:

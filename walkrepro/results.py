@@ -13,6 +13,7 @@ import secrets
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 from walkrepro import RESULTS_DIR
 from walkrepro.errors import WalkreproError
@@ -72,6 +73,35 @@ def write_json(path: Path, data: object) -> None:
     path.write_text(json.dumps(_nan_to_none(data), indent=2) + "\n")
 
 
+class SavedMetrics(NamedTuple):
+    """A ``metrics.json``: values (None where not measurable) and the reasons."""
+
+    values: dict[str, float | None]
+    reasons: dict[str, str]
+
+
+def write_metrics(path: Path, values: dict[str, float], reasons: dict[str, str]) -> None:
+    """Write ``metrics.json``: ``{"metrics": {name: value or null}, "not_measurable":
+    {name: reason}}``; every null value has its reason."""
+    why = {
+        name: reasons.get(name, "the metric gave no value") for name, v in values.items() if v != v
+    }
+    write_json(path, {"metrics": values, "not_measurable": why})
+
+
+def read_metrics(path: Path) -> SavedMetrics:
+    """Read a ``metrics.json`` written by :func:`write_metrics`.
+
+    Raises:
+        WalkreproError: if the file is not such a record.
+    """
+    try:
+        data = json.loads(path.read_text())
+        return SavedMetrics(dict(data["metrics"]), dict(data.get("not_measurable", {})))
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise WalkreproError(f"{path}: not a walkrepro metrics.json ({exc}).") from None
+
+
 def _nan_to_none(x: object) -> object:
     if isinstance(x, float) and x != x:
         return None
@@ -117,8 +147,13 @@ def save_reference(run_dir: Path) -> Path:
     return target
 
 
+def runs(root: Path, experiment: str) -> list[Path]:
+    """Finished runs of ``experiment`` under ``root``, oldest first (names sort by time)."""
+    parent = root / experiment
+    return sorted(p for p in parent.glob("*") if p.is_dir() and not p.name.startswith("."))
+
+
 def latest_run(root: Path, experiment: str) -> Path | None:
     """The most recent finished run of ``experiment`` under ``root``, if any."""
-    parent = root / experiment
-    runs = sorted(p for p in parent.glob("*") if p.is_dir() and not p.name.startswith("."))
-    return runs[-1] if runs else None
+    found = runs(root, experiment)
+    return found[-1] if found else None

@@ -15,9 +15,7 @@ from __future__ import annotations
 
 import math
 import os
-import signal
 import sys
-import threading
 import time
 import traceback
 from collections.abc import Callable
@@ -31,6 +29,7 @@ from walkrepro import record
 from walkrepro.contacts import ContactReader, FallDetector
 from walkrepro.controllers import controller_class
 from walkrepro.disturbances import DisturbanceSchedule
+from walkrepro.interrupt import InterruptFlag
 from walkrepro.provenance import run_metadata
 from walkrepro.robot import Robot, load_robot
 from walkrepro.sensors import SensorModel
@@ -169,13 +168,22 @@ class SimulationError(RuntimeError):
 
 
 def run(
-    spec: ExperimentSpec, log_path: Path, progress: ProgressCallback | None = None
+    spec: ExperimentSpec,
+    log_path: Path,
+    progress: ProgressCallback | None = None,
+    interrupt: InterruptFlag | None = None,
 ) -> RunResult:
     """Simulate ``spec`` and write its log to ``log_path``.
 
-    Ctrl-C ends the loop cleanly: the log is closed and marked ``interrupted``. Any other
-    exception marks the log ``error`` and is re-raised after the log is closed.
+    Ctrl-C ends the run cleanly at any moment, set-up included: the log is closed and marked
+    ``interrupted`` (with no state at all if it came before the first step). ``interrupt``
+    is the caller's flag (``walkrepro.experiment`` holds one over the whole run); without
+    one, the run installs its own. Any other exception marks the log ``error`` and is
+    re-raised after the log is closed.
     """
+    if interrupt is None:
+        with InterruptFlag() as own:
+            return run(spec, log_path, progress, own)
     robot = load_robot(spec.robot)
     scene = build_scene(robot, spec)
     model = scene.model
@@ -215,7 +223,6 @@ def run(
     wall_start = time.perf_counter()
     last_report = wall_start
     step = 0
-    interrupt = _InterruptFlag()
     clock = StageClock(n_steps // substeps + 1)
     # Live views of MuJoCo's warning counters: a non-finite or huge state (caught at the start
     # of mj_step1) or acceleration (in mj_step2) makes MuJoCo reset the data and count it.
@@ -231,7 +238,7 @@ def run(
     timestep = spec.sim.timestep
     try:
         for step in range(n_steps):
-            if interrupt.requested:
+            if interrupt.requested:  # also a Ctrl-C during set-up: stop before step 0
                 raise KeyboardInterrupt
             tick = step % substeps == 0
             if tick:
@@ -317,8 +324,6 @@ def run(
     except BaseException as exc:
         writer.close("error", {"error": "".join(traceback.format_exception_only(exc)).strip()})
         raise
-    finally:
-        interrupt.restore()
     wall = time.perf_counter() - wall_start
     # Steps completed (a fall or Ctrl-C stops at the top of a step, whose state is the last).
     sim_time = step * timestep
@@ -340,29 +345,6 @@ def run(
         message=message or f"completed {sim_time:.3f} s",
         timing=clock.summary(controller.timing()),
     )
-
-
-class _InterruptFlag:
-    """Turns the first Ctrl-C into a flag the loop checks between steps.
-
-    So the log is never cut in the middle of a message; a second Ctrl-C interrupts at once.
-    """
-
-    def __init__(self) -> None:
-        self.requested = False
-        self._previous = None
-        if threading.current_thread() is threading.main_thread():
-            self._previous = signal.signal(signal.SIGINT, self._handle)
-
-    def _handle(self, signum: int, frame: object) -> None:
-        self.requested = True
-        signal.signal(signal.SIGINT, self._previous or signal.default_int_handler)
-
-    def restore(self) -> None:
-        """Put back the SIGINT handler that was there before the run."""
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)
-            self._previous = None
 
 
 def _set_home(robot: Robot, model: mujoco.MjModel, data: mujoco.MjData) -> None:
