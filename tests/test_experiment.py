@@ -8,9 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from walkrepro import experiment, results
+from walkrepro import RESULTS_DIR, experiment, results
 from walkrepro.cli import _paired_partners, _resolved
 from walkrepro.experiment import References, partner_metric_names
+from walkrepro.spec import experiment_names, load_spec
 
 
 def committed(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, values: dict, reasons: dict) -> None:
@@ -84,3 +85,14 @@ def test_overrides_pair_the_partner_or_say_why_not() -> None:
     specs = {"continuous_drag_stepping": _resolved("continuous_drag_stepping", [])}
     partners, unpaired = _paired_partners(specs, odd)
     assert partners == [] and "continuous_drag" in unpaired
+
+
+@pytest.mark.parametrize("name", experiment_names())
+def test_committed_references_hold_what_relative_rows_need(name: str) -> None:
+    """Every relative expectation finds its partner's metric, measured, in the committed reference."""
+    for e in load_spec(name).spec.expect:
+        if e.relative_to is None:
+            continue
+        path = RESULTS_DIR / e.relative_to.experiment / results.METRICS_FILE
+        saved = results.read_metrics(path)
+        assert saved.values.get(e.reference_metric) is not None, (path, e.reference_metric)

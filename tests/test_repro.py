@@ -5,6 +5,8 @@ These run the real experiments (marker ``repro``); CI runs them on every change.
 
 from __future__ import annotations
 
+import re
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import matplotlib.image as mpimg
@@ -48,7 +50,20 @@ def test_every_experiment_meets_its_expectations(checked: tuple[Path, int, str])
     """`walkrepro check` over all experiments exits 0: every paper expectation holds or is a declared deviation."""
     _, code, output = checked
     assert code == 0, output
-    assert "all expectations hold" in output
+    assert re.search(r"\d+ reproduced, \d+ known deviations?, 0 failed", output), output
+    assert "all expectations hold" not in output
+
+
+@pytest.mark.repro
+def test_junit_counts_match_the_summary(checked: tuple[Path, int, str]) -> None:
+    """The JUnit file counts the same known deviations (skipped) and failures as the summary line."""
+    out, _, output = checked
+    reproduced, known, failed = map(
+        int, re.search(r"(\d+) reproduced, (\d+) known deviations?, (\d+) failed", output).groups()
+    )
+    root = ET.parse(out / "junit.xml").getroot()
+    assert int(root.get("tests")) == reproduced + known + failed
+    assert (int(root.get("skipped")), int(root.get("failures"))) == (known, failed)
 
 
 @pytest.mark.repro
@@ -89,3 +104,23 @@ def test_standing_logs_have_no_external_forces(checked: tuple[Path, int, str]) -
         inputs = record.read_log(run / "log.mcap").messages(record.TOPIC_INPUTS)
         assert inputs and all(m["xfrc"] == {} for m in inputs)
         assert np.isfinite([c for m in inputs[:10] for c in m["ctrl"]]).all()
+
+
+@pytest.mark.repro
+@pytest.mark.slow
+def test_ablation_with_epsilon_back_on_fails(tmp_path: Path) -> None:
+    """forward_walk_no_epsilon with ε switched back on (partner run paired with the same override) fails its check."""
+    result = runner.invoke(
+        app,
+        [
+            "check",
+            "forward_walk_no_epsilon",
+            "--set",
+            "controller.params.use_epsilon=true",
+            "--out",
+            str(tmp_path),
+        ],
+    )
+    assert result.exit_code == 1, result.output
+    assert "forward_walk:" in result.output  # the partner ran in the same batch
+    assert "this batch" in result.output
