@@ -89,7 +89,7 @@ def test_observed_band_must_be_ordered() -> None:
         known(4, 2)
     with pytest.raises(ValueError):
         Expectation.model_validate(
-            {"metric": "fell", "op": "==", "value": 0, "source": "s", "known_deviation": "why"}
+            {"metric": "fell", "op": "==", "value": 0, "source": "s", "known_deviation": {}}
         )
 
 
@@ -151,3 +151,13 @@ def test_relative_expectation_needs_exactly_one_value() -> None:
     for bad in ({}, {"value": 1, "relative_to": {"experiment": "x"}}):
         with pytest.raises(pydantic.ValidationError, match="exactly one of value and relative_to"):
             Expectation.model_validate({"metric": "fell", "op": "<", "source": "s", **bad})
+
+
+def test_old_log_spec_with_reason_only_loads_and_fails() -> None:
+    """A log written before observed bands (known_deviation: "reason") still loads, and its row fails."""
+    old = Expectation.model_validate(
+        {"metric": "footsteps", "op": ">=", "value": 11, "source": "s", "known_deviation": "why"}
+    )
+    assert old.known_deviation is not None and old.known_deviation.observed is None
+    v = evaluate(make_spec(old), {"footsteps": 3.0}, "complete")
+    assert v.rows[0].status == FAIL and "older spec" in v.rows[0].note

@@ -626,9 +626,10 @@ def test_coman_neck_pull_reproduces_the_ankle_stiffness_experiment() -> None:
 
 
 @pytest.mark.parametrize("name", ["dyros_red", "coman", "kist_humanoid"])
-def test_pin_state_is_pinocchios_rotation_bit_for_bit(name: str) -> None:
-    """The compiled (q, v) equals the formula written with Pinocchio's own quaternion, bit for
-    bit, for random and near-upright base states (controllers' outcomes must not move)."""
+def test_pin_state_is_pinocchios_rotation(name: str) -> None:
+    """The compiled (q, v) equals the formula written with Pinocchio's own quaternion to 1e-12,
+    for random and near-upright base states. A tolerance, not bit for bit: Pinocchio's
+    rotation rounds differently between its builds (4.x against 3.x)."""
     robot = load_robot(name)
     rng = np.random.default_rng(8)
     n = len(robot.joint_names)
@@ -642,5 +643,6 @@ def test_pin_state_is_pinocchios_rotation_bit_for_bit(name: str) -> None:
         q_ref, v_ref = np.zeros(robot.pin_model.nq), np.zeros(robot.pin_model.nv)
         q_ref[0:3], q_ref[3:7], q_ref[robot.pin_q_idx] = pos, (x, y, z, w), joint_pos
         v_ref[0:3], v_ref[3:6], v_ref[robot.pin_v_idx] = rot.T @ linvel, angvel, joint_vel
-        assert np.array_equal(q, q_ref) and np.array_equal(v, v_ref)
+        np.testing.assert_allclose(q, q_ref, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(v, v_ref, rtol=0, atol=1e-12)
         assert np.array_equal(robot.pin_configuration(pos, quat, joint_pos), q)

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
 
+from walkrepro import EXPERIMENTS_DIR
 from walkrepro.errors import SpecError, UnknownNameError
 from walkrepro.spec import experiment_names, load_spec, resolve_spec
 
@@ -164,3 +166,30 @@ def test_relative_expectation_must_name_a_shipped_experiment(tmp_path: Path) -> 
     )
     msg = error_of(tmp_path, text)
     assert "unknown experiment 'no_such'" in msg and "stand_coman" in msg and "line 19" in msg
+
+
+def test_a_spec_known_deviation_needs_its_observed_band(tmp_path: Path) -> None:
+    """A spec whose known deviation gives only a reason is refused at resolution, naming the field."""
+    from walkrepro.errors import SpecError
+    from walkrepro.spec import load_spec, resolve_spec
+
+    text = (EXPERIMENTS_DIR / "stand_dyros_red.yaml").read_text()
+    text = text.replace(
+        'source: "walkrepro sanity',
+        'known_deviation: "only a reason"\n    source: "walkrepro sanity',
+        1,
+    )
+    path = tmp_path / "stand_dyros_red.yaml"
+    path.write_text(text)
+    with pytest.raises(SpecError, match="expect.0.known_deviation.*observed"):
+        resolve_spec(load_spec(str(path)))
+
+
+@pytest.mark.parametrize("name", experiment_names())
+def test_sources_cite_the_paper_not_internal_documents(name: str) -> None:
+    """No expectation's source (or the paper section) names an internal document (issue, TARGETS, README)."""
+    spec = load_spec(name).spec
+    internal = re.compile(r"\b(issue|TARGETS|README|GUIDE)\b", re.IGNORECASE)
+    assert not internal.search(spec.paper.section), spec.paper.section
+    for e in spec.expect:
+        assert not internal.search(e.source), (e.metric, e.source)

@@ -443,6 +443,9 @@ def evaluate(data: LogData, names: list[str]) -> MetricResults:
     values, reasons = {}, {}
     for full in names:
         base, arg = split_metric(full)
+        if base not in _METRICS:  # an old log's spec may name a metric since renamed
+            values[full], reasons[full] = math.nan, f"this walkrepro has no metric {base!r}"
+            continue
         try:
             values[full] = float(_METRICS[base][0](data, arg))
         except NotMeasurable as exc:

@@ -259,13 +259,23 @@ class KnownDeviation(_Strict):
     """
 
     reason: str = Field(description="why the reproduction misses the paper, with the evidence")
-    observed: tuple[float, float] = Field(
-        description="[low, high]: the band the reproduction measures today (closed interval)"
+    observed: tuple[float, float] | None = Field(
+        description="[low, high]: the band the reproduction measures today (closed interval); "
+        "required in every spec, None only in the spec of a log written before bands existed"
     )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _legacy_reason_only(cls, data: object) -> object:
+        # Logs written before observed bands hold the reason alone. They still load, so an old
+        # log can be re-checked, but such a row has no band and always fails.
+        if isinstance(data, str):
+            return {"reason": data, "observed": None}
+        return data
 
     @model_validator(mode="after")
     def _band_is_ordered(self) -> KnownDeviation:
-        if not self.observed[0] <= self.observed[1]:
+        if self.observed is not None and not self.observed[0] <= self.observed[1]:
             raise ValueError("observed needs [low, high] with low <= high")
         return self
 
@@ -597,6 +607,12 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
             )
     valid_metrics = metric_names()
     for i, exp in enumerate(spec.expect):
+        if exp.known_deviation is not None and exp.known_deviation.observed is None:
+            raise SpecError(
+                f"{loaded.where(('expect', i, 'known_deviation'))}: a known deviation needs "
+                "the band the reproduction measures today, e.g. known_deviation: {observed: "
+                "[0.065, 0.070], reason: '...'}; its row fails when the value leaves the band."
+            )
         base, _ = split_metric(exp.metric)
         if base not in valid_metrics:
             raise UnknownNameError(
