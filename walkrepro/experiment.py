@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from walkrepro import RESULTS_DIR, checks, metrics, results
+from walkrepro.errors import WalkreproError
 from walkrepro.interrupt import InterruptFlag
 from walkrepro.runner import ProgressCallback, RunResult, run
 from walkrepro.spec import ExperimentSpec
@@ -87,7 +88,10 @@ class References:
             )
         committed = RESULTS_DIR / experiment / results.METRICS_FILE
         if committed.is_file():
-            saved = results.read_metrics(committed)
+            try:
+                saved = results.read_metrics(committed)
+            except WalkreproError as exc:
+                return math.nan, f"the committed reference is unreadable: {exc}"
             value = saved.values.get(metric)
             if value is not None:
                 return float(value), f"the committed reference results/{experiment}"

@@ -97,8 +97,10 @@ def read_metrics(path: Path) -> SavedMetrics:
     """
     try:
         data = json.loads(path.read_text())
+        if "metrics" not in data:  # written before reasons existed: a flat name -> value map
+            return SavedMetrics({k: v for k, v in data.items() if not isinstance(v, dict)}, {})
         return SavedMetrics(dict(data["metrics"]), dict(data.get("not_measurable", {})))
-    except (OSError, ValueError, KeyError, TypeError) as exc:
+    except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
         raise WalkreproError(f"{path}: not a walkrepro metrics.json ({exc}).") from None
 
 
