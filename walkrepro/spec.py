@@ -30,6 +30,7 @@ from pydantic import (
 
 from walkrepro import EXPERIMENTS_DIR
 from walkrepro.errors import SpecError, UnknownNameError
+from walkrepro.sweep.model import SweepParameter, SweepSpec
 
 Vec3 = tuple[float, float, float]
 
@@ -304,10 +305,19 @@ class ExperimentSpec(_Strict):
     sensors: SensorsSpec = Field(default_factory=SensorsSpec)
     actuators: ActuatorsSpec = Field(default_factory=ActuatorsSpec)
     expect: list[Expectation] = Field(default_factory=list)
+    #: Named sweep axes that set several fields (``walkrepro sweep``; see walkrepro/sweep/).
+    sweep_parameters: dict[str, SweepParameter] = Field(default_factory=dict)
+    #: Declared maps: a sweep and the paper's claims about its result.
+    sweeps: list[SweepSpec] = Field(default_factory=list)
 
     def to_yaml(self) -> str:
-        """The resolved spec as YAML (every default filled in)."""
-        return yaml.safe_dump(self.model_dump(mode="json"), sort_keys=False)
+        """The resolved spec as YAML (every default filled in; empty sweep sections left out,
+        so a spec without sweeps writes the same YAML as before they existed)."""
+        data = self.model_dump(mode="json")
+        for key in ("sweep_parameters", "sweeps"):
+            if not data[key]:
+                del data[key]
+        return yaml.safe_dump(data, sort_keys=False)
 
 
 # --------------------------------------------------------------------------------------
