@@ -80,8 +80,9 @@ class ProcessEngine:
                 while idle and pending:
                     conn, proc = idle.pop()
                     task = pending.popleft()
+                    t0 = time.perf_counter()  # before sending: the worker starts during send
                     conn.send(task)
-                    busy[conn] = (proc, task, time.perf_counter())
+                    busy[conn] = (proc, task, t0)
                 for conn in wait(list(busy)):
                     assert isinstance(conn, Connection)
                     proc, task, t0 = busy.pop(conn)

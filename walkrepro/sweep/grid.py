@@ -92,6 +92,12 @@ def parse_values(text: Any, where: str) -> tuple[Any, ...]:
         values = tuple(text)
     elif not isinstance(text, str):
         values = (text,)
+    elif text.strip().startswith(("[", "{")):
+        raise WalkreproError(
+            f"{where}: {text!r} is not a single number, boolean or name per value; give a comma "
+            "list (20,40,60) and sweep one element of a vector with its index, e.g. "
+            "disturbances.0.force.0=20,40."
+        )
     elif ":" in text and "," not in text:
         values = _parse_range(text, where)
     else:
@@ -192,7 +198,8 @@ def plan_cells(
         try:
             loaded = resolve_spec(load_spec(experiment, cell_overrides))
         except WalkreproError as exc:
-            raise type(exc)(f"sweep cell {index} ({label}): {exc}") from None
+            text = str(exc).replace("(set with --set)", "(set by --grid or --set)")
+            raise SpecError(f"sweep cell {index} ({label}): {text}") from None
         spec = loaded.spec.model_copy(update={"sweeps": [], "sweep_parameters": {}})
         cells.append(Cell(index, values, tuple(cell_overrides), spec))
     return cells
