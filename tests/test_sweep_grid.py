@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 
+from walkrepro import EXPERIMENTS_DIR
 from walkrepro.errors import WalkreproError
 from walkrepro.sweep.grid import Axis, parse_grid_item, parse_values, plan_cells, unit_of
 from walkrepro.sweep.model import Affine
@@ -87,7 +88,7 @@ def test_a_bad_cell_fails_before_anything_runs(item: str, words: str) -> None:
 
 def test_sweep_parameter_sets_several_fields_affinely(tmp_path: Path) -> None:
     """A declared sweep parameter sets each of its fields to scale·x + offset."""
-    spec = Path("experiments/obstacle_4cm.yaml").read_text()
+    spec = (EXPERIMENTS_DIR / "obstacle_4cm.yaml").read_text()
     spec += (
         "sweep_parameters:\n"
         "  block_height:\n"

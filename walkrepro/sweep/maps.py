@@ -63,6 +63,19 @@ def _label(field: str, units: dict[str, str]) -> str:
     return f"{field} [{unit}]" if unit else field
 
 
+def _metric_label(metric: str) -> str:
+    """The metric with the unit its registered description gives (``[N]``), if any."""
+    import re
+
+    from walkrepro.metrics import metric_doc, split_metric
+
+    try:
+        units = re.findall(r"\[([^\]]+)\]", metric_doc(split_metric(metric)[0]))
+    except KeyError:
+        units = []
+    return f"{metric} [{units[-1]}]" if units else metric
+
+
 def _stood(row: dict[str, Any] | None) -> bool | None:
     """True: the run ended without a fall; False: it fell; None: no measurement."""
     if row is None or row["outcome"] in FAILED or row["outcome"] not in ("complete", "fell"):
@@ -111,7 +124,7 @@ def _line(plt: Any, field: str, xs: list[Any], units: dict[str, str], rows: dict
     if not numeric:
         ax.set_xticks(pos, [value_text(x) for x in xs])
     ax.set_xlabel(_label(field, units))
-    ax.set_ylabel(metric)
+    ax.set_ylabel(_metric_label(metric))
     ax.grid(alpha=0.3)
     return fig
 
@@ -177,7 +190,7 @@ def _heat_panels(
         axes[k // ncol][k % ncol].axis("off")
     if mesh is not None:
         bar = fig.colorbar(mesh, ax=axes.ravel().tolist(), shrink=0.9)
-        bar.set_label(metric)
+        bar.set_label(_metric_label(metric))
     from matplotlib.lines import Line2D
 
     handles = [
@@ -211,7 +224,10 @@ def _annotate(ax: Any, i: int, j: int, row: dict | None, value: float, norm: Any
     colour = "white" if dark else "black"
     text = "–" if math.isnan(value) else f"{value:.3g}"
     if _stood(row) is False:
-        ax.scatter([i], [j], marker="x", s=260, color="crimson", linewidths=2.5, zorder=3)
+        # In the cell's corner, so the value stays readable.
+        ax.scatter(
+            [i + 0.34], [j + 0.3], marker="x", s=90, color="crimson", linewidths=2.5, zorder=3
+        )
         t = row.get("fall_time", math.nan)
         text += "" if math.isnan(t) else f"\nfell {t:.2f} s"
     ax.text(i, j, text, ha="center", va="center", fontsize=8, color=colour, zorder=4)

@@ -130,7 +130,7 @@ def plan_new(
     shutil.copyfile(source, directory / store.BASE_FILE)
     info = {
         "experiment": cells[0].spec.name,
-        "source": str(source),
+        "source": _relative(source),
         "map": declared.name if declared else None,
         "title": _title(cells[0].spec, declared),
         "grid": [
@@ -311,6 +311,16 @@ def _unit(field_name: str, spec: Any) -> str:
     from walkrepro.sweep.grid import unit_of
 
     return unit_of(field_name, spec.sweep_parameters)
+
+
+def _relative(path: Path) -> str:
+    """A spec path relative to the project root when inside it (committed maps stay portable)."""
+    from walkrepro import PROJECT_ROOT
+
+    try:
+        return str(path.resolve().relative_to(PROJECT_ROOT.resolve()))
+    except ValueError:
+        return str(path)
 
 
 def _provenance() -> dict[str, Any]:
