@@ -66,15 +66,23 @@ class ProcessEngine:
             raise WalkreproError(f"--jobs {jobs}: need at least one process.")
         self.jobs = jobs
         self.fn = fn
+        self._started: list[tuple[Connection, mp.process.BaseProcess]] = []
+
+    def start(self, n_tasks: int) -> None:
+        """Start the workers now (before a progress bar's thread exists: a fork copies only
+        the forking thread, so no other thread may hold a lock the worker needs)."""
+        ctx = mp.get_context()
+        while len(self._started) < min(self.jobs, n_tasks):
+            self._started.append(self._spawn(ctx))
 
     def run(self, tasks: Sequence[CellTask]) -> Iterator[CellResult]:
         """Run every task; a dead worker's cell is ``crashed`` and the worker is replaced."""
         pending = deque(tasks)
         busy: dict[Connection, tuple[mp.process.BaseProcess, CellTask, float]] = {}
-        idle: list[tuple[Connection, mp.process.BaseProcess]] = []
+        idle, self._started = self._started, []
         ctx = mp.get_context()
         try:
-            for _ in range(min(self.jobs, len(pending))):
+            while len(idle) < min(self.jobs, len(pending)):
                 idle.append(self._spawn(ctx))
             while pending or busy:
                 while idle and pending:

@@ -203,6 +203,9 @@ def run_plan(
     failures = ran = 0
     interrupted = False
     t0 = time.perf_counter()
+    start = getattr(engine, "start", None)
+    if start is not None:
+        start(len(tasks))  # workers first, then the progress bar's thread
     results = engine.run(tasks)
     progress = Progress(
         TextColumn(f"[bold]sweep {plan.info['experiment']}[/]"),
