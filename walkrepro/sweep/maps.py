@@ -47,7 +47,8 @@ def plot_sweep(directory: Path, out: Path | None = None) -> list[Path]:
     else:
         fig = _heat_panels(plt, fields, values, units, rows, metric)
     done = len(table.rows)
-    subtitle = f"colour: {metric} · {done} of {info['n_cells']} cells"
+    what = "metric" if len(fields) == 1 else "colour"
+    subtitle = f"{what}: {metric} · {done} of {info['n_cells']} cells"
     fig.suptitle("\n".join(textwrap.wrap(info["title"], 90)) + f"\n{subtitle}", fontsize=10)
     written = []
     for ext in ("png", "svg"):
@@ -222,7 +223,7 @@ def _annotate(ax: Any, i: int, j: int, row: dict | None, value: float, norm: Any
         return
     dark = not math.isnan(value) and norm(value) < 0.55
     colour = "white" if dark else "black"
-    text = "–" if math.isnan(value) else f"{value:.3g}"
+    text = "–" if math.isnan(value) else f"{value:.4g}"
     if _stood(row) is False:
         # In the cell's corner, so the value stays readable.
         ax.scatter(
