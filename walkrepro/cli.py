@@ -165,12 +165,22 @@ def check(
             help="Copy each run's metrics, verdict and PNG figures to results/<experiment>/.",
         ),
     ] = False,
+    sweeps: Annotated[
+        bool,
+        typer.Option(
+            "--sweeps",
+            help="Re-run the experiments' declared maps (default: check their claims on the "
+            "committed results/maps/<map>/cells.csv).",
+        ),
+    ] = False,
 ) -> None:
     """Run experiments (or re-check runs) and compare them with the papers. Exit 1 on failure.
 
     An expectation relative to another experiment (its partner) compares with the partner's
     run in this batch, else its committed reference. With --set, the partners run in the
     same batch with the same overrides (paired runs).
+
+    The claims of each experiment's declared maps (spec ``sweeps:``) are checked too.
     """
     from walkrepro import checks
     from walkrepro.experiment import References, evaluate_log
@@ -212,6 +222,10 @@ def check(
         ]
         if figures:
             _plot_comparisons(summaries)
+    if names and not overrides:  # committed maps were made without overrides
+        from walkrepro.sweep.command import map_verdicts
+
+        verdicts += map_verdicts(names, sweeps, out, jobs, _console(stderr=True))
     _print_verdicts(verdicts)
     interrupted = any(s.interrupted for s in summaries)
     if update_reference and not interrupted:
@@ -332,14 +346,24 @@ def _update_references(summaries: list) -> None:
 @app.command()
 @friendly_errors
 def plot(
-    runs: Annotated[list[Path], typer.Argument(help="Run directory or log (two to compare runs).")],
+    runs: Annotated[
+        list[Path],
+        typer.Argument(help="Run directory or log (two to compare runs), or a sweep directory."),
+    ],
     out: Annotated[
         Path | None, typer.Option(help="Figure directory (default: RUN/figures).")
     ] = None,
 ) -> None:
-    """Redraw the paper's figures from one run, or compare two runs."""
+    """Redraw the paper's figures from one run, or compare two runs, or a sweep's maps."""
     from walkrepro.figures import plot_compare, plot_run
+    from walkrepro.sweep.store import is_sweep_dir
 
+    if len(runs) == 1 and is_sweep_dir(runs[0]):
+        from walkrepro.sweep.maps import plot_sweep
+
+        for path in plot_sweep(runs[0], out):
+            _console().print(f"wrote {path}")
+        return
     if len(runs) > 2:
         raise WalkreproError("plot takes one run, or two runs to compare.")
     resolved = [results.resolve_run(r) for r in runs]
@@ -400,6 +424,68 @@ def render(
         log, times, out or directory / results.FIGURES_DIR / "snapshots.png", width, height
     )
     _console().print(f"wrote {path}")
+
+
+@app.command()
+@friendly_errors
+def sweep(
+    experiment: Annotated[
+        str | None, typer.Argument(help="Experiment name or spec path (not with --resume).")
+    ] = None,
+    grid: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--grid",
+            help="FIELD=VALUES: a spec path or sweep parameter, and a comma list (20,40,60) "
+            "or a range start:stop:count. Repeat for more axes (Cartesian product).",
+        ),
+    ] = None,
+    jobs: Annotated[int, typer.Option(help="Parallel cells.")] = os.cpu_count() or 1,
+    engine: Annotated[str, typer.Option(help="process or ray.")] = "process",
+    address: Annotated[
+        str | None, typer.Option(help="An existing Ray cluster (with --engine ray).")
+    ] = None,
+    out: OutOption = results.DEFAULT_ROOT,
+    resume: Annotated[
+        Path | None, typer.Option(help="Run only the missing cells of this sweep directory.")
+    ] = None,
+    keep_logs: Annotated[bool, typer.Option(help="Keep every cell's run directory.")] = False,
+    metric: Annotated[
+        list[str] | None,
+        typer.Option("--metric", help="Also record this metric; the first one is mapped."),
+    ] = None,
+    set_: SetOption = None,
+    map_name: Annotated[
+        str | None, typer.Option("--map", help="Run the spec's declared sweep of this name.")
+    ] = None,
+    update_reference: Annotated[
+        bool,
+        typer.Option("--update-reference", help="Copy the finished map to results/maps/<map>/."),
+    ] = False,
+) -> None:
+    """Sweep spec fields over a grid: one run per cell, a cells.csv table and maps.
+
+    Every cell is validated before any runs. Without --grid, runs the spec's declared map.
+    """
+    from walkrepro.sweep.command import sweep_command
+
+    code = sweep_command(
+        _console(stderr=True),
+        experiment,
+        grid or [],
+        set_ or [],
+        out,
+        jobs,
+        engine,
+        address,
+        resume,
+        keep_logs,
+        metric or [],
+        map_name,
+        update_reference,
+    )
+    if code:
+        raise typer.Exit(code=code)
 
 
 @app.command()

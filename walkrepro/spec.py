@@ -29,7 +29,9 @@ from pydantic import (
 )
 
 from walkrepro import EXPERIMENTS_DIR
+from walkrepro.deviation import KnownDeviation
 from walkrepro.errors import SpecError, UnknownNameError
+from walkrepro.sweep.model import SweepParameter, SweepSpec
 
 Vec3 = tuple[float, float, float]
 
@@ -250,36 +252,6 @@ class RelativeTo(_Strict):
     scale: float = 1.0
 
 
-class KnownDeviation(_Strict):
-    """What the reproduction measures today where it misses the paper, and why.
-
-    A known deviation is an observed band, not an excuse: the expectation's row fails when
-    the measured value leaves ``observed`` in either direction (worse is a regression;
-    better means the deviation may be gone and the spec must be updated).
-    """
-
-    reason: str = Field(description="why the reproduction misses the paper, with the evidence")
-    observed: tuple[float, float] | None = Field(
-        description="[low, high]: the band the reproduction measures today (closed interval); "
-        "required in every spec, None only in the spec of a log written before bands existed"
-    )
-
-    @model_validator(mode="before")
-    @classmethod
-    def _legacy_reason_only(cls, data: object) -> object:
-        # Logs written before observed bands hold the reason alone. They still load, so an old
-        # log can be re-checked, but such a row has no band and always fails.
-        if isinstance(data, str):
-            return {"reason": data, "observed": None}
-        return data
-
-    @model_validator(mode="after")
-    def _band_is_ordered(self) -> KnownDeviation:
-        if self.observed is not None and not self.observed[0] <= self.observed[1]:
-            raise ValueError("observed needs [low, high] with low <= high")
-        return self
-
-
 class Expectation(_Strict):
     """One of the paper's expectations: ``metric op value``, with its source in the paper.
 
@@ -334,10 +306,19 @@ class ExperimentSpec(_Strict):
     sensors: SensorsSpec = Field(default_factory=SensorsSpec)
     actuators: ActuatorsSpec = Field(default_factory=ActuatorsSpec)
     expect: list[Expectation] = Field(default_factory=list)
+    #: Named sweep axes that set several fields (``walkrepro sweep``; see walkrepro/sweep/).
+    sweep_parameters: dict[str, SweepParameter] = Field(default_factory=dict)
+    #: Declared maps: a sweep and the paper's claims about its result.
+    sweeps: list[SweepSpec] = Field(default_factory=list)
 
     def to_yaml(self) -> str:
-        """The resolved spec as YAML (every default filled in)."""
-        return yaml.safe_dump(self.model_dump(mode="json"), sort_keys=False)
+        """The resolved spec as YAML (every default filled in; empty sweep sections left out,
+        so a spec without sweeps writes the same YAML as before they existed)."""
+        data = self.model_dump(mode="json")
+        for key in ("sweep_parameters", "sweeps"):
+            if not data[key]:
+                del data[key]
+        return yaml.safe_dump(data, sort_keys=False)
 
 
 # --------------------------------------------------------------------------------------

@@ -1,0 +1,137 @@
+"""Tests of map claims: pure functions over made-up cells tables."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import pytest
+
+from walkrepro.checks import FAIL, KNOWN, PASS
+from walkrepro.sweep.claims import evaluate_claim, in_region, matches
+from walkrepro.sweep.model import SweepClaim
+
+FIELDS = ("height", "tilt", "impedance")
+HEIGHTS, TILTS = (0.02, 0.04, 0.06), (0, 10, 20)
+
+
+def table(falls: set[tuple[float, int, bool]], errors: frozenset = frozenset()) -> list[dict]:
+    """A 3×3×2 table: every cell stands except those in ``falls`` (and ``errors`` errored)."""
+    rows = []
+    for k, (h, t, imp) in enumerate(itertools.product(HEIGHTS, TILTS, (True, False))):
+        outcome = (
+            "error" if (h, t, imp) in errors else ("fell" if (h, t, imp) in falls else "complete")
+        )
+        fell = math.nan if outcome == "error" else float(outcome == "fell")
+        rows.append(
+            {"cell": k, "height": h, "tilt": t, "impedance": imp, "outcome": outcome, "fell": fell}
+        )
+    return rows
+
+
+CONTAINS = SweepClaim.model_validate(
+    {
+        "kind": "contains",
+        "region": {"metric": "fell", "op": "==", "value": 0},
+        "where": {"impedance": True},
+        "contains": {"impedance": False},
+        "source": "Jo & Oh §IV",
+    }
+)
+
+
+def test_contains_passes_when_the_with_region_is_larger() -> None:
+    """With impedance standing wherever the robot stands without it, the claim holds."""
+    falls = {(0.06, 20, True), (0.06, 20, False), (0.06, 10, False), (0.04, 20, False)}
+    row = evaluate_claim(table(falls), FIELDS, CONTAINS, "m")
+    assert row.status == PASS and row.measured == 0
+    assert "8 of 9 cells where impedance=true, 6 of 9 where impedance=false" in row.note
+
+
+def test_contains_fails_when_the_without_region_is_not_contained() -> None:
+    """A cell that stands without impedance but falls with it contradicts the claim."""
+    falls = {(0.04, 10, True), (0.06, 20, False)}
+    row = evaluate_claim(table(falls), FIELDS, CONTAINS, "m")
+    assert row.status == FAIL
+    assert row.measured == 1
+    assert "(height=0.04, tilt=10)" in row.note
+
+
+def test_an_errored_cell_makes_contains_unmeasurable() -> None:
+    """A with-impedance cell that errored cannot confirm containment: the claim fails, saying why."""
+    row = evaluate_claim(table(set(), frozenset({(0.02, 0, True)})), FIELDS, CONTAINS, "m")
+    assert row.status == FAIL and row.measured == 0
+    assert "not measurable" in row.note and "error" in row.note
+
+
+def test_missing_cells_make_a_claim_unmeasurable() -> None:
+    """A table with fewer rows than the grid's cells cannot pass."""
+    rows = table(set())[:-1]
+    row = evaluate_claim(rows, FIELDS, CONTAINS, "m", n_cells=18)
+    assert row.status == FAIL and "1 of 18 cells missing" in row.note
+
+
+def known_claim(low: float, high: float) -> SweepClaim:
+    return SweepClaim.model_validate(
+        {
+            **CONTAINS.model_dump(),
+            "known_deviation": {"reason": "the QP alone is robust too", "observed": [low, high]},
+        }
+    )
+
+
+def test_known_deviation_claim_in_its_band_is_reported_not_failed() -> None:
+    """A claim marked known_deviation whose contradicting cells stay in its observed band is a known deviation with its reason."""
+    row = evaluate_claim(table({(0.04, 10, True)}), FIELDS, known_claim(1, 1), "m")
+    assert row.status == KNOWN and "the QP alone is robust too" in row.note
+    assert row.observed == (1.0, 1.0)
+
+
+def test_known_deviation_claim_outside_its_band_fails() -> None:
+    """A known-deviation claim fails with more contradicting cells than observed, and with fewer (it may hold now)."""
+    more = evaluate_claim(
+        table({(0.04, 10, True), (0.04, 20, True)}), FIELDS, known_claim(1, 1), "m"
+    )
+    assert more.status == FAIL and "more" in more.note
+    fewer = evaluate_claim(table(set()), FIELDS, known_claim(1, 1), "m")
+    assert fewer.status == FAIL and "update the spec" in fewer.note
+
+
+EVERYWHERE = SweepClaim.model_validate(
+    {
+        "kind": "everywhere",
+        "region": {"metric": "fell", "op": "==", "value": 0},
+        "where": {"height": {"op": "<=", "value": 0.04}},
+        "source": "every push below X is recovered at every phase",
+    }
+)
+
+
+def test_everywhere_holds_below_the_threshold_only() -> None:
+    """Falls above the threshold do not matter; one fall below it fails the claim."""
+    assert evaluate_claim(table({(0.06, 0, True)}), FIELDS, EVERYWHERE, "m").status == PASS
+    row = evaluate_claim(table({(0.04, 20, False)}), FIELDS, EVERYWHERE, "m")
+    assert row.status == FAIL and row.measured == 1
+    assert "height=0.04, tilt=20, impedance=false" in row.note
+
+
+def test_selectors_and_regions() -> None:
+    """Selectors compare numbers with tolerance and booleans exactly; unmeasured cells are None."""
+    row = {"height": 0.04 + 1e-15, "impedance": True, "outcome": "complete", "fell": 0.0}
+    assert matches(row, {"height": 0.04, "impedance": True})
+    assert not matches(row, {"impedance": False})
+    assert matches(row, {"height": {"op": "between", "value": [0.03, 0.05]}})
+    assert in_region(row, CONTAINS) is True
+    assert in_region({**row, "outcome": "crashed"}, CONTAINS) is None
+
+
+def test_claim_kinds_are_validated() -> None:
+    """A contains claim needs its inner selector."""
+    with pytest.raises(ValueError, match="needs contains"):
+        SweepClaim.model_validate(
+            {
+                "kind": "contains",
+                "region": {"metric": "fell", "op": "==", "value": 0},
+                "source": "x",
+            }
+        )

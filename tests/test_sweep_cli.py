@@ -1,0 +1,137 @@
+"""Tests of `walkrepro sweep` and `walkrepro plot SWEEP_DIR` end to end (short stand runs)."""
+
+from __future__ import annotations
+
+import csv
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from walkrepro.cli import app
+from walkrepro.sweep import store
+
+runner = CliRunner()
+GRID = ["--grid", "sim.duration=0.1,0.15", "--grid", "controller.params.kp=300,400"]
+
+
+def _sweep_dirs(out: Path) -> list[Path]:
+    return sorted((out / "sweeps" / "stand_dyros_red").glob("*/"))
+
+
+def _rows(directory: Path) -> list[dict]:
+    with (directory / store.CELLS_FILE).open() as f:
+        return list(csv.DictReader(f))
+
+
+def test_sweep_writes_cells_and_a_map_and_resume_runs_nothing(tmp_path: Path) -> None:
+    """A 2×2 sweep writes sweep.yaml, a 4-row cells.csv and map.png; --resume keeps 4 rows."""
+    result = runner.invoke(
+        app, ["sweep", "stand_dyros_red", *GRID, "--jobs", "2", "--out", str(tmp_path)]
+    )
+    assert result.exit_code == 0, result.output
+    (directory,) = _sweep_dirs(tmp_path)
+    rows = _rows(directory)
+    assert len(rows) == 4 and {r["outcome"] for r in rows} == {"complete"}
+    assert {
+        "cell",
+        "sim.duration",
+        "controller.params.kp",
+        "fall_time",
+        "pelvis_drift",
+        "passed",
+        "wall_time",
+    } <= rows[0].keys()
+    assert (directory / "map.png").stat().st_size > 0 and (directory / "map.svg").is_file()
+    assert not (directory / "cells").exists() and not (directory / ".cells").exists()
+    info = store.read_info(directory)
+    assert info["grid"][0] == {"field": "sim.duration", "values": [0.1, 0.15], "unit": "s"}
+
+    again = runner.invoke(app, ["sweep", "--resume", str(directory)])
+    assert again.exit_code == 0, again.output
+    assert "4 cells, 0 to run" in again.output
+    assert _rows(directory) == rows
+
+    (directory / "map.png").unlink()
+    plotted = runner.invoke(app, ["plot", str(directory)])
+    assert plotted.exit_code == 0 and (directory / "map.png").is_file()
+
+
+def test_resume_runs_only_missing_cells_and_keep_logs_keeps_runs(tmp_path: Path) -> None:
+    """Rows removed from cells.csv are run again by --resume; --keep-logs keeps each cell's run."""
+    args = ["sweep", "stand_dyros_red", "--grid", "sim.duration=0.1,0.15", "--jobs", "1"]
+    assert runner.invoke(app, [*args, "--out", str(tmp_path), "--keep-logs"]).exit_code == 0
+    (directory,) = _sweep_dirs(tmp_path)
+    assert len(list((directory / "cells").glob("*/stand_dyros_red/*/log.mcap"))) == 2
+    lines = (directory / store.CELLS_FILE).read_text().splitlines()
+    (directory / store.CELLS_FILE).write_text(
+        "\n".join(lines[:2]) + "\n" + lines[2][:10]
+    )  # a torn row
+    result = runner.invoke(app, ["sweep", "--resume", str(directory), "--jobs", "1"])
+    assert result.exit_code == 0, result.output
+    assert "2 cells, 1 to run" in result.output
+    assert sorted(r["cell"] for r in _rows(directory)) == ["0", "1"]
+
+
+@pytest.mark.parametrize(
+    ("grid", "words"),
+    [
+        ("controller.params.kpp=300,400", "unknown field"),
+        ("sim.duration=0.1,abc", "valid number"),
+        ("sim.duration=1:2", "bad range"),
+    ],
+)
+def test_bad_grid_is_one_paragraph_exit_2_and_nothing_runs(
+    tmp_path: Path, grid: str, words: str
+) -> None:
+    """A bad field, value or range prints one error paragraph, exits 2 and writes no sweep."""
+    result = runner.invoke(
+        app, ["sweep", "stand_dyros_red", "--grid", grid, "--out", str(tmp_path)]
+    )
+    assert result.exit_code == 2
+    assert words in result.output and "Traceback" not in result.output
+    assert result.output.strip().startswith("error:") and result.output.count("error:") == 1
+    assert not (tmp_path / "sweeps").exists()
+
+
+@pytest.mark.slow
+def test_ctrl_c_keeps_finished_cells_and_resume_completes(tmp_path: Path) -> None:
+    """SIGINT during a sweep exits 130 with every finished cell kept; --resume runs the rest."""
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    grid = "sim.duration=0.3,0.31,0.32,0.33,0.34,0.35,0.36,0.37"
+    cmd = [sys.executable, "-m", "walkrepro", "sweep", "stand_dyros_red", "--grid", grid]
+    proc = subprocess.Popen(
+        [*cmd, "--jobs", "1", "--out", str(tmp_path)],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+    )
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        dirs = _sweep_dirs(tmp_path)
+        if dirs and len(_rows(dirs[0])) >= 2:
+            break
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    output = proc.communicate(timeout=60)[0].decode()
+    assert proc.returncode == 130, output
+    assert "interrupted" in output
+    (directory,) = _sweep_dirs(tmp_path)
+    kept = _rows(directory)
+    assert 2 <= len(kept) < 8
+    resumed = subprocess.run(
+        [sys.executable, "-m", "walkrepro", "sweep", "--resume", str(directory), "--jobs", "1"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert resumed.returncode == 0, resumed.stdout + resumed.stderr
+    rows = _rows(directory)
+    assert sorted(int(r["cell"]) for r in rows) == list(range(8))
+    assert rows[: len(kept)] == kept  # finished cells are never re-run or rewritten

@@ -1,0 +1,77 @@
+"""Tests of sweep maps and the cells table, on made-up sweep directories (no simulation)."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from pathlib import Path
+
+import matplotlib.image as mpimg
+import pytest
+
+from walkrepro.sweep import store
+from walkrepro.sweep.cells import CellResult
+from walkrepro.sweep.grid import Axis, Cell
+from walkrepro.sweep.maps import plot_sweep
+
+
+def _fake_sweep(directory: Path, axes: list[Axis]) -> list[Cell]:
+    """A sweep directory whose cells fall above 0.04 and error at one cell."""
+    fields = [a.field for a in axes]
+    info = {
+        "experiment": "fake",
+        "title": "fake (walkrepro): a claim about the fake map",
+        "grid": [{"field": a.field, "values": list(a.values), "unit": "m"} for a in axes],
+        "map_metric": "peak",
+        "n_cells": math.prod(len(a.values) for a in axes),
+        "columns": store.columns(fields, ["fell", "peak"]),
+    }
+    directory.mkdir(parents=True)
+    store.write_info(directory, info)
+    writer = store.CellsWriter(directory / store.CELLS_FILE, info["columns"])
+    cells = []
+    for k, combo in enumerate(itertools.product(*(a.values for a in axes))):
+        cell = Cell(k, tuple(zip(fields, combo, strict=True)), (), None)
+        falls = combo[0] > 0.04
+        outcome = "error" if k == 1 else ("fell" if falls else "complete")
+        result = CellResult(
+            k,
+            outcome,
+            "boom" if k == 1 else "",
+            fall_time=2.5 if falls else math.nan,
+            metrics={} if k == 1 else {"fell": float(falls), "peak": 100.0 * k},
+        )
+        writer.append(cell, result)
+        cells.append(cell)
+    writer.close()
+    return cells
+
+
+@pytest.mark.parametrize(
+    "axes",
+    [
+        [Axis("h", (0.02, 0.04, 0.06))],
+        [Axis("h", (0.02, 0.04, 0.06)), Axis("tilt", (0, 10))],
+        [Axis("h", (0.02, 0.04, 0.06)), Axis("tilt", (0, 10)), Axis("impedance", (True, False))],
+    ],
+)
+def test_maps_are_drawn_for_one_two_and_three_fields(tmp_path: Path, axes: list[Axis]) -> None:
+    """A line plot, a heat map and a panel per extra value are written as PNG and SVG."""
+    directory = tmp_path / "sweep"
+    _fake_sweep(directory, axes)
+    written = plot_sweep(directory)
+    assert [p.name for p in written] == ["map.png", "map.svg"]
+    height, width, _ = mpimg.imread(written[0]).shape
+    assert width > 500 and height > 300
+
+
+def test_cells_table_round_trips_values_exactly(tmp_path: Path) -> None:
+    """Grid values and metrics read back as written: booleans, ints and exact floats."""
+    directory = tmp_path / "sweep"
+    _fake_sweep(directory, [Axis("h", (0.1 + 0.2, 0.04)), Axis("impedance", (True, False))])
+    table = store.read_cells(directory / store.CELLS_FILE)
+    assert table.fields == ("h", "impedance")
+    assert table.column("h") == [0.1 + 0.2, 0.1 + 0.2, 0.04, 0.04]
+    assert table.column("impedance") == [True, False, True, False]
+    assert table.rows[1]["outcome"] == "error" and math.isnan(table.rows[1]["peak"])
+    assert table.column("peak")[3] == 300.0

@@ -1,0 +1,40 @@
+"""A known deviation: where a reproduction misses its paper, what it measures, and why.
+
+Shared by expectations (``expect:``) and map claims (``sweeps:``).
+"""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+
+class KnownDeviation(BaseModel):
+    """What the reproduction measures today where it misses the paper, and why.
+
+    A known deviation is an observed band, not an excuse: the expectation's row fails when
+    the measured value leaves ``observed`` in either direction (worse is a regression;
+    better means the deviation may be gone and the spec must be updated).
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    reason: str = Field(description="why the reproduction misses the paper, with the evidence")
+    observed: tuple[float, float] | None = Field(
+        description="[low, high]: the band the reproduction measures today (closed interval); "
+        "required in every spec, None only in the spec of a log written before bands existed"
+    )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _legacy_reason_only(cls, data: object) -> object:
+        # Logs written before observed bands hold the reason alone. They still load, so an old
+        # log can be re-checked, but such a row has no band and always fails.
+        if isinstance(data, str):
+            return {"reason": data, "observed": None}
+        return data
+
+    @model_validator(mode="after")
+    def _band_is_ordered(self) -> KnownDeviation:
+        if self.observed is not None and not self.observed[0] <= self.observed[1]:
+            raise ValueError("observed needs [low, high] with low <= high")
+        return self

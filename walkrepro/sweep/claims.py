@@ -1,0 +1,199 @@
+"""Paper claims about regions of a sweep's map, evaluated on a cells table.
+
+Pure functions of the table (``store.CellsTable`` or any rows of dicts): no simulation, so
+``walkrepro check`` evaluates them from the committed reference maps in milliseconds. Each
+claim becomes one check row: ``measured`` is the number of cells that contradict the claim
+(``== 0`` passes). A cell that errored, crashed or is missing cannot be placed in or out of the
+region; a claim that depends on one fails (or is a known deviation) and says which.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+from walkrepro.checks import FAIL, KNOWN, PASS, CheckRow, holds
+from walkrepro.sweep.grid import value_text
+from walkrepro.sweep.model import Condition, SweepClaim, SweepSpec
+
+#: Outcomes of cells whose metrics are measured (the run ended, with or without a fall).
+MEASURED = ("complete", "fell")
+Row = Mapping[str, Any]
+
+
+def in_region(row: Row, claim: SweepClaim) -> bool | None:
+    """Whether a cell lies in the claim's region; None if the cell has no measurement."""
+    if row.get("outcome") not in MEASURED:
+        return None
+    value = row.get(claim.region.metric, math.nan)
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        return None
+    if math.isnan(value):
+        return None
+    return holds(claim.region.op, value, claim.region.value)
+
+
+def matches(row: Row, selector: Mapping[str, Any]) -> bool:
+    """Whether a cell's grid values satisfy ``selector`` (field → value or ``{op, value}``)."""
+    for field, want in selector.items():
+        have = row.get(field)
+        if isinstance(want, Mapping):
+            cond = Condition.model_validate(want)
+            if not isinstance(have, int | float) or not holds(cond.op, float(have), cond.value):
+                return False
+        elif isinstance(want, int | float) and not isinstance(want, bool):
+            if isinstance(have, bool) or not isinstance(have, int | float):
+                return False
+            if not math.isclose(float(have), float(want), rel_tol=1e-9, abs_tol=1e-12):
+                return False
+        elif value_text(have) != value_text(want):
+            return False
+    return True
+
+
+def evaluate_claim(
+    rows: Sequence[Row],
+    fields: Sequence[str],
+    claim: SweepClaim,
+    map_name: str,
+    n_cells: int | None = None,
+    origin: str = "",
+) -> CheckRow:
+    """One claim → one check row.
+
+    Args:
+        rows: the cells (each with its grid values, ``outcome`` and metrics).
+        fields: the grid fields.
+        claim: the claim.
+        map_name: the map's name, for the row's label.
+        n_cells: cells in the full grid (missing rows count as unknown).
+        origin: where the table came from, appended to the source.
+    """
+    if claim.kind == "contains":
+        violations, unknown, note = _contains(rows, fields, claim)
+        label = f"map {map_name}: {claim.region} where {_sel(claim.where)} ⊇ where {_sel(claim.contains or {})}"
+    else:
+        violations, unknown, note = _everywhere(rows, fields, claim)
+        label = f"map {map_name}: {claim.region} for every cell" + (
+            f" where {_sel(claim.where)}" if claim.where else ""
+        )
+    if n_cells is not None and len(rows) < n_cells:
+        unknown.append(f"{n_cells - len(rows)} of {n_cells} cells missing")
+    ok = not violations and not unknown
+    parts = [note]
+    if violations:
+        parts.append("contradicted at " + "; ".join(violations))
+    if unknown:
+        parts.append("not measurable: " + "; ".join(unknown))
+    if claim.note:
+        parts.insert(0, claim.note)
+    text = ". ".join(p for p in parts if p)
+    dev = claim.known_deviation
+    measured = float(len(violations))
+    observed = dev.observed if dev is not None else None
+    if dev is None:
+        status = PASS if ok else FAIL
+    elif observed is not None and not unknown and observed[0] <= measured <= observed[1]:
+        # A known deviation is a band of contradicting cells: it fails when it leaves it.
+        status = KNOWN
+        text = f"{text}. Known deviation: {dev.reason}"
+    else:
+        status = FAIL
+        side = "missing cells" if unknown else ("fewer" if ok or measured < observed[0] else "more")
+        text = (
+            f"{text}. Left the known deviation's observed band ({side} contradicting cells"
+            f"{': the deviation may be gone, update the spec' if ok else ''}). "
+            f"Known deviation: {dev.reason}"
+        )
+    source = claim.source + (f" [from {origin}]" if origin else "")
+    return CheckRow(
+        metric=label,
+        op="==",
+        paper=0.0,
+        measured=measured,
+        status=status,
+        source=source,
+        note=text,
+        observed=observed,
+    )
+
+
+def evaluate_sweep(
+    rows: Sequence[Row],
+    fields: Sequence[str],
+    sweep: SweepSpec,
+    n_cells: int | None = None,
+    origin: str = "",
+) -> list[CheckRow]:
+    """Every claim of a declared map."""
+    return [evaluate_claim(rows, fields, c, sweep.name, n_cells, origin) for c in sweep.claims]
+
+
+def _contains(
+    rows: Sequence[Row], fields: Sequence[str], claim: SweepClaim
+) -> tuple[list[str], list[str], str]:
+    """Region(where) ⊇ region(contains), cells paired by the fields neither selector names."""
+    inner_sel = claim.contains or {}
+    named = set(claim.where) | set(inner_sel)
+    others = [f for f in fields if f not in named]
+
+    def key(row: Row) -> tuple[str, ...]:
+        return tuple(value_text(row.get(f)) for f in others)
+
+    outer = {key(r): r for r in rows if matches(r, claim.where)}
+    inner = [r for r in rows if matches(r, inner_sel)]
+    violations, unknown = [], []
+    n_inner = n_outer = 0
+    for r in inner:
+        here = in_region(r, claim)
+        partner = outer.get(key(r))
+        there = None if partner is None else in_region(partner, claim)
+        n_inner += here is True
+        if here is None:
+            unknown.append(f"{_at(r, others)} ({r.get('outcome')})")
+        elif here and there is None:
+            unknown.append(
+                f"{_at(r, others)} where {_sel(claim.where)} "
+                f"({'missing' if partner is None else partner.get('outcome')})"
+            )
+        elif here and not there:
+            violations.append(_at(r, others))
+    n_outer = sum(in_region(r, claim) is True for r in outer.values())
+    note = (
+        f"region {claim.region}: {n_outer} of {len(outer)} cells where {_sel(claim.where)}, "
+        f"{n_inner} of {len(inner)} where {_sel(inner_sel)}"
+    )
+    return violations, unknown, note
+
+
+def _everywhere(
+    rows: Sequence[Row], fields: Sequence[str], claim: SweepClaim
+) -> tuple[list[str], list[str], str]:
+    """Every cell matching ``where`` lies in the region."""
+    chosen = [r for r in rows if matches(r, claim.where)]
+    violations, unknown = [], []
+    for r in chosen:
+        inside = in_region(r, claim)
+        if inside is None:
+            unknown.append(f"{_at(r, fields)} ({r.get('outcome')})")
+        elif not inside:
+            violations.append(_at(r, fields))
+    n_in = sum(in_region(r, claim) is True for r in chosen)
+    return violations, unknown, f"region {claim.region}: {n_in} of {len(chosen)} selected cells"
+
+
+def _sel(selector: Mapping[str, Any]) -> str:
+    parts = []
+    for f, v in selector.items():
+        if isinstance(v, Mapping):
+            parts.append(f"{f} {v.get('op')} {value_text(v.get('value'))}")
+        else:
+            parts.append(f"{f}={value_text(v)}")
+    return ", ".join(parts) or "all cells"
+
+
+def _at(row: Row, fields: Iterable[str]) -> str:
+    return "(" + ", ".join(f"{f}={value_text(row.get(f))}" for f in fields) + ")"

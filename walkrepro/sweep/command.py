@@ -1,0 +1,185 @@
+"""The ``walkrepro sweep`` command and the map checks of ``walkrepro check`` (the CLI calls
+these; they print and return, the CLI exits)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from walkrepro.errors import WalkreproError
+from walkrepro.sweep import store
+from walkrepro.sweep.engines import make_engine
+from walkrepro.sweep.sweeper import (
+    MAPS_DIR_NAME,
+    plan_new,
+    plan_resume,
+    run_plan,
+    update_reference,
+)
+
+INTERRUPTED_EXIT = 130
+
+
+def sweep_command(
+    console: Any,
+    experiment: str | None,
+    grid: Sequence[str],
+    overrides: Sequence[str],
+    out: Path,
+    jobs: int,
+    engine: str,
+    address: str | None,
+    resume: Path | None,
+    keep_logs: bool,
+    metrics: Sequence[str],
+    map_name: str | None,
+    update_ref: bool,
+) -> int:
+    """Plan (validating every cell), run and map a sweep; returns the exit code."""
+    from walkrepro.sweep.maps import plot_sweep
+
+    if resume is not None:
+        if grid or overrides or metrics or map_name:
+            raise WalkreproError(
+                "--resume continues a sweep with its own grid, --set and --metric; "
+                "give only --resume (and engine options)."
+            )
+        plan = plan_resume(resume)
+        if experiment is not None and experiment != plan.info["experiment"]:
+            raise WalkreproError(
+                f"--resume {resume}: that sweep is of {plan.info['experiment']!r}, "
+                f"not {experiment!r}."
+            )
+    else:
+        if experiment is None:
+            raise WalkreproError("give an EXPERIMENT to sweep (or --resume SWEEP_DIR).")
+        plan = plan_new(experiment, grid, overrides, out, metrics, map_name)
+    if update_ref and not plan.info.get("map"):
+        raise WalkreproError("--update-reference applies to a declared map (--map NAME) only.")
+    runner = make_engine(engine, jobs, address)
+    todo = len(plan.missing)
+    console.print(
+        f"sweep of {plan.info['experiment']}: {len(plan.cells)} cells, {todo} to run "
+        f"({engine} engine, {jobs} job(s)) → {plan.directory}",
+        highlight=False,
+    )
+    report = run_plan(plan, runner, keep_logs, console) if todo else None
+    written = plot_sweep(plan.directory)
+    for path in written:
+        console.print(f"wrote {path}", highlight=False)
+    if report is not None:
+        rate = report.ran / report.wall_time * 60 if report.wall_time > 0 else 0.0
+        console.print(
+            f"{report.ran} cell(s) in {report.wall_time:.1f} s ({rate:.1f} cells/min), "
+            f"{report.failures} failed",
+            highlight=False,
+        )
+        if report.interrupted:
+            console.print(
+                f"[yellow]interrupted:[/] {len(plan.done)} of {len(plan.cells)} cells done; "
+                f"continue with: walkrepro sweep --resume {plan.directory}",
+                highlight=False,
+            )
+            return INTERRUPTED_EXIT
+    if plan.info.get("claims"):
+        from walkrepro.sweep.claims import evaluate_sweep
+
+        spec = _declared(plan.info)
+        table = store.read_cells(plan.directory / store.CELLS_FILE)
+        rows = evaluate_sweep(table.rows, table.fields, spec, plan.info["n_cells"])
+        for r in rows:
+            console.print(f"{r.status}: {r.metric} — {r.note}", highlight=False)
+    if update_ref:
+        target = update_reference(plan.directory, plan.info["map"])
+        console.print(f"reference map updated: {target}", highlight=False)
+    return 0
+
+
+def _declared(info: dict) -> Any:
+    """The declared sweep recorded in a sweep.yaml (its claims, for evaluation)."""
+    from walkrepro.sweep.model import SweepSpec
+
+    grid = {g["field"]: g["values"] for g in info["grid"]}
+    return SweepSpec(name=info["map"], grid=grid, claims=info.get("claims", []))
+
+
+def map_verdicts(
+    names: Sequence[str], rerun: bool, out: Path, jobs: int, console: Any = None
+) -> list:  # list[checks.Verdict]
+    """One verdict per declared map of the named experiments.
+
+    Without ``rerun`` the claims are evaluated on the committed reference
+    ``results/maps/<map>/cells.csv`` (no simulation); a reference made with another grid or
+    other overrides than the spec now declares is reported as stale (fail). With ``rerun``
+    each map is swept again under ``out`` and evaluated on the new cells.
+    """
+    from walkrepro import RESULTS_DIR
+    from walkrepro.checks import FAIL, CheckRow, Verdict
+    from walkrepro.spec import load_spec
+    from walkrepro.sweep.claims import evaluate_sweep
+    from walkrepro.sweep.engines import ProcessEngine
+
+    verdicts = []
+    for name in names:
+        spec = load_spec(name).spec
+        for declared in spec.sweeps:
+            label = f"{spec.name} · map {declared.name}"
+            if rerun:
+                plan = plan_new(name, [], [], out, (), declared.name)
+                run_plan(plan, ProcessEngine(jobs), False, console)
+                from walkrepro.sweep.maps import plot_sweep
+
+                plot_sweep(plan.directory)
+                directory, origin = plan.directory, f"sweep {plan.directory.name}"
+            else:
+                directory = RESULTS_DIR / MAPS_DIR_NAME / declared.name
+                origin = f"results/{MAPS_DIR_NAME}/{declared.name}"
+            cells = directory / store.CELLS_FILE
+            if not cells.is_file():
+                row = CheckRow(
+                    metric=f"map {declared.name}",
+                    op="==",
+                    paper=0.0,
+                    measured=float("nan"),
+                    status=FAIL,
+                    source=declared.claims[0].source if declared.claims else "",
+                    note=f"no reference map: run walkrepro sweep {name} --map {declared.name} "
+                    "--update-reference",
+                )
+                verdicts.append(Verdict(label, "complete", (row,)))
+                continue
+            info = store.read_info(directory)
+            table = store.read_cells(cells)
+            rows = evaluate_sweep(table.rows, table.fields, declared, info["n_cells"], origin)
+            stale = _stale(info, declared)
+            if stale:
+                rows = [
+                    CheckRow(
+                        metric=r.metric,
+                        op=r.op,
+                        paper=r.paper,
+                        measured=r.measured,
+                        status=FAIL,
+                        source=r.source,
+                        note=f"stale reference map ({stale}); re-run walkrepro sweep {name} "
+                        f"--map {declared.name} --update-reference. {r.note}",
+                    )
+                    for r in rows
+                ]
+            verdicts.append(Verdict(label, "complete", tuple(rows)))
+    return verdicts
+
+
+def _stale(info: dict, declared: Any) -> str:
+    """Why a committed map no longer matches the spec's declared sweep ('' if it does)."""
+    from walkrepro.sweep.grid import parse_grid_item
+
+    axes = [parse_grid_item(g) for g in declared.grid_items()]
+    if [(a.field, list(a.values)) for a in axes] != [
+        (g["field"], list(g["values"])) for g in info["grid"]
+    ]:
+        return "its grid differs from the spec's"
+    if list(declared.set_items()) != list(info["set"]):
+        return "its --set overrides differ from the spec's"
+    return ""

@@ -1,0 +1,243 @@
+"""Sweep engines: they schedule cells and never change what a cell computes.
+
+- :class:`ProcessEngine` (default): ``jobs`` worker processes, started once and reused for
+  every cell (imports, robot models and compiled kernels are loaded once per worker). The
+  parent knows which cell each worker runs, so a worker that dies (killed, segfault) marks
+  exactly that cell ``crashed``, is replaced, and the sweep goes on. Workers sit in their own
+  process group: a Ctrl-C at the terminal reaches only the parent, which stops them.
+- :class:`RayEngine` (``--engine ray``): the same cells as Ray tasks, on a local Ray started
+  for the sweep or an existing cluster (``address``). Optional: ``pip install -e ".[ray]"``.
+
+Both yield :class:`~walkrepro.sweep.cells.CellResult` in the order cells finish.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+import signal
+import time
+from collections import deque
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import replace
+from multiprocessing.connection import Connection, wait
+from typing import Protocol
+
+from walkrepro.errors import WalkreproError
+from walkrepro.sweep.cells import CRASHED, CellResult, CellTask, run_cell
+
+CellFn = Callable[[CellTask], CellResult]
+ENGINES = ("process", "ray")
+
+
+class Engine(Protocol):
+    """Runs cells; yields each result as its cell finishes."""
+
+    def run(self, tasks: Sequence[CellTask]) -> Iterator[CellResult]:
+        """Run every task once; results in completion order."""
+        ...
+
+
+def make_engine(name: str, jobs: int, address: str | None = None) -> Engine:
+    """The engine called ``name`` (``process`` or ``ray``).
+
+    Raises:
+        WalkreproError: unknown engine, ``--address`` without Ray, or Ray not installed.
+    """
+    if name == "process":
+        if address is not None:
+            raise WalkreproError("--address applies to --engine ray only.")
+        return ProcessEngine(jobs)
+    if name == "ray":
+        return RayEngine(jobs, address)
+    raise WalkreproError(f"unknown engine {name!r}. Valid engines: {', '.join(ENGINES)}.")
+
+
+class ProcessEngine:
+    """A pool of ``jobs`` reused worker processes, one cell per task.
+
+    Args:
+        jobs: number of worker processes (>= 1).
+        fn: the cell function (tests substitute one that crashes).
+    """
+
+    def __init__(self, jobs: int, fn: CellFn = run_cell) -> None:
+        if jobs < 1:
+            raise WalkreproError(f"--jobs {jobs}: need at least one process.")
+        self.jobs = jobs
+        self.fn = fn
+        self._started: list[tuple[Connection, mp.process.BaseProcess]] = []
+
+    def start(self, n_tasks: int) -> None:
+        """Start the workers now (before a progress bar's thread exists: a fork copies only
+        the forking thread, so no other thread may hold a lock the worker needs)."""
+        ctx = mp.get_context()
+        while len(self._started) < min(self.jobs, n_tasks):
+            self._started.append(self._spawn(ctx))
+
+    def run(self, tasks: Sequence[CellTask]) -> Iterator[CellResult]:
+        """Run every task; a dead worker's cell is ``crashed`` and the worker is replaced."""
+        pending = deque(tasks)
+        busy: dict[Connection, tuple[mp.process.BaseProcess, CellTask, float]] = {}
+        idle, self._started = self._started, []
+        ctx = mp.get_context()
+        try:
+            while len(idle) < min(self.jobs, len(pending)):
+                idle.append(self._spawn(ctx))
+            while pending or busy:
+                while idle and pending:
+                    conn, proc = idle.pop()
+                    task = pending.popleft()
+                    t0 = time.perf_counter()  # before sending: the worker starts during send
+                    conn.send(task)
+                    busy[conn] = (proc, task, t0)
+                for conn in wait(list(busy)):
+                    assert isinstance(conn, Connection)
+                    proc, task, t0 = busy.pop(conn)
+                    try:
+                        result = conn.recv()
+                    except (EOFError, OSError):
+                        proc.join(timeout=5)
+                        conn.close()
+                        yield CellResult(
+                            task.index,
+                            CRASHED,
+                            f"worker process {proc.pid} died (exit code {proc.exitcode}) "
+                            "while running this cell",
+                            engine_time=time.perf_counter() - t0,
+                        )
+                        if pending:
+                            idle.append(self._spawn(ctx))
+                        continue
+                    idle.append((conn, proc))
+                    yield replace(result, engine_time=time.perf_counter() - t0)
+        finally:
+            for conn, proc in [*idle, *((c, p) for c, (p, _, _) in busy.items())]:
+                try:
+                    conn.send(None)
+                except OSError:
+                    pass
+                if (conn, proc) not in idle:  # still running a cell: stop it now
+                    proc.terminate()
+            for conn, proc in [*idle, *((c, p) for c, (p, _, _) in busy.items())]:
+                proc.join(timeout=10)
+                if proc.is_alive():
+                    proc.kill()
+                    proc.join()
+                conn.close()
+
+    def _spawn(self, ctx: mp.context.BaseContext) -> tuple[Connection, mp.process.BaseProcess]:
+        parent, child = ctx.Pipe()
+        proc = ctx.Process(target=_worker, args=(child, self.fn), daemon=True)
+        proc.start()
+        child.close()  # only the worker holds its end: its death is EOF here
+        return parent, proc
+
+
+def _worker(conn: Connection, fn: CellFn) -> None:
+    """Run tasks from ``conn`` until ``None`` or EOF."""
+    # Own process group: the terminal's Ctrl-C goes to the parent, which stops the workers.
+    os.setpgrp()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    while True:
+        try:
+            task = conn.recv()
+        except (EOFError, OSError):
+            return
+        if task is None:
+            return
+        try:
+            conn.send(fn(task))
+        except (BrokenPipeError, OSError):
+            return
+
+
+RAY_INSTALL = 'pip install -e ".[ray]"'
+
+
+def import_ray():  # noqa: ANN201 - the ray module
+    """Ray, or a user error with the install command."""
+    try:
+        import ray
+    except ImportError:
+        raise WalkreproError(
+            f"--engine ray needs Ray, which is not installed. Install it with {RAY_INSTALL} "
+            "(from the repository root), or use --engine process."
+        ) from None
+    return ray
+
+
+class RayEngine:
+    """Cells as Ray tasks (one CPU each, no retries: a crash is recorded, not re-run).
+
+    Args:
+        jobs: CPUs of the local Ray started for the sweep (ignored with ``address``).
+        address: an existing cluster (``ray://…`` or ``host:port``, or ``auto``).
+        fn: the cell function.
+    """
+
+    def __init__(self, jobs: int, address: str | None = None, fn: CellFn = run_cell) -> None:
+        if jobs < 1:
+            raise WalkreproError(f"--jobs {jobs}: need at least one process.")
+        self.ray = import_ray()
+        self.jobs = jobs
+        self.address = address
+        self.fn = fn
+
+    def run(self, tasks: Sequence[CellTask]) -> Iterator[CellResult]:
+        """Submit every task; yield results as they complete."""
+        ray = self.ray
+        started = not ray.is_initialized()
+        if started:
+            self._init()
+        remote = ray.remote(num_cpus=1, max_retries=0)(self.fn)
+        refs = {}
+        try:
+            for task in tasks:
+                refs[remote.remote(task)] = task
+            while refs:
+                done, _ = ray.wait(list(refs), num_returns=1)
+                for ref in done:
+                    task = refs.pop(ref)
+                    try:
+                        result = ray.get(ref)
+                    except ray.exceptions.RayError as exc:
+                        first = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+                        result = CellResult(
+                            task.index, CRASHED, f"Ray task failed: {type(exc).__name__}: {first}"
+                        )
+                    yield result
+        finally:
+            for ref in refs:
+                ray.cancel(ref, force=True)
+            if started:
+                ray.shutdown()
+
+    def _init(self) -> None:
+        ray = self.ray
+        # The workers must import this walkrepro: pass the driver's module path on.
+        env = {"PYTHONPATH": os.pathsep.join(p for p in _pythonpath() if p)}
+        kwargs: dict = {
+            "runtime_env": {"env_vars": env},
+            "include_dashboard": False,
+            "log_to_driver": False,
+            "configure_logging": False,
+        }
+        try:
+            if self.address is None:
+                ray.init(num_cpus=self.jobs, **kwargs)
+            else:
+                ray.init(address=self.address, **kwargs)
+        except Exception as exc:  # noqa: BLE001 - Ray raises many kinds for a bad address
+            where = f"the Ray cluster at {self.address}" if self.address else "a local Ray"
+            raise WalkreproError(f"could not start or reach {where}: {exc}") from None
+
+
+def _pythonpath() -> list[str]:
+    """The directory holding this ``walkrepro`` package, plus any PYTHONPATH already set."""
+    from pathlib import Path
+
+    import walkrepro
+
+    here = str(Path(walkrepro.__file__).resolve().parent.parent)
+    return [here, *os.environ.get("PYTHONPATH", "").split(os.pathsep)]

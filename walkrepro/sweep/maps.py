@@ -1,0 +1,250 @@
+"""Maps of a sweep, drawn from ``cells.csv`` alone (so ``walkrepro plot SWEEP_DIR`` redraws them).
+
+- one grid field: the map's metric against the field, each cell marked by its outcome;
+- two: a heat map of the metric (x = first field, y = second), the boundary between the cells
+  that stood/recovered and those that fell drawn as a thick line, fallen and failed cells
+  marked;
+- more: one heat-map panel per combination of the extra fields' values.
+
+Axes are the grid's own values, evenly spaced (a grid is a list of values, not a mesh).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import textwrap
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from walkrepro.sweep import store
+from walkrepro.sweep.grid import value_text
+
+FAILED = ("error", "crashed")
+
+
+def plot_sweep(directory: Path, out: Path | None = None) -> list[Path]:
+    """Draw ``map.png`` and ``map.svg`` for a sweep directory; returns the files written."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    info = store.read_info(directory)
+    table = store.read_cells(directory / store.CELLS_FILE)
+    out = out or directory
+    out.mkdir(parents=True, exist_ok=True)
+    fields = [g["field"] for g in info["grid"]]
+    values = {g["field"]: list(g["values"]) for g in info["grid"]}
+    units = {g["field"]: g.get("unit", "") for g in info["grid"]}
+    metric = info["map_metric"]
+    rows = {tuple(value_text(r[f]) for f in fields): r for r in table.rows}
+    if len(fields) == 1:
+        fig = _line(plt, fields[0], values[fields[0]], units, rows, metric)
+    else:
+        fig = _heat_panels(plt, fields, values, units, rows, metric)
+    done = len(table.rows)
+    what = "metric" if len(fields) == 1 else "colour"
+    subtitle = f"{what}: {metric} · {done} of {info['n_cells']} cells"
+    fig.suptitle("\n".join(textwrap.wrap(info["title"], 90)) + f"\n{subtitle}", fontsize=10)
+    written = []
+    for ext in ("png", "svg"):
+        path = out / f"map.{ext}"
+        fig.savefig(path, dpi=130)
+        written.append(path)
+    plt.close(fig)
+    return written
+
+
+def _label(field: str, units: dict[str, str]) -> str:
+    unit = units.get(field, "")
+    return f"{field} [{unit}]" if unit else field
+
+
+def _metric_label(metric: str) -> str:
+    """The metric with the unit its registered description gives (``[N]``), if any."""
+    import re
+
+    from walkrepro.metrics import metric_doc, split_metric
+
+    try:
+        units = re.findall(r"\[([^\]]+)\]", metric_doc(split_metric(metric)[0]))
+    except KeyError:
+        units = []
+    return f"{metric} [{units[-1]}]" if units else metric
+
+
+def _stood(row: dict[str, Any] | None) -> bool | None:
+    """True: the run ended without a fall; False: it fell; None: no measurement."""
+    if row is None or row["outcome"] in FAILED or row["outcome"] not in ("complete", "fell"):
+        return None
+    return row["outcome"] == "complete" and not row.get("fell", 0.0) == 1.0
+
+
+def _line(plt: Any, field: str, xs: list[Any], units: dict[str, str], rows: dict, metric: str):
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), layout="constrained")
+    numeric = all(isinstance(x, int | float) and not isinstance(x, bool) for x in xs)
+    pos = [float(x) for x in xs] if numeric else list(range(len(xs)))
+    ys = [rows.get((value_text(x),), {}).get(metric, math.nan) for x in xs]
+    ax.plot(pos, ys, "-", color="0.6", zorder=1)
+    finite = [y for y in ys if not math.isnan(y)]
+    floor = min(finite) if finite else 0.0
+    for p, x, y in zip(pos, xs, ys, strict=True):
+        row = rows.get((value_text(x),))
+        stood = _stood(row)
+        if row is None:
+            continue
+        if stood is None:
+            ax.scatter([p], [floor], marker="s", color="0.5", s=60, zorder=3)
+            ax.annotate(
+                row["outcome"],
+                (p, floor),
+                textcoords="offset points",
+                xytext=(0, 8),
+                ha="center",
+                fontsize=8,
+            )
+        elif stood:
+            ax.scatter([p], [y], marker="o", color="tab:green", s=50, zorder=3)
+        else:
+            ax.scatter(
+                [p],
+                [y if not math.isnan(y) else floor],
+                marker="X",
+                color="tab:red",
+                s=80,
+                zorder=3,
+            )
+    ax.scatter([], [], marker="o", color="tab:green", label="no fall")
+    ax.scatter([], [], marker="X", color="tab:red", label="fell")
+    ax.scatter([], [], marker="s", color="0.5", label="error / crashed")
+    ax.legend(fontsize=8)
+    if not numeric:
+        ax.set_xticks(pos, [value_text(x) for x in xs])
+    ax.set_xlabel(_label(field, units))
+    ax.set_ylabel(_metric_label(metric))
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def _heat_panels(
+    plt: Any,
+    fields: Sequence[str],
+    values: dict[str, list[Any]],
+    units: dict[str, str],
+    rows: dict,
+    metric: str,
+):
+    from matplotlib.colors import Normalize
+
+    fx, fy, extra = fields[0], fields[1], list(fields[2:])
+    combos = list(itertools.product(*(values[f] for f in extra))) or [()]
+    ncol = min(len(combos), 3)
+    nrow = math.ceil(len(combos) / ncol)
+    xs, ys = values[fx], values[fy]
+    w = max(4.6, 0.95 * len(xs) + 2.2)
+    h = max(3.6, 0.75 * len(ys) + 1.8)
+    fig, axes = plt.subplots(
+        nrow, ncol, figsize=(w * ncol + 1.2, h * nrow + 1.0), squeeze=False, layout="constrained"
+    )
+    grids = []
+    for combo in combos:
+        m = np.full((len(ys), len(xs)), np.nan)
+        cells: dict[tuple[int, int], dict | None] = {}
+        for (i, x), (j, y) in itertools.product(enumerate(xs), enumerate(ys)):
+            key = tuple(value_text(v) for v in (x, y, *combo))
+            row = rows.get(key)
+            cells[(i, j)] = row
+            if row is not None and row["outcome"] not in FAILED:
+                m[j, i] = row.get(metric, math.nan)
+        grids.append((m, cells))
+    finite = np.concatenate([g[0][np.isfinite(g[0])] for g in grids]) if grids else np.zeros(0)
+    norm = Normalize(*(finite.min(), finite.max()) if finite.size else (0, 1))
+    if finite.size and norm.vmin == norm.vmax:
+        norm = Normalize(norm.vmin - 0.5, norm.vmax + 0.5)
+    mesh = None
+    for k, (combo, (m, cells)) in enumerate(zip(combos, grids, strict=True)):
+        ax = axes[k // ncol][k % ncol]
+        ax.set_facecolor("0.85")
+        mesh = ax.pcolormesh(
+            np.arange(len(xs) + 1) - 0.5, np.arange(len(ys) + 1) - 0.5, m, cmap="viridis", norm=norm
+        )
+        for (i, j), row in cells.items():
+            _annotate(ax, i, j, row, m[j, i], norm)
+        _boundary(ax, cells, len(xs), len(ys))
+        ax.set_xticks(range(len(xs)), [_tick(x) for x in xs])
+        ax.set_yticks(range(len(ys)), [_tick(y) for y in ys])
+        ax.set_xlabel(_label(fx, units))
+        ax.set_ylabel(_label(fy, units))
+        if combo:
+            ax.set_title(
+                ", ".join(
+                    f"{f} = {_tick(v)}{' ' + units.get(f, '') if units.get(f) else ''}"
+                    for f, v in zip(extra, combo, strict=True)
+                ),
+                fontsize=9,
+            )
+    for k in range(len(combos), nrow * ncol):
+        axes[k // ncol][k % ncol].axis("off")
+    if mesh is not None:
+        bar = fig.colorbar(mesh, ax=axes.ravel().tolist(), shrink=0.9)
+        bar.set_label(_metric_label(metric))
+    from matplotlib.lines import Line2D
+
+    handles = [
+        Line2D([], [], color="crimson", lw=3, label="no-fall / fall boundary"),
+        Line2D([], [], color="crimson", marker="x", lw=0, markersize=9, mew=2.5, label="fell"),
+        Line2D([], [], color="0.85", marker="s", lw=0, markersize=9, label="no value"),
+    ]
+    fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=8, frameon=False)
+    return fig
+
+
+def _tick(v: Any) -> str:
+    if isinstance(v, bool):
+        return "on" if v else "off"
+    if isinstance(v, float):
+        return f"{v:g}"
+    return str(v)
+
+
+def _annotate(ax: Any, i: int, j: int, row: dict | None, value: float, norm: Any) -> None:
+    """The cell's value, and its outcome when it fell or failed."""
+    if row is None:
+        ax.text(i, j, "not run", ha="center", va="center", fontsize=8, color="0.3")
+        return
+    if row["outcome"] in FAILED:
+        ax.text(
+            i, j, row["outcome"], ha="center", va="center", fontsize=8, color="black", weight="bold"
+        )
+        return
+    dark = not math.isnan(value) and norm(value) < 0.55
+    colour = "white" if dark else "black"
+    text = "–" if math.isnan(value) else f"{value:.4g}"
+    if _stood(row) is False:
+        # In the cell's corner, so the value stays readable.
+        ax.scatter(
+            [i + 0.34], [j + 0.3], marker="x", s=90, color="crimson", linewidths=2.5, zorder=3
+        )
+        t = row.get("fall_time", math.nan)
+        text += "" if math.isnan(t) else f"\nfell {t:.2f} s"
+    ax.text(i, j, text, ha="center", va="center", fontsize=8, color=colour, zorder=4)
+
+
+def _boundary(ax: Any, cells: dict[tuple[int, int], dict | None], nx: int, ny: int) -> None:
+    """Thick segments on the edges between a cell that stood and a neighbour that fell."""
+    for i, j in itertools.product(range(nx), range(ny)):
+        here = _stood(cells[(i, j)])
+        if here is None:
+            continue
+        if i + 1 < nx:
+            there = _stood(cells[(i + 1, j)])
+            if there is not None and there != here:
+                ax.plot([i + 0.5, i + 0.5], [j - 0.5, j + 0.5], color="crimson", lw=3, zorder=5)
+        if j + 1 < ny:
+            there = _stood(cells[(i, j + 1)])
+            if there is not None and there != here:
+                ax.plot([i - 0.5, i + 0.5], [j + 0.5, j + 0.5], color="crimson", lw=3, zorder=5)
