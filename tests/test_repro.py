@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from walkrepro import record
+from walkrepro import gl, record
 from walkrepro.cli import app
 from walkrepro.replay import verify_log
 from walkrepro.results import latest_run
@@ -79,6 +79,7 @@ def test_every_log_replays_bit_exactly(checked: tuple[Path, int, str], name: str
 
 
 @pytest.mark.repro
+@pytest.mark.skipif(not gl.available(), reason=gl.INSTALL_HINT.format(tried="probed at collection"))
 def test_render_shows_the_robot(checked: tuple[Path, int, str]) -> None:
     """`walkrepro render` writes a snapshot strip in which the robot is visible (not a blank image)."""
     out, _, _ = checked
