@@ -316,6 +316,7 @@ class McapContents:
     """What :func:`read_mcap` found, in file order.
 
     Attributes:
+        schemas: schema id → schema, from the records seen (in or outside chunks).
         channels: channel id → channel, from the records seen (in or outside chunks).
         messages: channel id → the data of each of its messages, in file order.
         attachments: every attachment record.
@@ -323,6 +324,7 @@ class McapContents:
         closed: whether the footer was reached (the writer finished the file).
     """
 
+    schemas: dict[int, Schema] = field(default_factory=dict)
     channels: dict[int, Channel] = field(default_factory=dict)
     messages: dict[int, list[bytes]] = field(default_factory=lambda: defaultdict(list))
     attachments: list[Attachment] = field(default_factory=list)
@@ -373,6 +375,7 @@ def _record_at(data: bytes, pos: int, end: int) -> tuple[int, int, int]:
 def _read_other(opcode: int, body: bytes, out: McapContents) -> None:
     """A record outside the chunks; the ones walkrepro does not use are skipped."""
     reader = {
+        Opcode.SCHEMA: Schema.read,
         Opcode.CHANNEL: Channel.read,
         Opcode.ATTACHMENT: Attachment.read,
         Opcode.METADATA: Metadata.read,
@@ -385,7 +388,9 @@ def _read_other(opcode: int, body: bytes, out: McapContents) -> None:
         record = reader(ReadDataStream(io.BytesIO(body)))
     except Exception as exc:  # noqa: BLE001 - a malformed record ends the read
         raise _Damaged from exc
-    if isinstance(record, Channel):
+    if isinstance(record, Schema):
+        out.schemas.setdefault(record.id, record)
+    elif isinstance(record, Channel):
         out.channels.setdefault(record.id, record)
     elif isinstance(record, Attachment):
         out.attachments.append(record)
@@ -421,5 +426,5 @@ def _read_chunk(body: bytes, out: McapContents) -> None:
         if opcode == Opcode.MESSAGE:
             (channel_id,) = _CHANNEL_ID.unpack_from(raw, start)
             messages[channel_id].append(raw[start + _MESSAGE_FIXED : pos])
-        elif opcode == Opcode.CHANNEL:
+        elif opcode in (Opcode.CHANNEL, Opcode.SCHEMA):
             _read_other(opcode, raw[start:pos], out)
