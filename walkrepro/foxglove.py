@@ -125,7 +125,7 @@ def _pose(pos: np.ndarray, quat: np.ndarray) -> Pose:
 
 def _add_geom(entity: SceneEntity, model: mujoco.MjModel, g: int) -> None:
     """Appends geom ``g`` to ``entity`` as primitives in its body's frame."""
-    kind = model.geom_type[g]
+    kind = mujoco.mjtGeom(int(model.geom_type[g]))  # numpy ints do not match enums in `in`
     size = model.geom_size[g]
     pos, quat = model.geom_pos[g].astype(float), model.geom_quat[g].astype(float)
     r, gr, b, a = (float(c) for c in model.geom_rgba[g])
