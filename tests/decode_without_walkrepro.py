@@ -35,7 +35,7 @@ def main(path: str) -> int:
         reader = make_reader(stream, decoder_factories=[DecoderFactory(), JsonDecoderFactory()])
         metadata = {m.name: dict(m.metadata) for m in reader.iter_metadata()}["walkrepro"]
         origin = int(metadata["log_time_origin"])
-        for schema, channel, message, decoded in reader.iter_decoded_messages():
+        for _schema, channel, message, decoded in reader.iter_decoded_messages():
             topic = channel.topic
             counts[topic] += 1
             first.setdefault(topic, decoded)
@@ -55,14 +55,25 @@ def main(path: str) -> int:
                 assert any(e.cubes for e in scene.entities)
     assert metadata["log_format"] == "2", metadata
     utc = datetime.fromtimestamp(origin / 1e9, tz=timezone.utc)
-    print(f"log_format {metadata['log_format']}, start {utc.isoformat()}, outcome "
-          f"{metadata['outcome']}")
+    print(
+        f"log_format {metadata['log_format']}, start {utc.isoformat()}, outcome "
+        f"{metadata['outcome']}"
+    )
     for topic, n in sorted(counts.items()):
-        print(f"{topic}: {n} messages, first at {datetime.fromtimestamp(stamps[topic] / 1e9, tz=timezone.utc).isoformat()}")
+        print(
+            f"{topic}: {n} messages, first at {datetime.fromtimestamp(stamps[topic] / 1e9, tz=timezone.utc).isoformat()}"
+        )
     state = first["/sim/state"]
     assert len(state.qpos) > 7 and state.step == 0
-    for topic in ("/sim/state", "/sim/inputs", "/sim/contacts", "/sensors", "/frames",
-                  "/scene", "/controller/signals"):
+    for topic in (
+        "/sim/state",
+        "/sim/inputs",
+        "/sim/contacts",
+        "/sensors",
+        "/frames",
+        "/scene",
+        "/controller/signals",
+    ):
         assert counts[topic] > 0, f"no {topic}"
     assert counts["/sim/inputs"] >= counts["/sim/state"] - 1
     return 0

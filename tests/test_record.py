@@ -219,8 +219,8 @@ def test_mcap_records_follow_contract(written_log: tuple[Path, dict]) -> None:
                 assert (channel.message_encoding, schema.encoding) == ("json", "jsonschema")
                 decoded = json.loads(message.data)
             if "t" in decoded:
-                assert message.log_time == message.publish_time == origin + round(
-                    decoded["t"] * 1e9
+                assert (
+                    message.log_time == message.publish_time == origin + round(decoded["t"] * 1e9)
                 )
             assert message.sequence == counters.get(channel.topic, 0)
             counters[channel.topic] = message.sequence + 1

@@ -19,7 +19,7 @@ from __future__ import annotations
 import ast
 import hashlib
 import sys
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 from numba.core import caching
@@ -56,7 +56,7 @@ def _imports(file: Path, module: str) -> set[str]:
     return _imports_of(file, module, stat.st_mtime_ns, stat.st_size)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _imports_of(file: Path, module: str, mtime_ns: int, size: int) -> frozenset[str]:
     """Modules of the same top-level package that ``file`` (module ``module``) imports (for
     ``from m import n``: ``m``, and ``m.n`` if that is a module). The packages on the way run
@@ -93,7 +93,7 @@ def _runtime_nodes(tree: ast.AST):  # noqa: ANN202 - a generator of nodes
                 todo.append(child)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _file_hash(file: Path, mtime_ns: int, size: int) -> bytes:
     return hashlib.sha256(file.read_bytes()).digest()
 

@@ -107,8 +107,10 @@ def sensors_layout(message: Mapping[str, Any]) -> tuple[tuple[str, str], ...]:
         elif isinstance(value, (np.ndarray, list, tuple)) and np.ndim(value) == 1:
             kind = ARRAY
         else:
-            raise ValueError(f"/sensors field {key!r} is a {type(value).__name__}; "
-                             "a sensor field is a number, a 1-D array of numbers or None")
+            raise ValueError(
+                f"/sensors field {key!r} is a {type(value).__name__}; "
+                "a sensor field is a number, a 1-D array of numbers or None"
+            )
         layout.append((key, kind))
     return tuple(layout)
 

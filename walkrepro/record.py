@@ -240,7 +240,6 @@ def _compile_scene(scene_xml: str) -> mujoco.MjModel:
         raise WalkreproError(f"scene.xml does not load alone: {exc}") from exc
 
 
-
 def _ns(t: float) -> int:
     """Simulated time ``t`` in [s] as a duration in [ns]."""
     return round(float(t) * 1e9)
@@ -631,7 +630,6 @@ class LogWriter:
         else:
             outcome = "interrupted" if isinstance(exc, KeyboardInterrupt) else "error"
             self.close(outcome, {"error": f"{type(exc).__name__}: {exc}"})
-
 
 
 def _check_strings(values: Mapping[str, Any], what: str) -> None:
