@@ -108,3 +108,21 @@ def test_varint_matches_protobuf() -> None:
     for n in (0, 1, 127, 128, 300, 2**63):
         assert protolog.varint(n) == cls(step=n).SerializeToString()[1:] or n == 0
     assert protolog.varint(0) == b"\x00"
+
+
+def test_sensors_fast_path_gives_the_same_message() -> None:
+    """After the first snapshot, snapshots take the precomputed path; they decode to what the
+    general path gives, and a misfit (list, other size, other dtype size) falls back."""
+    layout = protolog.sensors_layout(SENSORS)
+    schema = protolog.file_descriptor_set(layout)
+    decode = protolog.dict_decoder(schema, "walkrepro.Sensors")
+    encoder = protolog.SensorsEncoder(layout)
+    encoder.encode(SENSORS)
+    later = {**SENSORS, "t": 0.5, "joint_pos": np.array([1.0, 2.0, -0.0])}
+    assert encoder._fast is not None
+    assert decode(encoder.encode(later)) == decode(encoder.encode_any(later))
+    for misfit in ([1.0, 2.0, 3.0], np.zeros(4), np.zeros(3, dtype=np.float32)):
+        message = {**later, "joint_pos": misfit}
+        assert decode(encoder.encode(message))["joint_pos"] == [
+            float(x) for x in np.asarray(misfit, dtype=np.float64)
+        ]

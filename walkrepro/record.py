@@ -527,7 +527,7 @@ class LogWriter:
                 f"{TOPIC_INPUTS} ctrl has {len(ctrl)} entries, the scene has {self._dims['ctrl']}"
             )
         # One BLAS call: any NaN or infinity (or |x| > 1e154, never a command) makes it so.
-        if not math.isfinite(ctrl @ ctrl):
+        if not math.isfinite(ctrl.dot(ctrl)):
             _raise_nonfinite(TOPIC_INPUTS, {"ctrl": ctrl}, 0.0, ValueError("non-finite ctrl"))
         return self._inputs.encode_ctrl(ctrl)
 
