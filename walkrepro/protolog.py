@@ -401,7 +401,10 @@ def _field_reader(field: FieldDescriptor) -> tuple[str, Callable[[Any], Any]]:
     name = field.name
     if field.enum_type is not None and field.enum_type.full_name == _NULL[1:]:
         return name, lambda message: None
-    if field.is_repeated:
+    repeated = getattr(field, "is_repeated", None)  # protobuf >= 5.29; `label` before
+    if repeated is None:
+        repeated = field.label == FieldDescriptor.LABEL_REPEATED
+    if repeated:
         if field.message_type is not None:
             return name, lambda message: {w.name: list(w.wrench) for w in getattr(message, name)}
         return name, lambda message: list(getattr(message, name))
