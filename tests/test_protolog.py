@@ -126,3 +126,39 @@ def test_sensors_fast_path_gives_the_same_message() -> None:
         assert decode(encoder.encode(message))["joint_pos"] == [
             float(x) for x in np.asarray(misfit, dtype=np.float64)
         ]
+
+
+def test_flat_arrays_read_every_message_bit_for_bit() -> None:
+    """flat_arrays gives the values of each message (steps of any varint length, in file
+    order), the same as decoding each; not-provided fields are left out."""
+    encoder = protolog.StateEncoder(3, 2, 0)
+    rng = np.random.default_rng(1)
+    steps = [0, 5, 127, 128, 300, 2**40, 1]
+    qpos = rng.standard_normal((len(steps), 3))
+    qpos[0, 0] = -0.0
+    raw = [
+        encoder.encode(s, s * 1e-3, q, q[:2], np.zeros(0)) for s, q in zip(steps, qpos, strict=True)
+    ]
+    cls = _classes()["walkrepro.SimState"]
+    arrays = protolog.flat_arrays(raw, cls.DESCRIPTOR)
+    assert arrays is not None
+    assert arrays["step"].tolist() == steps
+    assert arrays["qpos"].tobytes() == qpos.tobytes() and arrays["act"].shape == (7, 0)
+    assert arrays["t"].tolist() == [s * 1e-3 for s in steps]
+    layout = protolog.sensors_layout(SENSORS)
+    sensors = protolog.message_classes(protolog.file_descriptor_set(layout))["walkrepro.Sensors"]
+    got = protolog.flat_arrays([protolog.SensorsEncoder(layout).encode(SENSORS)] * 2,
+                               sensors.DESCRIPTOR)  # fmt: skip
+    assert got is not None and "base_pos" not in got and got["imu_quat"].shape == (2, 4)
+
+
+def test_flat_arrays_refuse_what_does_not_fit() -> None:
+    """Sub-messages, ragged arrays and foreign bytes give None (callers decode one by one)."""
+    classes = _classes()
+    contacts = protolog.ContactsEncoder().encode(1, 0.5, {"a/b": np.zeros(6)})
+    assert protolog.flat_arrays([contacts], classes["walkrepro.SimContacts"].DESCRIPTOR) is None
+    state = classes["walkrepro.SimState"].DESCRIPTOR
+    short = protolog.StateEncoder(2, 2, 0).encode(1, 0.0, np.zeros(2), np.zeros(2), np.zeros(0))
+    long = protolog.StateEncoder(3, 1, 0).encode(1, 0.0, np.zeros(3), np.zeros(1), np.zeros(0))
+    assert protolog.flat_arrays([short, long], state) is None  # same length, other layout
+    assert protolog.flat_arrays([short, short[:-3]], state) is None  # cut

@@ -668,3 +668,18 @@ def test_chunks_carry_a_zstd_checksum_in_place_of_the_crc(
         assert crc == 0
         assert zstandard.get_frame_parameters(frame).has_checksum
         assert len(zstandard.ZstdDecompressor().decompress(frame)) == chunk_index.uncompressed_size
+
+
+def test_arrays_equal_the_messages(written_log: tuple[Path, dict]) -> None:
+    """Log.arrays stacks a flat topic's messages bit for bit (numpy fast path), in order."""
+    path, written = written_log
+    log = read_log(path)
+    states = log.arrays(TOPIC_STATE)
+    assert states["step"].tolist() == [m["step"] for m in written[TOPIC_STATE]]
+    assert states["qpos"].tobytes() == np.array([m["qpos"] for m in written[TOPIC_STATE]]).tobytes()
+    sensors = log.arrays(TOPIC_SENSORS)
+    assert sensors["gyro"][0].tobytes() == np.array([0.1, -0.0, 1e-300]).tobytes()
+    with pytest.raises(ValueError, match="pairs"):
+        log.arrays(TOPIC_CONTACTS)
+    with pytest.raises(UnknownNameError):
+        log.arrays("/nope")

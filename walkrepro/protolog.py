@@ -394,6 +394,7 @@ def dict_decoder(descriptor_set: bytes, name: str) -> Callable[[bytes], dict[str
         message = parse(data)
         return {key: read(message) for key, read in readers}
 
+    decode.descriptor = cls.DESCRIPTOR  # type: ignore[attr-defined] - for flat_arrays
     return decode
 
 
@@ -401,14 +402,122 @@ def _field_reader(field: FieldDescriptor) -> tuple[str, Callable[[Any], Any]]:
     name = field.name
     if field.enum_type is not None and field.enum_type.full_name == _NULL[1:]:
         return name, lambda message: None
-    repeated = getattr(field, "is_repeated", None)  # protobuf >= 5.29; `label` before
-    if repeated is None:
-        repeated = field.label == FieldDescriptor.LABEL_REPEATED
-    if repeated:
+    if _is_repeated(field):
         if field.message_type is not None:
             return name, lambda message: {w.name: list(w.wrench) for w in getattr(message, name)}
         return name, lambda message: list(getattr(message, name))
     return name, lambda message: getattr(message, name)
+
+
+def flat_arrays(raw: Sequence[bytes], descriptor: Descriptor) -> dict[str, np.ndarray] | None:
+    """Every message of a flat schema at once: field name -> array over the messages
+    (``uint64`` -> int64 (N,), ``double`` -> float64 (N,), ``repeated double`` -> float64
+    (N, n)); None if the messages do not fit that (a sub-message or string field on the wire,
+    ragged arrays, an unexpected byte).
+
+    Messages of equal length are read as one numpy array of bytes. The first of them is
+    parsed field by field, and every other must have the same key and length bytes at the
+    same places (and varints of the same length), so each parses the same way: its values
+    are then columns of the array. ``NullValue`` fields (never on the wire) are left out.
+    """
+    fields = {f.number: f for f in descriptor.fields}
+    groups: dict[int, list[int]] = {}
+    for i, data in enumerate(raw):
+        groups.setdefault(len(data), []).append(i)
+    columns: dict[str, list[tuple[list[int], np.ndarray]]] = {}
+    for length, index in groups.items():
+        layout = _flat_layout(raw[index[0]], fields)
+        if layout is None:
+            return None
+        rows = np.frombuffer(b"".join([raw[i] for i in index]), np.uint8)
+        rows = rows.reshape(len(index), length)
+        structure = np.ones(length, dtype=bool)
+        for _, _, start, size in layout:
+            structure[start : start + size] = False
+        if not (rows[:, structure] == rows[0, structure]).all():
+            return None
+        for name, wire_type, start, size in layout:
+            cells = rows[:, start : start + size]
+            if wire_type == 0:
+                if (cells[:, :-1] < 0x80).any() or (cells[:, -1] >= 0x80).any():
+                    return None  # a varint of another length here: not this layout
+                weights = np.left_shift(np.uint64(1), 7 * np.arange(size, dtype=np.uint64))
+                value = ((cells & 0x7F).astype(np.uint64) * weights).sum(axis=1).astype(np.int64)
+            else:
+                value = np.ascontiguousarray(cells).view("<f8")
+                if wire_type == 1:
+                    value = value[:, 0]
+            columns.setdefault(name, []).append((index, value))
+    n = len(raw)
+    out: dict[str, np.ndarray] = {}
+    for field in descriptor.fields:
+        parts = columns.get(field.name)
+        if field.enum_type is not None:
+            continue  # NullValue: not provided
+        if parts is None:  # never on the wire: zero, or no values
+            repeated = field.type == FieldDescriptor.TYPE_DOUBLE and _is_repeated(field)
+            out[field.name] = np.zeros((n, 0) if repeated else n)
+            continue
+        if len(parts) < len(groups) or len({p[1].shape[1:] for p in parts}) != 1:
+            return None  # absent from some messages, or arrays of different sizes
+        first = parts[0][1]
+        values = np.empty((n, *first.shape[1:]), dtype=first.dtype)
+        for index, value in parts:
+            values[index] = value
+        out[field.name] = values
+    return out
+
+
+def _is_repeated(field: FieldDescriptor) -> bool:
+    repeated = getattr(field, "is_repeated", None)  # protobuf >= 5.29; `label` before
+    return field.label == FieldDescriptor.LABEL_REPEATED if repeated is None else repeated
+
+
+def _read_varint(data: bytes, pos: int) -> tuple[int, int]:
+    value = shift = 0
+    while True:
+        byte = data[pos]
+        pos += 1
+        value |= (byte & 0x7F) << shift
+        shift += 7
+        if byte < 0x80:
+            return value, pos
+
+
+def _flat_layout(
+    data: bytes, fields: Mapping[int, FieldDescriptor]
+) -> list[tuple[str, int, int, int]] | None:
+    """(field name, wire type, start, size) of each value of one message, or None if a field
+    is not a varint, a double or a packed repeated double, or comes twice."""
+    layout = []
+    seen = set()
+    pos = 0
+    try:
+        while pos < len(data):
+            key, pos = _read_varint(data, pos)
+            number, wire_type = key >> 3, key & 7
+            field = fields.get(number)
+            if field is None or number in seen:
+                return None
+            seen.add(number)
+            if wire_type == 0:
+                _, end = _read_varint(data, pos)
+                layout.append((field.name, 0, pos, end - pos))
+            elif wire_type == 1 and field.type == FieldDescriptor.TYPE_DOUBLE:
+                layout.append((field.name, 1, pos, 8))
+                end = pos + 8
+            elif wire_type == 2 and field.type == FieldDescriptor.TYPE_DOUBLE:
+                size, pos = _read_varint(data, pos)
+                if size % 8:
+                    return None
+                layout.append((field.name, 2, pos, size))
+                end = pos + size
+            else:
+                return None
+            pos = end
+    except IndexError:
+        return None
+    return layout if pos == len(data) else None
 
 
 def descriptor_of(descriptor_set: bytes, name: str) -> Descriptor:

@@ -706,6 +706,32 @@ class Log:
             raise UnknownNameError("topic", topic, set(TOPICS) | set(self._raw), str(self.path))
         return [decode(data) for decode, raw in segments for data in raw]
 
+    def arrays(self, topic: str) -> dict[str, np.ndarray]:
+        """The messages of a topic of numbers and fixed-size float vectors (``/sim/state``,
+        ``/sensors``) as arrays, one row per message in file order: e.g. ``t`` (N,),
+        ``qpos`` (N, nq). A protobuf topic is read at numpy speed (≈ 10x faster than
+        :meth:`messages`); other topics are stacked from :meth:`messages`. Fields that are
+        not provided (None) are left out; an empty topic gives ``{}``.
+
+        Raises:
+            UnknownNameError: as :meth:`messages`.
+            ValueError: the topic has fields that are not numbers or fixed-size vectors.
+        """
+        segments = self._raw.get(topic)
+        if segments is None:
+            self.messages(topic)  # raises for an unknown topic
+            return {}
+        parts = []
+        for decode, raw in segments:
+            if not raw:
+                continue
+            descriptor = getattr(decode, "descriptor", None)
+            got = protolog.flat_arrays(raw, descriptor) if descriptor is not None else None
+            parts.append(got if got is not None else _stack([decode(data) for data in raw]))
+        if not parts:
+            return {}
+        return {key: np.concatenate([part[key] for part in parts]) for key in parts[0]}
+
     def count(self, topic: str) -> int:
         """Number of messages of ``topic`` (0 if none)."""
         return sum(len(raw) for _, raw in self._raw.get(topic, ()))
@@ -713,6 +739,22 @@ class Log:
     def topics(self) -> list[str]:
         """Topics with at least one message, in channel order."""
         return [topic for topic, segments in self._raw.items() if any(r for _, r in segments)]
+
+
+def _stack(messages: list[dict[str, Any]]) -> dict[str, np.ndarray]:
+    """Messages' numbers and vectors as arrays, None fields left out."""
+    out = {}
+    for key, value in messages[0].items():
+        if value is None:
+            continue
+        try:
+            values = np.array([message[key] for message in messages])
+        except (ValueError, TypeError):
+            values = None
+        if values is None or values.dtype.kind not in "biuf":
+            raise ValueError(f"field {key!r} is not a number or a fixed-size vector")
+        out[key] = values.astype(float) if values.dtype.kind == "f" else values
+    return out
 
 
 def read_log(path: Path) -> Log:

@@ -103,20 +103,51 @@ def replay_inputs(log: Log, model: mujoco.MjModel) -> ReplayInputs:
     return ReplayInputs(ctrl, xfrc)
 
 
-def set_initial_state(log: Log, data: mujoco.MjData) -> dict[int, dict[str, Any]]:
+class LoggedStates(NamedTuple):
+    """A log's ``/sim/state`` messages as arrays (see :meth:`Log.arrays`).
+
+    Attributes:
+        rows: step -> row of the arrays.
+        t: time of each state [s], shape (N,).
+        fields: ``qpos``, ``qvel``, ``act`` -> shape (N, n).
+    """
+
+    rows: dict[int, int]
+    t: np.ndarray
+    fields: dict[str, np.ndarray]
+
+
+def logged_states(log: Log) -> LoggedStates:
+    """The log's states, by step.
+
+    Raises:
+        WalkreproError: the states are not numbers and fixed-size vectors.
+    """
+    try:
+        arrays = log.arrays(TOPIC_STATE)
+    except ValueError as exc:
+        raise WalkreproError(f"{log.path}: {TOPIC_STATE}: {exc}") from None
+    if not arrays:
+        return LoggedStates({}, np.zeros(0), {})
+    rows = {int(step): i for i, step in enumerate(arrays["step"])}
+    return LoggedStates(rows, arrays["t"], {name: arrays[name] for name in _STATE_FIELDS})
+
+
+def set_initial_state(log: Log, data: mujoco.MjData) -> LoggedStates:
     """Sets ``data`` to the log's step-0 state (time, qpos, qvel, act); returns every logged
-    state by step.
+    state (:func:`logged_states`).
 
     Raises:
         WalkreproError: no step-0 state, or vectors that do not fit the scene.
     """
-    states = {int(state["step"]): state for state in log.messages(TOPIC_STATE)}
-    if 0 not in states:
+    states = logged_states(log)
+    row = states.rows.get(0)
+    if row is None:
         raise WalkreproError(f"{log.path}: no {TOPIC_STATE} message with step 0; cannot replay")
-    initial = states[0]
-    data.time = float(initial["t"])
+    data.time = float(states.t[row])
     for name in _STATE_FIELDS:
-        _assign(getattr(data, name), initial[name], f"{TOPIC_STATE} step 0 {name}", log.path)
+        values = states.fields[name][row]
+        _assign(getattr(data, name), values, f"{TOPIC_STATE} step 0 {name}", log.path)
     return states
 
 
@@ -153,13 +184,13 @@ def verify_log(path: Path, tolerance: float = DEFAULT_TOLERANCE) -> VerifyReport
         if xfrc is not None:
             data.xfrc_applied[:] = xfrc
         mujoco.mj_step(model, data)
-        logged = states.get(step + 1)
-        if logged is None:
+        row = states.rows.get(step + 1)
+        if row is None:
             continue
         n_compared += 1
         for name in _STATE_FIELDS:
             replayed = getattr(data, name)
-            expected = np.asarray(logged[name], dtype=float)
+            expected = states.fields[name][row]
             if expected.shape != replayed.shape:
                 raise WalkreproError(
                     f"{path}: {TOPIC_STATE} step {step + 1} {name} has {expected.size} "
