@@ -8,9 +8,10 @@
   thin 20 m × 20 m slab). Obstacles are bodies like any other.
 
 Schemas come from Foxglove's published package ``foxglove-schemas-protobuf``. The scene is
-built with its classes; ``FrameTransforms``, written 30+ times a second, is put together in
-protobuf's wire format from precomputed pieces (≈ 10x cheaper than building the protobuf
-object), and ``tests/test_foxglove.py`` decodes it with the published classes.
+built with its classes; ``FrameTransforms``, written 50 times a simulated second, is put
+together in protobuf's wire format from a precomputed template (≈ 30x cheaper than building
+the protobuf objects for 30 bodies), and ``tests/test_foxglove.py`` decodes it with the
+published classes.
 """
 
 from __future__ import annotations
@@ -68,10 +69,18 @@ def timestamp(stamp_ns: int) -> Timestamp:
 # (Vector3: 1 x, 2 y, 3 z), 5 rotation (Quaternion: 1 x, 2 y, 3 z, 4 w), all doubles.
 _POSE = struct.Struct("<BBBdBdBdBBBdBdBdBd")
 _VECTOR3_LEN, _QUATERNION_LEN = 27, 36
+#: Where the pose's seven doubles (x, y, z, qx, qy, qz, qw) start in a packed pose.
+_POSE_DOUBLES = (3, 12, 21, 32, 41, 50, 59)
 
 
 class FrameEncoder:
-    """``foxglove.FrameTransforms`` messages of every body but the world, parent ``world``."""
+    """``foxglove.FrameTransforms`` messages of every body but the world, parent ``world``.
+
+    All of a message but its numbers is the same for every message of a run with the same
+    length of timestamp: that template is built once per length, with the places of the
+    timestamp's and the poses' bytes, and a message is the template with those bytes put
+    in (four numpy calls, whatever the number of bodies).
+    """
 
     def __init__(self, model: mujoco.MjModel) -> None:
         names = body_names(model)
@@ -80,24 +89,46 @@ class FrameEncoder:
             length_delimited(2, WORLD_FRAME.encode()) + length_delimited(3, names[i].encode())
             for i in self.bodies
         ]
+        # Pose columns in the order they are packed: x, y, z, then the quaternion's x, y, z, w.
+        self._quat_order = np.array([1, 2, 3, 0])
+        self._templates: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
     def encode(self, stamp_ns: int, xpos: np.ndarray, xquat: np.ndarray) -> bytes:
         """The message at ``stamp_ns`` [ns, UTC] from MuJoCo's ``xpos`` and ``xquat`` (w, x,
         y, z) of all bodies."""
         seconds, nanos = divmod(stamp_ns, 1_000_000_000)
         stamp = tag(1, 0) + varint(seconds) + (tag(2, 0) + varint(nanos) if nanos else b"")
-        stamp_field = length_delimited(1, stamp)
-        rows = np.concatenate((xpos[self.bodies], xquat[self.bodies]), axis=1).tolist()
-        parts = []
-        pack = _POSE.pack
-        for names, (x, y, z, qw, qx, qy, qz) in zip(self._names, rows, strict=True):
-            pose = pack(
-                0x22, _VECTOR3_LEN, 0x09, x, 0x11, y, 0x19, z,
-                0x2A, _QUATERNION_LEN, 0x09, qx, 0x11, qy, 0x19, qz, 0x21, qw,
-            )  # fmt: skip
-            body = stamp_field + names + pose
-            parts += (b"\x0a", varint(len(body)), body)
-        return b"".join(parts)
+        stamp_field = np.frombuffer(length_delimited(1, stamp), np.uint8)
+        template = self._templates.get(stamp_field.size)
+        if template is None:
+            template = self._templates[stamp_field.size] = self._template(stamp_field.size)
+        out, pose_at, stamp_at = template
+        out = out.copy()
+        bodies = self.bodies
+        poses = np.concatenate((xpos[bodies], xquat[bodies][:, self._quat_order]), axis=1)
+        out[pose_at] = poses.view(np.uint8).ravel()
+        out[stamp_at] = np.tile(stamp_field, bodies.size)
+        return out.tobytes()
+
+    def _template(self, stamp_size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The message's bytes with zero numbers, and the places of the poses' doubles (body
+        by body, 7 x 8 bytes each) and of each body's timestamp field."""
+        zero_pose = _POSE.pack(
+            0x22, _VECTOR3_LEN, 0x09, 0.0, 0x11, 0.0, 0x19, 0.0,
+            0x2A, _QUATERNION_LEN, 0x09, 0.0, 0x11, 0.0, 0x19, 0.0, 0x21, 0.0,
+        )  # fmt: skip
+        out = bytearray()
+        pose_at: list[int] = []
+        stamp_at: list[int] = []
+        for names in self._names:
+            body = stamp_size + len(names) + len(zero_pose)
+            out += b"\x0a" + varint(body)
+            stamp_at.extend(range(len(out), len(out) + stamp_size))
+            out += bytes(stamp_size) + names
+            for start in _POSE_DOUBLES:
+                pose_at.extend(range(len(out) + start, len(out) + start + 8))
+            out += zero_pose
+        return np.frombuffer(bytes(out), np.uint8), np.array(pose_at), np.array(stamp_at)
 
 
 def scene_update(model: mujoco.MjModel, stamp_ns: int) -> bytes:
