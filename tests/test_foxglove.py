@@ -26,7 +26,7 @@ LAYOUT = PROJECT_ROOT / "foxglove" / "walkrepro-layout.json"
 
 @pytest.fixture(scope="module")
 def stand_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A 0.2 s run of stand_dyros_red (2 kHz control, 50 Hz frames)."""
+    """A 0.2 s run of stand_dyros_red (2 kHz control, 30 Hz frames)."""
     spec = resolve_spec(load_spec("stand_dyros_red", ["sim.duration=0.2"])).spec
     path = tmp_path_factory.mktemp("fox") / "log.mcap"
     assert run(spec, path).outcome == "complete"
@@ -38,17 +38,18 @@ def _raw(path: Path, topic: str) -> list:
         return [m for _, c, m in make_reader(f).iter_messages() if c.topic == topic]
 
 
-def test_frames_are_every_bodys_pose_at_50_hz(stand_log: Path) -> None:
+def test_frames_are_every_bodys_pose_at_30_hz(stand_log: Path) -> None:
     """/frames decodes with foxglove.FrameTransforms: every body but the world, parent
     ``world``, pose = MuJoCo's kinematics of the logged state, stamped with the message's
-    UTC log time; one message per 20 ms of simulated time."""
+    UTC log time; one message per 66 control ticks (33 ms, 30.3 Hz) at 2 kHz."""
     log = read_log(stand_log)
     model = mujoco.MjModel.from_xml_string(log.scene_xml)
     data = mujoco.MjData(model)
     states = {round(m["t"] * 1e9): m for m in log.messages(TOPIC_STATE)}
     origin = int(log.metadata["log_time_origin"])
     raw = _raw(stand_log, TOPIC_FRAMES)
-    assert len(raw) == 10  # 0, 0.02, ..., 0.18 s
+    assert len(raw) == 7  # 0, 0.033, ..., 0.198 s
+    assert [m.log_time - origin for m in raw] == [round(i * 0.033e9) for i in range(7)]
     names = foxglove.body_names(model)
     for message in raw:
         frames = FrameTransforms.FromString(message.data)
@@ -102,7 +103,15 @@ def test_a_log_decodes_without_walkrepro(stand_log: Path) -> None:
         [sys.executable, str(script), str(stand_log)], capture_output=True, text=True
     )
     assert result.returncode == 0, result.stderr
-    assert "/frames: 10 messages" in result.stdout and "log_format 2" in result.stdout
+    assert "/frames: 7 messages" in result.stdout and "log_format 2" in result.stdout
+
+
+def test_frames_come_at_least_30_times_a_second() -> None:
+    """Whatever the control rate, frames are at most 1/30 s apart, on whole control ticks."""
+    for period in (0.0005, 0.001, 0.002, 0.004, 0.05):
+        every = foxglove.frame_every(period)
+        assert every >= 1 and (every * period <= 1 / 30 + 1e-12 or every == 1)
+        assert (every + 1) * period > 1 / 30
 
 
 def test_layout_is_a_foxglove_layout_of_the_logs_topics() -> None:

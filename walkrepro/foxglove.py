@@ -1,6 +1,6 @@
 """Foxglove well-known messages of a run: the robot's body frames and its geoms as primitives.
 
-- ``/frames`` (``foxglove.FrameTransforms``) every :data:`FRAME_PERIOD` of simulated time:
+- ``/frames`` (``foxglove.FrameTransforms``) at least every :data:`FRAME_PERIOD` of simulated time:
   the pose of every body in the ``world`` frame (MuJoCo's ``xpos``, ``xquat``).
 - ``/scene`` (``foxglove.SceneUpdate``), once at the start: one entity per body, on the
   body's frame (``frame_locked``, so it moves with the body), holding its geoms as cubes,
@@ -34,8 +34,11 @@ from google.protobuf.timestamp_pb2 import Timestamp
 
 from walkrepro.protolog import descriptor_set_of, length_delimited, tag, varint
 
-#: Simulated time between two ``/frames`` messages [s] (50 Hz, above the 30 Hz a viewer needs).
-FRAME_PERIOD = 0.02
+#: Longest simulated time between two ``/frames`` messages [s]: 30 Hz, what a viewer needs.
+#: They go out on control ticks, every ``frame_every(control_period)`` of them (≥ 30 Hz); a
+#: message costs tens of µs in the loop, where its code and data are no longer in the CPU's
+#: caches, so not more often.
+FRAME_PERIOD = 1 / 30
 #: Side of the slab that draws the infinite floor plane [m].
 FLOOR_SIZE = 20.0
 #: Thickness of that slab [m] (its top face is the plane).
@@ -49,6 +52,12 @@ SCENE_UPDATE_SCHEMA = ("foxglove.SceneUpdate", SceneUpdate.DESCRIPTOR.file)
 def schema_data(file_descriptor) -> bytes:  # noqa: ANN001 - a protobuf FileDescriptor
     """A published schema's ``FileDescriptorSet`` for the log."""
     return descriptor_set_of(file_descriptor)
+
+
+def frame_every(control_period: float) -> int:
+    """Control ticks between two ``/frames`` messages: as many as fit in :data:`FRAME_PERIOD`
+    (at least one)."""
+    return max(1, int(FRAME_PERIOD / control_period + 1e-9))
 
 
 def body_names(model: mujoco.MjModel) -> list[str]:
@@ -71,6 +80,7 @@ _POSE = struct.Struct("<BBBdBdBdBBBdBdBdBd")
 _VECTOR3_LEN, _QUATERNION_LEN = 27, 36
 #: Where the pose's seven doubles (x, y, z, qx, qy, qz, qw) start in a packed pose.
 _POSE_DOUBLES = (3, 12, 21, 32, 41, 50, 59)
+_POSE_BYTES = (np.array(_POSE_DOUBLES)[:, None] + np.arange(8)).ravel()
 
 
 class FrameEncoder:
@@ -118,17 +128,17 @@ class FrameEncoder:
             0x2A, _QUATERNION_LEN, 0x09, 0.0, 0x11, 0.0, 0x19, 0.0, 0x21, 0.0,
         )  # fmt: skip
         out = bytearray()
-        pose_at: list[int] = []
-        stamp_at: list[int] = []
+        pose_starts, stamp_starts = [], []
         for names in self._names:
             body = stamp_size + len(names) + len(zero_pose)
             out += b"\x0a" + varint(body)
-            stamp_at.extend(range(len(out), len(out) + stamp_size))
+            stamp_starts.append(len(out))
             out += bytes(stamp_size) + names
-            for start in _POSE_DOUBLES:
-                pose_at.extend(range(len(out) + start, len(out) + start + 8))
+            pose_starts.append(len(out))
             out += zero_pose
-        return np.frombuffer(bytes(out), np.uint8), np.array(pose_at), np.array(stamp_at)
+        pose_at = (np.array(pose_starts)[:, None] + _POSE_BYTES).ravel()
+        stamp_at = (np.array(stamp_starts)[:, None] + np.arange(stamp_size)).ravel()
+        return np.frombuffer(bytes(out), np.uint8), pose_at, stamp_at
 
 
 def scene_update(model: mujoco.MjModel, stamp_ns: int) -> bytes:

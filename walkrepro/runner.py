@@ -31,7 +31,7 @@ from walkrepro import record
 from walkrepro.contacts import ContactReader, FallDetector
 from walkrepro.controllers import controller_class
 from walkrepro.disturbances import DisturbanceSchedule
-from walkrepro.foxglove import FRAME_PERIOD
+from walkrepro.foxglove import frame_every
 from walkrepro.provenance import run_metadata
 from walkrepro.robot import Robot, load_robot
 from walkrepro.sensors import SensorModel
@@ -210,8 +210,8 @@ def run(
         log_path, scene_xml=scene.xml, spec_yaml=spec.to_yaml(), metadata=run_metadata(spec)
     )
     substeps, n_steps = spec.sim.substeps, spec.sim.n_steps
-    # Foxglove's body frames every FRAME_PERIOD, on a control tick (a whole number of them).
-    frame_steps = substeps * max(1, round(FRAME_PERIOD / spec.sim.control_period))
+    # Foxglove's body frames at >= 30 Hz, on control ticks.
+    frame_steps = substeps * frame_every(spec.sim.control_period)
     ctrl_field = b""
     wrenches: dict[str, np.ndarray] = {}
     outcome, message, fall_time = "complete", "", None
