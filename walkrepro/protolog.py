@@ -518,8 +518,3 @@ def _flat_layout(
     except IndexError:
         return None
     return layout if pos == len(data) else None
-
-
-def descriptor_of(descriptor_set: bytes, name: str) -> Descriptor:
-    """The descriptor of message ``name`` in a serialized ``FileDescriptorSet``."""
-    return message_classes(descriptor_set)[name].DESCRIPTOR
