@@ -22,8 +22,7 @@ The encoders write protobuf's wire format directly: a message of these schemas i
 tags and lengths around float64 buffers (``ndarray.tobytes()``, IEEE little-endian, which is
 protobuf's ``double``), so a state costs one ``bytes.join`` instead of building a protobuf
 object (≈ 13x slower: 34.5 vs 2.6 µs for a 37-dof state). Scalars are always written, zeros
-too (the wire format allows it and
-every parser reads them). ``tests/test_protolog.py`` checks every encoder against protobuf's
+too (the wire format allows it and every parser reads them). ``tests/test_protolog.py`` checks every encoder against protobuf's
 own parser, so the schema stays the one definition of the format.
 """
 
