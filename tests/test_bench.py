@@ -79,7 +79,7 @@ def test_repeat_keeps_the_fastest_run_and_floor(monkeypatch: pytest.MonkeyPatch)
         return RunResult(spec.name, log_path, "complete", 0.2, next(walls), None, "", timing)
 
     monkeypatch.setattr(bench, "run", fake_run)
-    monkeypatch.setattr(bench, "floor_time", lambda spec, duration: next(floors))
+    monkeypatch.setattr(bench, "floor_time", lambda log_path: next(floors))
     spec = resolve_spec(load_spec("stand_coman", ["sim.duration=0.2"])).spec
     r = bench.bench_experiment(spec, repeat=3)
     assert r.wall_time == 1.0 and r.floor_wall_time == 0.4
@@ -101,7 +101,7 @@ def test_repeats_go_round_the_experiments(monkeypatch: pytest.MonkeyPatch) -> No
         return RunResult(spec.name, log_path, "complete", 0.2, next(walls), None, "", timing)
 
     monkeypatch.setattr(bench, "run", fake_run)
-    monkeypatch.setattr(bench, "floor_time", lambda spec, duration: 0.5)
+    monkeypatch.setattr(bench, "floor_time", lambda log_path: 0.5)
     specs = [
         resolve_spec(load_spec(name, ["sim.duration=0.2"])).spec
         for name in ("stand_coman", "stand_dyros_red")

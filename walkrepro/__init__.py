@@ -26,6 +26,12 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 __version__ = "0.1.0"
 
+# numba's cache=True notices edits to a kernel's own file only; this keys every walkrepro
+# kernel's cache on the sources it imports too (see numbacache.py). Before any kernel exists.
+from walkrepro import numbacache  # noqa: E402
+
+numbacache.install()
+
 #: Repository root when run from a checkout (robots/, experiments/ live there).
 PROJECT_ROOT = Path(__file__).resolve().parent.parent
 ROBOTS_DIR = PROJECT_ROOT / "robots"

@@ -1,8 +1,10 @@
 """Speed measurement: real-time factor, per-stage cost, and the MuJoCo-only floor.
 
-The floor is the same scene stepped by MuJoCo alone for the same duration with zero
-control: the ratio run time / floor time says how far the whole stack (sensors,
-controller, logging) is from the physical limit.
+The floor is MuJoCo alone replaying the run's own logged inputs (its ``ctrl`` and external
+wrenches, step by step from the logged initial state, in the same process right after the
+run): the same contacts and the same solver work as the run, with nothing else. The ratio
+run time / floor time says how far the whole stack (sensors, controller, logging) is from
+the physical limit.
 """
 
 from __future__ import annotations
@@ -20,10 +22,10 @@ from pathlib import Path
 import mujoco
 
 from walkrepro.errors import WalkreproError
-from walkrepro.robot import load_robot
+from walkrepro.record import read_log
+from walkrepro.replay import replay_inputs, set_initial_state
 from walkrepro.runner import RunResult, run
 from walkrepro.spec import ExperimentSpec
-from walkrepro.world import build_scene
 
 
 @dataclass(frozen=True)
@@ -36,7 +38,8 @@ class BenchResult:
         sim_time: simulated time [s].
         wall_time: wall time of the simulation loop, logging on [s].
         real_time_factor: sim_time / wall_time.
-        floor_wall_time: MuJoCo alone, same scene and duration, zero control [s].
+        floor_wall_time: MuJoCo alone replaying the run's logged inputs (``mj_step`` per
+            physics step) [s].
         floor_ratio: wall_time / floor_wall_time.
         per_tick: mean wall time per control tick of each stage [s].
         tick_median: median wall time of a control period, all stages [s].
@@ -45,6 +48,8 @@ class BenchResult:
         logging_share: fraction of the wall time spent writing the log.
         memory_growth: growth of resident memory from a tenth of the run to its end [bytes]
             (flat memory: about zero).
+        log_size: size of the run's log [bytes].
+        log_rate: log size per simulated second [MB/s].
     """
 
     experiment: str
@@ -60,6 +65,8 @@ class BenchResult:
     control_rate: float
     logging_share: float
     memory_growth: float
+    log_size: int = 0
+    log_rate: float = 0.0
 
     def to_json(self) -> dict:
         """Plain data for ``--json``."""
@@ -91,24 +98,29 @@ def bench_experiments(
     """
     best: list[RunResult | None] = [None] * len(specs)
     floors = [math.inf] * len(specs)
+    sizes = [0] * len(specs)
     for round_ in range(max(repeat, 1)):
         for i, spec in enumerate(specs):
             if on_start is not None:
                 on_start(spec, round_)
             with tempfile.TemporaryDirectory(prefix="walkrepro-bench-") as tmp:
-                attempt = run(spec, Path(tmp) / "log.mcap")
+                log_path = Path(tmp) / "log.mcap"
+                attempt = run(spec, log_path)
+                floors[i] = min(floors[i], floor_time(log_path))
+                sizes[i] = log_path.stat().st_size if log_path.exists() else 0
             current = best[i]
             if current is None or attempt.wall_time < current.wall_time:
                 best[i] = attempt
-            floors[i] = min(floors[i], floor_time(spec, attempt.sim_time))
     return [
-        _bench_result(spec, result, floor)
-        for spec, result, floor in zip(specs, best, floors, strict=True)
+        _bench_result(spec, result, floor, size)
+        for spec, result, floor, size in zip(specs, best, floors, sizes, strict=True)
         if result is not None
     ]
 
 
-def _bench_result(spec: ExperimentSpec, result: RunResult, floor: float) -> BenchResult:
+def _bench_result(
+    spec: ExperimentSpec, result: RunResult, floor: float, log_size: int = 0
+) -> BenchResult:
     timing = result.timing
     assert timing is not None
     n_ticks = max(timing.n_ticks, 1)
@@ -126,19 +138,26 @@ def _bench_result(spec: ExperimentSpec, result: RunResult, floor: float) -> Benc
         control_rate=1.0 / spec.sim.control_period,
         logging_share=timing.stages["logging"] / result.wall_time,
         memory_growth=timing.memory_growth,
+        log_size=log_size,
+        log_rate=log_size / 1e6 / result.sim_time if result.sim_time > 0 else 0.0,
     )
 
 
-def floor_time(spec: ExperimentSpec, duration: float) -> float:
-    """Wall time [s] of stepping the experiment's scene with MuJoCo alone for ``duration``."""
-    robot = load_robot(spec.robot)
-    model = build_scene(robot, spec).model
+def floor_time(log_path: Path) -> float:
+    """Wall time [s] of MuJoCo alone replaying a log's inputs (see :func:`replay_inputs`);
+    reading the log is not timed. 0 for a log without inputs."""
+    log = read_log(log_path)
+    model = mujoco.MjModel.from_xml_string(log.scene_xml)
     data = mujoco.MjData(model)
-    data.qpos[: robot.home_qpos.size] = robot.home_qpos
-    n_steps = int(round(duration / spec.sim.timestep))
+    inputs = replay_inputs(log, model)
+    set_initial_state(log, data)
+    ctrl_in, xfrc_in = data.ctrl, data.xfrc_applied
     step = mujoco.mj_step
     start = time.perf_counter()
-    for _ in range(n_steps):
+    for ctrl, xfrc in zip(inputs.ctrl, inputs.xfrc, strict=True):
+        ctrl_in[:] = ctrl
+        if xfrc is not None:
+            xfrc_in[:] = xfrc
         step(model, data)
     return time.perf_counter() - start
 

@@ -517,7 +517,8 @@ def bench(
 ) -> None:
     """Measure speed: real-time factor, per-stage cost per tick, and the MuJoCo-only floor.
 
-    Runs one experiment at a time (one core), logging on, so the numbers are comparable.
+    Runs one experiment at a time (one core), logging on, so the numbers are comparable. The
+    floor is MuJoCo alone replaying the run's logged inputs; "× floor" is run / floor.
     """
     import json
 
@@ -540,7 +541,7 @@ def bench(
     stages = ["physics", "sensors", "controller", "logging", "bookkeeping"]
     table = Table(title="walkrepro bench (per-tick costs in µs)")
     columns = ["experiment", "outcome", "RTF", *(["RTF before"] if before else [])]
-    columns += ["floor ×", "tick median", "tick p99", "log %", "mem Δ MB", *stages]
+    columns += ["× floor", "tick median", "tick p99", "log %", "log MB/s", "mem Δ MB", *stages]
     columns += ["controller split"]
     for col in columns:
         table.add_column(col, justify="right" if col != "experiment" else "left")
@@ -555,6 +556,7 @@ def bench(
             f"{r.tick_median * 1e6:.0f}",
             f"{r.tick_p99 * 1e6:.0f}",
             f"{r.logging_share * 100:.0f}",
+            f"{r.log_rate:.2f}",
             f"{r.memory_growth / 1e6:.1f}",
             *(f"{r.per_tick.get(k, 0.0) * 1e6:.1f}" for k in stages),
             " ".join(

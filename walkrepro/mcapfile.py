@@ -1,8 +1,10 @@
 """The MCAP file under a run's log, written with messages packed in batches.
 
 mcap's Python ``Writer`` spends about fifty interpreted calls on each message (record
-builder, statistics, per-message index entries), 3-5 µs, and a run writes 5-8 messages per
-control tick at 0.5-2 kHz. This writer produces the same kind of file (header, schemas,
+builder, statistics, per-message index entries), and a run writes 5-8 messages per control
+tick at 0.5-2 kHz. On forward_walk's format 2 messages (protobuf, ≈ 300 B each), with the
+chunks' zstd included, mcap's ``Writer`` costs 4.0x this writer per message (9.4 vs 2.3 µs on
+the shared 2-core VM; ≈ 35 µs more per 2 kHz control tick). This writer produces the same kind of file (header, schemas,
 channels, attachments, zstd chunks each followed by its message indexes, metadata, and a
 summary with schemas, channels, statistics and chunk/attachment/metadata indexes, summary
 offsets and footer), using mcap's own record classes for every record except the three that
@@ -11,8 +13,9 @@ and two appends to the open chunk), and a chunk and its message indexes are pack
 chunk closes. Compression and its checksum (zstd, XXH64, in place of MCAP's optional chunk
 CRC) run in C. mcap's readers read the result; tests check that.
 
-Schemas and channels are written before any chunk, so a log cut short still names every
-topic; a killed writer loses at most the open chunk.
+Schemas and channels are written before the first message of their channel (all but one
+before any chunk), so a log cut short still names its topics; a killed writer loses at most
+the open chunk.
 
 :func:`read_mcap` reads such a file back the same way: the few records that are not messages
 with mcap's record classes, the messages of each chunk with one ``struct`` call each.
@@ -56,11 +59,12 @@ _CHANNEL_ID = struct.Struct("<H")
 # Chunk record up to its records: opcode, length, start and end time, uncompressed size and
 # CRC, compression (a 4-byte string: "zstd"), length of the records.
 _CHUNK_HEAD = struct.Struct("<BQQQQII4sQ")
-#: zstd level of the chunks. A run's JSON (shortest-repr doubles) compresses as well at level
-#: 1 (2.7x) as at mcap's default 3 (2.4x), at under half the cost (≈ 3.4 vs 8.9 ms per MB
-#: here; at ≈ 6 kB of log per control tick, level 3 cost ≈ 50 µs per tick).
+#: zstd level of the chunks. A format 1 run's JSON compressed as well at level 1 (2.7x) as at
+#: mcap's default 3 (2.4x), at under half the cost. Format 2's float64 payloads barely
+#: compress at any level (state 1.06x, sensors 1.15x; the JSON signals 3.6x), and level 3
+#: took 2-3x as long as level 1 on forward_walk's topics for 1-3 % smaller chunks.
 ZSTD_LEVEL = 1
-#: Shortest match zstd looks for (level 1 uses 6). Repeats in this JSON are keys and digit
+#: Shortest match zstd looks for (level 1 uses 6; measured on format 1). Repeats in JSON are keys and digit
 #: runs of 7+ bytes, so 7 finds the same matches with fewer probes: ≈ 10-25 % faster on
 #: forward_walk's chunks at a slightly better ratio (4.14 vs 4.06).
 ZSTD_MIN_MATCH = 7
@@ -316,6 +320,7 @@ class McapContents:
     """What :func:`read_mcap` found, in file order.
 
     Attributes:
+        schemas: schema id → schema, from the records seen (in or outside chunks).
         channels: channel id → channel, from the records seen (in or outside chunks).
         messages: channel id → the data of each of its messages, in file order.
         attachments: every attachment record.
@@ -323,6 +328,7 @@ class McapContents:
         closed: whether the footer was reached (the writer finished the file).
     """
 
+    schemas: dict[int, Schema] = field(default_factory=dict)
     channels: dict[int, Channel] = field(default_factory=dict)
     messages: dict[int, list[bytes]] = field(default_factory=lambda: defaultdict(list))
     attachments: list[Attachment] = field(default_factory=list)
@@ -373,6 +379,7 @@ def _record_at(data: bytes, pos: int, end: int) -> tuple[int, int, int]:
 def _read_other(opcode: int, body: bytes, out: McapContents) -> None:
     """A record outside the chunks; the ones walkrepro does not use are skipped."""
     reader = {
+        Opcode.SCHEMA: Schema.read,
         Opcode.CHANNEL: Channel.read,
         Opcode.ATTACHMENT: Attachment.read,
         Opcode.METADATA: Metadata.read,
@@ -385,7 +392,9 @@ def _read_other(opcode: int, body: bytes, out: McapContents) -> None:
         record = reader(ReadDataStream(io.BytesIO(body)))
     except Exception as exc:  # noqa: BLE001 - a malformed record ends the read
         raise _Damaged from exc
-    if isinstance(record, Channel):
+    if isinstance(record, Schema):
+        out.schemas.setdefault(record.id, record)
+    elif isinstance(record, Channel):
         out.channels.setdefault(record.id, record)
     elif isinstance(record, Attachment):
         out.attachments.append(record)
@@ -421,5 +430,5 @@ def _read_chunk(body: bytes, out: McapContents) -> None:
         if opcode == Opcode.MESSAGE:
             (channel_id,) = _CHANNEL_ID.unpack_from(raw, start)
             messages[channel_id].append(raw[start + _MESSAGE_FIXED : pos])
-        elif opcode == Opcode.CHANNEL:
+        elif opcode in (Opcode.CHANNEL, Opcode.SCHEMA):
             _read_other(opcode, raw[start:pos], out)

@@ -207,13 +207,14 @@ class LogData:
         falls = [float(e["t"]) for e in events if e.get("kind") == "fall"]
         self.fall_time: float | None = falls[0] if falls else None
         cut = self.fall_time if self.fall_time is not None else math.inf
-        states = log.messages(record.TOPIC_STATE)
-        self.end_time = float(states[-1]["t"]) if states else math.nan
-        states = [m for m in states if m["t"] < cut]
+        states = log.arrays(record.TOPIC_STATE)  # numpy-speed read of the binary topic
         model = self.model
-        self.t = np.array([m["t"] for m in states], dtype=float)
-        self.qpos = np.array([m["qpos"] for m in states], dtype=float).reshape(-1, model.nq)
-        self.qvel = np.array([m["qvel"] for m in states], dtype=float).reshape(-1, model.nv)
+        t = states.get("t", np.zeros(0))
+        self.end_time = float(t[-1]) if t.size else math.nan
+        keep = t < cut
+        self.t = np.asarray(t[keep], dtype=float)
+        self.qpos = np.asarray(states.get("qpos", np.zeros((0, model.nq)))[keep], dtype=float)
+        self.qvel = np.asarray(states.get("qvel", np.zeros((0, model.nv)))[keep], dtype=float)
         self.contacts = [m for m in log.messages(record.TOPIC_CONTACTS) if m["t"] < cut]
         self.signals = [m for m in log.messages(record.TOPIC_SIGNALS) if m["t"] < cut]
         self.events = [e for e in events if e["t"] < cut or e.get("kind") == "fall"]

@@ -11,13 +11,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import mujoco
 import numpy as np
 
 from walkrepro.errors import UnknownNameError, WalkreproError
-from walkrepro.record import TOPIC_INPUTS, TOPIC_STATE, read_log
+from walkrepro.record import TOPIC_INPUTS, TOPIC_STATE, Log, read_log
 
 #: Default tolerance on the max abs state deviation, in the units of qpos/qvel/act.
 DEFAULT_TOLERANCE = 1e-9
@@ -47,6 +47,110 @@ class VerifyReport:
     tolerance: float
 
 
+class ReplayInputs(NamedTuple):
+    """A log's per-step inputs, ready to apply.
+
+    Attributes:
+        ctrl: ``MjData.ctrl`` of each physics step, shape (n_steps, nu).
+        xfrc: for each step, the whole ``MjData.xfrc_applied`` (nbody, 6) to set, or None
+            where it is unchanged from the previous step (zero before the first).
+    """
+
+    ctrl: np.ndarray
+    xfrc: list[np.ndarray | None]
+
+
+def replay_inputs(log: Log, model: mujoco.MjModel) -> ReplayInputs:
+    """The ``/sim/inputs`` of ``log`` for ``model``, checked: steps 0..N-1 once each, vector
+    sizes and body names that fit the scene.
+
+    Raises:
+        WalkreproError: gaps or duplicates in the steps, or vectors that do not fit.
+    """
+    path = log.path
+    inputs = sorted(log.messages(TOPIC_INPUTS), key=lambda message: message["step"])
+    steps = [int(message["step"]) for message in inputs]
+    if steps != list(range(len(steps))):
+        missing = sorted(set(range(max(steps) + 1)) - set(steps))
+        raise WalkreproError(
+            f"{path}: {TOPIC_INPUTS} must hold steps 0..N-1 once each; "
+            f"missing steps {_ranges(missing) or 'none'}"
+            + (", with duplicates" if len(set(steps)) != len(steps) else "")
+        )
+    body_ids = {
+        name: i
+        for i in range(model.nbody)
+        if (name := mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, i))
+    }
+    ctrl = np.zeros((len(inputs), model.nu))
+    xfrc: list[np.ndarray | None] = []
+    pushed = False  # whether the previous step applied any wrench
+    for message in inputs:
+        step = message["step"]
+        target = ctrl[step]
+        _assign(target, message["ctrl"], f"{TOPIC_INPUTS} step {step} ctrl", path)
+        if not message["xfrc"] and not pushed:
+            xfrc.append(None)
+            continue
+        applied = np.zeros((model.nbody, 6))
+        for body, wrench in message["xfrc"].items():
+            body_id = body_ids.get(body)
+            if body_id is None:
+                raise UnknownNameError("body", body, body_ids, f"{path}: step {step} xfrc")
+            _assign(applied[body_id], wrench, f"{TOPIC_INPUTS} step {step} xfrc {body}", path)
+        xfrc.append(applied)
+        pushed = bool(message["xfrc"])
+    return ReplayInputs(ctrl, xfrc)
+
+
+class LoggedStates(NamedTuple):
+    """A log's ``/sim/state`` messages as arrays (see :meth:`Log.arrays`).
+
+    Attributes:
+        rows: step -> row of the arrays.
+        t: time of each state [s], shape (N,).
+        fields: ``qpos``, ``qvel``, ``act`` -> shape (N, n).
+    """
+
+    rows: dict[int, int]
+    t: np.ndarray
+    fields: dict[str, np.ndarray]
+
+
+def logged_states(log: Log) -> LoggedStates:
+    """The log's states, by step.
+
+    Raises:
+        WalkreproError: the states are not numbers and fixed-size vectors.
+    """
+    try:
+        arrays = log.arrays(TOPIC_STATE)
+    except ValueError as exc:
+        raise WalkreproError(f"{log.path}: {TOPIC_STATE}: {exc}") from None
+    if not arrays:
+        return LoggedStates({}, np.zeros(0), {})
+    rows = {int(step): i for i, step in enumerate(arrays["step"])}
+    return LoggedStates(rows, arrays["t"], {name: arrays[name] for name in _STATE_FIELDS})
+
+
+def set_initial_state(log: Log, data: mujoco.MjData) -> LoggedStates:
+    """Sets ``data`` to the log's step-0 state (time, qpos, qvel, act); returns every logged
+    state (:func:`logged_states`).
+
+    Raises:
+        WalkreproError: no step-0 state, or vectors that do not fit the scene.
+    """
+    states = logged_states(log)
+    row = states.rows.get(0)
+    if row is None:
+        raise WalkreproError(f"{log.path}: no {TOPIC_STATE} message with step 0; cannot replay")
+    data.time = float(states.t[row])
+    for name in _STATE_FIELDS:
+        values = states.fields[name][row]
+        _assign(getattr(data, name), values, f"{TOPIC_STATE} step 0 {name}", log.path)
+    return states
+
+
 def verify_log(path: Path, tolerance: float = DEFAULT_TOLERANCE) -> VerifyReport:
     """Re-simulates the log at ``path`` and compares every logged state.
 
@@ -68,50 +172,25 @@ def verify_log(path: Path, tolerance: float = DEFAULT_TOLERANCE) -> VerifyReport
     log = read_log(path)
     model = mujoco.MjModel.from_xml_string(log.scene_xml)
     data = mujoco.MjData(model)
-    states = {int(state["step"]): state for state in log.messages(TOPIC_STATE)}
-    inputs = sorted(log.messages(TOPIC_INPUTS), key=lambda message: message["step"])
-    steps = [int(message["step"]) for message in inputs]
-    if steps != list(range(len(steps))):
-        missing = sorted(set(range(max(steps) + 1)) - set(steps))
-        raise WalkreproError(
-            f"{path}: {TOPIC_INPUTS} must hold steps 0..N-1 once each; "
-            f"missing steps {_ranges(missing) or 'none'}"
-            + (", with duplicates" if len(set(steps)) != len(steps) else "")
-        )
-    if 0 not in states:
-        raise WalkreproError(f"{path}: no {TOPIC_STATE} message with step 0; cannot replay")
-
-    initial = states[0]
-    data.time = float(initial["t"])
-    for name in _STATE_FIELDS:
-        _assign(getattr(data, name), initial[name], f"{TOPIC_STATE} step 0 {name}", path)
-    body_ids = {
-        name: i
-        for i in range(model.nbody)
-        if (name := mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, i))
-    }
+    inputs = replay_inputs(log, model)
+    states = set_initial_state(log, data)
 
     max_deviation = 0.0
     worst_step = -1
     worst_field = ""
     n_compared = 0
-    for message in inputs:
-        step = message["step"]
-        _assign(data.ctrl, message["ctrl"], f"{TOPIC_INPUTS} step {step} ctrl", path)
-        data.xfrc_applied[:] = 0.0
-        for body, wrench in message["xfrc"].items():
-            body_id = body_ids.get(body)
-            if body_id is None:
-                raise UnknownNameError("body", body, body_ids, f"{path}: step {step} xfrc")
-            data.xfrc_applied[body_id] = wrench
+    for step, (ctrl, xfrc) in enumerate(zip(inputs.ctrl, inputs.xfrc, strict=True)):
+        data.ctrl[:] = ctrl
+        if xfrc is not None:
+            data.xfrc_applied[:] = xfrc
         mujoco.mj_step(model, data)
-        logged = states.get(step + 1)
-        if logged is None:
+        row = states.rows.get(step + 1)
+        if row is None:
             continue
         n_compared += 1
         for name in _STATE_FIELDS:
             replayed = getattr(data, name)
-            expected = np.asarray(logged[name], dtype=float)
+            expected = states.fields[name][row]
             if expected.shape != replayed.shape:
                 raise WalkreproError(
                     f"{path}: {TOPIC_STATE} step {step + 1} {name} has {expected.size} "
@@ -129,7 +208,7 @@ def verify_log(path: Path, tolerance: float = DEFAULT_TOLERANCE) -> VerifyReport
                 worst_field = f"{name}[{i}]"
 
     return VerifyReport(
-        n_steps=len(inputs),
+        n_steps=len(inputs.ctrl),
         n_states_compared=n_compared,
         max_deviation=max_deviation,
         worst_step=worst_step,

@@ -29,6 +29,7 @@ from walkrepro import record
 from walkrepro.contacts import ContactReader, FallDetector
 from walkrepro.controllers import controller_class
 from walkrepro.disturbances import DisturbanceSchedule
+from walkrepro.foxglove import frame_every
 from walkrepro.interrupt import InterruptFlag
 from walkrepro.provenance import run_metadata
 from walkrepro.robot import Robot, load_robot
@@ -217,7 +218,9 @@ def run(
         log_path, scene_xml=scene.xml, spec_yaml=spec.to_yaml(), metadata=run_metadata(spec)
     )
     substeps, n_steps = spec.sim.substeps, spec.sim.n_steps
-    ctrl_json = b""
+    # Foxglove's body frames at >= 30 Hz, on control ticks.
+    frame_steps = substeps * frame_every(spec.sim.control_period)
+    ctrl_field = b""
     wrenches: dict[str, np.ndarray] = {}
     outcome, message, fall_time = "complete", "", None
     wall_start = time.perf_counter()
@@ -234,6 +237,7 @@ def run(
     bad_qacc = warnings[mujoco.mjtWarning.mjWARN_BADQACC]
     # MjData's arrays live as long as `data`: one view each instead of one per access.
     qpos, qvel, act, ctrl_in = data.qpos, data.qvel, data.act, data.ctrl
+    xpos, xquat = data.xpos, data.xquat
     lap = clock.lap
     timestep = spec.sim.timestep
     try:
@@ -257,6 +261,8 @@ def run(
                 reason = fall.check(data)
                 lap("bookkeeping")
                 writer.write_state(step, t, qpos, qvel, act)
+                if step % frame_steps == 0:
+                    writer.write_frames(t, xpos, xquat)
                 lap("logging")
                 if reason:
                     outcome, fall_time, message = "fell", t, f"fell at t = {t:.3f} s ({reason})"
@@ -268,7 +274,7 @@ def run(
                 lap("controller")
                 # The command as MuJoCo will hold it (float64), checked and encoded once.
                 ctrl = np.asarray(command.ctrl, dtype=np.float64)
-                ctrl_json = _encoded_ctrl(writer, ctrl, model.nu, t)
+                ctrl_field = _encoded_ctrl(writer, ctrl, model.nu, t)
                 ctrl_in[:] = ctrl  # mj_step leaves ctrl alone: held until the next tick
                 writer.write_float64(record.TOPIC_SENSORS, snapshot.as_message(), t)
                 writer.write_signals(t, command.signals)
@@ -290,7 +296,7 @@ def run(
             elif wrenches:
                 wrenches = {}
                 data.xfrc_applied[:] = 0.0
-            writer.write_inputs(step, ctrl_json, wrenches, t)
+            writer.write_inputs(step, ctrl_field, wrenches, t)
             lap("logging")
             # Actuation, constraint forces and acceleration-stage sensors, then integration:
             # mj_step1 + mj_step2 is mj_step, so `walkrepro verify` replays it bit for bit.
@@ -360,11 +366,11 @@ def _check_finite(data: mujoco.MjData, t: float) -> None:
 
 
 def _encoded_ctrl(writer: record.LogWriter, ctrl: np.ndarray, nu: int, t: float) -> bytes:
-    """The JSON of a controller's command, which must be ``nu`` finite numbers."""
+    """The log's encoding of a controller's command, which must be ``nu`` finite numbers."""
     if ctrl.shape != (nu,):
         raise ValueError(f"controller returned ctrl of shape {ctrl.shape}, expected ({nu},)")
     try:
-        return writer.encode_ctrl(ctrl)  # JSON has no NaN: the encoder rejects it
+        return writer.encode_ctrl(ctrl)  # rejects NaN and infinity
     except ValueError:
         raise SimulationError(
             f"controller returned a non-finite command at t = {t:.4f} s"
