@@ -118,11 +118,16 @@ class SimSpec(_Strict):
 
 
 class ObstacleSpec(_Strict):
-    """A box in the world. ``size`` is the full extent [m]; ``position`` its centre [m]."""
+    """A box in the world. ``size`` is the full extent [m]; ``position`` its centre [m], or
+    with ``anchor: top`` the centre of its top face, about which it is then tilted (a step's
+    height and tilt are set independently: the top face stays centred at ``position``)."""
 
     name: str = Field(pattern=r"^obstacle\w*$", description="geom name, must start with 'obstacle'")
     size: Vec3
     position: Vec3
+    anchor: Literal["center", "top"] = Field(
+        "center", description="what `position` places and the tilt turns about"
+    )
     tilt_x_deg: float = 0.0
     tilt_y_deg: float = 0.0
     fixed: bool = True

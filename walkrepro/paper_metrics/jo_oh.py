@@ -178,3 +178,28 @@ def _peak_landing_force(d: LogData, arg: str) -> float:
     window = (d.contact_t >= t0) & (d.contact_t <= t0 + LANDING_WINDOW)
     force = np.linalg.norm(d.contact_wrench(f"{foot}/*")[window, :3], axis=1)
     return float(force.max())
+
+
+#: The swing signals' side index (``swing_foot`` signal: 0 left, 1 right, −1 double support).
+_SIDE_INDEX = {"left_foot": 0.0, "right_foot": 1.0}
+
+
+@metric(
+    "swing_height_error",
+    "largest |z_d − z| of the foot's (arg, default right_foot) sole while it swings, the "
+    "planned height z_d against the measured one [m] (flat-ground tracking, §II)",
+)
+def _swing_height_error(d: LogData, arg: str) -> float:
+    """Whole logged time before any fall, from the controller's signals: the plan's
+    ``<side>_z_d`` and the sole's ``<side>_z`` while ``swing_foot`` names the foot. On flat
+    ground this is the tracking the swing gains buy (§II: "proper control gains to keep
+    tracking"); on an obstacle it includes the block's push."""
+    foot = _foot_arg(arg)
+    side = foot.split("_")[0]
+    t, swing = d.require_signal("swing_foot")
+    _, z = d.require_signal(f"{side}_z")
+    _, z_d = d.require_signal(f"{side}_z_d")
+    swinging = swing == _SIDE_INDEX[foot]
+    if not swinging.any():
+        raise NotMeasurable(f"{foot} never swung{d.stopped_note()}")
+    return float(np.max(np.abs(z_d[swinging] - z[swinging])))
