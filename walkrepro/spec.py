@@ -133,6 +133,11 @@ class ObstacleSpec(_Strict):
     fixed: bool = True
     mass: float | None = Field(None, gt=0.0, description="[kg], required when not fixed")
     friction: float | None = Field(None, gt=0.0)
+    solref: tuple[float, float] | None = Field(
+        None,
+        description="MuJoCo contact solref (time constant [s], damping ratio) of the obstacle's"
+        " contacts; default MuJoCo's (0.02, 1)",
+    )
 
     @field_validator("size")
     @classmethod

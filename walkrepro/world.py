@@ -84,6 +84,9 @@ def _add_obstacle(mjspec: mujoco.MjSpec, obstacle: ObstacleSpec, floor_friction:
     # MuJoCo otherwise mixes two geoms' friction by taking the larger; the priority makes
     # the obstacle's own friction the one that acts on the foot.
     geom.priority = 1
+    if obstacle.solref is not None:
+        # With the higher priority, the obstacle's solref is the one its contacts use.
+        geom.solref = list(obstacle.solref)
     geom.contype = WORLD_CONTYPE
     geom.conaffinity = WORLD_CONAFFINITY
     geom.rgba = [0.85, 0.45, 0.2, 1.0]
