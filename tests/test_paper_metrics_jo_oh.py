@@ -227,7 +227,13 @@ def test_swing_height_error_is_the_largest_gap_while_swinging(tmp_path: Path) ->
         swing = 1.0 if 20 <= k < 80 else -1.0
         z_d = 0.05 if swing == 1.0 else 0.0
         z = z_d - (0.009 if k == 50 else 0.002) if swing == 1.0 else 0.05
-        signals = {"swing_foot": swing, "right_z": z, "right_z_d": z_d, "left_z": 0.0, "left_z_d": 0.0}
+        signals = {
+            "swing_foot": swing,
+            "right_z": z,
+            "right_z_d": z_d,
+            "left_z": 0.0,
+            "left_z_d": 0.0,
+        }
         ticks.append(Tick(t, signals=signals))
     d = write_log(tmp_path / "s.mcap", ticks, _spec(0.1))
     assert _value(d, "swing_height_error:right_foot") == pytest.approx(0.009)

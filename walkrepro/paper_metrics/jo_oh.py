@@ -208,7 +208,7 @@ def _swing_height_error(d: LogData, arg: str) -> float:
 @metric(
     "obstacle_rehits",
     "times the obstacle's push on the foot (arg, default right_foot) rises through 10 N again "
-    "within 0.3 s of its first contact (Fig. 5c: the foot \"continuously hits the obstacle\")",
+    'within 0.3 s of its first contact (Fig. 5c: the foot "continuously hits the obstacle")',
 )
 def _obstacle_rehits(d: LogData, arg: str) -> float:
     """Window: the data must cover LANDING_WINDOW after the first obstacle contact. Counts
