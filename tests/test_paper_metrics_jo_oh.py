@@ -197,3 +197,69 @@ def test_no_obstacle_contact_not_measurable(poser: Poser, tmp_path: Path) -> Non
     d = write_log(tmp_path / "n.mcap", [Tick(k * DT) for k in range(10)], _spec(0.1))
     for name in ("swing_z_settling_time:right_foot", "peak_landing_force:right_foot"):
         assert "no obstacle pushed right_foot" in _reason(d, name)
+
+
+def _rehits(tmp_path: Path, bounces: int) -> LogData:
+    """The right foot meets the block at 0.5 s and leaves it ``bounces`` times (20 ms apart)."""
+    ticks = []
+    for k in range(int(round(1.0 / DT))):
+        t = round(k * DT, 6)
+        pairs = standing_pairs(ROBOT, ["left_foot"])
+        since = t - T_CONTACT
+        off = any(0.01 + 0.02 * b <= since < 0.02 + 0.02 * b for b in range(bounces))
+        if since >= 0 and not off:
+            pairs["right_foot/obstacle_block"] = [0.0, 0.0, 200.0, 0.0, 0.0, 0.0]
+        ticks.append(Tick(t, pairs=pairs))
+    return write_log(tmp_path / f"b{bounces}.mcap", ticks, _spec(1.0))
+
+
+def test_a_foot_that_keeps_hitting_the_block_counts_its_rehits(tmp_path: Path) -> None:
+    """Each loss and return of the block's push within 0.3 s is one re-hit (Fig. 5c); a foot that stays has none."""
+    assert _value(_rehits(tmp_path, 0), "obstacle_rehits:right_foot") == 0
+    assert _value(_rehits(tmp_path, 5), "obstacle_rehits:right_foot") == 5
+
+
+def test_swing_height_error_is_the_largest_gap_while_swinging(tmp_path: Path) -> None:
+    """Only ticks where the foot swings count: a 9 mm lag in swing, not the 5 cm in support."""
+    ticks = []
+    for k in range(100):
+        t = k * DT
+        swing = 1.0 if 20 <= k < 80 else -1.0
+        z_d = 0.05 if swing == 1.0 else 0.0
+        z = z_d - (0.009 if k == 50 else 0.002) if swing == 1.0 else 0.05
+        signals = {
+            "swing_foot": swing,
+            "right_z": z,
+            "right_z_d": z_d,
+            "left_z": 0.0,
+            "left_z_d": 0.0,
+        }
+        ticks.append(Tick(t, signals=signals))
+    d = write_log(tmp_path / "s.mcap", ticks, _spec(0.1))
+    assert _value(d, "swing_height_error:right_foot") == pytest.approx(0.009)
+    assert "left_foot never swung" in _reason(d, "swing_height_error:left_foot")
+
+
+def _course_spec(duration: float):  # noqa: ANN202
+    second = {**BLOCK, "name": "obstacle_second", "position": [0.45, -0.1, TOP / 2]}
+    return make_spec(
+        ROBOT,
+        duration,
+        controller={"type": "qpimpedance", "params": {}},
+        world={"obstacles": [BLOCK, second]},
+    )
+
+
+def test_obstacles_crossed_counts_obstacles_stepped_onto_and_off(
+    poser: Poser, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """On the block and off to the floor crosses it; sliding off, stepping on to another obstacle or falling does not."""
+    import test_paper_metrics_jo_oh as this
+
+    monkeypatch.setattr(this, "_spec", _course_spec)
+    assert _value(_right_foot(poser, tmp_path, ON_AND_OFF, 2.0), "obstacles_crossed") == 1
+    assert _value(_right_foot(poser, tmp_path, SLIDE_OFF, 2.0), "obstacles_crossed") == 0
+    onto_second = [ON_AND_OFF[0], (*ON_AND_OFF[1][:3], TOP, 0.05, "obstacle_second")]
+    assert _value(_right_foot(poser, tmp_path, onto_second, 2.0), "obstacles_crossed") == 0
+    fell = _right_foot(poser, tmp_path, ON_AND_OFF[:1], 0.9, outcome="fell")
+    assert _value(fell, "obstacles_crossed") == 0

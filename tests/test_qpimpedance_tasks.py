@@ -325,12 +325,11 @@ def test_task_rows_equal_numpy_reference() -> None:
         want_refs = np.r_[pos_d[2:5], vel_d[2:5], acc_d[2:5], x_m, v_m, a_m]
         np.testing.assert_allclose(refs, want_refs, rtol=1e-12, atol=1e-12)
         x_now = np.array([sole.translation[2], rpy[0], rpy[1]])
+        kp, kv = p.swing_gains
         acc_ref = np.r_[
-            acc_d[:2]
-            + p.kv_swing * (vel_d[:2] - vel[:2])
-            + p.kp_swing * (pos_d[:2] - sole.translation[:2]),
-            a_m + p.kv_swing * (v_m - vel[2:5]) + p.kp_swing * (x_m - x_now),
-            -p.kv_swing * vel[5] - p.kp_swing * rpy[2],
+            acc_d[:2] + kv * (vel_d[:2] - vel[:2]) + kp * (pos_d[:2] - sole.translation[:2]),
+            a_m + kv * (v_m - vel[2:5]) + kp * (x_m - x_now),
+            -kv * vel[5] - kp * rpy[2],
         ]
         row = 12 + idx.size
         np.testing.assert_allclose(rows[row : row + 6], np.sqrt(p.w_swing) * jac, atol=1e-13)

@@ -135,3 +135,65 @@ def test_claim_kinds_are_validated() -> None:
                 "source": "x",
             }
         )
+
+
+EXCEEDS = SweepClaim.model_validate({**CONTAINS.model_dump(), "kind": "exceeds"})
+
+
+def test_exceeds_passes_when_the_with_region_is_strictly_larger() -> None:
+    """With impedance standing wherever the robot stands without it, and somewhere more, "larger" holds."""
+    falls = {(0.06, 20, True), (0.06, 20, False), (0.06, 10, False)}
+    row = evaluate_claim(table(falls), FIELDS, EXCEEDS, "m")
+    assert row.status == PASS and row.measured == 0
+    assert "1 only where impedance=true" in row.note and "⊋" in row.metric
+
+
+def test_exceeds_fails_when_the_regions_are_equal() -> None:
+    """Equal regions contain each other, but neither is larger: the claim fails with one contradiction."""
+    falls = {(0.06, 20, True), (0.06, 20, False)}
+    row = evaluate_claim(table(falls), FIELDS, EXCEEDS, "m")
+    assert row.status == FAIL and row.measured == 1
+    assert "no cell where impedance=true lies in the region and its partner does not" in row.note
+
+
+def test_exceeds_fails_on_a_made_up_map_where_with_does_not_contain_without() -> None:
+    """A larger with-impedance region that misses a cell the without region holds is not "larger": it fails at that cell."""
+    # With impedance 7 of 9 stand (falls at 6 cm tilted 10° and 20°), without also 7 of 9
+    # (falls at 4 and 6 cm untilted): each region holds cells the other does not.
+    falls = {(0.06, 10, True), (0.06, 20, True), (0.04, 0, False), (0.06, 0, False)}
+    row = evaluate_claim(table(falls), FIELDS, EXCEEDS, "m")
+    assert row.status == FAIL and row.measured == 2
+    assert "contradicted at (height=0.06, tilt=10); (height=0.06, tilt=20)" in row.note
+    assert evaluate_claim(table(falls), FIELDS, CONTAINS, "m").status == FAIL
+
+
+FAILS_AT = SweepClaim.model_validate(
+    {
+        "kind": "everywhere",
+        "region": {"metric": "stepped_on_off", "op": "==", "value": 0},
+        "where": {"height": {"op": ">=", "value": 0.05}, "tilt": 0, "impedance": False},
+        "source": "Jo & Oh §IV-A: it is difficult to be overcome with the 5cm height obstacle",
+    }
+)
+
+
+def test_a_failure_statement_is_everywhere_with_the_failed_region() -> None:
+    """ "Fails at 5 cm and above" holds when every such cell failed, and is contradicted by one that succeeded."""
+    rows = table(set())
+    for r in rows:  # success = stepped on and off; fails from 5 cm without impedance
+        r["stepped_on_off"] = float(r["impedance"] or r["height"] < 0.05)
+    assert evaluate_claim(rows, FIELDS, FAILS_AT, "m").status == PASS
+    for r in rows:
+        if r["height"] == 0.06 and r["tilt"] == 0:
+            r["stepped_on_off"] = 1.0
+    row = evaluate_claim(rows, FIELDS, FAILS_AT, "m")
+    assert row.status == FAIL and row.measured == 1
+    assert "(height=0.06, tilt=0, impedance=false)" in row.note
+
+
+def test_an_exceeds_claim_needs_its_inner_selector() -> None:
+    """Like contains, an exceeds claim names the cells it is compared with."""
+    with pytest.raises(ValueError, match="'exceeds' claim needs contains"):
+        SweepClaim.model_validate(
+            {"kind": "exceeds", "region": {"metric": "fell", "op": "==", "value": 0}, "source": "x"}
+        )

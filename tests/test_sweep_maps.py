@@ -75,3 +75,16 @@ def test_cells_table_round_trips_values_exactly(tmp_path: Path) -> None:
     assert table.column("impedance") == [True, False, True, False]
     assert table.rows[1]["outcome"] == "error" and math.isnan(table.rows[1]["peak"])
     assert table.column("peak")[3] == 300.0
+
+
+def test_a_declared_success_region_sets_the_drawn_boundary() -> None:
+    """With ``success:`` a cell that stood but missed the region is outside; without it, only falls are."""
+    from walkrepro.sweep.maps import _boundary_label, _inside
+
+    success = {"metric": "stepped_on_off:right_foot", "op": "==", "value": 1}
+    stood_slid = {"outcome": "complete", "fell": 0.0, "stepped_on_off:right_foot": 0.0}
+    stepped = {**stood_slid, "stepped_on_off:right_foot": 1.0}
+    assert _inside(stood_slid, None) is True
+    assert _inside(stood_slid, success) is False and _inside(stepped, success) is True
+    assert _inside({"outcome": "error"}, success) is None
+    assert "stepped_on_off:right_foot == 1" in _boundary_label(success)

@@ -78,3 +78,29 @@ def test_obstacle_friction_takes_precedence() -> None:
     assert m.geom_friction[slick, 0] == 0.2
     foot_geoms = [g for g in range(m.ngeom) if m.geom_bodyid[g] == m.body("left_foot").id]
     assert all(m.geom_priority[slick] > m.geom_priority[g] for g in foot_geoms)
+
+
+def test_top_anchored_obstacle_tilts_about_its_top_face_centre() -> None:
+    """With anchor: top the top face's centre stays at ``position`` whatever the tilt."""
+    for tilt in (0.0, 10.0, 20.0):
+        box = {"name": "obstacle_step", "size": [0.3, 0.16, 0.2], "position": [0.5, -0.09, 0.05]}
+        spec = make_spec(world={"obstacles": [{**box, "anchor": "top", "tilt_y_deg": -tilt}]})
+        m = build_scene(load_robot("coman"), spec).model
+        d = mujoco.MjData(m)
+        mujoco.mj_kinematics(m, d)
+        g = m.geom("obstacle_step").id
+        top = d.geom_xpos[g] + d.geom_xmat[g].reshape(3, 3)[:, 2] * m.geom_size[g, 2]
+        assert np.allclose(top, [0.5, -0.09, 0.05], atol=1e-12)
+        normal = d.geom_xmat[g].reshape(3, 3)[:, 2]
+        assert np.isclose(np.degrees(np.arccos(normal[2])), tilt)
+        assert normal[0] <= 1e-12  # front up: the top face's normal leans backwards
+
+
+def test_obstacle_solref_sets_its_contacts_stiffness() -> None:
+    """An obstacle's solref replaces MuJoCo's default (0.02, 1) on its geom only."""
+    box = {"name": "obstacle_hard", "size": [0.2, 0.2, 0.1], "position": [1, 0, 0.05]}
+    m = build_scene(
+        load_robot("coman"), make_spec(world={"obstacles": [{**box, "solref": [0.005, 1.0]}]})
+    ).model
+    assert np.allclose(m.geom_solref[m.geom("obstacle_hard").id], [0.005, 1.0])
+    assert np.allclose(m.geom_solref[m.geom("floor").id], [0.02, 1.0])

@@ -118,16 +118,26 @@ class SimSpec(_Strict):
 
 
 class ObstacleSpec(_Strict):
-    """A box in the world. ``size`` is the full extent [m]; ``position`` its centre [m]."""
+    """A box in the world. ``size`` is the full extent [m]; ``position`` its centre [m], or
+    with ``anchor: top`` the centre of its top face, about which it is then tilted (a step's
+    height and tilt are set independently: the top face stays centred at ``position``)."""
 
     name: str = Field(pattern=r"^obstacle\w*$", description="geom name, must start with 'obstacle'")
     size: Vec3
     position: Vec3
+    anchor: Literal["center", "top"] = Field(
+        "center", description="what `position` places and the tilt turns about"
+    )
     tilt_x_deg: float = 0.0
     tilt_y_deg: float = 0.0
     fixed: bool = True
     mass: float | None = Field(None, gt=0.0, description="[kg], required when not fixed")
     friction: float | None = Field(None, gt=0.0)
+    solref: tuple[float, float] | None = Field(
+        None,
+        description="MuJoCo contact solref (time constant [s], damping ratio) of the obstacle's"
+        " contacts; default MuJoCo's (0.02, 1)",
+    )
 
     @field_validator("size")
     @classmethod

@@ -65,7 +65,8 @@ def build_scene(robot: Robot, spec: ExperimentSpec) -> Scene:
 
 
 def _add_obstacle(mjspec: mujoco.MjSpec, obstacle: ObstacleSpec, floor_friction: float) -> None:
-    """A box with its centre at ``position``, tilted about x then y (degrees)."""
+    """A box with its centre (or, ``anchor: top``, its top face's centre) at ``position``,
+    tilted about that point, about x then y (degrees)."""
     body = mjspec.worldbody.add_body()
     body.name = obstacle.name
     body.pos = list(obstacle.position)
@@ -76,11 +77,16 @@ def _add_obstacle(mjspec: mujoco.MjSpec, obstacle: ObstacleSpec, floor_friction:
     geom.name = obstacle.name
     geom.type = mujoco.mjtGeom.mjGEOM_BOX
     geom.size = [s / 2 for s in obstacle.size]  # MuJoCo box sizes are half-extents
+    if obstacle.anchor == "top":
+        geom.pos = [0.0, 0.0, -obstacle.size[2] / 2]  # the body's origin is the top face's centre
     friction = obstacle.friction if obstacle.friction is not None else floor_friction
     geom.friction = [friction, 0.005, 0.0001]
     # MuJoCo otherwise mixes two geoms' friction by taking the larger; the priority makes
     # the obstacle's own friction the one that acts on the foot.
     geom.priority = 1
+    if obstacle.solref is not None:
+        # With the higher priority, the obstacle's solref is the one its contacts use.
+        geom.solref = list(obstacle.solref)
     geom.contype = WORLD_CONTYPE
     geom.conaffinity = WORLD_CONAFFINITY
     geom.rgba = [0.85, 0.45, 0.2, 1.0]

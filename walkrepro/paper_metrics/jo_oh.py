@@ -178,3 +178,75 @@ def _peak_landing_force(d: LogData, arg: str) -> float:
     window = (d.contact_t >= t0) & (d.contact_t <= t0 + LANDING_WINDOW)
     force = np.linalg.norm(d.contact_wrench(f"{foot}/*")[window, :3], axis=1)
     return float(force.max())
+
+
+#: The swing signals' side index (``swing_foot`` signal: 0 left, 1 right, −1 double support).
+_SIDE_INDEX = {"left_foot": 0.0, "right_foot": 1.0}
+
+
+@metric(
+    "swing_height_error",
+    "largest |z_d − z| of the foot's (arg, default right_foot) sole while it swings, the "
+    "planned height z_d against the measured one [m] (flat-ground tracking, §II)",
+)
+def _swing_height_error(d: LogData, arg: str) -> float:
+    """Whole logged time before any fall, from the controller's signals: the plan's
+    ``<side>_z_d`` and the sole's ``<side>_z`` while ``swing_foot`` names the foot. On flat
+    ground this is the tracking the swing gains buy (§II: "proper control gains to keep
+    tracking"); on an obstacle it includes the block's push."""
+    foot = _foot_arg(arg)
+    side = foot.split("_")[0]
+    t, swing = d.require_signal("swing_foot")
+    _, z = d.require_signal(f"{side}_z")
+    _, z_d = d.require_signal(f"{side}_z_d")
+    swinging = swing == _SIDE_INDEX[foot]
+    if not swinging.any():
+        raise NotMeasurable(f"{foot} never swung{d.stopped_note()}")
+    return float(np.max(np.abs(z_d[swinging] - z[swinging])))
+
+
+@metric(
+    "obstacle_rehits",
+    "times the obstacle's push on the foot (arg, default right_foot) rises through 10 N again "
+    'within 0.3 s of its first contact (Fig. 5c: the foot "continuously hits the obstacle")',
+)
+def _obstacle_rehits(d: LogData, arg: str) -> float:
+    """Window: the data must cover LANDING_WINDOW after the first obstacle contact. Counts
+    the contact messages (every control tick) where the force crosses CONTACT_FORCE upwards,
+    the first contact excluded."""
+    foot = _foot_arg(arg)
+    t0 = _contact_time(d, foot)
+    d.require_until(t0 + LANDING_WINDOW, "the landing window after the obstacle contact ended")
+    window = (d.contact_t >= t0) & (d.contact_t <= t0 + LANDING_WINDOW)
+    on = _obstacle_force(d, foot)[window] > CONTACT_FORCE
+    return float(np.sum(on[1:] & ~on[:-1]))
+
+
+@metric(
+    "obstacles_crossed",
+    "obstacles* that a foot stepped onto and off again (its next step landed on the floor "
+    "alone), before any fall (the video's course of several unknown obstacles, §IV)",
+)
+def _obstacles_crossed(d: LogData, arg: str) -> float:
+    """Whole logged time before any fall (a fall ends the count: what was crossed before it
+    is measured). Steps are :attr:`LogData.footsteps`, each judged JUDGE_DELAY after its
+    touchdown, as for ``stepped_on_off``."""
+    d.require_states()
+    d.require_contacts()
+    load = TOUCHDOWN_WEIGHT_FRACTION * d.robot_mass * GRAVITY
+    names = [o.name for o in d.spec.world.obstacles]
+    crossed: set[str] = set()
+    for foot in ("left_foot", "right_foot"):
+        on = {n: np.linalg.norm(d.contact_wrench(f"{foot}/{n}")[:, :3], axis=1) for n in names}
+        any_obstacle = _obstacle_force(d, foot)
+        floor = _floor_force(d, foot)
+        standing_on: str | None = None
+        for step in d.footsteps:
+            if step.foot != foot:
+                continue
+            i = min(int(np.searchsorted(d.contact_t, step.t + JUDGE_DELAY)), d.contact_t.size - 1)
+            carrying = [n for n in names if on[n][i] > load]
+            if standing_on and floor[i] > load and any_obstacle[i] < CONTACT_FORCE:
+                crossed.add(standing_on)
+            standing_on = carrying[0] if carrying else None
+    return float(len(crossed))

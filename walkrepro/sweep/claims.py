@@ -15,25 +15,27 @@ from typing import Any
 
 from walkrepro.checks import FAIL, KNOWN, PASS, CheckRow, holds
 from walkrepro.sweep.grid import value_text
-from walkrepro.sweep.model import Condition, SweepClaim, SweepSpec
+from walkrepro.sweep.model import Condition, Region, SweepClaim, SweepSpec
 
 #: Outcomes of cells whose metrics are measured (the run ended, with or without a fall).
 MEASURED = ("complete", "fell")
 Row = Mapping[str, Any]
 
 
-def in_region(row: Row, claim: SweepClaim) -> bool | None:
-    """Whether a cell lies in the claim's region; None if the cell has no measurement."""
+def in_region(row: Row, claim: SweepClaim | Region) -> bool | None:
+    """Whether a cell lies in the claim's region (or a region); None if the cell has no
+    measurement."""
+    region = claim if isinstance(claim, Region) else claim.region
     if row.get("outcome") not in MEASURED:
         return None
-    value = row.get(claim.region.metric, math.nan)
+    value = row.get(region.metric, math.nan)
     try:
         value = float(value)
     except (TypeError, ValueError):
         return None
     if math.isnan(value):
         return None
-    return holds(claim.region.op, value, claim.region.value)
+    return holds(region.op, value, region.value)
 
 
 def matches(row: Row, selector: Mapping[str, Any]) -> bool:
@@ -72,9 +74,10 @@ def evaluate_claim(
         n_cells: cells in the full grid (missing rows count as unknown).
         origin: where the table came from, appended to the source.
     """
-    if claim.kind == "contains":
+    if claim.kind in ("contains", "exceeds"):
         violations, unknown, note = _contains(rows, fields, claim)
-        label = f"map {map_name}: {claim.region} where {_sel(claim.where)} ⊇ where {_sel(claim.contains or {})}"
+        sign = "⊇" if claim.kind == "contains" else "⊋"
+        label = f"map {map_name}: {claim.region} where {_sel(claim.where)} {sign} where {_sel(claim.contains or {})}"
     else:
         violations, unknown, note = _everywhere(rows, fields, claim)
         label = f"map {map_name}: {claim.region} for every cell" + (
@@ -146,7 +149,7 @@ def _contains(
     outer = {key(r): r for r in rows if matches(r, claim.where)}
     inner = [r for r in rows if matches(r, inner_sel)]
     violations, unknown = [], []
-    n_inner = n_outer = 0
+    n_inner = n_outer = n_more = 0
     for r in inner:
         here = in_region(r, claim)
         partner = outer.get(key(r))
@@ -161,11 +164,19 @@ def _contains(
             )
         elif here and not there:
             violations.append(_at(r, others))
+        n_more += here is False and there is True
     n_outer = sum(in_region(r, claim) is True for r in outer.values())
+    if claim.kind == "exceeds" and not n_more and not unknown:
+        # "Larger": besides containing it, the region must hold somewhere the other does not.
+        violations.append(
+            f"no cell where {_sel(claim.where)} lies in the region and its partner does not"
+        )
     note = (
         f"region {claim.region}: {n_outer} of {len(outer)} cells where {_sel(claim.where)}, "
         f"{n_inner} of {len(inner)} where {_sel(inner_sel)}"
     )
+    if claim.kind == "exceeds":
+        note += f"; {n_more} only where {_sel(claim.where)}"
     return violations, unknown, note
 
 

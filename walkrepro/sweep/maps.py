@@ -2,7 +2,8 @@
 
 - one grid field: the map's metric against the field, each cell marked by its outcome;
 - two: a heat map of the metric (x = first field, y = second), the boundary between the cells
-  that stood/recovered and those that fell drawn as a thick line, fallen and failed cells
+  that stood/recovered and those that fell (or, for a declared map with ``success:``, between
+  the cells inside and outside that region) drawn as a thick line, fallen and failed cells
   marked;
 - more: one heat-map panel per combination of the extra fields' values.
 
@@ -45,7 +46,7 @@ def plot_sweep(directory: Path, out: Path | None = None) -> list[Path]:
     if len(fields) == 1:
         fig = _line(plt, fields[0], values[fields[0]], units, rows, metric)
     else:
-        fig = _heat_panels(plt, fields, values, units, rows, metric)
+        fig = _heat_panels(plt, fields, values, units, rows, metric, info.get("success"))
     done = len(table.rows)
     what = "metric" if len(fields) == 1 else "colour"
     subtitle = f"{what}: {metric} · {done} of {info['n_cells']} cells"
@@ -137,6 +138,7 @@ def _heat_panels(
     units: dict[str, str],
     rows: dict,
     metric: str,
+    success: dict | None = None,
 ):
     from matplotlib.colors import Normalize
 
@@ -174,7 +176,7 @@ def _heat_panels(
         )
         for (i, j), row in cells.items():
             _annotate(ax, i, j, row, m[j, i], norm)
-        _boundary(ax, cells, len(xs), len(ys))
+        _boundary(ax, cells, len(xs), len(ys), success)
         ax.set_xticks(range(len(xs)), [_tick(x) for x in xs])
         ax.set_yticks(range(len(ys)), [_tick(y) for y in ys])
         ax.set_xlabel(_label(fx, units))
@@ -195,7 +197,7 @@ def _heat_panels(
     from matplotlib.lines import Line2D
 
     handles = [
-        Line2D([], [], color="crimson", lw=3, label="no-fall / fall boundary"),
+        Line2D([], [], color="crimson", lw=3, label=_boundary_label(success)),
         Line2D([], [], color="crimson", marker="x", lw=0, markersize=9, mew=2.5, label="fell"),
         Line2D([], [], color="0.85", marker="s", lw=0, markersize=9, label="no value"),
     ]
@@ -234,17 +236,42 @@ def _annotate(ax: Any, i: int, j: int, row: dict | None, value: float, norm: Any
     ax.text(i, j, text, ha="center", va="center", fontsize=8, color=colour, zorder=4)
 
 
-def _boundary(ax: Any, cells: dict[tuple[int, int], dict | None], nx: int, ny: int) -> None:
-    """Thick segments on the edges between a cell that stood and a neighbour that fell."""
+def _boundary_label(success: dict | None) -> str:
+    if success is None:
+        return "no-fall / fall boundary"
+    from walkrepro.sweep.model import Region
+
+    return f"boundary of {Region.model_validate(success)}"
+
+
+def _inside(row: dict[str, Any] | None, success: dict | None) -> bool | None:
+    """Whether a cell lies in the map's success region (default: it did not fall)."""
+    if success is None:
+        return _stood(row)
+    from walkrepro.sweep.claims import in_region
+    from walkrepro.sweep.model import Region
+
+    return None if row is None else in_region(row, Region.model_validate(success))
+
+
+def _boundary(
+    ax: Any,
+    cells: dict[tuple[int, int], dict | None],
+    nx: int,
+    ny: int,
+    success: dict | None = None,
+) -> None:
+    """Thick segments on the edges between a cell inside the success region (default: it
+    stood) and a neighbour outside it."""
     for i, j in itertools.product(range(nx), range(ny)):
-        here = _stood(cells[(i, j)])
+        here = _inside(cells[(i, j)], success)
         if here is None:
             continue
         if i + 1 < nx:
-            there = _stood(cells[(i + 1, j)])
+            there = _inside(cells[(i + 1, j)], success)
             if there is not None and there != here:
                 ax.plot([i + 0.5, i + 0.5], [j - 0.5, j + 0.5], color="crimson", lw=3, zorder=5)
         if j + 1 < ny:
-            there = _stood(cells[(i, j + 1)])
+            there = _inside(cells[(i, j + 1)], success)
             if there is not None and there != here:
                 ax.plot([i - 0.5, i + 0.5], [j + 0.5, j + 0.5], color="crimson", lw=3, zorder=5)

@@ -83,14 +83,18 @@ class SweepClaim(_Strict):
         ``contains``: the region among cells matching ``where`` contains the region among
             cells matching ``contains`` (cells paired by the other grid fields), e.g. "the
             region where fell == 0 with impedance contains the one without it".
+        ``exceeds``: as ``contains``, and the region among ``where`` cells is larger: at
+            least one ``where`` cell lies in it whose partner does not, e.g. "with impedance
+            the robot overcomes every obstacle it overcomes without, and more".
         ``everywhere``: every cell matching ``where`` lies in the region, e.g. "every push
-            up to 6 N·s is recovered at every phase".
+            up to 6 N·s is recovered at every phase" (with region ``stepped_on_off == 0``:
+            "fails everywhere there").
 
     ``where``/``contains`` map a grid field to a value (equality) or a condition
     ``{op, value}``.
     """
 
-    kind: Literal["contains", "everywhere"]
+    kind: Literal["contains", "exceeds", "everywhere"]
     region: Region
     where: dict[str, Any] = Field(default_factory=dict)
     contains: dict[str, Any] | None = None
@@ -100,10 +104,10 @@ class SweepClaim(_Strict):
 
     @model_validator(mode="after")
     def _fits_kind(self) -> SweepClaim:
-        if self.kind == "contains" and not self.contains:
-            raise ValueError("a 'contains' claim needs contains: {field: value}")
+        if self.kind in ("contains", "exceeds") and not self.contains:
+            raise ValueError(f"a '{self.kind}' claim needs contains: {{field: value}}")
         if self.kind == "everywhere" and self.contains is not None:
-            raise ValueError("'contains' applies to kind: contains only")
+            raise ValueError("'contains' applies to kinds contains and exceeds only")
         return self
 
 
@@ -118,6 +122,9 @@ class SweepSpec(_Strict):
     grid: dict[str, GridValues] = Field(min_length=1)
     set: dict[str, Any] = Field(default_factory=dict, description="extra overrides for every cell")
     metric: str | None = Field(None, description="the metric the map colours")
+    success: Region | None = Field(
+        None, description="the region whose edge the map draws (default: the cells with no fall)"
+    )
     claims: list[SweepClaim] = Field(default_factory=list)
 
     def grid_items(self) -> list[str]:

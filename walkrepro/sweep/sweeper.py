@@ -124,7 +124,9 @@ def plan_new(
     cells = plan_cells(experiment, axes, overrides)
     map_metric = metrics[0] if metrics else (declared.metric if declared else None)
     map_metric = map_metric or _default_map_metric(cells[0].spec)
-    metric_names = _metric_columns(cells, [*metrics, *([map_metric] if declared else [])])
+    success = declared.success if declared else None
+    extra = [map_metric, *([success.metric] if success else [])] if declared else []
+    metric_names = _metric_columns(cells, [*metrics, *extra])
     source = find_spec_file(experiment)
     directory = store.new_sweep_dir(out, cells[0].spec.name)
     shutil.copyfile(source, directory / store.BASE_FILE)
@@ -139,6 +141,7 @@ def plan_new(
         "set": list(overrides),
         "metrics": list(metrics),
         "map_metric": map_metric,
+        **({"success": success.model_dump(mode="json")} if success else {}),
         "claims": [c.model_dump(mode="json") for c in declared.claims] if declared else [],
         "columns": store.columns([a.field for a in axes], metric_names),
         "n_cells": len(cells),
@@ -146,7 +149,8 @@ def plan_new(
     }
     store.write_info(directory, info)
     store.CellsWriter(directory / store.CELLS_FILE, info["columns"]).close()
-    return SweepPlan(directory, info, cells, set(), tuple(dict.fromkeys([*metrics, map_metric])))
+    computed = [*metrics, map_metric, *([success.metric] if success else [])]
+    return SweepPlan(directory, info, cells, set(), tuple(dict.fromkeys(computed)))
 
 
 def plan_resume(directory: Path) -> SweepPlan:
@@ -167,7 +171,8 @@ def plan_resume(directory: Path) -> SweepPlan:
                 f"{directory / store.CELLS_FILE}: row of cell {row['cell']} does not match the "
                 f"grid in {store.SWEEP_FILE}; this sweep cannot be resumed."
             )
-    metrics = tuple(dict.fromkeys([*info["metrics"], info["map_metric"]]))
+    success = [info["success"]["metric"]] if info.get("success") else []
+    metrics = tuple(dict.fromkeys([*info["metrics"], info["map_metric"], *success]))
     return SweepPlan(directory, info, cells, {r["cell"] for r in table.rows}, metrics)
 
 

@@ -102,11 +102,21 @@ class QPImpedanceParams(ControllerParams):
         3.0, gt=0, description="|λ_φx|, |λ_φy| that switch it on [N m] (§IV)"
     )
     # Task gains (§III-D: ẍ_r = ẍ_d + K_V(ẋ_d − ẋ) + K_P(x_d − x), Eq. 3).
-    # Swing gains ω² and 2ω with ω = 25 rad/s: the stiffest tracking (§II: "the robot
-    # controller needs proper control gains to keep tracking") in steps of 5 rad/s with which
-    # the QP alone still overcomes the 4 cm obstacle, as §IV-A states (ω = 30 falls).
-    kp_swing: float = Field(625.0, ge=0, description="swing-foot K_P [1/s²] (see above)")
-    kv_swing: float = Field(50.0, ge=0, description="swing-foot K_V [1/s] (see above)")
+    # Swing gains K_P = ω², K_V = 2ζω. The paper gives no values; §II: low gains cause
+    # "insufficient tracking", high gains "instability at the contact moment". ω is fixed on
+    # flat ground (walk_flat_kist), before any obstacle: the softest ω, in steps of 2.5 rad/s,
+    # whose tracking lands the feet without an impact, i.e. the peak foot force of the flat
+    # walk stays within 5 % of the robot's weight (ω = 20: 1.14 m g; 22.5: 1.02 m g).
+    swing_omega: float = Field(
+        22.5, gt=0, description="swing-foot tracking bandwidth ω [rad/s] (K_P = ω², K_V = 2ζω)"
+    )
+    swing_zeta: float = Field(1.0, gt=0, description="swing-foot damping ratio ζ [-]")
+    kp_swing: float | None = Field(
+        None, ge=0, description="swing-foot K_P [1/s²]; default ω² (overrides ω when given)"
+    )
+    kv_swing: float | None = Field(
+        None, ge=0, description="swing-foot K_V [1/s]; default 2ζω (overrides ω when given)"
+    )
     kp_orient: float = Field(200.0, ge=0, description="pelvis and torso orientation K_P [1/s²]")
     kv_orient: float = Field(28.0, ge=0, description="pelvis and torso orientation K_V [1/s]")
     kp_posture: float = Field(100.0, ge=0, description="arm and waist joint K_P [1/s²]")
@@ -132,6 +142,13 @@ class QPImpedanceParams(ControllerParams):
         " (warm-started), the others go through qpsolvers",
     )
     solver_eps: float = Field(1e-6, gt=0, description="solver absolute tolerance")
+
+    @property
+    def swing_gains(self) -> tuple[float, float]:
+        """(K_P [1/s²], K_V [1/s]) of the swing foot: ω², 2ζω unless given explicitly."""
+        kp = self.swing_omega**2 if self.kp_swing is None else self.kp_swing
+        kv = 2.0 * self.swing_zeta * self.swing_omega if self.kv_swing is None else self.kv_swing
+        return kp, kv
 
 
 class _DataViews:
@@ -285,8 +302,8 @@ class QPImpedanceController(Controller):
             "kv_orient": p.kv_orient,
             "kp_posture": p.kp_posture,
             "kv_posture": p.kv_posture,
-            "kp_swing": p.kp_swing,
-            "kv_swing": p.kv_swing,
+            "kp_swing": p.swing_gains[0],
+            "kv_swing": p.swing_gains[1],
             "sqrt_w_pelvis": float(np.sqrt(p.w_pelvis)),
             "sqrt_w_torso": float(np.sqrt(p.w_torso)),
             "sqrt_w_posture": float(np.sqrt(p.w_posture)),
