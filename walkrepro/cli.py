@@ -290,10 +290,13 @@ def _run_batch(names: list[str], overrides: list[str], out: Path, figures: bool,
     def report(summary: Any) -> None:
         done.append(summary)
         wall = summary.result.wall_time
-        counts = count([summary.verdict])
+        # A verdict with partner rows is final only once the whole batch has run.
+        verdict = (
+            "verdict when its partners are done" if summary.relative else count([summary.verdict])
+        )
         _console().print(
             f"[{len(done)}/{len(names)}] {summary.verdict.experiment}: {summary.result.message} "
-            f"in {wall:.0f} s ({counts}) → {summary.run_dir}",
+            f"in {wall:.0f} s ({verdict}) → {summary.run_dir}",
             highlight=False,
         )
 
