@@ -46,6 +46,20 @@ FEET = ("left_foot", "right_foot")
 # ---- building synthetic logs ---------------------------------------------------------------
 
 
+def measured(d: LogData, name: str) -> float:
+    """The value of a metric that must be measurable on ``d``."""
+    r = evaluate(d, [name])
+    assert name not in r.reasons, r.reasons.get(name)
+    return r.values[name]
+
+
+def unmeasurable_reason(d: LogData, name: str) -> str:
+    """Why a metric that must not be measurable on ``d`` is not (it must be NaN)."""
+    r = evaluate(d, [name])
+    assert math.isnan(r.values[name])
+    return r.reasons[name]
+
+
 @dataclass
 class Tick:
     """One control tick of a synthetic log (``None``: the default of :func:`write_log`)."""

@@ -8,9 +8,18 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_metrics import DT, Poser, Tick, home_sole, make_spec, write_log
+from test_metrics import (
+    DT,
+    Poser,
+    Tick,
+    home_sole,
+    make_spec,
+    measured,
+    unmeasurable_reason,
+    write_log,
+)
 
-from walkrepro.metrics import LogData, evaluate
+from walkrepro.metrics import LogData
 from walkrepro.paper_metrics.faraji import (
     CORRECTIVE_SIGMAS,
     corrective_threshold,
@@ -21,18 +30,6 @@ from walkrepro.paper_metrics.faraji import (
 ROBOT = "coman"
 STEP = 0.4  # [s] (Paper II's T)
 PUSH_AT = 4.0  # [s]
-
-
-def _value(d: LogData, name: str) -> float:
-    r = evaluate(d, [name])
-    assert name not in r.reasons, r.reasons.get(name)
-    return r.values[name]
-
-
-def _reason(d: LogData, name: str) -> str:
-    r = evaluate(d, [name])
-    assert math.isnan(r.values[name])
-    return r.reasons[name]
 
 
 def _spec(duration: float, **fields):  # noqa: ANN202
@@ -59,30 +56,30 @@ def _pelvis(tmp_path: Path, speed, duration: float = 4.0, outcome: str = "comple
 def test_drag_makes_the_robot_walk(tmp_path: Path) -> None:
     """A pelvis pulled to 0.2 m/s forward, then 0.2 m/s backward, peaks in the 0.08–0.3 band."""
     d = _pelvis(tmp_path, lambda t: 0.2 if t < 2.0 else -0.2)
-    assert _value(d, "peak_forward_pelvis_speed:0.5-1.5") == pytest.approx(0.2, abs=1e-6)
-    assert _value(d, "peak_backward_pelvis_speed:2.5-3.5") == pytest.approx(0.2, abs=1e-6)
-    assert _value(d, "peak_pelvis_speed") == pytest.approx(0.2, abs=1e-6)
-    assert _value(d, "mean_abs_pelvis_speed:0.5-3.5") == pytest.approx(0.2, abs=0.03)
+    assert measured(d, "peak_forward_pelvis_speed:0.5-1.5") == pytest.approx(0.2, abs=1e-6)
+    assert measured(d, "peak_backward_pelvis_speed:2.5-3.5") == pytest.approx(0.2, abs=1e-6)
+    assert measured(d, "peak_pelvis_speed") == pytest.approx(0.2, abs=1e-6)
+    assert measured(d, "mean_abs_pelvis_speed:0.5-3.5") == pytest.approx(0.2, abs=0.03)
 
 
 def test_robot_that_stands_under_the_drag(tmp_path: Path) -> None:
     """A pelvis that does not move has no emergent walking (0 m/s, below the band)."""
     d = _pelvis(tmp_path, lambda t: 0.0)
-    assert _value(d, "peak_forward_pelvis_speed:0.5-1.5") == 0
-    assert _value(d, "peak_backward_pelvis_speed:2.5-3.5") == 0
+    assert measured(d, "peak_forward_pelvis_speed:0.5-1.5") == 0
+    assert measured(d, "peak_backward_pelvis_speed:2.5-3.5") == 0
 
 
 def test_stepping_lowers_the_mean_speed(tmp_path: Path) -> None:
     """A pelvis at 0.1 m/s has a lower mean |speed| than one at 0.14 m/s (Fig. 18's comparison)."""
-    slow = _value(_pelvis(tmp_path, lambda t: 0.1), "mean_abs_pelvis_speed:0.5-3.5")
-    fast = _value(_pelvis(tmp_path, lambda t: 0.14), "mean_abs_pelvis_speed:0.5-3.5")
+    slow = measured(_pelvis(tmp_path, lambda t: 0.1), "mean_abs_pelvis_speed:0.5-3.5")
+    fast = measured(_pelvis(tmp_path, lambda t: 0.14), "mean_abs_pelvis_speed:0.5-3.5")
     assert slow < fast
 
 
 def test_speed_window_after_a_fall_not_measurable(tmp_path: Path) -> None:
     """Speeds of a window the robot fell in are not measurable (a fall is not a walk)."""
     d = _pelvis(tmp_path, lambda t: 0.2, duration=2.0, outcome="fell")
-    assert _reason(d, "peak_forward_pelvis_speed:0.5-3.0").startswith(
+    assert unmeasurable_reason(d, "peak_forward_pelvis_speed:0.5-3.0").startswith(
         "the robot fell at t = 2.000 s"
     )
 
@@ -120,14 +117,14 @@ UNDISTURBED = [0.0, 0.01, 0.02, 0.015, 0.025, 0.01, 0.02, 0.015, 0.02]  # steps 
 def test_push_recovered_in_two_corrective_steps(tmp_path: Path) -> None:
     """Two steps adjusted by 10 cm after the push, then calm steps: 2 corrective steps."""
     d = _footsteps(tmp_path, UNDISTURBED + [0.10, 0.09, 0.02, 0.015, 0.02])
-    assert _value(d, "recovery_steps:4.0") == 2
-    assert _value(d, "recovery_steps") == 2  # the push time from the spec
+    assert measured(d, "recovery_steps:4.0") == 2
+    assert measured(d, "recovery_steps") == 2  # the push time from the spec
 
 
 def test_undisturbed_run_has_no_corrective_step(tmp_path: Path) -> None:
     """Steps no larger than the undisturbed ones are not corrective: 0 (outside 1–5)."""
     assert (
-        _value(_footsteps(tmp_path, UNDISTURBED + [0.02, 0.025, 0.02, 0.015]), "recovery_steps")
+        measured(_footsteps(tmp_path, UNDISTURBED + [0.02, 0.025, 0.02, 0.015]), "recovery_steps")
         == 0
     )
 
@@ -136,18 +133,18 @@ def test_corrective_threshold_follows_the_undisturbed_spread(tmp_path: Path) -> 
     """The threshold is the undisturbed steps' mean + 3σ: wide undisturbed steps make a 6 cm
     adjustment ordinary, narrow ones make it corrective."""
     narrow = _footsteps(tmp_path, UNDISTURBED + [0.06, 0.02, 0.02, 0.02])
-    assert _value(narrow, "recovery_steps") == 1
+    assert measured(narrow, "recovery_steps") == 1
     wide = [0.0, 0.01, 0.05, 0.02, 0.06, 0.01, 0.05, 0.02, 0.06]
-    assert _value(_footsteps(tmp_path, wide + [0.06, 0.02, 0.02, 0.02]), "recovery_steps") == 0
+    assert measured(_footsteps(tmp_path, wide + [0.06, 0.02, 0.02, 0.02]), "recovery_steps") == 0
     peaks = np.array(UNDISTURBED[1:])
     expected = peaks.mean() + CORRECTIVE_SIGMAS * peaks.std(ddof=1)
-    assert _value(narrow, "corrective_step_threshold") == pytest.approx(expected, abs=2e-3)
+    assert measured(narrow, "corrective_step_threshold") == pytest.approx(expected, abs=2e-3)
 
 
 def test_recovery_not_measurable_after_a_fall(tmp_path: Path) -> None:
     """A pushed robot that falls has not recovered: not measurable, with the fall time."""
     d = _footsteps(tmp_path, UNDISTURBED + [0.1, 0.1], outcome="fell")
-    assert "before the push was recovered" in _reason(d, "recovery_steps")
+    assert "before the push was recovered" in unmeasurable_reason(d, "recovery_steps")
 
 
 def test_recovery_needs_enough_undisturbed_steps() -> None:
@@ -168,13 +165,13 @@ def test_recovery_still_going_at_the_end_is_not_measurable() -> None:
 def test_adjustment_within_truncation(tmp_path: Path) -> None:
     """Adjustments of at most 10 cm stay within the 15 cm truncation; raw ones are 1.5× larger."""
     d = _footsteps(tmp_path, UNDISTURBED + [0.10])
-    assert _value(d, "max_footstep_adjustment") == pytest.approx(0.10, abs=1e-3)
-    assert _value(d, "max_footstep_adjustment_raw") == pytest.approx(0.15, abs=1.5e-3)
+    assert measured(d, "max_footstep_adjustment") == pytest.approx(0.10, abs=1e-3)
+    assert measured(d, "max_footstep_adjustment_raw") == pytest.approx(0.15, abs=1.5e-3)
 
 
 def test_adjustment_beyond_truncation(tmp_path: Path) -> None:
     """A 20 cm adjustment fails the 15 cm truncation claim."""
-    assert _value(_footsteps(tmp_path, UNDISTURBED + [0.20]), "max_footstep_adjustment") > 0.15
+    assert measured(_footsteps(tmp_path, UNDISTURBED + [0.20]), "max_footstep_adjustment") > 0.15
 
 
 # ---- footstep scatter (Fig. 14) ------------------------------------------------------------
@@ -198,15 +195,15 @@ def _scatter_log(tmp_path: Path, jitter: float) -> LogData:
 
 def test_scatter_grows_without_dead_zones(tmp_path: Path) -> None:
     """Feet jittering ±4 cm scatter ≥ 2× as much as feet jittering ±1 cm (Fig. 14C vs B)."""
-    closed = _value(_scatter_log(tmp_path, 0.01), "footstep_scatter")
-    no_deadzone = _value(_scatter_log(tmp_path, 0.04), "footstep_scatter")
+    closed = measured(_scatter_log(tmp_path, 0.01), "footstep_scatter")
+    no_deadzone = measured(_scatter_log(tmp_path, 0.04), "footstep_scatter")
     assert closed == pytest.approx(0.01 / math.sqrt(2), abs=1e-4)  # one of two feet moves
     assert no_deadzone >= 2 * closed
 
 
 def test_scatter_equal_when_feet_repeat(tmp_path: Path) -> None:
     """Two runs with the same footstep jitter do not differ by 2×."""
-    a = _value(_scatter_log(tmp_path, 0.02), "footstep_scatter")
+    a = measured(_scatter_log(tmp_path, 0.02), "footstep_scatter")
     assert a < 2 * footstep_scatter(np.array([[[0.02, 0], [0, 0]], [[-0.02, 0], [0, 0]]]))
 
 
@@ -240,20 +237,22 @@ def _pull_log(
 def test_ankle_stiffness_in_band(tmp_path: Path) -> None:
     """A pelvis displaced 4 cm by the 7 N pull gives about 31 Nm/rad per ankle (20–45)."""
     d = _pull_log(tmp_path, 0.04)
-    assert _value(d, "pelvis_displacement") == pytest.approx(0.04, abs=1e-6)
-    assert _value(d, "torso_displacement") == pytest.approx(0.04, abs=1e-3)
-    assert 20 <= _value(d, "ankle_stiffness") <= 45
+    assert measured(d, "pelvis_displacement") == pytest.approx(0.04, abs=1e-6)
+    assert measured(d, "torso_displacement") == pytest.approx(0.04, abs=1e-3)
+    assert 20 <= measured(d, "ankle_stiffness") <= 45
 
 
 def test_ankle_stiffness_too_stiff(tmp_path: Path) -> None:
     """A pelvis displaced only 1 cm means ankles 4× stiffer, above the band."""
-    stiff = _value(_pull_log(tmp_path, 0.01), "ankle_stiffness")
+    stiff = measured(_pull_log(tmp_path, 0.01), "ankle_stiffness")
     assert stiff > 45
-    assert stiff == pytest.approx(4 * _value(_pull_log(tmp_path, 0.04), "ankle_stiffness"))
+    assert stiff == pytest.approx(4 * measured(_pull_log(tmp_path, 0.04), "ankle_stiffness"))
 
 
 def test_pull_cut_by_a_fall_not_measurable(tmp_path: Path) -> None:
     """A fall before the pull ends leaves displacement and stiffness not measurable."""
     d = _pull_log(tmp_path, 0.04, outcome="fell", duration=2.0)
     for name in ("pelvis_displacement", "torso_displacement", "ankle_stiffness"):
-        assert _reason(d, name).startswith("the robot fell at t = 2.000 s, before the pull ended")
+        assert unmeasurable_reason(d, name).startswith(
+            "the robot fell at t = 2.000 s, before the pull ended"
+        )

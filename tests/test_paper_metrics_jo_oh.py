@@ -16,27 +16,17 @@ from test_metrics import (
     _robot,
     home_sole,
     make_spec,
+    measured,
     standing_pairs,
+    unmeasurable_reason,
     write_log,
 )
 
-from walkrepro.metrics import LogData, evaluate
+from walkrepro.metrics import LogData
 
 ROBOT = "kist_humanoid"
 TOP = 0.04  # [m] block height
 BLOCK = {"name": "obstacle_block", "size": [0.16, 0.3, TOP], "position": [0.2, -0.1, TOP / 2]}
-
-
-def _value(d: LogData, name: str) -> float:
-    r = evaluate(d, [name])
-    assert name not in r.reasons, r.reasons.get(name)
-    return r.values[name]
-
-
-def _reason(d: LogData, name: str) -> str:
-    r = evaluate(d, [name])
-    assert math.isnan(r.values[name])
-    return r.reasons[name]
 
 
 def _spec(duration: float):  # noqa: ANN202
@@ -98,44 +88,48 @@ def _right_foot(
 def test_steps_on_and_off_the_block(poser: Poser, tmp_path: Path) -> None:
     """A foot that lifts onto the block and later lifts off it to the floor stepped on and off."""
     d = _right_foot(poser, tmp_path, ON_AND_OFF, 2.0)
-    assert _value(d, "footsteps:right_foot") == 2
-    assert _value(d, "stepped_on_off:right_foot") == 1
+    assert measured(d, "footsteps:right_foot") == 2
+    assert measured(d, "stepped_on_off:right_foot") == 1
 
 
 def test_sliding_off_the_block_is_not_stepping_off(poser: Poser, tmp_path: Path) -> None:
     """A foot that slides off the block's edge to the floor did not step off it."""
     d = _right_foot(poser, tmp_path, SLIDE_OFF, 2.0)
-    assert _value(d, "footsteps:right_foot") == 1
-    assert _value(d, "stepped_on_off:right_foot") == 0
+    assert measured(d, "footsteps:right_foot") == 1
+    assert measured(d, "stepped_on_off:right_foot") == 0
 
 
 def test_fall_is_a_measured_failure(poser: Poser, tmp_path: Path) -> None:
     """A robot that falls has not overcome the block: 0, not a missing value."""
     d = _right_foot(poser, tmp_path, ON_AND_OFF, 2.0, outcome="fell")
-    assert _value(d, "stepped_on_off:right_foot") == 0
+    assert measured(d, "stepped_on_off:right_foot") == 0
 
 
 def test_interrupted_on_the_block_not_measurable(poser: Poser, tmp_path: Path) -> None:
     """A run interrupted while the foot is still on the block does not answer the claim."""
     d = _right_foot(poser, tmp_path, ON_AND_OFF[:1], 0.9, outcome="interrupted")
-    assert "before the foot stepped onto and off" in _reason(d, "stepped_on_off:right_foot")
+    assert "before the foot stepped onto and off" in unmeasurable_reason(
+        d, "stepped_on_off:right_foot"
+    )
 
 
 def test_stands_two_seconds_after_the_last_step(poser: Poser, tmp_path: Path) -> None:
     """The last step lands at 1.4 s of a 3.5 s run: 2.1 s after it (≥ 2 s)."""
     d = _right_foot(poser, tmp_path, ON_AND_OFF, 3.5)
-    assert _value(d, "time_after_last_step") == pytest.approx(2.1, abs=DT)
+    assert measured(d, "time_after_last_step") == pytest.approx(2.1, abs=DT)
 
 
 def test_too_little_time_after_the_last_step(poser: Poser, tmp_path: Path) -> None:
     """A run that ends 1.1 s after the last step fails the 2 s claim."""
-    assert _value(_right_foot(poser, tmp_path, ON_AND_OFF, 2.5), "time_after_last_step") < 2
+    assert measured(_right_foot(poser, tmp_path, ON_AND_OFF, 2.5), "time_after_last_step") < 2
 
 
 def test_time_after_last_step_not_measurable_after_a_fall(poser: Poser, tmp_path: Path) -> None:
     """After a fall the standing time is not measurable."""
     d = _right_foot(poser, tmp_path, ON_AND_OFF, 3.5, outcome="fell")
-    assert _reason(d, "time_after_last_step").startswith("the robot fell at t = 3.500 s")
+    assert unmeasurable_reason(d, "time_after_last_step").startswith(
+        "the robot fell at t = 3.500 s"
+    )
 
 
 # ---- landing on the block (Figs. 4, 5) -----------------------------------------------------
@@ -165,38 +159,38 @@ def _landing(tmp_path: Path, vz_until: float, peak: float, late_peak: float = 0.
 
 def test_impedance_settles_faster(tmp_path: Path) -> None:
     """A foot still after 60 ms settles faster than one shaking for 300 ms (Fig. 5b)."""
-    fast = _value(_landing(tmp_path, 0.06, 500.0), "swing_z_settling_time:right_foot")
-    slow = _value(_landing(tmp_path, 0.30, 500.0), "swing_z_settling_time:right_foot")
+    fast = measured(_landing(tmp_path, 0.06, 500.0), "swing_z_settling_time:right_foot")
+    slow = measured(_landing(tmp_path, 0.30, 500.0), "swing_z_settling_time:right_foot")
     assert fast == pytest.approx(0.05, abs=DT) and slow == pytest.approx(0.29, abs=DT)
     assert fast < slow
 
 
 def test_equal_settling_is_no_improvement(tmp_path: Path) -> None:
     """Two feet settling equally fast do not show the impedance's effect."""
-    a = _value(_landing(tmp_path, 0.06, 500.0), "swing_z_settling_time:right_foot")
-    b = _value(_landing(tmp_path, 0.06, 650.0), "swing_z_settling_time:right_foot")
+    a = measured(_landing(tmp_path, 0.06, 500.0), "swing_z_settling_time:right_foot")
+    b = measured(_landing(tmp_path, 0.06, 650.0), "swing_z_settling_time:right_foot")
     assert not a < b
 
 
 def test_lower_landing_peak_with_impedance(tmp_path: Path) -> None:
     """The landing peak is the largest force within 0.3 s of the contact: 500 N < 650 N."""
-    with_imp = _value(_landing(tmp_path, 0.06, 500.0), "peak_landing_force:right_foot")
-    without = _value(_landing(tmp_path, 0.06, 650.0), "peak_landing_force:right_foot")
+    with_imp = measured(_landing(tmp_path, 0.06, 500.0), "peak_landing_force:right_foot")
+    without = measured(_landing(tmp_path, 0.06, 650.0), "peak_landing_force:right_foot")
     assert with_imp == pytest.approx(500.0) and with_imp < without
 
 
 def test_landing_peak_ignores_later_forces(tmp_path: Path) -> None:
     """A larger force 0.4 s after the contact is not the landing peak (no false lower/higher)."""
     d = _landing(tmp_path, 0.06, 500.0, late_peak=2000.0)
-    assert _value(d, "peak_landing_force:right_foot") == pytest.approx(500.0)
-    assert not _value(d, "peak_landing_force:right_foot") > 650.0
+    assert measured(d, "peak_landing_force:right_foot") == pytest.approx(500.0)
+    assert not measured(d, "peak_landing_force:right_foot") > 650.0
 
 
 def test_no_obstacle_contact_not_measurable(poser: Poser, tmp_path: Path) -> None:
     """Without a contact on the block the landing metrics are not measurable."""
     d = write_log(tmp_path / "n.mcap", [Tick(k * DT) for k in range(10)], _spec(0.1))
     for name in ("swing_z_settling_time:right_foot", "peak_landing_force:right_foot"):
-        assert "no obstacle pushed right_foot" in _reason(d, name)
+        assert "no obstacle pushed right_foot" in unmeasurable_reason(d, name)
 
 
 def _rehits(tmp_path: Path, bounces: int) -> LogData:
@@ -215,8 +209,8 @@ def _rehits(tmp_path: Path, bounces: int) -> LogData:
 
 def test_a_foot_that_keeps_hitting_the_block_counts_its_rehits(tmp_path: Path) -> None:
     """Each loss and return of the block's push within 0.3 s is one re-hit (Fig. 5c); a foot that stays has none."""
-    assert _value(_rehits(tmp_path, 0), "obstacle_rehits:right_foot") == 0
-    assert _value(_rehits(tmp_path, 5), "obstacle_rehits:right_foot") == 5
+    assert measured(_rehits(tmp_path, 0), "obstacle_rehits:right_foot") == 0
+    assert measured(_rehits(tmp_path, 5), "obstacle_rehits:right_foot") == 5
 
 
 def test_swing_height_error_is_the_largest_gap_while_swinging(tmp_path: Path) -> None:
@@ -236,8 +230,8 @@ def test_swing_height_error_is_the_largest_gap_while_swinging(tmp_path: Path) ->
         }
         ticks.append(Tick(t, signals=signals))
     d = write_log(tmp_path / "s.mcap", ticks, _spec(0.1))
-    assert _value(d, "swing_height_error:right_foot") == pytest.approx(0.009)
-    assert "left_foot never swung" in _reason(d, "swing_height_error:left_foot")
+    assert measured(d, "swing_height_error:right_foot") == pytest.approx(0.009)
+    assert "left_foot never swung" in unmeasurable_reason(d, "swing_height_error:left_foot")
 
 
 def _course_spec(duration: float):  # noqa: ANN202
@@ -257,9 +251,9 @@ def test_obstacles_crossed_counts_obstacles_stepped_onto_and_off(
     import test_paper_metrics_jo_oh as this
 
     monkeypatch.setattr(this, "_spec", _course_spec)
-    assert _value(_right_foot(poser, tmp_path, ON_AND_OFF, 2.0), "obstacles_crossed") == 1
-    assert _value(_right_foot(poser, tmp_path, SLIDE_OFF, 2.0), "obstacles_crossed") == 0
+    assert measured(_right_foot(poser, tmp_path, ON_AND_OFF, 2.0), "obstacles_crossed") == 1
+    assert measured(_right_foot(poser, tmp_path, SLIDE_OFF, 2.0), "obstacles_crossed") == 0
     onto_second = [ON_AND_OFF[0], (*ON_AND_OFF[1][:3], TOP, 0.05, "obstacle_second")]
-    assert _value(_right_foot(poser, tmp_path, onto_second, 2.0), "obstacles_crossed") == 0
+    assert measured(_right_foot(poser, tmp_path, onto_second, 2.0), "obstacles_crossed") == 0
     fell = _right_foot(poser, tmp_path, ON_AND_OFF[:1], 0.9, outcome="fell")
-    assert _value(fell, "obstacles_crossed") == 0
+    assert measured(fell, "obstacles_crossed") == 0

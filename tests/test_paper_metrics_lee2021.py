@@ -15,11 +15,13 @@ from test_metrics import (
     floor_wrench,
     home_sole,
     make_spec,
+    measured,
     standing_pairs,
+    unmeasurable_reason,
     write_log,
 )
 
-from walkrepro.metrics import LogData, evaluate
+from walkrepro.metrics import LogData
 from walkrepro.paper_metrics.lee2021 import eq3_cop_lead, ow_x
 
 ROBOT = "dyros_red"
@@ -37,18 +39,6 @@ PUSH = {
 def _spec(**fields):  # noqa: ANN202
     fields.setdefault("controller", {"type": "efsm", "params": {}})
     return make_spec(ROBOT, **fields)
-
-
-def _value(d: LogData, name: str) -> float:
-    r = evaluate(d, [name])
-    assert name not in r.reasons, r.reasons.get(name)
-    return r.values[name]
-
-
-def _reason(d: LogData, name: str) -> str:
-    r = evaluate(d, [name])
-    assert math.isnan(r.values[name])
-    return r.reasons[name]
 
 
 @pytest.fixture(scope="module")
@@ -94,22 +84,22 @@ def _swing(
 def test_lifted_step_counts(poser: Poser, tmp_path: Path) -> None:
     """A foot that lifts 4 cm and lands is one lifted step."""
     d = write_log(tmp_path / "a.mcap", _swing(poser, "left_foot", 0.2, 0.6, 0.1, 0.04, 80), _spec())
-    assert _value(d, "lifted_steps") == 1
-    assert _value(d, "lifted_steps:0.0-0.5") == 0  # the window holds no touchdown
+    assert measured(d, "lifted_steps") == 1
+    assert measured(d, "lifted_steps:0.0-0.5") == 0  # the window holds no touchdown
 
 
 def test_sliding_foot_is_not_a_lifted_step(poser: Poser, tmp_path: Path) -> None:
     """A foot unloaded and slid 10 cm along the floor is no step; it is reported as sliding."""
     d = write_log(tmp_path / "a.mcap", _swing(poser, "left_foot", 0.2, 0.6, 0.1, 0.0, 80), _spec())
-    assert _value(d, "lifted_steps") == 0 and _value(d, "advancing_steps") == 0
-    assert _value(d, "slid_steps") == 1
-    assert _value(d, "sliding_distance") == pytest.approx(0.1, abs=1e-3)
+    assert measured(d, "lifted_steps") == 0 and measured(d, "advancing_steps") == 0
+    assert measured(d, "slid_steps") == 1
+    assert measured(d, "sliding_distance") == pytest.approx(0.1, abs=1e-3)
 
 
 def test_advancing_step_lands_ahead(poser: Poser, tmp_path: Path) -> None:
     """A lifted step landing 10 cm ahead of the other foot advances."""
     d = write_log(tmp_path / "a.mcap", _swing(poser, "left_foot", 0.2, 0.6, 0.1, 0.04, 80), _spec())
-    assert _value(d, "advancing_steps") == 1
+    assert measured(d, "advancing_steps") == 1
 
 
 def test_step_in_place_does_not_advance(poser: Poser, tmp_path: Path) -> None:
@@ -117,20 +107,20 @@ def test_step_in_place_does_not_advance(poser: Poser, tmp_path: Path) -> None:
     d = write_log(
         tmp_path / "a.mcap", _swing(poser, "left_foot", 0.2, 0.6, 0.02, 0.04, 80), _spec()
     )
-    assert _value(d, "lifted_steps") == 1 and _value(d, "advancing_steps") == 0
+    assert measured(d, "lifted_steps") == 1 and measured(d, "advancing_steps") == 0
 
 
 def test_walk_speed_over_the_steps(poser: Poser, tmp_path: Path) -> None:
     """With the pelvis at 0.1 m/s the walk speed is 0.1 m/s, in §VI-A's band."""
     ticks = _swing(poser, "left_foot", 0.2, 0.6, 0.15, 0.04, 80, pelvis_speed=0.1)
     d = write_log(tmp_path / "a.mcap", ticks, _spec())
-    assert _value(d, "walk_speed") == pytest.approx(0.1, abs=1e-6)
+    assert measured(d, "walk_speed") == pytest.approx(0.1, abs=1e-6)
 
 
 def test_walk_speed_of_a_robot_that_stays_put(poser: Poser, tmp_path: Path) -> None:
     """A pelvis that does not move while the foot steps gives 0 m/s, outside the band."""
     d = write_log(tmp_path / "a.mcap", _swing(poser, "left_foot", 0.2, 0.6, 0.1, 0.04, 80), _spec())
-    assert _value(d, "walk_speed") == pytest.approx(0.0, abs=1e-9)
+    assert measured(d, "walk_speed") == pytest.approx(0.0, abs=1e-9)
 
 
 def test_walk_speed_not_measurable_after_a_fall(poser: Poser, tmp_path: Path) -> None:
@@ -138,8 +128,8 @@ def test_walk_speed_not_measurable_after_a_fall(poser: Poser, tmp_path: Path) ->
     ticks = _swing(poser, "left_foot", 0.2, 0.6, 0.15, 0.04, 80, pelvis_speed=0.1)
     ticks[70].events = [{"kind": "fall", "reason": "pelvis low"}]
     d = write_log(tmp_path / "a.mcap", ticks, _spec(), "fell")
-    assert _reason(d, "walk_speed").startswith("the robot fell at t = 0.700 s")
-    assert _value(d, "advancing_steps") == 1  # pre-fall count
+    assert unmeasurable_reason(d, "walk_speed").startswith("the robot fell at t = 0.700 s")
+    assert measured(d, "advancing_steps") == 1  # pre-fall count
 
 
 # ---- E-FSM phases -------------------------------------------------------------------------
@@ -163,23 +153,23 @@ def _phases(tmp_path: Path, durations: list[float]) -> LogData:
 
 def test_phase_durations_that_vary(tmp_path: Path) -> None:
     """SSD visits of 0.2, 0.3 and 0.45 s spread by more than 2 % (a time-independent FSM)."""
-    assert _value(_phases(tmp_path, [0.3, 0.2, 0.3, 0.45]), "phase_duration_spread:SSD") > 0.02
+    assert measured(_phases(tmp_path, [0.3, 0.2, 0.3, 0.45]), "phase_duration_spread:SSD") > 0.02
 
 
 def test_clock_like_phase_durations(tmp_path: Path) -> None:
     """Equal SSD visits have no spread (a clock-driven FSM fails the claim)."""
-    spread = _value(_phases(tmp_path, [0.3, 0.3, 0.3, 0.3]), "phase_duration_spread:SSD")
+    spread = measured(_phases(tmp_path, [0.3, 0.3, 0.3, 0.3]), "phase_duration_spread:SSD")
     assert spread == pytest.approx(0.0, abs=1e-9)
 
 
 def test_first_ssd_skipped(tmp_path: Path) -> None:
     """A first SSD of one tick is (nearly) skipped: ≤ 0.05 s."""
-    assert _value(_phases(tmp_path, [DT, 0.3]), "first_ssd_duration") <= 0.05
+    assert measured(_phases(tmp_path, [DT, 0.3]), "first_ssd_duration") <= 0.05
 
 
 def test_first_ssd_not_skipped(tmp_path: Path) -> None:
     """A first SSD of 0.3 s is not skipped."""
-    assert _value(_phases(tmp_path, [0.3, 0.3]), "first_ssd_duration") == pytest.approx(0.3)
+    assert measured(_phases(tmp_path, [0.3, 0.3]), "first_ssd_duration") == pytest.approx(0.3)
 
 
 # ---- CoM and CoP in O_w -------------------------------------------------------------------
@@ -210,8 +200,8 @@ def test_com_between_the_feet(tmp_path: Path) -> None:
     the support foot (> −0.075 m)."""
     d = _single_support(tmp_path, 0.0)
     half = abs(home_sole(ROBOT, "left_foot")[1] - home_sole(ROBOT, "right_foot")[1]) / 2
-    assert _value(d, "min_com_x_ss") == pytest.approx(half, abs=0.01)
-    assert _value(d, "min_com_x_ss") > -0.075
+    assert measured(d, "min_com_x_ss") == pytest.approx(half, abs=0.01)
+    assert measured(d, "min_com_x_ss") > -0.075
 
 
 def test_com_past_the_support_foot() -> None:
@@ -224,14 +214,14 @@ def test_com_past_the_support_foot() -> None:
 def test_measured_cop_behind_the_com(tmp_path: Path) -> None:
     """A measured CoP 5 cm from the support centre lies behind a CoM at ~10 cm (Eq. 3, L1)."""
     d = _single_support(tmp_path, 0.05, zeta=0.2)
-    assert _value(d, "eq3_cop_lead") > 0
-    com_x = _value(d, "min_com_x_ss")
-    assert _value(d, "eq3_cop_lead") == pytest.approx(com_x - 0.05, abs=1e-6)
+    assert measured(d, "eq3_cop_lead") > 0
+    com_x = measured(d, "min_com_x_ss")
+    assert measured(d, "eq3_cop_lead") == pytest.approx(com_x - 0.05, abs=1e-6)
 
 
 def test_measured_cop_ahead_of_the_com(tmp_path: Path) -> None:
     """A measured CoP beyond the CoM (toward the swing foot) fails Eq. (3)'s purpose."""
-    assert _value(_single_support(tmp_path, 0.15, zeta=0.2), "eq3_cop_lead") < 0
+    assert measured(_single_support(tmp_path, 0.15, zeta=0.2), "eq3_cop_lead") < 0
 
 
 def test_eq3_only_judges_a_com_within_zeta() -> None:
@@ -243,7 +233,9 @@ def test_eq3_only_judges_a_com_within_zeta() -> None:
 
 def test_eq3_not_measurable_when_com_never_near(tmp_path: Path) -> None:
     """With the CoM never within ζ of the support centre, Eq. (3)'s lead is not measurable."""
-    assert "never came within ζ" in _reason(_single_support(tmp_path, 0.05), "eq3_cop_lead")
+    assert "never came within ζ" in unmeasurable_reason(
+        _single_support(tmp_path, 0.05), "eq3_cop_lead"
+    )
 
 
 # ---- torques and CoP error ----------------------------------------------------------------
@@ -257,14 +249,14 @@ def _torques(tmp_path: Path, jump: float) -> LogData:
 
 def test_torque_jump_found(tmp_path: Path) -> None:
     """A 50 Nm step in the reference torques is ≥ 5× a smooth run's largest change."""
-    smooth = _value(_torques(tmp_path, 0.0), "max_torque_jump")
-    assert _value(_torques(tmp_path, 50.0), "max_torque_jump") >= 5 * smooth
+    smooth = measured(_torques(tmp_path, 0.0), "max_torque_jump")
+    assert measured(_torques(tmp_path, 50.0), "max_torque_jump") >= 5 * smooth
 
 
 def test_smooth_torques_have_no_jump(tmp_path: Path) -> None:
     """Smooth reference torques change by their slope only (no ≥ 5× jump)."""
-    assert _value(_torques(tmp_path, 0.0), "max_torque_jump") == pytest.approx(0.01)
-    assert _value(_torques(tmp_path, 0.0), "max_torque_jump:0.6-1.0") == pytest.approx(0.01)
+    assert measured(_torques(tmp_path, 0.0), "max_torque_jump") == pytest.approx(0.01)
+    assert measured(_torques(tmp_path, 0.0), "max_torque_jump:0.6-1.0") == pytest.approx(0.01)
 
 
 def _cop_error(tmp_path: Path, err: float) -> LogData:
@@ -284,12 +276,12 @@ def _cop_error(tmp_path: Path, err: float) -> LogData:
 
 def test_cop_error_small(tmp_path: Path) -> None:
     """Valid CoP samples 1 cm off give a p90 error ≤ 2 cm; invalid samples are ignored."""
-    assert _value(_cop_error(tmp_path, 0.01), "cop_error_p90") == pytest.approx(0.01)
+    assert measured(_cop_error(tmp_path, 0.01), "cop_error_p90") == pytest.approx(0.01)
 
 
 def test_cop_error_large(tmp_path: Path) -> None:
     """CoP samples 5 cm off fail Fig. 15's 0–2 cm."""
-    assert _value(_cop_error(tmp_path, 0.05), "cop_error_p90") > 0.02
+    assert measured(_cop_error(tmp_path, 0.05), "cop_error_p90") > 0.02
 
 
 # ---- the obstacle (§VI-B) -----------------------------------------------------------------
@@ -315,25 +307,27 @@ def _collision(
 def test_keeps_stepping_after_the_collision(poser: Poser, tmp_path: Path) -> None:
     """Two lifted steps after the first obstacle contact count two."""
     assert (
-        _value(_collision(poser, tmp_path, 0.04), "steps_after_contact:right_foot/obstacle*") == 2
+        measured(_collision(poser, tmp_path, 0.04), "steps_after_contact:right_foot/obstacle*") == 2
     )
 
 
 def test_shuffling_after_the_collision_is_no_stepping(poser: Poser, tmp_path: Path) -> None:
     """A foot slid along the floor after the contact gives no steps."""
-    assert _value(_collision(poser, tmp_path, 0.0), "steps_after_contact:right_foot/obstacle*") == 0
+    assert (
+        measured(_collision(poser, tmp_path, 0.0), "steps_after_contact:right_foot/obstacle*") == 0
+    )
 
 
 def test_steps_after_contact_not_measurable_after_a_fall(poser: Poser, tmp_path: Path) -> None:
     """A run that falls after the collision does not answer "keeps walking"."""
     d = _collision(poser, tmp_path, 0.04, "fell")
-    assert "fell" in _reason(d, "steps_after_contact:right_foot/obstacle*")
+    assert "fell" in unmeasurable_reason(d, "steps_after_contact:right_foot/obstacle*")
 
 
 def test_right_foot_stays_behind_the_box(tmp_path: Path) -> None:
     """A right sole at home (x ≈ 0) stays behind the box face limit (< 0.14 m)."""
     d = write_log(tmp_path / "a.mcap", [Tick(k * DT) for k in range(5)], _spec())
-    assert _value(d, "max_sole_x:right") < 0.14
+    assert measured(d, "max_sole_x:right") < 0.14
 
 
 def test_right_foot_passing_the_box(poser: Poser, tmp_path: Path) -> None:
@@ -341,7 +335,7 @@ def test_right_foot_passing_the_box(poser: Poser, tmp_path: Path) -> None:
     _, y, _ = home_sole(ROBOT, "right_foot")
     ticks = [Tick(k * DT, qpos=poser(right_foot=(0.05 * k, y, 0.05))) for k in range(5)]
     d = write_log(tmp_path / "a.mcap", ticks, _spec())
-    assert _value(d, "max_sole_x:right") == pytest.approx(0.2, abs=1e-4)
+    assert measured(d, "max_sole_x:right") == pytest.approx(0.2, abs=1e-4)
 
 
 def _swing_force(tmp_path: Path, force: float, swinging: bool = True) -> LogData:
@@ -357,16 +351,16 @@ def _swing_force(tmp_path: Path, force: float, swinging: bool = True) -> LogData
 def test_swing_obstacle_force_in_band(tmp_path: Path) -> None:
     """A 40 N push of the box on the swing foot is in §VI-B's 15–80 N band, blocked or not."""
     d = _swing_force(tmp_path, 40.0)
-    assert _value(d, "peak_swing_obstacle_force:right") == pytest.approx(40.0)
+    assert measured(d, "peak_swing_obstacle_force:right") == pytest.approx(40.0)
     # The foot stands still against the box for 0.3 s: completely blocked.
-    assert _value(d, "blocked_swing_obstacle_force:right") == pytest.approx(40.0)
+    assert measured(d, "blocked_swing_obstacle_force:right") == pytest.approx(40.0)
 
 
 def test_swing_obstacle_force_out_of_band(tmp_path: Path) -> None:
     """A 350 N push on the swing foot is out of the band; on the stance foot it is not counted."""
-    assert _value(_swing_force(tmp_path, 350.0), "peak_swing_obstacle_force:right") > 80
+    assert measured(_swing_force(tmp_path, 350.0), "peak_swing_obstacle_force:right") > 80
     assert (
-        _value(_swing_force(tmp_path, 350.0, swinging=False), "peak_swing_obstacle_force:right")
+        measured(_swing_force(tmp_path, 350.0, swinging=False), "peak_swing_obstacle_force:right")
         == 0
     )
 
@@ -387,7 +381,7 @@ def test_moving_foot_is_not_blocked(poser: Poser, tmp_path: Path) -> None:
             )
         )
     d = write_log(tmp_path / "m.mcap", ticks, _spec(world={"obstacles": [BOX]}))
-    assert _value(d, "blocked_swing_obstacle_force:right") == 0
+    assert measured(d, "blocked_swing_obstacle_force:right") == 0
 
 
 # ---- the human push (§VI-C) ---------------------------------------------------------------
@@ -420,48 +414,48 @@ def _nv() -> int:
 
 def test_no_ds_while_held(tmp_path: Path) -> None:
     """A DS entry only after the release: none during the push."""
-    assert _value(_push(tmp_path, [1.3]), "ds_entries_during_push") == 0
+    assert measured(_push(tmp_path, [1.3]), "ds_entries_during_push") == 0
 
 
 def test_ds_while_held(tmp_path: Path) -> None:
     """A DS entry in the middle of the push fails Fig. 12(a)'s claim."""
-    assert _value(_push(tmp_path, [0.7, 1.3]), "ds_entries_during_push") == 1
+    assert measured(_push(tmp_path, [0.7, 1.3]), "ds_entries_during_push") == 1
 
 
 def test_ds_soon_after_release(tmp_path: Path) -> None:
     """DS 0.3 s after the release is within 1.5 s."""
-    assert _value(_push(tmp_path, [1.3]), "ds_delay_after_push") == pytest.approx(0.3)
+    assert measured(_push(tmp_path, [1.3]), "ds_delay_after_push") == pytest.approx(0.3)
 
 
 def test_ds_late_or_never(tmp_path: Path) -> None:
     """DS 1.8 s after the release fails; a completed run with no DS after it gives inf."""
-    assert _value(_push(tmp_path, [2.8]), "ds_delay_after_push") == pytest.approx(1.8)
-    assert _value(_push(tmp_path, []), "ds_delay_after_push") == math.inf
+    assert measured(_push(tmp_path, [2.8]), "ds_delay_after_push") == pytest.approx(1.8)
+    assert measured(_push(tmp_path, []), "ds_delay_after_push") == math.inf
 
 
 def test_ds_delay_not_measurable_when_stopped_early(tmp_path: Path) -> None:
     """A run stopped after the release, before any DS, does not answer the delay."""
     d = _push(tmp_path, [], outcome="interrupted")
-    assert "before the E-FSM entered DS" in _reason(d, "ds_delay_after_push")
+    assert "before the E-FSM entered DS" in unmeasurable_reason(d, "ds_delay_after_push")
 
 
 def test_com_still_while_held(tmp_path: Path) -> None:
     """A CoM moving at 1 cm/s while held is ≈ 0 (≤ 0.03 m/s)."""
-    assert _value(_push(tmp_path, [], com_speed=0.01), "push_com_speed") == pytest.approx(0.01)
+    assert measured(_push(tmp_path, [], com_speed=0.01), "push_com_speed") == pytest.approx(0.01)
 
 
 def test_com_moving_while_held(tmp_path: Path) -> None:
     """A CoM still moving at 0.1 m/s while held fails Fig. 12(d)'s claim."""
-    assert _value(_push(tmp_path, [], com_speed=0.1), "push_com_speed") > 0.03
+    assert measured(_push(tmp_path, [], com_speed=0.1), "push_com_speed") > 0.03
 
 
 def test_steps_after_release(poser: Poser, tmp_path: Path) -> None:
     """A lifted step after the release counts; a foot slid after it does not."""
     spec = _spec(disturbances=[PUSH])
     lifted = _swing(poser, "left_foot", 1.1, 1.5, 0.05, 0.04, 160)
-    assert _value(write_log(tmp_path / "a.mcap", lifted, spec), "steps_after_push") == 1
+    assert measured(write_log(tmp_path / "a.mcap", lifted, spec), "steps_after_push") == 1
     slid = _swing(poser, "left_foot", 1.1, 1.5, 0.05, 0.0, 160)
-    assert _value(write_log(tmp_path / "b.mcap", slid, spec), "steps_after_push") == 0
+    assert measured(write_log(tmp_path / "b.mcap", slid, spec), "steps_after_push") == 0
 
 
 def test_no_push_in_the_spec(tmp_path: Path) -> None:
@@ -473,4 +467,4 @@ def test_no_push_in_the_spec(tmp_path: Path) -> None:
         "steps_after_push",
         "push_com_speed",
     ):
-        assert "no push" in _reason(d, name)
+        assert "no push" in unmeasurable_reason(d, name)
