@@ -144,3 +144,43 @@ def test_timing_splits_the_tick() -> None:
     split = ctrl.timing()
     assert set(split) == {"estimation", "feedback", "ik", "output"}
     assert all(v >= 0.0 for v in split.values()) and split["ik"] > 0.0
+
+
+def test_stance_ankle_feedback_pushes_a_slow_pelvis_forward() -> None:
+    """A pelvis slower than the gait gets a forward ankle torque whose motor offset, through
+    the kinematics, moves the pelvis forward over the stance foot; stepping off, none."""
+    import pinocchio as pin
+
+    def run(**params):
+        robot, ctrl = _controller(start_time=0.0, speed=0.2, velocity_ramp_steps=1, **params)
+        for i in range(40):  # standing still is slower than the 0.2 m/s gait
+            cmd = ctrl.step(0.002 * i, _snapshot(robot, 0.002 * i))
+        return robot, cmd
+
+    robot, with_feedback = run()
+    _, without = run(ankle_damping=0.0)
+    assert with_feedback.signals["ankle_torque"] > 1.0  # forward [Nm]
+    assert without.signals["ankle_torque"] == 0.0
+    stance_ankle = 6 + 4  # the right leg stands while the left swings first
+    offset = with_feedback.ctrl[stance_ankle] - without.ctrl[stance_ankle]
+    assert abs(offset) > 1e-3
+    others = np.delete(np.arange(12), [stance_ankle, 2])  # the swing hip carries the attack
+    np.testing.assert_allclose(with_feedback.ctrl[others], without.ctrl[others], atol=1e-12)
+    # With the sole on the ground the ankle turns the leg, not the foot: the pelvis seen from
+    # the sole frame must move forward.
+    model, data = robot.pin_model, robot.pin_model.createData()
+    sole = model.getFrameId("right_sole")
+
+    def pelvis_in_sole(q_links: np.ndarray) -> np.ndarray:
+        q = pin.neutral(model)
+        q[robot.pin_q_idx] = q_links
+        pin.framesForwardKinematics(model, data, q)
+        placement = data.oMf[sole]
+        return placement.rotation.T @ (data.oMi[1].translation - placement.translation)
+
+    q = robot.home_joint_pos.copy()
+    before = pelvis_in_sole(q)
+    q[stance_ankle] += offset
+    assert pelvis_in_sole(q)[0] > before[0]
+    _, off = run(stepping=False)
+    assert off.signals["ankle_torque"] == 0.0
