@@ -22,7 +22,6 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Iterable
-from dataclasses import replace
 
 import numpy as np
 import pinocchio as pin
@@ -113,11 +112,10 @@ class TimeProjectionParams(ControllerParams):
     ankle_damping: float = Field(
         1.0,
         ge=0,
-        description="stance-ankle feedback τ_a = −b (ṗ − ṡ error) with stepping on, "
-        "b = ankle_damping × D1 ω₁ [Nm s/m] (1: damping rate b / D1 equal to the 3LP "
-        "falling rate ω₁, which moves the falling pole to 0.62 ω₁), realised as a motor "
-        "offset τ_a / k_eff through the ankle spring; the tables are computed for it; "
-        "0: the paper's free-ankle 3LP",
+        description="stance-ankle push-off gain: τ_a = b · max(0, −sign(v) · e_ṗ) · sign(v), "
+        "b = ankle_damping × D1 ω₁ [Nm s/m] (damping rate b / D1 = the 3LP falling rate ω₁), "
+        "realised as a motor offset τ_a / k_eff through the ankle spring: it only adds speed "
+        "along the commanded direction, none in place (v = 0); 0: the paper's free ankle",
     )
     table_samples: int = Field(100, ge=2, description="look-up-table samples per step")
     start_time: float = Field(0.5, ge=0, description="stand still before the first step [s]")
@@ -140,18 +138,11 @@ class TimeProjectionController(Controller):
         self.model = ThreeLP(threelp_params_from_robot(robot, p.leg_inertia))
         self._h = self.model.params.h1
         self._pw = self.model.params.pw
-        # Errors about the nominal gait: the stance-ankle feedback (closed loop only) damps
-        # the pelvis's, so the DLQR and the tables are designed on the 3LP with that
-        # damping, τ_a = −b (ṗ − ṡ); the gait itself keeps a free ankle (the feedback is
-        # zero on it).
-        b = p.ankle_damping * self.model.axis.mass[0, 0] * self.model.omega_fall
-        self._ankle_b = float(b) if p.stepping else 0.0
-        self.error_model = ThreeLP(replace(self.model.params, b_ankle=self._ankle_b))
-        self.dlqr = Dlqr.solve(self.error_model, p.step_time)
+        self.dlqr = Dlqr.solve(self.model, p.step_time)
         self._gaits: dict[float, PeriodicGait] = {}
         gait0 = self._gait(0.0)
-        self.tp = TimeProjection.build(self.error_model, gait0, self.dlqr, p.table_samples)
-        self.rel_gains = relative_footstep_gains(self.error_model, self.tp)
+        self.tp = TimeProjection.build(self.model, gait0, self.dlqr, p.table_samples)
+        self.rel_gains = relative_footstep_gains(self.model, self.tp)
         self._rel_slopes = np.diff(self.rel_gains, axis=0)
         self._ik = LegIk(robot)
         self._kin = KinematicState(robot)
@@ -207,6 +198,11 @@ class TimeProjectionController(Controller):
         self._gait_k = gait0
         # Stance-ankle velocity feedback: gain [Nm s/m] and the motor offset per Nm of a
         # forward (pelvis-advancing) ankle torque [rad/Nm], signed by the IK.
+        # Stance-ankle push-off: gain [Nm s/m], the commanded direction, and the motor offset
+        # per Nm of a forward (pelvis-advancing) ankle torque [rad/Nm], signed by the IK.
+        b = p.ankle_damping * self.model.axis.mass[0, 0] * self.model.omega_fall
+        self._ankle_b = float(b) if p.speed else 0.0
+        self._direction = math.copysign(1.0, p.speed)
         k_eff = ankle_series_stiffness(robot)
         self._ankle_rad_per_nm = self._ankle_forward_sign() / k_eff if k_eff > 0 else 0.0
         self._split_ns = [0] * len(SPLIT)
@@ -363,12 +359,14 @@ class TimeProjectionController(Controller):
                     i = 6 * leg + j
                     ctrl_legs[i] += load[leg] * (mu_j - offset[i])
 
-        # ---- stance-ankle velocity feedback through the ankle spring, after the force
-        # transfer (the stance weight 1 − γ of Eq. 24's law)
+        # ---- stance-ankle push-off through the ankle spring: adds only the speed the pelvis
+        # lacks along the commanded direction, after the force transfer (the stance weight
+        # 1 − γ of Eq. 24's law, which also skips the rate estimates' touchdown transient)
         ankle_torque = 0.0
         if self._ankle_b > 0.0:
+            lack = max(0.0, -self._direction * err[3])  # [m/s]
             ramp_in = 1.0 - lift.hip_switch_gamma(phase, t1, False)
-            ankle_torque = -self._ankle_b * err[3] * ramp_in  # forward-positive [Nm]
+            ankle_torque = self._direction * self._ankle_b * lack * ramp_in  # forward + [Nm]
             st_leg = 6 if d > 0 else 0
             ctrl_legs[st_leg + ANKLE_PITCH] += ankle_torque * self._ankle_rad_per_nm
 

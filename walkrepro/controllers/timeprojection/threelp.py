@@ -80,11 +80,6 @@ class ThreeLPParams:
     """Fraction r_g of the body weight carried by an external support, in [0, 1)."""
     theta: float = 0.0
     """Constant torso pitch θ [rad]; 0 is upright."""
-    b_ankle: float = 0.0
-    """Sagittal stance-ankle damping b_a [N s]: an ankle torque τ_a = −b_a (ṗ − ṡ)_x [Nm]
-    acts besides the ankle input (0: the paper's free ankle). Used for errors about the
-    nominal gait, it models a stance-ankle feedback on the pelvis velocity error; the
-    lateral axis keeps a free ankle."""
 
     def __post_init__(self) -> None:
         if self.m1 <= 0 or self.m2 <= 0:
@@ -95,8 +90,6 @@ class ThreeLPParams:
             raise ValueError("need g > 0 and I2, I3 >= 0")
         if not 0 <= self.r_g < 1:
             raise ValueError(f"need 0 <= r_g < 1, got r_g={self.r_g}")
-        if self.b_ankle < 0:
-            raise ValueError(f"need b_ankle >= 0, got b_ankle={self.b_ankle}")
 
     @property
     def total_mass(self) -> float:
@@ -121,9 +114,6 @@ class AxisMatrices:
     """Input matrix on [τ_h, τ_a], shape (3, 2), in [1/(kg m)]."""
     Cd: np.ndarray
     """Disturbance matrix on [δ, σ], shape (3, 2), in [1/(kg m)] and [1/s²]."""
-    Cv: np.ndarray
-    """Velocity matrix of the sagittal axis, shape (3, 3), in [1/s]: the stance-ankle
-    damping; the lateral axis has none."""
 
 
 @dataclass(frozen=True)
@@ -159,9 +149,9 @@ class ThreeLP:
         if not (lam[0] > 0 > lam[1]):
             raise ValueError(f"expected one falling and one swinging mode, got λ = {lam}")
         self.omega_fall = float(np.sqrt(lam[0]))
-        """Falling-mode frequency ω₁ [rad/s]: the inverted pendulum (undamped)."""
+        """Falling-mode frequency ω₁ [rad/s]: the inverted pendulum."""
         self.omega_swing = float(np.sqrt(-lam[1]))
-        """Swinging-mode frequency ω₂ [rad/s]: the swing pendulum (undamped)."""
+        """Swinging-mode frequency ω₂ [rad/s]: the swing pendulum."""
 
     def disturbance(
         self,
@@ -227,9 +217,6 @@ class ThreeLP:
         Returns:
             W, shape (12, 6), velocity rows included.
         """
-        if self.params.b_ankle:
-            # The damped model is only propagated (expm); the gaits use the free ankle.
-            raise ValueError("the modal closed form needs b_ankle = 0 (no ankle damping)")
         ax = self.axis
         w1, w2 = self.omega_fall, self.omega_swing
         bu = np.array([[0.0, 1.0], [-1.0, 0.0]])  # [τ_h, τ_a] -> row forces on [p, f]
@@ -281,8 +268,6 @@ def _axis_matrices(p: ThreeLPParams) -> AxisMatrices:
     rhs_x = np.array([[k_leg, gmu, -(gmu + k_leg)], [-k_leg, k_leg, 0.0]])
     rhs_u = np.array([[0.0, 1.0], [-1.0, 0.0]])
     rhs_d = np.array([[1.0, 0.0], [0.0, k_leg]])
-    # τ_a = −b_a (ṗ − ṡ) in row p, on velocities [ḟ, ṗ, ṡ].
-    rhs_v = np.array([[0.0, -p.b_ankle, p.b_ankle], [0.0, 0.0, 0.0]])
     minv = np.linalg.inv(mass)
     to_fps = np.array([[0.0, 1.0], [1.0, 0.0], [0.0, 0.0]])  # [p̈, f̈] -> [f̈, p̈, s̈ = 0]
     return AxisMatrices(
@@ -291,7 +276,6 @@ def _axis_matrices(p: ThreeLPParams) -> AxisMatrices:
         Cx=to_fps @ minv @ rhs_x,
         Cu=to_fps @ minv @ rhs_u,
         Cd=to_fps @ minv @ rhs_d,
-        Cv=to_fps @ minv @ rhs_v,
     )
 
 
@@ -303,7 +287,6 @@ def _time_varying_system(ax: AxisMatrices) -> tuple[np.ndarray, np.ndarray]:
     f1 = np.zeros((N_XI, N_XI))
     f0[0:6, 6:12] = np.eye(6)
     f0[6:12, 0:6] = cx
-    f0[6:12, 6:12] = np.kron(ax.Cv, np.diag([1.0, 0.0]))  # sagittal damping only
     f0[6:12, _CONST] = cu  # columns [hip x, hip y, ankle x, ankle y]
     f0[6:12, D] = cd
     f1[6:12, _RAMP] = cu
