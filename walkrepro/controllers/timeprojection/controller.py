@@ -14,7 +14,11 @@ Every control tick (≈ 2 ms):
 4. open loop (:mod:`.openloop`, :mod:`.lift`): Cartesian pelvis/feet targets with pelvis
    roll (Eq. 22), fixed and adaptive lift (Eqs. 23, 28-30) → IK; stance-hip torso
    regulation (Eq. 24); knee spring compensation (Eq. 21);
-5. motor targets for the position servos (``Command.ctrl``).
+5. stance-ankle push-off (walkrepro, not in the paper; ``ankle_damping``): while walking, a
+   motor offset on the stance ankle's spring adds the pelvis speed lacking along the
+   commanded direction, τ_a = b max(0, −sign(v) e_ṗ) sign(v), b = D1 ω₁ (3LP's stance-ankle
+   torque input, which the paper leaves free); none in place;
+6. motor targets for the position servos (``Command.ctrl``).
 """
 
 from __future__ import annotations
@@ -196,8 +200,6 @@ class TimeProjectionController(Controller):
         for k in range(p.velocity_ramp_steps):
             self._gait(p.speed * min(1.0, (k + 1) / p.velocity_ramp_steps))
         self._gait_k = gait0
-        # Stance-ankle velocity feedback: gain [Nm s/m] and the motor offset per Nm of a
-        # forward (pelvis-advancing) ankle torque [rad/Nm], signed by the IK.
         # Stance-ankle push-off: gain [Nm s/m], the commanded direction, and the motor offset
         # per Nm of a forward (pelvis-advancing) ankle torque [rad/Nm], signed by the IK.
         b = p.ankle_damping * self.model.axis.mass[0, 0] * self.model.omega_fall

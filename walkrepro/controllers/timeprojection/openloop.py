@@ -78,7 +78,8 @@ def ankle_series_stiffness(robot: Robot, side: str = "l") -> float:
     """Ankle pitch servo (kp from the MJCF) in series with its spring [Nm/rad], 0 if rigid.
 
     Paper II, Effective Ankle Stiffness: the servo's ≈ 1100 Nm/rad acts "in series" with
-    the ankle spring: k_eff = 1 / (1/k + 1/kp).
+    the ankle spring: k_eff = 1 / (1/k + 1/kp). The servo gain is the robot model's (the
+    controller's knowledge of its hardware), not a spec's ``actuators`` override.
     """
     if robot.spring_stiffness is None:
         return 0.0
