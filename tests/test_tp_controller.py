@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 from walkrepro.controllers import controller_class
@@ -144,3 +145,60 @@ def test_timing_splits_the_tick() -> None:
     split = ctrl.timing()
     assert set(split) == {"estimation", "feedback", "ik", "output"}
     assert all(v >= 0.0 for v in split.values()) and split["ik"] > 0.0
+
+
+def _walking_still(ticks: int = 40, **params):
+    """Commands of a 0.2 m/s gait (or ``params``) on snapshots that stand still."""
+    robot, ctrl = _controller(
+        **{"start_time": 0.0, "speed": 0.2, "velocity_ramp_steps": 1, **params}
+    )
+    for i in range(ticks):
+        cmd = ctrl.step(0.002 * i, _snapshot(robot, 0.002 * i))
+    return robot, cmd
+
+
+def test_stance_ankle_push_off_moves_a_slow_pelvis_forward() -> None:
+    """A pelvis slower than the gait gets a forward ankle torque, and its motor offset turns
+    the stance leg forward over the sole (with the sole on the ground); nothing else moves."""
+    robot, with_push_off = _walking_still()
+    _, without = _walking_still(ankle_damping=0.0)
+    assert with_push_off.signals["ankle_torque"] > 1.0  # forward [Nm]
+    assert without.signals["ankle_torque"] == 0.0
+    stance_ankle = 6 + 4  # the right leg stands while the left swings first
+    offset = with_push_off.ctrl[stance_ankle] - without.ctrl[stance_ankle]
+    assert abs(offset) > 1e-3
+    others = np.delete(np.arange(robot.n_joints), stance_ankle)
+    np.testing.assert_array_equal(with_push_off.ctrl[others], without.ctrl[others])
+    # With the sole on the ground the ankle turns the leg, not the foot: the pelvis seen from
+    # the sole frame must move forward.
+    model, data = robot.pin_model, robot.pin_model.createData()
+    sole = model.getFrameId("right_sole")
+
+    def pelvis_in_sole(q_links: np.ndarray) -> np.ndarray:
+        q = pin.neutral(model)
+        q[robot.pin_q_idx] = q_links
+        pin.framesForwardKinematics(model, data, q)
+        placement = data.oMf[sole]
+        return placement.rotation.T @ (data.oMi[1].translation - placement.translation)
+
+    q = robot.home_joint_pos.copy()
+    before = pelvis_in_sole(q)
+    q[stance_ankle] += offset
+    assert pelvis_in_sole(q)[0] > before[0]
+
+
+def test_stance_ankle_push_off_never_brakes_and_is_off_in_place() -> None:
+    """No push-off in place (v = 0) nor for a pelvis faster than the gait; for a backward
+    gait a still pelvis lacks speed backward and gets a backward ankle torque."""
+    _, in_place = _walking_still(speed=0.0)
+    assert in_place.signals["ankle_torque"] == 0.0
+    _, backward = _walking_still(speed=-0.2)
+    assert backward.signals["ankle_torque"] < -1.0
+    robot, ctrl = _controller(start_time=0.0, speed=0.2, velocity_ramp_steps=1)
+    for i in range(40):  # both hips extend: the feet run back under the pelvis at ≈ 1 m/s
+        snap = _snapshot(robot, 0.002 * i)
+        q = snap.joint_pos.copy()
+        q[[2, 8]] += 0.0045 * i
+        cmd = ctrl.step(0.002 * i, SensorSnapshot(**{**snap.__dict__, "joint_pos": q}))
+    assert cmd.signals["e_raw"][3] > 0.0  # faster than the gait
+    assert cmd.signals["ankle_torque"] == 0.0

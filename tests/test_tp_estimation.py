@@ -119,3 +119,14 @@ def test_kinematics_match_a_floating_base_with_the_heading_removed() -> None:
         want = data.oMf[model.getFrameId(name)].translation
         np.testing.assert_allclose(got, want, atol=1e-12)
     assert roll_est == pytest.approx(roll) and pitch_est == pytest.approx(pitch)
+
+
+def test_moving_average_derivative_swap_carries_the_history_by_role() -> None:
+    """After a swap, channel 0 averages channel 1's past rates plus its own new ones."""
+    f = MovingAverageDerivative(window=4, size=2, dt=1.0)
+    for k in range(5):
+        f.update([1.0 * k, 3.0 * k])  # rates 1 and 3
+    f.swap(0, 1)
+    out = f.update([5.0, 15.0])  # the next rates are 1 and 3 again
+    assert out[0] == pytest.approx((3.0 * 3 + 1.0) / 4)
+    assert out[1] == pytest.approx((1.0 * 3 + 3.0) / 4)

@@ -14,7 +14,11 @@ Every control tick (≈ 2 ms):
 4. open loop (:mod:`.openloop`, :mod:`.lift`): Cartesian pelvis/feet targets with pelvis
    roll (Eq. 22), fixed and adaptive lift (Eqs. 23, 28-30) → IK; stance-hip torso
    regulation (Eq. 24); knee spring compensation (Eq. 21);
-5. motor targets for the position servos (``Command.ctrl``).
+5. stance-ankle push-off (walkrepro, not in the paper; ``ankle_damping``): while walking, a
+   motor offset on the stance ankle's spring adds the pelvis speed lacking along the
+   commanded direction, τ_a = b max(0, −sign(v) e_ṗ) sign(v), b = D1 ω₁ (3LP's stance-ankle
+   torque input, which the paper leaves free); none in place;
+6. motor targets for the position servos (``Command.ctrl``).
 """
 
 from __future__ import annotations
@@ -40,6 +44,7 @@ from walkrepro.controllers.timeprojection.gait import PeriodicGait
 from walkrepro.controllers.timeprojection.openloop import (
     LegIk,
     LegTargets,
+    ankle_series_stiffness,
     relative_footstep_gains,
     threelp_params_from_robot,
 )
@@ -54,6 +59,7 @@ SAGITTAL = np.array([0, 2, 4, 6])
 LEG = slice(0, 12)
 HIP_PITCH = {"l": 2, "r": 8}
 KNEE = (3, 9)
+ANKLE_PITCH = 4  # within a leg
 #: Sagittal spring joints of a leg (hip pitch, knee, ankle pitch), indices within the leg.
 SAGITTAL_JOINTS = (2, 3, 4)
 #: Parts of a control tick reported by `TimeProjectionController.timing`.
@@ -97,6 +103,24 @@ class TimeProjectionParams(ControllerParams):
         description="add the footstep adjustment to the swing foot's Cartesian target "
         "(IK keeps the foot flat) instead of the swing hip angle (Paper II)",
     )
+    leg_inertia: bool = Field(
+        True,
+        description="3LP legs with the robot's pitch inertia about their CoM (Paper II: each "
+        "pendulum has 'a mass in the middle and inertia'); false: point-mass legs",
+    )
+    role_velocities: bool = Field(
+        True,
+        description="differentiate s1 = p - f and s2 = p - s by role (Paper II, State "
+        "Estimation): the feet's rate histories swap at each touchdown; false: per foot",
+    )
+    ankle_damping: float = Field(
+        1.0,
+        ge=0,
+        description="stance-ankle push-off gain: τ_a = b · max(0, −sign(v) · e_ṗ) · sign(v), "
+        "b = ankle_damping × D1 ω₁ [Nm s/m] (damping rate b / D1 = the 3LP falling rate ω₁), "
+        "realised as a motor offset τ_a / k_eff through the ankle spring: it only adds speed "
+        "along the commanded direction, none in place (v = 0); 0: the paper's free ankle",
+    )
     table_samples: int = Field(100, ge=2, description="look-up-table samples per step")
     start_time: float = Field(0.5, ge=0, description="stand still before the first step [s]")
     ramp_steps: int = Field(3, ge=1, description="steps over which roll/lift/width/speed ramp up")
@@ -115,7 +139,7 @@ class TimeProjectionController(Controller):
         self._p = p = params
         self._robot = robot
         self._dt = control_period
-        self.model = ThreeLP(threelp_params_from_robot(robot))
+        self.model = ThreeLP(threelp_params_from_robot(robot, p.leg_inertia))
         self._h = self.model.params.h1
         self._pw = self.model.params.pw
         self.dlqr = Dlqr.solve(self.model, p.step_time)
@@ -176,7 +200,25 @@ class TimeProjectionController(Controller):
         for k in range(p.velocity_ramp_steps):
             self._gait(p.speed * min(1.0, (k + 1) / p.velocity_ramp_steps))
         self._gait_k = gait0
+        # Stance-ankle push-off: gain [Nm s/m], the commanded direction, and the motor offset
+        # per Nm of a forward (pelvis-advancing) ankle torque [rad/Nm], signed by the IK.
+        b = p.ankle_damping * self.model.axis.mass[0, 0] * self.model.omega_fall
+        self._ankle_b = float(b) if p.speed else 0.0
+        self._direction = math.copysign(1.0, p.speed)
+        k_eff = ankle_series_stiffness(robot)
+        self._ankle_rad_per_nm = self._ankle_forward_sign() / k_eff if k_eff > 0 else 0.0
         self._split_ns = [0] * len(SPLIT)
+
+    def _ankle_forward_sign(self) -> float:
+        """Sign of the ankle pitch change that moves the pelvis forward over a stance foot.
+
+        From the IK at the start posture: the sole 1 mm further behind the pelvis.
+        """
+        z = -self._h
+        y = 0.5 * self._home_width
+        q0 = self._ik.solve_level(0.0, (self._home_x, y, z), (self._home_x, -y, z), 0.0, 0.0)
+        q1 = self._ik.solve_level(0.0, (self._home_x - 1e-3, y, z), (self._home_x, -y, z), 0.0, 0.0)
+        return math.copysign(1.0, q1[ANKLE_PITCH] - q0[ANKLE_PITCH])
 
     def _gait(self, speed: float) -> PeriodicGait:
         """The periodic gait at ``speed`` [m/s], solved once per speed."""
@@ -201,6 +243,8 @@ class TimeProjectionController(Controller):
         # ---- estimation (runs from t = 0 so the filters are warm at the first step)
         left, right, _, pitch = self._kin.feet(sensors.imu_quat, sensors.joint_pos)
         feet = self._pos_filter.update((left[0], right[0]))  # sagittal [left, right]
+        if p.role_velocities and self._k >= 0 and t - p.start_time >= (self._k + 1) * p.step_time:
+            self._vel_filter.swap(0, 1)  # a touchdown: the rates of s₁, s₂ carry on by role
         feet_vel = self._vel_filter.update(feet)
         forces = self._force_filter.update(
             (max(float(sensors.left_ft[2]), 0.0), max(float(sensors.right_ft[2]), 0.0))
@@ -317,6 +361,17 @@ class TimeProjectionController(Controller):
                     i = 6 * leg + j
                     ctrl_legs[i] += load[leg] * (mu_j - offset[i])
 
+        # ---- stance-ankle push-off through the ankle spring: adds only the speed the pelvis
+        # lacks along the commanded direction, after the force transfer (the stance weight
+        # 1 − γ of Eq. 24's law, which also skips the rate estimates' touchdown transient)
+        ankle_torque = 0.0
+        if self._ankle_b > 0.0:
+            lack = max(0.0, -self._direction * err[3])  # [m/s]
+            ramp_in = 1.0 - lift.hip_switch_gamma(phase, t1, False)
+            ankle_torque = self._direction * self._ankle_b * lack * ramp_in  # forward + [Nm]
+            st_leg = 6 if d > 0 else 0
+            ctrl_legs[st_leg + ANKLE_PITCH] += ankle_torque * self._ankle_rad_per_nm
+
         ctrl = self._home_ctrl.copy()
         ctrl[LEG] = ctrl_legs
         ctrl[self._waist_roll] -= roll_cmd  # keep the torso upright (Eq. 22)
@@ -338,6 +393,7 @@ class TimeProjectionController(Controller):
             "pelvis_pitch": pitch,
             "q_cmd_legs": q_des,
             "load": load,
+            "ankle_torque": ankle_torque,
         }
         command = Command(ctrl=ctrl, signals=signals, events=events)
         split[3] += clock() - t3

@@ -124,6 +124,18 @@ class MovingAverageDerivative:
         self._n = n = min(self._n + 1, len(self._buf))
         return [v / n for v in s]
 
+    def swap(self, i: int, j: int) -> None:
+        """Exchange the histories of channels i and j (the last sample stays per channel).
+
+        The averaged derivatives then follow roles rather than channels: at a touchdown the
+        stance foot's history continues on the foot that now stands (Paper II
+        differentiates s₁ = p − f and s₂ = p − s, whose rates stay continuous when the
+        feet land at rest, while each foot's own rate jumps).
+        """
+        for row in self._buf:
+            row[i], row[j] = row[j], row[i]
+        self._sum[i], self._sum[j] = self._sum[j], self._sum[i]
+
 
 class KinematicState:
     """Horizontal sole positions relative to the pelvis from encoders and the IMU (Fig. 3 D).

@@ -35,7 +35,7 @@ from walkrepro.controllers.timeprojection.threelp import (
 from walkrepro.robot import Robot
 
 
-def threelp_params_from_robot(robot: Robot) -> ThreeLPParams:
+def threelp_params_from_robot(robot: Robot, leg_inertia: bool = True) -> ThreeLPParams:
     """3LP parameters of a robot at its ``home`` posture (note ``3lp.md`` §8).
 
     - m1: everything but the legs (pelvis, trunk, head, arms) [kg];
@@ -43,7 +43,12 @@ def threelp_params_from_robot(robot: Robot) -> ThreeLPParams:
     - h1: pelvis (hip-midpoint) height (:attr:`Robot.nominal_pelvis_height`) [m];
     - h2: depth of the leg's CoM below the hip [m];
     - h3: height of the m1 CoM above the pelvis [m];
-    - pw: half the hip spacing [m].
+    - pw: half the hip spacing [m];
+    - I2 = I3: the leg's pitch inertia about its own CoM [kg m²] (Paper II, 3LP Model: "each
+      pendulum approximates the entire corresponding limb in the robot with a mass in the
+      middle and inertia in the sagittal and lateral planes"); 0 with ``leg_inertia=False``
+      (point-mass legs). On coman it is 0.265 kg m², close to the point mass's own
+      m2 h2² = 0.309 kg m² about the hip, so leaving it out halves the swing leg's inertia.
     """
     model = robot.mj_model
     data = mujoco.MjData(model)
@@ -56,6 +61,7 @@ def threelp_params_from_robot(robot: Robot) -> ThreeLPParams:
     z_leg = float(data.subtree_com[leg, 2])
     z_upper = (total * float(data.subtree_com[pelvis, 2]) - 2.0 * m2 * z_leg) / m1
     hip_y = float(abs(data.xpos[leg, 1] - data.xpos[pelvis, 1]))
+    inertia = _subtree_pitch_inertia(model, data, leg) if leg_inertia else 0.0
     return ThreeLPParams(
         m1=m1,
         m2=m2,
@@ -63,7 +69,44 @@ def threelp_params_from_robot(robot: Robot) -> ThreeLPParams:
         h2=z_pelvis - z_leg,
         h3=z_upper - z_pelvis,
         pw=hip_y,
+        I2=inertia,
+        I3=inertia,
     )
+
+
+def ankle_series_stiffness(robot: Robot, side: str = "l") -> float:
+    """Ankle pitch servo (kp from the MJCF) in series with its spring [Nm/rad], 0 if rigid.
+
+    Paper II, Effective Ankle Stiffness: the servo's ≈ 1100 Nm/rad acts "in series" with
+    the ankle spring: k_eff = 1 / (1/k + 1/kp). The servo gain is the robot model's (the
+    controller's knowledge of its hardware), not a spec's ``actuators`` override.
+    """
+    if robot.spring_stiffness is None:
+        return 0.0
+    i = robot.joint_names.index(f"{side}_ankle_pitch")
+    k_spring = float(robot.spring_stiffness[i])
+    k_servo = float(robot.mj_model.actuator(robot.joint_names[i]).gainprm[0])
+    return 1.0 / (1.0 / k_spring + 1.0 / k_servo)
+
+
+def _subtree_pitch_inertia(model: mujoco.MjModel, data: mujoco.MjData, root: int) -> float:
+    """Pitch (world y-y) inertia of the subtree at ``root`` about its own CoM [kg m²].
+
+    Parallel-axis sum of the bodies' inertias, at the posture in ``data`` (kinematics done).
+    """
+    com = data.subtree_com[root]
+    total = 0.0
+    for b in range(model.nbody):
+        a = b
+        while a > root:
+            a = int(model.body_parentid[a])
+        if a != root:
+            continue
+        rot = data.ximat[b].reshape(3, 3)
+        inertia = rot @ np.diag(model.body_inertia[b]) @ rot.T
+        r = data.xipos[b] - com
+        total += float(inertia[1, 1]) + float(model.body_mass[b]) * float(r[0] ** 2 + r[2] ** 2)
+    return total
 
 
 def relative_footstep_gains(model: ThreeLP, tp: TimeProjection) -> np.ndarray:
