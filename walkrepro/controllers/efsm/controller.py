@@ -74,6 +74,14 @@ class EfsmParams(ControllerParams):
         description="saturate F_s's force rows without disturbing the orientation "
         "acceleration (Λ_s couples them; see _task2_force)",
     )
+    fs_saturation: Literal["component", "uniform"] = Field(
+        "uniform",
+        description="how F_s's force rows meet the bound (§V-B: each component saturates): "
+        "'component' clips each row of Λ ẍ* alone, which through Λ_s's x–z coupling can "
+        "leave a far swing foot with no upward acceleration (it slides); 'uniform' scales "
+        "the commanded linear swing acceleration by the largest factor ≤ 1 that keeps every "
+        "force component within the bound, so the foot heads for its target",
+    )
     step_length: float = Field(0.1, description="forward step length [m] (§VI-A)")
     step_width: float | None = Field(
         None, description="lateral foot spacing [m]; None keeps the initial spacing"
@@ -187,7 +195,7 @@ class EfsmController(Controller):
             params.kv,
             params.fs_max_force,
             params.fs_max_moment,
-            float(params.fs_decoupled_saturation),
+            _saturation_mode(params),
             float(params.balance),
             params.cop_margin,
             params.torque_limit,
@@ -431,7 +439,7 @@ class EfsmController(Controller):
             eps if phase is Phase.SSA else 1.0,
             p.fs_max_force,
             p.fs_max_moment,
-            p.fs_decoupled_saturation,
+            _saturation_mode(p),
         )
 
     def _measured_cop(self, sensors: SensorSnapshot) -> tuple[float, float]:
@@ -454,6 +462,14 @@ class EfsmController(Controller):
             self._st["foot_com"],
             self._st["foot_weight"],
         )
+
+
+def _saturation_mode(p: EfsmParams) -> float:
+    """F_s saturation as :func:`.kernels.task2_force` reads it: 0 plain clip, 1 decoupled
+    clip, 2 decoupled uniform scaling."""
+    if not p.fs_decoupled_saturation:
+        return 0.0
+    return 2.0 if p.fs_saturation == "uniform" else 1.0
 
 
 def _rot_z(c: float, s: float) -> np.ndarray:
