@@ -63,8 +63,7 @@ class EfsmParams(ControllerParams):
         gt=0,
         description="saturation of each F_s force component [N]. §V-B gives no value; "
         "a completely blocked swing foot presses the obstacle with it, and §VI-B measured "
-        "≈ 32 N there. (With 50 N the blocked foot held the CoM still in SSD and the robot "
-        "fell; see experiments/obstacle_collision.yaml)",
+        "≈ 32 N there (27.8 N with this bound, experiments/obstacle_collision.yaml)",
     )
     fs_max_moment: float = Field(
         10.0, gt=0, description="saturation of each F_s moment component [Nm] (assumed)"
@@ -420,7 +419,10 @@ class EfsmController(Controller):
         """F_2 = Λ ẍ* (Eq. 6) with the swing-foot wrench F_s saturated and scaled by ε.
 
         Out of DS the last six rows are the swing foot. F_s is bounded component-wise
-        (§V-B) and multiplied by ε in SSA (§IV-C). The force rows are saturated with the
+        (§V-B) and multiplied by ε in SSA (§IV-C). With ``fs_saturation="uniform"`` the
+        bound is met by scaling the commanded linear swing acceleration (so every force
+        component stays within it and the foot keeps heading for its target); with
+        ``"component"`` the force rows are clipped one by one, with the
         orientation acceleration kept (``fs_decoupled_saturation``): clipping the force
         rows of Λ ẍ* alone leaves in the moment rows the coupling term of an acceleration
         that is no longer produced, which pitched the swing foot 14° toe-up in free swing
