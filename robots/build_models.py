@@ -185,6 +185,7 @@ class Joint:
     damping: float
     armature: float
     stiffness: float = 0.0
+    frictionloss: float = 0.0
 
 
 @dataclass
@@ -227,6 +228,7 @@ class RobotDesign:
     home_fixed: dict[str, float]  # other non-zero home joint angles [rad]
     rgba: str
     sea: SeaModel | None = None
+    drive: DriveModel | None = None
 
 
 @dataclass(frozen=True)
@@ -250,6 +252,42 @@ class SeaModel:
     supply: float
 
 
+@dataclass(frozen=True)
+class DriveModel:
+    """DYROS RED's joint drive (Lee et al. §V-A): motor, 100:1 harmonic drive, current loop.
+
+    Each joint becomes a motor DoF (the rotor, in link-side units: its angle divided by the
+    gear ratio) and a spring DoF on the same axis (the harmonic drive's torsional
+    compliance; link angle = motor + spring). The commanded joint torque acts on the motor
+    DoF through a first-order lag (the drive's current/torque loop). See
+    robots/dyros_red_actuated/README.md for every value and its source.
+
+    Attributes:
+        gear_ratio: N (paper §V-A: 100:1).
+        rotor_inertia: motor rotor inertia, motor side [kg m^2].
+        motor_damping: viscous friction of motor and gear, link side [Nms/rad].
+        friction: Coulomb friction of motor and gear, link side [Nm].
+        stiffness: harmonic-drive torsional stiffness [Nm/rad].
+        gear_damping: damping of the torsional compliance [Nms/rad].
+        torque_lag: time constant of the torque loop [s].
+        spring_range: deflection limit of the gear [rad].
+    """
+
+    gear_ratio: float
+    rotor_inertia: float
+    motor_damping: float
+    friction: float
+    stiffness: float
+    gear_damping: float
+    torque_lag: float
+    spring_range: float
+
+    @property
+    def reflected_inertia(self) -> float:
+        """Rotor inertia seen at the link, J_rotor N^2 [kg m^2]."""
+        return self.rotor_inertia * self.gear_ratio**2
+
+
 def side_name(side: int) -> str:
     return "l" if side > 0 else "r"
 
@@ -261,6 +299,37 @@ def mirror_range(joint: str, rng: tuple[float, float], side: int) -> tuple[float
 
 
 def joint_for(robot_joints: dict[str, JointSpec], name: str, base: str, side: int) -> list[Joint]:
+    return rigid_joint_for(robot_joints, name, base, side)
+
+
+def drive_joint(
+    joints: dict[str, JointSpec], name: str, base: str, side: int, drive: DriveModel
+) -> list[Joint]:
+    """Motor DoF (rotor, friction) then gear-compliance DoF on the same axis."""
+    rng = mirror_range(base, joints[name].range, side)
+    return [
+        Joint(
+            f"{name}_motor",
+            AXIS[base],
+            rng,
+            drive.motor_damping,
+            drive.reflected_inertia,
+            frictionloss=drive.friction,
+        ),
+        Joint(
+            name,
+            AXIS[base],
+            (-drive.spring_range, drive.spring_range),
+            drive.gear_damping,
+            0.0,
+            drive.stiffness,
+        ),
+    ]
+
+
+def rigid_joint_for(
+    robot_joints: dict[str, JointSpec], name: str, base: str, side: int
+) -> list[Joint]:
     """The MuJoCo hinge of one rigid link-side joint (see :func:`sea_joint` for COMAN)."""
     spec = robot_joints[name]
     rng = mirror_range(base, spec.range, side)
@@ -283,8 +352,14 @@ DYROS_TOTAL_MASS = 89.6  # paper §V-A
 DYROS_WAIST_Z = 0.18  # notes: waist 0.18 m above the pelvis origin
 
 
-def dyros_leg(side: int, joints: dict[str, JointSpec]) -> Body:
+def dyros_leg(side: int, joints: dict[str, JointSpec], drive: DriveModel | None = None) -> Body:
     s = side_name(side)
+
+    def joint_for(joints: dict[str, JointSpec], name: str, base: str, side: int) -> list[Joint]:
+        if drive is None:
+            return rigid_joint_for(joints, name, base, side)
+        return drive_joint(joints, name, base, side, drive)
+
     m_yaw, m_roll, m_thigh, m_shank, m_ankle, m_foot = DYROS_LEG_MASSES
     sole_half_t = 0.01
     sole_z = -DYROS_SOLE_DEPTH + sole_half_t
@@ -346,7 +421,7 @@ def dyros_leg(side: int, joints: dict[str, JointSpec]) -> Body:
     )
 
 
-def build_dyros() -> RobotDesign:
+def build_dyros(drive: DriveModel | None = None) -> RobotDesign:
     leg_mass = sum(DYROS_LEG_MASSES)
     upper = DYROS_TOTAL_MASS - 2 * leg_mass  # rigid pelvis + torso + head + arms [kg]
     straight_pelvis_z = DYROS_SOLE_DEPTH + DYROS_SHANK + DYROS_THIGH - DYROS_HIP_Z
@@ -394,8 +469,19 @@ def build_dyros() -> RobotDesign:
         (0, 0, 0),
         pelvis_shapes,
         sites=[Site("imu", (0, 0, 0.05))],
-        children=[dyros_leg(1, joints), dyros_leg(-1, joints)],
+        children=[dyros_leg(1, joints, drive), dyros_leg(-1, joints, drive)],
     )
+    if drive is not None:
+        return RobotDesign(
+            "dyros_red_actuated",
+            "DYROS RED with its joint drives: rotor, harmonic-drive compliance, torque loop",
+            pelvis,
+            joints,
+            home_knee=0.4,
+            home_fixed={},
+            rgba="0.75 0.15 0.15 1",
+            drive=drive,
+        )
     return RobotDesign(
         "dyros_red",
         "DYROS RED (12-DoF legs, rigid upper body)",
@@ -405,6 +491,23 @@ def build_dyros() -> RobotDesign:
         home_fixed={},
         rgba="0.75 0.15 0.15 1",
     )
+
+
+#: DYROS RED's drives (Lee et al. §V-A; values and sources: robots/dyros_red_actuated/README.md).
+DYROS_DRIVE = DriveModel(
+    gear_ratio=100.0,  # paper §V-A: 100:1 harmonic gear
+    rotor_inertia=1.0e-5,  # assumed: frameless servo rotor of this size class [kg m^2]
+    motor_damping=2.0,  # notes: joint damping ≈ 2 Nms/rad of the lab's simulation model
+    friction=1.0,  # assumed: Coulomb friction of motor and gear, link side [Nm]
+    stiffness=5.0e4,  # assumed: torsional stiffness of a size-32 harmonic drive [Nm/rad]
+    gear_damping=7.0,  # assumed: damping ratio ≈ 0.05 of the rotor against a fixed link
+    torque_lag=0.5e-3,  # assumed: torque-loop time constant (≈ 320 Hz bandwidth) [s]
+    spring_range=0.05,  # deflection limit [rad]: 2500 Nm at 5e4 Nm/rad, never reached
+)
+
+
+def build_dyros_actuated() -> RobotDesign:
+    return build_dyros(DYROS_DRIVE)
 
 
 # --------------------------------------------------------------------------------------
@@ -912,6 +1015,8 @@ def body_element(body: Body, rgba: str) -> ET.Element:
         }
         if j.stiffness:
             attrs["stiffness"] = fmt(j.stiffness)
+        if j.frictionloss:
+            attrs["frictionloss"] = fmt(j.frictionloss)
         ET.SubElement(el, "joint", attrs)
     for s in body.shapes:
         attrs: dict[str, str] = {}
@@ -953,7 +1058,21 @@ def build_xml(robot: RobotDesign, keyframe: tuple[np.ndarray, np.ndarray] | None
 
     act = ET.SubElement(root, "actuator")
     for name, spec in robot.joints.items():
-        if robot.sea is None:
+        if robot.drive is not None:
+            lim = fmt(spec.ctrl_limit)
+            ET.SubElement(
+                act,
+                "general",
+                {
+                    "name": name,
+                    "joint": f"{name}_motor",
+                    "dyntype": "filterexact",
+                    "dynprm": fmt(robot.drive.torque_lag),
+                    "gainprm": "1",
+                    "ctrlrange": f"-{lim} {lim}",
+                },
+            )
+        elif robot.sea is None:
             lim = fmt(spec.ctrl_limit)
             ET.SubElement(
                 act,
@@ -978,6 +1097,10 @@ def build_xml(robot: RobotDesign, keyframe: tuple[np.ndarray, np.ndarray] | None
                     "forcerange": f"{fmt(-tmax)} {fmt(tmax)}",
                 },
             )
+    if robot.drive is not None:
+        # Encoders before the gear (§V-A): the sensors read the motor DoF (walkrepro/robot.py).
+        custom = ET.SubElement(root, "custom")
+        ET.SubElement(custom, "text", {"name": "walkrepro_encoders", "data": "motor"})
     sensor = ET.SubElement(root, "sensor")
     ET.SubElement(sensor, "framequat", {"name": "imu_quat", "objtype": "site", "objname": "imu"})
     ET.SubElement(sensor, "gyro", {"name": "imu_gyro", "site": "imu"})
@@ -1006,7 +1129,7 @@ def solve_home(robot: RobotDesign, model: mujoco.MjModel) -> tuple[np.ndarray, n
     """Home qpos and ctrl: balanced, feet flat, soles at z = 0 (module docstring, step 3)."""
     data = mujoco.MjData(model)
     names = list(robot.joints)
-    sea = robot.sea is not None
+    sea = robot.sea is not None or robot.drive is not None
 
     def configure(ankle: float) -> np.ndarray:
         """qpos with the pelvis at the origin; for a SEA the link angle sits in the motor DoF."""
@@ -1056,7 +1179,7 @@ def preload_springs(
     DoF, which sees the same τ, is held by its servo, kp (ctrl − q_m) = τ. With the link
     angle fixed at home: q_m = q_link − q_s.
     """
-    assert robot.sea is not None
+    assert robot.sea is not None or robot.drive is not None
     data = mujoco.MjData(model)
     data.qpos[:] = q
     mujoco.mj_forward(model, data)
@@ -1077,6 +1200,8 @@ def preload_springs(
         q_m = q_link - q_s
         q[spring.qposadr[0]] = q_s
         q[motor.qposadr[0]] = q_m
+        if robot.drive is not None:
+            continue  # torque drive: the controller supplies τ, ctrl stays 0
         kp = model.actuator_gainprm[i, 0]
         ctrl[i] = q_m + t / kp
         assert abs(t) < model.actuator_forcerange[i, 1], f"{name}: home needs {t:.1f} Nm"
@@ -1089,7 +1214,12 @@ def generate(robot: RobotDesign) -> str:
     return build_xml(robot, solve_home(robot, model))
 
 
-BUILDERS = {"dyros_red": build_dyros, "coman": build_coman, "kist_humanoid": build_kist}
+BUILDERS = {
+    "dyros_red": build_dyros,
+    "dyros_red_actuated": build_dyros_actuated,
+    "coman": build_coman,
+    "kist_humanoid": build_kist,
+}
 
 
 def main(argv: list[str] | None = None) -> int:

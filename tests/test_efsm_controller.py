@@ -39,6 +39,30 @@ def test_saturated_force_keeps_orientation_acceleration() -> None:
     np.testing.assert_allclose(acc_s[3:], acc[6:], atol=1e-9)
 
 
+def test_uniform_saturation_keeps_swing_acceleration_direction() -> None:
+    """The uniform bound scales the commanded linear swing acceleration, never turns it."""
+    lam = _coupled_lambda(3)
+    acc = np.r_[0.1, -0.2, 0.05, 20.0, 0.0, 5.0, 0.3, -0.2, 0.1]  # forward and up, far away
+    ctrl = _controller(fs_max_force=30.0, fs_max_moment=1e3, fs_saturation="uniform")
+    fs = ctrl._task2_force(lam, acc, False, 1.0, Phase.SSD)[3:]
+    assert np.isclose(np.max(np.abs(fs[:3])), 30.0)  # the largest component meets the bound
+    acc_s = np.linalg.solve(lam[3:, 3:], fs - lam[3:, :3] @ acc[:3])
+    scale = acc_s[0] / acc[3]
+    assert 0.0 < scale < 1.0
+    np.testing.assert_allclose(acc_s[:3], scale * acc[3:6], atol=1e-9)
+
+
+def test_componentwise_clip_turns_swing_acceleration() -> None:
+    """Clipping each force row alone changes the acceleration's direction (why 'uniform')."""
+    lam = _coupled_lambda(3)
+    acc = np.r_[0.1, -0.2, 0.05, 20.0, 0.0, 5.0, 0.3, -0.2, 0.1]
+    ctrl = _controller(fs_max_force=30.0, fs_max_moment=1e3, fs_saturation="component")
+    fs = ctrl._task2_force(lam, acc, False, 1.0, Phase.SSD)[3:]
+    acc_s = np.linalg.solve(lam[3:, 3:], fs - lam[3:, :3] @ acc[:3])
+    ratio = acc_s[2] / acc_s[0]
+    assert abs(ratio - acc[5] / acc[3]) > 0.05
+
+
 def test_unsaturated_force_is_lambda_times_acceleration() -> None:
     """Below the bound, F_s is Λ ẍ* (Eq. 6) whichever saturation is used."""
     lam = _coupled_lambda(1)

@@ -80,6 +80,8 @@ SENSOR_NAMES = (
 )
 #: Suffix of the motor DoF of a series-elastic joint.
 MOTOR_SUFFIX = "_motor"
+#: MJCF ``<custom><text>`` naming where the joint encoders sit ("motor": before the gear).
+ENCODERS_TEXT = "walkrepro_encoders"
 #: Name of the home keyframe.
 HOME_KEY = "home"
 
@@ -309,6 +311,9 @@ class Robot:
             [Nm/rad]; None for a rigid robot.
         pin_q_idx: index in Pinocchio's ``q`` of each actuated joint, shape (n,).
         pin_v_idx: index in Pinocchio's ``v`` of each actuated joint, shape (n,).
+        encoders_motor_side: the joint encoders sit before the gear and read the motor DoF
+            of each series-elastic joint (``dyros_red_actuated``, Lee et al. §V-A); otherwise
+            they read the link angle (motor + spring).
     """
 
     name: str
@@ -327,6 +332,7 @@ class Robot:
     spring_stiffness: np.ndarray | None
     pin_q_idx: np.ndarray
     pin_v_idx: np.ndarray
+    encoders_motor_side: bool
     _qpos_adr: LinkAddresses = field(repr=False)
     _qvel_adr: LinkAddresses = field(repr=False)
 
@@ -358,6 +364,17 @@ class Robot:
         if model is None or model is self.mj_model:
             return self._qvel_adr
         return _link_addresses(model, self.joint_names, "dofadr")
+
+    def encoder_qpos_adr(self, model: mujoco.MjModel | None = None) -> LinkAddresses:
+        """``qpos`` addresses the joint encoders read: the link joint's components, or only
+        the motor DoF when :attr:`encoders_motor_side`."""
+        adr = self.link_joint_qpos_adr(model)
+        return _motor_only(adr) if self.encoders_motor_side else adr
+
+    def encoder_qvel_adr(self, model: mujoco.MjModel | None = None) -> LinkAddresses:
+        """``qvel`` addresses the joint encoders read (see :meth:`encoder_qpos_adr`)."""
+        adr = self.link_joint_qvel_adr(model)
+        return _motor_only(adr) if self.encoders_motor_side else adr
 
     def link_joint_pos(self, qpos: np.ndarray) -> np.ndarray:
         """Link-side joint angles from this robot's MuJoCo ``qpos``, shape (n,) [rad]."""
@@ -476,6 +493,11 @@ def load_robot(name: str) -> Robot:
     _check_conventions(mj_model, joint_names, xml_path)
 
     series_elastic = _joint_id(mj_model, joint_names[0] + MOTOR_SUFFIX) >= 0
+    # A series-elastic robot is position controlled when its actuators are servos (COMAN),
+    # torque controlled when they apply a torque to the motor DoF (dyros_red_actuated).
+    servo = int(mj_model.actuator_biastype[0]) == int(mujoco.mjtBias.mjBIAS_AFFINE)
+    text_id = mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_TEXT, ENCODERS_TEXT)
+    motor_encoders = series_elastic and text_id >= 0 and _text(mj_model, text_id) == "motor"
     pin_model = _build_pin_model(xml_path, rigid_twin=series_elastic)
     pin_q_idx = np.array(
         [pin_model.joints[pin_model.getJointId(j)].idx_q for j in joint_names], dtype=np.int64
@@ -500,7 +522,7 @@ def load_robot(name: str) -> Robot:
         mj_model=mj_model,
         pin_model=pin_model,
         joint_names=joint_names,
-        control_mode="position" if series_elastic else "torque",
+        control_mode="position" if series_elastic and servo else "torque",
         home_qpos=_frozen(data.qpos),
         home_ctrl=_frozen(data.ctrl),
         home_joint_pos=_frozen(qpos_adr.link_values(data.qpos)),
@@ -511,12 +533,25 @@ def load_robot(name: str) -> Robot:
         spring_stiffness=None if stiffness is None else _frozen(stiffness),
         pin_q_idx=_frozen(pin_q_idx),
         pin_v_idx=_frozen(pin_v_idx),
+        encoders_motor_side=motor_encoders,
         _qpos_adr=LinkAddresses(_frozen(qpos_adr.adr), _frozen(qpos_adr.starts)),
         _qvel_adr=LinkAddresses(_frozen(qvel_adr.adr), _frozen(qvel_adr.starts)),
     )
 
 
 # ---- helpers ----------------------------------------------------------------------------
+
+
+def _text(model: mujoco.MjModel, text_id: int) -> str:
+    """The data of an MJCF ``<custom><text>`` element."""
+    start = int(model.text_adr[text_id])
+    return bytes(model.text_data[start : start + int(model.text_size[text_id]) - 1]).decode()
+
+
+def _motor_only(adr: LinkAddresses) -> LinkAddresses:
+    """The first component (the motor DoF) of each joint's addresses."""
+    first = np.asarray(adr.adr)[np.asarray(adr.starts)]
+    return LinkAddresses(np.array(first, dtype=int), np.arange(len(first), dtype=int))
 
 
 def _frozen(x: np.ndarray) -> np.ndarray:

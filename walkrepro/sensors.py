@@ -154,8 +154,9 @@ class SensorModel:
     ) -> None:
         self._spec = spec
         self._rng = np.random.default_rng(seed)
-        self._qpos_adr = robot.link_joint_qpos_adr(model)
-        self._qvel_adr = robot.link_joint_qvel_adr(model)
+        # The joint encoders: link angles, or the motor DoF where they sit before the gear.
+        self._qpos_adr = robot.encoder_qpos_adr(model)
+        self._qvel_adr = robot.encoder_qvel_adr(model)
         sensor = {name: _sensor_slice(model, name) for name in SENSOR_NAMES}
         self._quat = sensor["imu_quat"]
         # One flat reading per tick: [joint_pos, joint_vel, gyro, acc, left F, left T, right F,

@@ -63,8 +63,7 @@ class EfsmParams(ControllerParams):
         gt=0,
         description="saturation of each F_s force component [N]. §V-B gives no value; "
         "a completely blocked swing foot presses the obstacle with it, and §VI-B measured "
-        "≈ 32 N there. (With 50 N the blocked foot held the CoM still in SSD and the robot "
-        "fell; see experiments/obstacle_collision.yaml)",
+        "≈ 32 N there (27.8 N with this bound, experiments/obstacle_collision.yaml)",
     )
     fs_max_moment: float = Field(
         10.0, gt=0, description="saturation of each F_s moment component [Nm] (assumed)"
@@ -73,6 +72,14 @@ class EfsmParams(ControllerParams):
         True,
         description="saturate F_s's force rows without disturbing the orientation "
         "acceleration (Λ_s couples them; see _task2_force)",
+    )
+    fs_saturation: Literal["component", "uniform"] = Field(
+        "uniform",
+        description="how F_s's force rows meet the bound (§V-B: each component saturates): "
+        "'component' clips each row of Λ ẍ* alone, which through Λ_s's x–z coupling can "
+        "leave a far swing foot with no upward acceleration (it slides); 'uniform' scales "
+        "the commanded linear swing acceleration by the largest factor ≤ 1 that keeps every "
+        "force component within the bound, so the foot heads for its target",
     )
     step_length: float = Field(0.1, description="forward step length [m] (§VI-A)")
     step_width: float | None = Field(
@@ -187,7 +194,7 @@ class EfsmController(Controller):
             params.kv,
             params.fs_max_force,
             params.fs_max_moment,
-            float(params.fs_decoupled_saturation),
+            _saturation_mode(params),
             float(params.balance),
             params.cop_margin,
             params.torque_limit,
@@ -412,7 +419,10 @@ class EfsmController(Controller):
         """F_2 = Λ ẍ* (Eq. 6) with the swing-foot wrench F_s saturated and scaled by ε.
 
         Out of DS the last six rows are the swing foot. F_s is bounded component-wise
-        (§V-B) and multiplied by ε in SSA (§IV-C). The force rows are saturated with the
+        (§V-B) and multiplied by ε in SSA (§IV-C). With ``fs_saturation="uniform"`` the
+        bound is met by scaling the commanded linear swing acceleration (so every force
+        component stays within it and the foot keeps heading for its target); with
+        ``"component"`` the force rows are clipped one by one, with the
         orientation acceleration kept (``fs_decoupled_saturation``): clipping the force
         rows of Λ ẍ* alone leaves in the moment rows the coupling term of an acceleration
         that is no longer produced, which pitched the swing foot 14° toe-up in free swing
@@ -431,7 +441,7 @@ class EfsmController(Controller):
             eps if phase is Phase.SSA else 1.0,
             p.fs_max_force,
             p.fs_max_moment,
-            p.fs_decoupled_saturation,
+            _saturation_mode(p),
         )
 
     def _measured_cop(self, sensors: SensorSnapshot) -> tuple[float, float]:
@@ -454,6 +464,14 @@ class EfsmController(Controller):
             self._st["foot_com"],
             self._st["foot_weight"],
         )
+
+
+def _saturation_mode(p: EfsmParams) -> float:
+    """F_s saturation as :func:`.kernels.task2_force` reads it: 0 plain clip, 1 decoupled
+    clip, 2 decoupled uniform scaling."""
+    if not p.fs_decoupled_saturation:
+        return 0.0
+    return 2.0 if p.fs_saturation == "uniform" else 1.0
 
 
 def _rot_z(c: float, s: float) -> np.ndarray:

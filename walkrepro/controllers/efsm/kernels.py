@@ -659,7 +659,7 @@ def task2_force(
     scale_swing: float,
     f_max: float,
     m_max: float,
-    decoupled: bool,
+    decoupled: float,
 ) -> np.ndarray:
     """F_2 = Λ ẍ* (Eq. 6) with the swing-foot wrench F_s saturated and scaled.
 
@@ -668,8 +668,28 @@ def task2_force(
     f_free = matvec(lam, acc)  # Λ ẍ*, unbounded
     if double:
         return f_free
+    if decoupled == 2:
+        # Uniform: scale the commanded linear swing acceleration ẍ_s* by the largest s ≤ 1
+        # for which every force row F_i = s A_i + B_i stays within the bound (A: the part of
+        # Λ ẍ* due to ẍ_s*, B: the rest), so the foot keeps heading for its target.
+        s_max = 1.0
+        for i in range(3):
+            a_i = 0.0
+            for j in range(3):
+                a_i += lam[3 + i, 3 + j] * acc[3 + j]
+            b_i = f_free[3 + i] - a_i
+            if a_i > 0.0:
+                s_max = min(s_max, (f_max - b_i) / a_i)
+            elif a_i < 0.0:
+                s_max = min(s_max, (-f_max - b_i) / a_i)
+        s_max = max(s_max, 0.0)
+        if s_max < 1.0:
+            acc_b = acc.copy()
+            for i in range(3, 6):
+                acc_b[i] *= s_max
+            f_free = matvec(lam, acc_b)
     fs = f_free[3:9].copy()
-    if decoupled:
+    if decoupled == 1:
         cut = np.empty(3)
         for i in range(3):
             fs[i] = _clip(fs[i], f_max)
@@ -801,7 +821,7 @@ def whole_body_torques(
         O_w [m] (NaN if unloaded).
     """
     kp, kv, f_max, m_max = params[0], params[1], params[2], params[3]
-    decoupled, balance, margin, tau_lim = params[4] != 0.0, params[5] != 0.0, params[6], params[7]
+    decoupled, balance, margin, tau_lim = params[4], params[5] != 0.0, params[6], params[7]
     n = a_inv.shape[0]
     double = phase == _DS
 
