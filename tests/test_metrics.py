@@ -562,3 +562,36 @@ def test_fall_metrics(fallen: LogData) -> None:
     assert r.values["fell"] == 1 and r.values["fall_time"] == pytest.approx(1.0)
     assert r.reasons["time_after_last_step"].startswith("the robot fell at t = 1.000 s, before")
     assert r.values["pelvis_drift"] == 0.0  # pre-fall: the robot stood still until then
+
+
+def _fsm_log(path: Path, visits: list[float]) -> LogData:
+    """A standing log whose ``fsm_state`` visits state 1 for each duration in ``visits``
+    [s], with 0.1 s of state 0 between them."""
+    ticks, t = [], 0.0
+    for duration in visits:
+        for state, span in ((0.0, 0.1), (1.0, duration)):
+            end = t + span
+            while t < end - 1e-9:
+                ticks.append(Tick(round(t, 6), signals={"fsm_state": state}))
+                t = round(t + DT, 6)
+    ticks.append(Tick(round(t, 6), signals={"fsm_state": 0.0}))
+    return write_log(path, ticks)
+
+
+def test_state_duration_spread_tells_clock_from_event_timing(tmp_path: Path) -> None:
+    """Equal visits of a state give a spread of 0 (clock-like); unequal ones give their std/mean."""
+    even = _fsm_log(tmp_path / "even.mcap", [0.2, 0.2, 0.2])
+    assert measured(even, "state_duration_spread:1") == pytest.approx(0.0, abs=1e-9)
+    uneven = _fsm_log(tmp_path / "uneven.mcap", [0.1, 0.2, 0.3])
+    assert measured(uneven, "state_duration_spread:1") == pytest.approx(
+        np.std([0.1, 0.2, 0.3]) / 0.2, rel=0.05
+    )
+    once = _fsm_log(tmp_path / "once.mcap", [0.2])
+    assert unmeasurable_reason(once, "state_duration_spread:1")
+
+
+def test_step_duration_spread_needs_two_intervals(log: LogData, tmp_path: Path) -> None:
+    """Two lifted steps give one interval: not measurable; a standing log has no steps at all."""
+    assert unmeasurable_reason(log, "step_duration_spread")
+    standing = write_log(tmp_path / "stand.mcap", [Tick(round(k * DT, 6)) for k in range(50)])
+    assert unmeasurable_reason(standing, "step_duration_spread")
