@@ -171,7 +171,7 @@ def test_signals_follow_the_kernel_layout() -> None:
     ctrl = EfsmController()
     ctrl.reset(robot, EfsmParams(), 0.0005)
     signals = ctrl.step(0.0, ctrl._home_snapshot()).signals
-    assert list(signals) == [name for name, _ in SIGNALS[:-1]] + ["tau_ref", "steps_done"]
+    assert list(signals) == [name for name, _ in SIGNALS] + ["tau_ref"]
     flat = ctrl._signals.tolist()
     start = 0
     for name, size in SIGNALS:

@@ -59,7 +59,7 @@ CONTROL_EVERY = 4  # control ticks every 4 physics steps (500 Hz)
 FRAMES_EVERY = 20  # /frames every 20 physics steps (25 Hz)
 #: The topics simulate() writes messages to and compares (Foxglove's are tested apart).
 DATA_TOPICS = TOPICS[:6]
-BINARY_TOPICS = (TOPIC_STATE, TOPIC_INPUTS, TOPIC_CONTACTS, TOPIC_SENSORS)
+BINARY_TOPICS = (TOPIC_STATE, TOPIC_INPUTS, TOPIC_CONTACTS, TOPIC_SENSORS, TOPIC_SIGNALS)
 
 
 def new_writer(path: Path, **kwargs: Any) -> LogWriter:
@@ -166,7 +166,8 @@ def test_messages_round_trip_bit_exact(written_log: tuple[Path, dict]) -> None:
     for topic in DATA_TOPICS:
         assert written[topic], topic
         assert as_bits(log.messages(topic)) == as_bits(written[topic]), topic
-    assert log.topics() == [*TOPICS[:3], *TOPICS[4:], TOPIC_SENSORS]  # /sensors: added late
+    # /sensors and /controller/signals: added at their first message
+    assert log.topics() == [*TOPICS[:3], *TOPICS[5:], TOPIC_SENSORS, TOPIC_SIGNALS]
     assert log.messages(TOPIC_SENSORS)[0]["gyro"][1].hex() == "-0x0.0p+0"
     assert log.count(TOPIC_FRAMES) == STEPS // FRAMES_EVERY and log.count(TOPIC_SCENE) == 1
     assert log.log_format == record.LOG_FORMAT == log.metadata["log_format"] == "2"
@@ -190,8 +191,8 @@ def test_attachments_and_metadata_round_trip(written_log: tuple[Path, dict]) -> 
 
 
 def test_mcap_records_follow_contract(written_log: tuple[Path, dict]) -> None:
-    """Numeric and Foxglove topics are protobuf with a FileDescriptorSet schema, signals and
-    events JSON with a jsonschema; zstd chunks; stamps are the run's UTC start plus the
+    """Numeric and Foxglove topics (signals too) are protobuf with a FileDescriptorSet
+    schema, events JSON with a jsonschema; zstd chunks; stamps are the run's UTC start plus the
     payload's simulated time; per-channel sequences count from 0."""
     path, _ = written_log
     protobuf_topics = (*BINARY_TOPICS, TOPIC_FRAMES, TOPIC_SCENE)
@@ -254,7 +255,7 @@ def test_messages_satisfy_their_schemas(written_log: tuple[Path, dict]) -> None:
                 jsonschema.Draft202012Validator.check_schema(spec)
                 validators[schema.id] = jsonschema.Draft202012Validator(spec)
             validators[schema.id].validate(json.loads(message.data))
-    assert len(validators) == 2
+    assert len(validators) == 1
     states = decoded[TOPIC_STATE]
     assert [list(m.qpos) for m in states] == [m["qpos"] for m in written[TOPIC_STATE]]
     assert [m.step for m in states] == list(range(STEPS))
@@ -263,6 +264,10 @@ def test_messages_satisfy_their_schemas(written_log: tuple[Path, dict]) -> None:
         (step, "box", [1.0, 0.0, 0.0, 0.0, 0.0, 0.0]) for step in range(50, 60)
     ]
     assert [list(m.gyro) for m in decoded[TOPIC_SENSORS]][0] == [0.1, -0.0, 1e-300]
+    signals = decoded[TOPIC_SIGNALS]
+    assert [(m.t, m.u, list(m.ref)) for m in signals] == [
+        (m["t"], m["u"], m["ref"]) for m in written[TOPIC_SIGNALS]
+    ]
 
 
 def _schema_of(path: Path, topic: str) -> bytes:
@@ -278,15 +283,49 @@ def test_numpy_values_are_written_exactly(tmp_path: Path, encoder: str) -> None:
     path = tmp_path / "np.mcap"
     with new_writer(path) as log:
         log.write(
-            TOPIC_SIGNALS,
-            {"t": np.float64(0.25), "a": np.array([[0.1, 2.0], [3.0, 5e-324]]),
+            TOPIC_EVENTS,
+            {"t": np.float64(0.25), "kind": "x", "a": np.array([[0.1, 2.0], [3.0, 5e-324]]),
              "f32": np.float32(0.1), "i": np.int64(3), "b": np.bool_(True), "none": None,
              "s": "null"},
             0.25,
         )  # fmt: skip
-    (message,) = read_log(path).messages(TOPIC_SIGNALS)
-    assert message == {"t": 0.25, "a": [[0.1, 2.0], [3.0, 5e-324]], "f32": float(np.float32(0.1)),
-                       "i": 3, "b": True, "none": None, "s": "null"}  # fmt: skip
+    (message,) = read_log(path).messages(TOPIC_EVENTS)
+    assert message == {"t": 0.25, "kind": "x", "a": [[0.1, 2.0], [3.0, 5e-324]],
+                       "f32": float(np.float32(0.1)), "i": 3, "b": True, "none": None,
+                       "s": "null"}  # fmt: skip
+
+
+def test_signals_keep_their_kinds_and_leave_out_what_is_undefined(tmp_path: Path) -> None:
+    """Signals are laid out by the first tick: numpy and Python numbers keep their values
+    (integers stay integers), arrays their bits; a scalar a later tick leaves out (or sets to
+    NaN) is not in that tick's message; a new name, another shape, a string are errors."""
+    from walkrepro.signals import SignalLayout, Signals
+
+    path = tmp_path / "signals.mcap"
+    with new_writer(path) as log:
+        log.write_signals(0.0, {"i": np.int64(3), "f32": np.float32(0.1), "a": [0.1, -0.0],
+                                "x": 1e300})  # fmt: skip
+        log.write_signals(0.5, {"i": 4, "f32": 0.2, "a": np.array([5e-324, 2.0])})  # x left out
+        log.write_signals(1.0, {"i": 5, "f32": float("nan"), "a": [1.0, 2.0], "x": 0.0})
+        for bad, match in (
+            ({"i": 1, "new": 1.0}, "not in the layout"),
+            ({"i": 1, "a": [1.0]}, "shape"),
+            ({"f32": 1.0}, "integer signal"),
+        ):
+            with pytest.raises(ValueError, match=match):
+                log.write_signals(1.5, bad)
+    messages = read_log(path).messages(TOPIC_SIGNALS)
+    assert messages == [
+        {"t": 0.0, "i": 3, "f32": float(np.float32(0.1)), "a": [0.1, -0.0], "x": 1e300},
+        {"t": 0.5, "i": 4, "f32": 0.2, "a": [5e-324, 2.0]},
+        {"t": 1.0, "i": 5, "a": [1.0, 2.0], "x": 0.0},
+    ]
+    assert type(messages[0]["i"]) is int and math.copysign(1, messages[0]["a"][1]) < 0
+    with new_writer(tmp_path / "s.mcap") as log, pytest.raises(ValueError, match="a signal is"):
+        log.write_signals(0.0, {"s": "text"})
+    layout = SignalLayout([("k", 0, True), ("v", 2, False)])
+    signals = Signals(layout, np.array([2.0, np.nan, np.nan]))
+    assert dict(signals) == {"k": 2} and "v" not in signals
 
 
 def _cut(path: Path, size: int, tmp_path: Path) -> Path:
@@ -369,7 +408,7 @@ def test_unknown_topic_is_rejected(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
 def test_non_finite_numbers(tmp_path: Path, bad: float, encoder: str) -> None:
-    """The binary topics keep any float64 (NaN too) bit for bit; on JSON topics NaN/inf
+    """The binary topics keep any float64 (NaN too) bit for bit; on the JSON topic NaN/inf
     raise a ValueError naming the entry, and nothing invalid reaches the file."""
     path = tmp_path / "a.mcap"
     with new_writer(path) as log:
@@ -378,14 +417,14 @@ def test_non_finite_numbers(tmp_path: Path, bad: float, encoder: str) -> None:
         state = {"step": 0, "t": 0.0, "qpos": qpos, "qvel": np.zeros(7), "act": []}
         log.write(TOPIC_STATE, state, 0.0)
         with pytest.raises(ValueError, match=r"ref\[1\]"):
-            log.write(TOPIC_SIGNALS, {"t": 0.0, "ref": [0.0, bad]}, 0.0)
+            log.write(TOPIC_EVENTS, {"t": 0.0, "kind": "x", "ref": [0.0, bad]}, 0.0)
         with pytest.raises(ValueError, match="finite"):
-            log.write(TOPIC_SIGNALS, {"t": 0.0}, bad)
-        log.write(TOPIC_SIGNALS, {"t": 0.0, "ok": 1.0}, 0.0)  # the writer is still usable
+            log.write(TOPIC_EVENTS, {"t": 0.0, "kind": "x"}, bad)
+        log.write(TOPIC_EVENTS, {"t": 0.0, "kind": "ok"}, 0.0)  # the writer is still usable
     log_read = read_log(path)
     (read_state,) = log_read.messages(TOPIC_STATE)
     assert np.asarray(read_state["qpos"]).tobytes() == qpos.tobytes()
-    assert log_read.messages(TOPIC_SIGNALS) == [{"t": 0.0, "ok": 1.0}]
+    assert log_read.messages(TOPIC_EVENTS) == [{"t": 0.0, "kind": "ok"}]
     assert log_read.metadata["outcome"] == "complete"
 
 
@@ -542,12 +581,14 @@ def test_sensor_fields_keep_their_kind(tmp_path: Path, encoder: str) -> None:
     path = tmp_path / "a.mcap"
     first = {"t": 0.5, "base_pos": None, "q": np.array([1.0, 2.0])}
     with new_writer(path) as log:
-        log.write_float64(TOPIC_SENSORS, first, 0.5)
+        log.write(TOPIC_SENSORS, first, 0.5)
         log.write(TOPIC_SENSORS, {"t": 0.0, "base_pos": None, "q": [0.0, -0.0]}, 0.5)
         with pytest.raises(ValueError, match="keys"):
-            log.write_float64(TOPIC_SENSORS, {"t": 0.5, "q": np.zeros(2)}, 0.5)
+            log.write(TOPIC_SENSORS, {"t": 0.5, "q": np.zeros(2)}, 0.5)
         with pytest.raises(ValueError, match="changed kind"):
-            log.write_float64(TOPIC_SENSORS, {**first, "base_pos": np.zeros(3)}, 0.5)
+            log.write(TOPIC_SENSORS, {**first, "base_pos": np.zeros(3)}, 0.5)
+        with pytest.raises(ValueError, match="changed kind"):
+            log.write(TOPIC_SENSORS, {**first, "q": np.zeros(3)}, 0.5)
     with new_writer(tmp_path / "b.mcap") as other, pytest.raises(ValueError, match="a sensor"):
         other.write(TOPIC_SENSORS, {"x": "text"}, 0.0)
     assert as_bits(read_log(path).messages(TOPIC_SENSORS)) == as_bits(
@@ -566,34 +607,34 @@ def _raw_messages(path: Path) -> list[tuple[int, int, int, int, bytes]]:
 
 
 def test_write_signals_writes_the_bytes_of_write(tmp_path: Path, encoder: str) -> None:
-    """write_signals(t, signals) gives byte for byte what write() gives {"t": t, **signals}."""
+    """write_signals(t, signals) gives byte for byte what write() gives {"t": t, **signals},
+    from a dict or from Signals of the same layout."""
+    from walkrepro.signals import SignalLayout, Signals
+
+    layout = SignalLayout([("state", 0, True), ("com", 3, False), ("v", 0, False)])
     cases: list[tuple[Any, dict[str, Any]]] = [
-        (0.0005, {"state": 2, "com": [0.1, -2.5e-7, 0.0], "v": np.array([1e300, -0.0])}),
-        (np.float64(0.001), {"phase": "SS", "ok": True, "none": None, "n": np.int64(3)}),
-        (0.002, {}),
-        (0.003, {"t": 9.5, "x": 1.0}),  # signals' own "t" wins, as in the dict
-        (0.004, collections.OrderedDict(x=[1.5], y=2)),
+        (0.0005, {"state": 2, "com": [0.1, -2.5e-7, 0.0], "v": 1e300}),
+        (np.float64(0.001), {"state": np.int64(3), "com": np.array([-0.0, 1.0, 2.0]), "v": -0.0}),
+        (0.002, {"state": 0, "com": (1, 2, 3)}),  # v not defined at this tick
     ]
-    paths = tmp_path / "write.mcap", tmp_path / "signals.mcap"
+    paths = tmp_path / "write.mcap", tmp_path / "signals.mcap", tmp_path / "vector.mcap"
     origin = 1_700_000_000_000_000_000
     with (
         new_writer(paths[0], log_time_origin=origin) as slow,
         new_writer(paths[1], log_time_origin=origin) as fast,
+        new_writer(paths[2], log_time_origin=origin) as vector,
     ):
         for t, signals in cases:
             slow.write(TOPIC_SIGNALS, {"t": t, **signals}, t)
             fast.write_signals(t, signals)
+            vector.write_signals(t, Signals.of(layout, signals))
     raw = [_raw_messages(path) for path in paths]
-    assert raw[0] == raw[1] and len(raw[0]) == len(cases) + 1  # and the scene
+    assert raw[0] == raw[1] == raw[2] and len(raw[0]) == len(cases) + 1  # and the scene
 
 
 def test_write_signals_still_checks(tmp_path: Path, encoder: str) -> None:
-    """write_signals names a non-finite signal, refuses a bad time and a closed log."""
+    """write_signals refuses a non-mapping, a bad time and a closed log."""
     log = new_writer(tmp_path / "a.mcap")
-    with pytest.raises(ValueError, match=r"ref\[1\] = nan"):
-        log.write_signals(0.0, {"ok": 1.0, "ref": [0.0, math.nan]})
-    with pytest.raises(ValueError, match=r"ref = inf"):
-        log.write_signals(0.0, {"none": None, "ref": np.float64(math.inf)})
     with pytest.raises(TypeError):
         log.write_signals(0.0, [("ok", 1.0)])  # type: ignore[arg-type]
     for bad in (-1.0, math.nan, math.inf):
@@ -612,15 +653,15 @@ def test_every_write_method_checks_like_write(tmp_path: Path, encoder: str) -> N
     state = (0, 0.0, np.zeros(8), np.zeros(7), np.zeros(0))
     ctrl = log.encode_ctrl(np.zeros(1))
     with pytest.raises(ValueError, match="unknown topic"):
-        log.write_float64("/sensor", {"q": np.zeros(2)}, 0.0)
+        log.write("/sensor", {"q": np.zeros(2)}, 0.0)
     with pytest.raises(ValueError, match="unknown topic"):
         log.write(TOPIC_FRAMES, {"t": 0.0}, 0.0)
     with pytest.raises(ValueError, match="lacks key"):
-        log.write_float64(TOPIC_SIGNALS, {"u": 1.0}, 0.0)
+        log.write(TOPIC_SIGNALS, {"u": 1.0}, 0.0)
     with pytest.raises(ValueError, match="lacks key"):
-        log.write_float64(TOPIC_CONTACTS, {"step": 0, "t": 0.0}, 0.0)
+        log.write(TOPIC_CONTACTS, {"step": 0, "t": 0.0}, 0.0)
     with pytest.raises(ValueError, match="qpos has 7 entries"):
-        log.write_float64(TOPIC_STATE, {"step": 0, "t": 0.0, "qpos": np.zeros(7),
+        log.write(TOPIC_STATE, {"step": 0, "t": 0.0, "qpos": np.zeros(7),
                                         "qvel": np.zeros(7), "act": np.zeros(0)}, 0.0)  # fmt: skip
     with pytest.raises(ValueError, match="must have 6 entries"):
         log.write_inputs(0, ctrl, {"box": np.zeros(5)}, 0.0)
@@ -630,7 +671,7 @@ def test_every_write_method_checks_like_write(tmp_path: Path, encoder: str) -> N
         with pytest.raises(ValueError, match="finite and >= 0"):
             log.write_inputs(0, ctrl, {}, bad)
         with pytest.raises(ValueError, match="finite and >= 0"):
-            log.write_float64(TOPIC_SENSORS, {"q": np.zeros(2)}, bad)
+            log.write(TOPIC_SENSORS, {"q": np.zeros(2)}, bad)
         with pytest.raises(ValueError, match="finite and >= 0"):
             log.write_frames(bad, np.zeros((3, 3)), np.zeros((3, 4)))
     log.write_state(*state)
@@ -638,7 +679,7 @@ def test_every_write_method_checks_like_write(tmp_path: Path, encoder: str) -> N
     for write in (
         lambda: log.write_state(*state),
         lambda: log.write_inputs(0, ctrl, {}, 0.0),
-        lambda: log.write_float64(TOPIC_SENSORS, {"q": np.zeros(2)}, 0.0),
+        lambda: log.write(TOPIC_SENSORS, {"q": np.zeros(2)}, 0.0),
         lambda: log.write(TOPIC_EVENTS, {"t": 0.0, "kind": "x"}, 0.0),
         lambda: log.write_frames(0.0, np.zeros((3, 3)), np.zeros((3, 4))),
     ):

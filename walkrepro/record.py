@@ -55,6 +55,7 @@ import walkrepro
 from walkrepro import foxglove, protolog
 from walkrepro.errors import UnknownNameError, WalkreproError
 from walkrepro.mcapfile import ChannelWriter, McapFile, read_mcap
+from walkrepro.signals import SignalLayout, Signals, dict_layout
 
 try:
     import orjson
@@ -113,7 +114,12 @@ _PROTO_MESSAGES = {
     TOPIC_INPUTS: "walkrepro.SimInputs",
     TOPIC_CONTACTS: "walkrepro.SimContacts",
     TOPIC_SENSORS: "walkrepro.Sensors",
+    TOPIC_SIGNALS: "walkrepro.Signals",
 }
+#: Most messages gathered per fixed-layout channel before the batches are written and the
+#: chunk closed; fewer where four state records per message would exceed the chunk size
+#: (≈ 400 at 1 MB for Paper I's robot). A killed writer loses at most one batch of ticks.
+BATCH_ROWS = 512
 _FILE_ATTRIBUTE = re.compile(r"<(\w+)\b[^>]*?\sfile\s*=", re.DOTALL)
 
 
@@ -250,25 +256,6 @@ def _json_schemas() -> dict[str, tuple[str, dict[str, Any]]]:
     dialect = "https://json-schema.org/draft/2020-12/schema"
     t = {"type": "number", "description": "simulated time [s]"}
     return {
-        TOPIC_SIGNALS: (
-            "walkrepro.ControllerSignals",
-            {
-                "$schema": dialect,
-                "title": "walkrepro.ControllerSignals",
-                "description": "The controller's named internal signals, every control tick.",
-                "type": "object",
-                "properties": {"t": t},
-                "required": ["t"],
-                "additionalProperties": {
-                    "anyOf": [
-                        {"type": "number"},
-                        {"type": "array", "items": {}},
-                        {"type": "string"},
-                        {"type": "boolean"},
-                    ]
-                },
-            },
-        ),
         TOPIC_EVENTS: (
             "walkrepro.Event",
             {
@@ -290,12 +277,37 @@ class _Channel:
     """A topic's MCAP channel writer, the keys its messages need, and whether their vector
     sizes are checked (the replay-critical topics)."""
 
-    __slots__ = ("append", "required", "sized")
+    __slots__ = ("append", "required", "sized", "writer")
 
     def __init__(self, writer: ChannelWriter, required: frozenset[str], sized: bool) -> None:
+        self.writer = writer
         self.append = writer.append  # bound once: called for every message
         self.required = required
         self.sized = sized
+
+
+class _RowBatch:
+    """A fixed-layout channel's next messages as float64 rows (see
+    :class:`protolog.RowEncoder`), with their stamps and any bytes that follow a row's
+    message (an ``/sim/inputs`` row's disturbance wrenches)."""
+
+    __slots__ = ("encoder", "extras", "n", "rows", "stamps", "writer")
+
+    def __init__(self, encoder: protolog.RowEncoder, writer: ChannelWriter, capacity: int) -> None:
+        self.encoder = encoder
+        self.writer = writer
+        self.rows = np.zeros((capacity, encoder.width))
+        self.stamps = np.zeros(capacity, dtype=np.int64)
+        self.extras: list[bytes] | None = None
+        self.n = 0
+
+    def flush(self) -> None:
+        """Writes the rows gathered so far to the open chunk."""
+        n = self.n
+        if n:
+            extras = None if self.extras is None else self.extras[:n]
+            self.writer.append_rows(self.stamps[:n], self.encoder.encode(self.rows[:n]), extras)
+            self.n, self.extras = 0, None
 
 
 class LogWriter:
@@ -369,16 +381,27 @@ class LogWriter:
             (TOPIC_SCENE, foxglove.SCENE_UPDATE_SCHEMA),
         ):
             self._add_channel(topic, name, "protobuf", foxglove.schema_data(file))
-        self._state = protolog.StateEncoder(*self._state_dims)
-        self._inputs = protolog.InputsEncoder(model.nu)
+        nq, nv, na = self._state_dims
+        self._state_split = (2 + nq, 2 + nq + nv)  # row: step, t, qpos, qvel, act
+        state = protolog.RowEncoder(
+            [(1, protolog.COUNT, 1), (2, protolog.SCALAR, 1), (3, protolog.ARRAY, nq),
+             (4, protolog.ARRAY, nv), (5, protolog.ARRAY, na)]
+        )  # fmt: skip
+        inputs = protolog.RowEncoder([(1, protolog.COUNT, 1), (2, protolog.ARRAY, model.nu)])
+        self._batch_rows = max(1, min(BATCH_ROWS, chunk_size // (4 * (31 + state.size))))
+        self._state_rows = _RowBatch(state, self._channels[TOPIC_STATE].writer, self._batch_rows)
+        self._input_rows = _RowBatch(inputs, self._channels[TOPIC_INPUTS].writer, self._batch_rows)
+        self._xfrc = protolog.WrenchEncoder(3)
         self._contacts = protolog.ContactsEncoder()
-        self._sensors: protolog.SensorsEncoder | None = None
+        # /sensors and /controller/signals are laid out from their first message.
+        self._sensor_rows: _RowBatch | None = None
+        self._sensor_fields: list[tuple[str, str, int]] = []  # (key, kind, size), row order
+        self._sensor_reading = False  # rows straight from SensorSnapshot.reading
+        self._signal_rows: _RowBatch | None = None
+        self._signal_layout: SignalLayout | None = None
+        self._batches = [self._state_rows, self._input_rows]
         self._frames = foxglove.FrameEncoder(model)
-        self._append_state = self._channels[TOPIC_STATE].append
-        self._append_inputs = self._channels[TOPIC_INPUTS].append
         self._append_contacts = self._channels[TOPIC_CONTACTS].append
-        # The time of the last message and its MCAP stamp [ns]; NaN equals no time, so a new
-        # time, or any time once closed, goes through _set_time.
         self._last_t, self._last_stamp = math.nan, 0
         self._closed = False
         self._channels[TOPIC_SCENE].append(
@@ -418,7 +441,8 @@ class LogWriter:
             UnknownNameError: an ``xfrc`` body that is not in the scene.
         """
         channel = self._channels.get(topic)
-        if channel is None and topic != TOPIC_SENSORS or topic in (TOPIC_FRAMES, TOPIC_SCENE):
+        lazy = topic in (TOPIC_SENSORS, TOPIC_SIGNALS)  # channels added at their first message
+        if channel is None and not lazy or topic in (TOPIC_FRAMES, TOPIC_SCENE):
             raise ValueError(f"unknown topic {topic!r}. Valid topics: {', '.join(TOPICS[:6])}.")
         required = _REQUIRED_KEYS[topic]
         if not required <= message.keys():
@@ -431,73 +455,167 @@ class LogWriter:
             self._check_sizes(topic, message)
             ctrl = self.encode_ctrl(np.asarray(message["ctrl"], dtype=np.float64))
             self.write_inputs(int(message["step"]), ctrl, message["xfrc"], t)
-        elif topic in (TOPIC_CONTACTS, TOPIC_SENSORS):
-            self.write_float64(topic, message, t)
+        elif topic == TOPIC_CONTACTS:
+            self.write_contacts(message["step"], message["t"], message["pairs"])
+        elif topic == TOPIC_SENSORS:
+            self._write_sensors(message, None, t)
+        elif topic == TOPIC_SIGNALS:
+            self.write_signals(t, {key: value for key, value in message.items() if key != "t"})
         else:
             data = self._encode_checked(topic, message, _encode, t)
             if t != self._last_t:
                 self._set_time(topic, t)
             channel.append(self._last_stamp, data)
 
-    def write_float64(self, topic: str, message: Mapping[str, Any], t: float) -> None:
-        """:meth:`write` for the simulation loop's ``/sensors`` and ``/sim/contacts``
-        messages (float64 arrays, the sensor snapshot), without the generic checks."""
-        if topic == TOPIC_SENSORS:
-            encoder = self._sensors
-            if encoder is None:
-                encoder = self._start_sensors(message)
-            data = encoder.encode(message)
-            append = self._channels[TOPIC_SENSORS].append
-        elif topic == TOPIC_CONTACTS:
-            if not _REQUIRED_KEYS[TOPIC_CONTACTS] <= message.keys():
-                self.write(topic, message, t)  # names the missing keys
-            data = self._contacts.encode(message["step"], message["t"], message["pairs"])
-            append = self._append_contacts
-        else:
-            self.write(topic, message, t)
-            return
+    def write_contacts(self, step: int, t: float, pairs: Mapping[str, Any]) -> None:
+        """One ``/sim/contacts`` message: ``{"geom1|geom2": 6-vector}`` wrenches."""
         if t != self._last_t:
-            self._set_time(topic, t)
-        append(self._last_stamp, data)
+            self._set_time(TOPIC_CONTACTS, t)
+        self._append_contacts(self._last_stamp, self._contacts.encode(step, t, pairs))
 
-    def _start_sensors(self, message: Mapping[str, Any]) -> protolog.SensorsEncoder:
-        """Lays out ``/sensors`` from its first message and adds its channel."""
+    def write_sensors(self, snapshot: Any) -> None:
+        """One ``/sensors`` message from a :class:`walkrepro.sensors.SensorSnapshot` (its
+        ``t`` is the message time)."""
+        if self._sensor_reading and snapshot.reading is not None:
+            t = snapshot.t
+            if t != self._last_t:
+                self._set_time(TOPIC_SENSORS, t)
+            batch = self._sensor_rows
+            i = batch.n
+            row = batch.rows[i]
+            row[0] = t
+            row[1:] = snapshot.reading
+            batch.stamps[i] = self._last_stamp
+            batch.n = i + 1
+            if i + 1 == self._batch_rows:
+                self._flush_batches()
+            return
+        self._write_sensors(snapshot.as_message(), snapshot, snapshot.t)
+
+    def _write_sensors(self, message: Mapping[str, Any], snapshot: Any, t: float) -> None:
+        """One ``/sensors`` message from its dict (a snapshot's, or a caller's)."""
+        if self._sensor_rows is None:
+            self._start_sensors(message, snapshot)
+        if tuple(message) != self._sensor_keys:
+            raise ValueError(
+                f"/sensors message keys {tuple(message)} differ from the run's first "
+                f"snapshot's {self._sensor_keys}"
+            )
+        for key in self._sensor_nulls:
+            if message[key] is not None:
+                raise ValueError(f"/sensors field {key!r} changed kind within the run (first null)")
+        row = protolog.message_row(message, self._sensor_fields)
+        if t != self._last_t:
+            self._set_time(TOPIC_SENSORS, t)
+        batch = self._sensor_rows
+        i = batch.n
+        batch.rows[i] = row
+        batch.stamps[i] = self._last_stamp
+        batch.n = i + 1
+        if i + 1 == self._batch_rows:
+            self._flush_batches()
+
+    def _start_sensors(self, message: Mapping[str, Any], snapshot: Any) -> None:
+        """Lays out ``/sensors`` from its first message and adds its channel. A snapshot
+        whose fields view its ``reading`` in :data:`SensorSnapshot.READING` order is logged
+        from then on as ``[t, *reading]``."""
         if self._closed:
             raise ValueError(f"cannot write to {TOPIC_SENSORS!r}: log {self.path} is closed")
         layout = protolog.sensors_layout(message)
+        sizes = {key: len(message[key]) for key, kind in layout if kind == protolog.ARRAY}
+        reading = getattr(snapshot, "reading", None)
+        order = [key for key in getattr(snapshot, "READING", ()) if message.get(key) is not None]
+        self._sensor_reading = False
+        if reading is not None and order:
+            fields = ["t", *order]
+            kinds = dict(layout)
+            as_fields = protolog.message_row(
+                message, [(key, kinds[key], sizes.get(key, 1)) for key in fields]
+            )
+            self._sensor_reading = (
+                as_fields[1:].view(np.int64).tolist()
+                == np.asarray(reading, dtype=np.float64).view(np.int64).tolist()
+            )
+        if not self._sensor_reading:
+            fields = [key for key, kind in layout if kind != protolog.NULL]
         self._add_channel(
             TOPIC_SENSORS,
             _PROTO_MESSAGES[TOPIC_SENSORS],
             "protobuf",
-            protolog.file_descriptor_set(layout),
+            protolog.file_descriptor_set(sensors=layout),
         )
-        self._sensors = protolog.SensorsEncoder(layout)
-        return self._sensors
+        kinds = dict(layout)
+        self._sensor_keys = tuple(message)
+        self._sensor_nulls = [key for key, kind in layout if kind == protolog.NULL]
+        self._sensor_fields = [(key, kinds[key], sizes.get(key, 1)) for key in fields]
+        encoder = protolog.RowEncoder(protolog.row_fields(layout, sizes, fields))
+        self._sensor_rows = _RowBatch(
+            encoder, self._channels[TOPIC_SENSORS].writer, self._batch_rows
+        )
+        self._batches.append(self._sensor_rows)
 
-    def write_signals(self, t: float, signals: Mapping[str, Any]) -> None:
-        """One ``/controller/signals`` message, ``{"t": t, **signals}``: the bytes
-        :meth:`write` gives that dict, spliced from the JSON of ``t`` and of
-        ``signals``. Building the dict would cost about half as much as encoding it (≈ 1 µs
-        per control tick for Paper I's 28 signals).
+    def write_signals(self, t: float, signals: Signals | Mapping[str, Any]) -> None:
+        """One ``/controller/signals`` message, ``{"t": t, **signals}``.
+
+        :class:`walkrepro.signals.Signals` of the run's layout are copied as one vector. A
+        plain dict is laid out by the run's first one (:func:`walkrepro.signals.dict_layout`);
+        a later dict may leave out scalars (logged as NaN: not defined at that tick) but not
+        add signals.
 
         Raises:
-            ValueError: NaN/infinity, or a bad ``t``.
+            ValueError: a signal that is not a number or a 1-D array, a signal not in the
+                run's layout, or a bad ``t``.
         """
-        if type(signals) is not dict or "t" in signals:  # (its own "t" would come first)
-            self.write(TOPIC_SIGNALS, {"t": t, **signals}, t)
-            return
+        if self._signal_rows is None:
+            self._start_signals(signals)
+        if type(signals) is Signals and signals.layout is self._signal_layout:
+            values = signals.vector
+        else:
+            values = self._signal_values(signals)
         if t != self._last_t:
             self._set_time(TOPIC_SIGNALS, t)
+        batch = self._signal_rows
+        i = batch.n
+        row = batch.rows[i]
+        row[0] = t
+        row[1:] = values
+        batch.stamps[i] = self._last_stamp
+        batch.n = i + 1
+        if i + 1 == self._batch_rows:
+            self._flush_batches()
+
+    def _start_signals(self, signals: Signals | Mapping[str, Any]) -> None:
+        """Lays out ``/controller/signals`` from the first signals and adds its channel."""
+        if self._closed:
+            raise ValueError(f"cannot write to {TOPIC_SIGNALS!r}: log {self.path} is closed")
+        if not isinstance(signals, Mapping):
+            raise TypeError(f"signals must be a mapping or Signals, not {type(signals).__name__}")
+        layout = signals.layout if isinstance(signals, Signals) else dict_layout(signals)
+        kinds = [
+            (name, protolog.ARRAY if size else protolog.INTEGER if integer else protolog.SCALAR)
+            for name, size, integer in layout.fields
+        ]
+        proto_layout = protolog.signals_layout(kinds)
+        sizes = {name: size for name, size, _ in layout.fields if size}
+        self._add_channel(
+            TOPIC_SIGNALS,
+            _PROTO_MESSAGES[TOPIC_SIGNALS],
+            "protobuf",
+            protolog.file_descriptor_set(signals=proto_layout),
+        )
+        encoder = protolog.RowEncoder(protolog.row_fields(proto_layout, sizes))
+        self._signal_layout = layout
+        self._signal_rows = _RowBatch(
+            encoder, self._channels[TOPIC_SIGNALS].writer, self._batch_rows
+        )
+        self._batches.append(self._signal_rows)
+
+    def _signal_values(self, signals: Mapping[str, Any]) -> np.ndarray:
+        """The value vector of signals given as a mapping, in the run's layout."""
         try:
-            body = _encode_float64(signals)
+            return Signals.of(self._signal_layout, signals).vector
         except ValueError as exc:
-            _raise_nonfinite(TOPIC_SIGNALS, signals, t, exc)
-        # body is "{...}": "t" goes in front of its first key, if it has one.
-        if len(body) > 2:
-            data = b'{"t":%b,%b' % (_encode_float64(t), body[1:])
-        else:
-            data = b'{"t":%b}' % _encode_float64(t)
-        self._channels[TOPIC_SIGNALS].append(self._last_stamp, data)
+            raise ValueError(f"{TOPIC_SIGNALS}: {exc}") from None
 
     def write_state(
         self, step: int, t: float, qpos: np.ndarray, qvel: np.ndarray, act: np.ndarray
@@ -513,11 +631,23 @@ class LogWriter:
             self._check_sizes(TOPIC_STATE, message)
         if t != self._last_t:
             self._set_time(TOPIC_STATE, t)
-        self._append_state(self._last_stamp, self._state.encode(step, t, qpos, qvel, act))
+        a, b = self._state_split
+        batch = self._state_rows
+        i = batch.n
+        row = batch.rows[i]
+        row[0] = step
+        row[1] = t
+        row[2:a] = qpos
+        row[a:b] = qvel
+        row[b:] = act
+        batch.stamps[i] = self._last_stamp
+        batch.n = i + 1
+        if i + 1 == self._batch_rows:
+            self._flush_batches()
 
-    def encode_ctrl(self, ctrl: np.ndarray) -> bytes:
-        """The ``ctrl`` field of a float64 ``ctrl`` vector, checked once per control tick and
-        passed to :meth:`write_inputs` for every physics step it is held.
+    def encode_ctrl(self, ctrl: np.ndarray) -> np.ndarray:
+        """A float64 ``ctrl`` vector checked once per control tick, to pass to
+        :meth:`write_inputs` for every physics step it is held.
 
         Raises:
             ValueError: wrong size, or NaN/infinity (or a magnitude above 1e154).
@@ -529,17 +659,35 @@ class LogWriter:
         # One BLAS call: any NaN or infinity (or |x| > 1e154, never a command) makes it so.
         if not math.isfinite(ctrl.dot(ctrl)):
             _raise_nonfinite(TOPIC_INPUTS, {"ctrl": ctrl}, 0.0, ValueError("non-finite ctrl"))
-        return self._inputs.encode_ctrl(ctrl)
+        return ctrl
 
     def write_inputs(
-        self, step: int, ctrl_field: bytes, xfrc: Mapping[str, np.ndarray], t: float
+        self, step: int, ctrl: np.ndarray, xfrc: Mapping[str, np.ndarray], t: float
     ) -> None:
-        """One ``/sim/inputs`` message; ``ctrl_field`` comes from :meth:`encode_ctrl`."""
-        if xfrc:
-            self._check_xfrc(xfrc)
+        """One ``/sim/inputs`` message; ``ctrl`` comes from :meth:`encode_ctrl`."""
         if t != self._last_t:
             self._set_time(TOPIC_INPUTS, t)
-        self._append_inputs(self._last_stamp, self._inputs.encode(step, ctrl_field, xfrc))
+        batch = self._input_rows
+        i = batch.n
+        row = batch.rows[i]
+        row[0] = step
+        row[1:] = ctrl
+        batch.stamps[i] = self._last_stamp
+        if xfrc:
+            self._check_xfrc(xfrc)
+            if batch.extras is None:
+                batch.extras = [b""] * self._batch_rows
+            batch.extras[i] = self._xfrc.encode(xfrc)
+        batch.n = i + 1
+        if i + 1 == self._batch_rows:
+            self._flush_batches()
+
+    def _flush_batches(self) -> None:
+        """Writes every channel's gathered rows and closes the chunk: a chunk holds the
+        messages of one stretch of time, each channel's in order."""
+        for batch in self._batches:
+            batch.flush()
+        self._writer.flush_chunk()
 
     def write_frames(self, t: float, xpos: np.ndarray, xquat: np.ndarray) -> None:
         """One ``/frames`` message: every body's pose from MuJoCo's ``xpos`` and ``xquat``."""
@@ -609,6 +757,7 @@ class LogWriter:
         self._closed = True
         self._last_t = math.nan  # the next write goes through _set_time, which refuses it
         try:
+            self._flush_batches()
             self._writer.add_metadata(METADATA_NAME, record)
             self._writer.finish()
         finally:
@@ -704,7 +853,12 @@ class Log:
             if topic in TOPICS:
                 return []
             raise UnknownNameError("topic", topic, set(TOPICS) | set(self._raw), str(self.path))
-        return [decode(data) for decode, raw in segments for data in raw]
+        out: list[dict[str, Any]] = []
+        for decode, raw in segments:
+            descriptor = getattr(decode, "descriptor", None)
+            rows = protolog.flat_messages(raw, descriptor) if descriptor is not None else None
+            out += rows if rows is not None else [decode(data) for data in raw]
+        return out
 
     def arrays(self, topic: str) -> dict[str, np.ndarray]:
         """The messages of a topic of numbers and fixed-size float vectors (``/sim/state``,

@@ -220,7 +220,7 @@ def run(
     substeps, n_steps = spec.sim.substeps, spec.sim.n_steps
     # Foxglove's body frames at >= 30 Hz, on control ticks.
     frame_steps = substeps * frame_every(spec.sim.control_period)
-    ctrl_field = b""
+    ctrl_held = np.asarray(data.ctrl, dtype=np.float64).copy()
     wrenches: dict[str, np.ndarray] = {}
     outcome, message, fall_time = "complete", "", None
     wall_start = time.perf_counter()
@@ -272,11 +272,11 @@ def run(
                 lap("sensors")
                 command = controller.step(t, snapshot)
                 lap("controller")
-                # The command as MuJoCo will hold it (float64), checked and encoded once.
+                # The command as MuJoCo will hold it (float64), checked once.
                 ctrl = np.asarray(command.ctrl, dtype=np.float64)
-                ctrl_field = _encoded_ctrl(writer, ctrl, model.nu, t)
+                ctrl_held = _checked_ctrl(writer, ctrl, model.nu, t)
                 ctrl_in[:] = ctrl  # mj_step leaves ctrl alone: held until the next tick
-                writer.write_float64(record.TOPIC_SENSORS, snapshot.as_message(), t)
+                writer.write_sensors(snapshot)
                 writer.write_signals(t, command.signals)
                 for event in command.events:
                     writer.write(record.TOPIC_EVENTS, {"t": t, **_jsonable(event)}, t)
@@ -296,7 +296,7 @@ def run(
             elif wrenches:
                 wrenches = {}
                 data.xfrc_applied[:] = 0.0
-            writer.write_inputs(step, ctrl_field, wrenches, t)
+            writer.write_inputs(step, ctrl_held, wrenches, t)
             lap("logging")
             # Actuation, constraint forces and acceleration-stage sensors, then integration:
             # mj_step1 + mj_step2 is mj_step, so `walkrepro verify` replays it bit for bit.
@@ -312,9 +312,7 @@ def run(
                 # step's, efc_force was just solved with the new command).
                 pairs = contacts.read(data)
                 lap("bookkeeping")
-                writer.write_float64(
-                    record.TOPIC_CONTACTS, {"step": step, "t": t, "pairs": pairs}, t
-                )
+                writer.write_contacts(step, t, pairs)
                 lap("logging")
         else:
             step = n_steps
@@ -365,8 +363,8 @@ def _check_finite(data: mujoco.MjData, t: float) -> None:
         raise SimulationError(f"simulation state became NaN/inf at t = {t:.4f} s")
 
 
-def _encoded_ctrl(writer: record.LogWriter, ctrl: np.ndarray, nu: int, t: float) -> bytes:
-    """The log's encoding of a controller's command, which must be ``nu`` finite numbers."""
+def _checked_ctrl(writer: record.LogWriter, ctrl: np.ndarray, nu: int, t: float) -> np.ndarray:
+    """A controller's command, which must be ``nu`` finite numbers."""
     if ctrl.shape != (nu,):
         raise ValueError(f"controller returned ctrl of shape {ctrl.shape}, expected ({nu},)")
     try:

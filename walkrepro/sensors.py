@@ -9,8 +9,8 @@ spec's ``sensors`` block and are seeded, so a run is deterministic.
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import mujoco
 import numba
@@ -44,7 +44,15 @@ class SensorSnapshot:
         base_quat: pelvis orientation world-from-pelvis (w, x, y, z), or None.
         base_linvel: pelvis linear velocity in the world frame [m/s], or None.
         base_angvel: pelvis angular velocity in the pelvis frame [rad/s], or None.
+        reading: the one float64 vector the array fields above are views of, in
+            :data:`READING` order (what the log records); None for a snapshot built by hand.
     """
+
+    #: The array fields in the order ``reading`` holds them.
+    READING: ClassVar[tuple[str, ...]] = (
+        "joint_pos", "joint_vel", "imu_gyro", "imu_acc", "left_ft", "right_ft", "imu_quat",
+        "base_pos", "base_quat", "base_linvel", "base_angvel",
+    )  # fmt: skip
 
     t: float
     joint_pos: np.ndarray
@@ -58,6 +66,7 @@ class SensorSnapshot:
     base_quat: np.ndarray | None = None
     base_linvel: np.ndarray | None = None
     base_angvel: np.ndarray | None = None
+    reading: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     def pinocchio_state(
         self, robot: Robot, who: str = "this controller"
@@ -89,8 +98,11 @@ class SensorSnapshot:
             )
 
     def as_message(self) -> dict[str, float | np.ndarray | None]:
-        """The ``/sensors`` log message: every field by name, arrays as they are (float64)."""
-        return dict(vars(self))
+        """The ``/sensors`` log message: every field but ``reading`` by name, arrays as they
+        are (float64)."""
+        message = dict(vars(self))
+        del message["reading"]
+        return message
 
 
 @numba.njit(
@@ -228,7 +240,7 @@ class SensorModel:
         joint_pos = reading[:n]
         if spec.joint_position_quantization > 0:
             step = spec.joint_position_quantization
-            joint_pos = np.round(joint_pos / step) * step
+            joint_pos[:] = np.round(joint_pos / step) * step
         i = 2 * n  # gyro, accelerometer, F/T, IMU orientation, base position ... velocity
         base = reading[i + 22 :] if spec.base_state else None
         return _snapshot(
@@ -244,6 +256,7 @@ class SensorModel:
             base_quat=None if base is None else base[3:7],
             base_linvel=None if base is None else base[7:10],
             base_angvel=None if base is None else base[10:13],
+            reading=reading,
         )
 
 

@@ -31,11 +31,28 @@ from walkrepro.controllers.efsm import kernels
 from walkrepro.controllers.efsm.fsm import Phase
 from walkrepro.robot import Robot, pin_state_into
 from walkrepro.sensors import SensorSnapshot
+from walkrepro.signals import SignalLayout, Signals
 
 GRAVITY = 9.81  # [m/s^2]
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 FEET = ("left", "right")  # a foot is its index here: 0 left, 1 right; 1 - i the other one
 PELVIS_JOINT = 1  # the free-flyer root: the rigid upper body
+#: The kernel's signals that are integers (states, flags, counts).
+_INTEGER_SIGNALS = frozenset(
+    {"fsm_state", "efsm_phase", "cop_meas_valid", "swing_foot", "balancing", "steps_done"}
+)
+#: Index of ``steps_done`` in the kernel's signal vector (its last entry).
+STEPS_DONE = sum(n for _, n in kernels.SIGNALS) - 1
+assert kernels.SIGNALS[-1] == ("steps_done", 1)
+
+
+def signal_layout(n_actuators: int) -> SignalLayout:
+    """The logged signals: :data:`kernels.SIGNALS` (those of length 1 as scalars), then the
+    reference torques ``tau_ref`` [Nm] of the ``n_actuators`` joints."""
+    return SignalLayout(
+        [(name, 0 if n == 1 else n, name in _INTEGER_SIGNALS) for name, n in kernels.SIGNALS]
+        + [("tau_ref", n_actuators, False)]
+    )
 
 
 class EfsmParams(ControllerParams):
@@ -186,6 +203,7 @@ class EfsmController(Controller):
         # Pinocchio's (q, v), rewritten in place every tick (nothing keeps them across ticks).
         self._q, self._v = np.zeros(model.nq), st["v"]
         self._tau, self._signals, self._rot_w = st["tau"], st["signals"], st["rot"]
+        self._signal_layout = signal_layout(len(self._tau))
         # Γ is in joint order, ctrl in actuator order: the joint-torque row of each actuator.
         st["actuator_rows"] = np.asarray(robot.pin_v_idx, dtype=np.int64) - 6
         half_sole = np.asarray(robot.sole_size, dtype=float) / 2.0
@@ -318,38 +336,10 @@ class EfsmController(Controller):
             sensors.right_ft,
             self._state,
         )
-        s = self._signals.tolist()  # in the order of kernels.SIGNALS
         tau = self._tau
-        signals = {
-            "fsm_state": int(s[0]),
-            "efsm_phase": int(s[1]),
-            "epsilon": s[2],
-            "epsilon_onset": s[3],
-            "d": s[4],
-            "com_w": s[5:8],
-            "com_vel_w": s[8:11],
-            "com_world": s[11:14],
-            "com_vel_world": s[14:17],
-            "cp_w": s[17],
-            "cp_ref_w": s[18],
-            "x_s_w": s[19],
-            "xp_des_w": s[20],
-            "xp_des_world": s[21:23],
-            "cop_exp_w": s[23:25],
-            "cop_exp_world": s[25:27],
-            "cop_meas_world": s[27:29],
-            "cop_meas_valid": int(s[29]),
-            "swing_pos_world": s[30:33],
-            "swing_ref_world": s[33:36],
-            "swing_foot": int(s[36]),
-            "support_pos_world": s[37:40],
-            "ow_yaw": s[40],
-            "com_force_x": s[41],
-            "balancing": int(s[42]),
-            "tau_ref": tau.tolist(),
-            "steps_done": int(s[43]),
-        }
-        events = self._events(transitions, signals["steps_done"]) if transitions else ()
+        # The kernel's signals, then the reference torques, as one new vector.
+        signals = Signals(self._signal_layout, np.concatenate((self._signals, tau)))
+        events = self._events(transitions, int(self._signals[STEPS_DONE])) if transitions else ()
         return Command(ctrl=tau.copy(), signals=signals, events=events)
 
     # ---- helpers -------------------------------------------------------------------------

@@ -48,6 +48,7 @@ from walkrepro.controllers.qpimpedance.tasks import (
 )
 from walkrepro.robot import Robot, pin_state_into
 from walkrepro.sensors import SensorSnapshot
+from walkrepro.signals import SignalLayout, Signals
 
 Vec3 = tuple[float, float, float]
 #: Support sets, each with its own QP (its β blocks differ).
@@ -57,6 +58,14 @@ TAIL_SIGNALS = (
     "com_x", "com_y", "com_z", "com_x_d", "com_y_d", "com_z_d", "zmp_x_ref", "zmp_y_ref",
     "qp_failures",
 )  # fmt: skip
+#: The logged signals (all floats): the kernel's head, the QP's f_z of each foot (NaN, so not
+#: in the tick's message, when the foot is not in the QP's support or the QP failed), then
+#: :data:`TAIL_SIGNALS`.
+SIGNAL_LAYOUT = SignalLayout(
+    [(name, 0, False) for name in signal_names(SIDES)[:SIGNAL_COM]]
+    + [(f"{side}_fz_qp", 0, False) for side in SIDES]
+    + [(name, 0, False) for name in TAIL_SIGNALS]
+)
 
 
 class QPImpedanceParams(ControllerParams):
@@ -363,17 +372,7 @@ class QPImpedanceController(Controller):
         }
         self._warm_support: tuple[int, ...] | None = None  # QP solved on the previous tick
         self._signals = np.zeros(N_SIGNALS)
-        # The signal names of a tick, in the logged order: the kernel's head, the QP's f_z of
-        # each support foot (none if the QP failed), then the tail.
-        names = signal_names(SIDES)
-        self._signal_keys = {
-            support: (
-                *names[:SIGNAL_COM],
-                *(f"{SIDES[side]}_fz_qp" for side in support),
-                *TAIL_SIGNALS,
-            )
-            for support in (*SUPPORTS, ())
-        }
+        self._signal_values = np.zeros(SIGNAL_LAYOUT.width)
         self._refresh_views = False
         self._check_views(q0)
         self._bind_task_args()
@@ -601,11 +600,17 @@ class QPImpedanceController(Controller):
             self._warm_support = None
             events.append({"kind": "qp_failed"})
             tau, fz_qp, support = self._tau.copy(), [], ()  # hold the last torques
-        values = self._signals.tolist()  # Python floats, in _signal_keys' order:
-        values[SIGNAL_COM:SIGNAL_COM] = fz_qp  # the QP's f_z after the feet's signals
-        values += self._plan.zmp_at(t)
-        values.append(float(self._qp_fail))
-        signals = dict(zip(self._signal_keys[support], values, strict=True))
+        # The kernel's head, each foot's QP f_z (NaN: not solved for), CoM, ZMP, failures.
+        values = self._signal_values.copy()
+        head, feet = self._signals[:SIGNAL_COM], slice(SIGNAL_COM, SIGNAL_COM + 2)
+        values[:SIGNAL_COM] = head
+        values[feet] = np.nan
+        for side, fz in zip(support, fz_qp, strict=True):
+            values[SIGNAL_COM + side] = fz
+        values[SIGNAL_COM + 2 : SIGNAL_COM + 8] = self._signals[SIGNAL_COM:]
+        values[SIGNAL_COM + 8 : SIGNAL_COM + 10] = self._plan.zmp_at(t)
+        values[SIGNAL_COM + 10] = self._qp_fail
+        signals = Signals(SIGNAL_LAYOUT, values)
         command = Command(ctrl=tau, signals=signals, events=tuple(events))
         timing = self._timing
         timing["dynamics"] += t1 - t0

@@ -52,6 +52,7 @@ from walkrepro.controllers.timeprojection.projection import TimeProjection, trun
 from walkrepro.controllers.timeprojection.threelp import ThreeLP
 from walkrepro.robot import Robot
 from walkrepro.sensors import SensorSnapshot
+from walkrepro.signals import SignalLayout, Signals
 
 GRAVITY = 9.81  # [m/s^2]
 #: Indices of the sagittal components in e = [p − f, p − s, ḟ, ṗ] (x, y interleaved).
@@ -64,6 +65,26 @@ ANKLE_PITCH = 4  # within a leg
 SAGITTAL_JOINTS = (2, 3, 4)
 #: Parts of a control tick reported by `TimeProjectionController.timing`.
 SPLIT = ("estimation", "feedback", "ik", "output")
+#: The logged signals (all floats). Before walking only ``phase`` (−1) is defined, and
+#: ``sway`` [m] only while swaying; a signal not defined at a tick is NaN.
+SIGNAL_LAYOUT = SignalLayout(
+    [(name, 0, False) for name in ("phase", "step_index", "swing_side")]
+    + [(name, 4, False) for name in ("e_raw", "e_dead_zone", "e_meas", "e_nominal")]
+    + [
+        (name, 0, False)
+        for name in (
+            "footstep_raw",
+            "footstep",
+            "attack_angle",
+            "theta_hat",
+            "adaptive_lift",
+            "pelvis_roll_cmd",
+            "pelvis_pitch",
+        )
+    ]  # fmt: skip
+    + [("q_cmd_legs", 12, False), ("load", 2, False), ("ankle_torque", 0, False)]
+    + [("sway", 0, False)]
+)
 
 
 class TimeProjectionParams(ControllerParams):
@@ -253,7 +274,9 @@ class TimeProjectionController(Controller):
         split[0] += t1 - t0
         t_walk = t - p.start_time
         if t_walk < -p.sway_steps * p.step_time:
-            return Command(ctrl=self._home_ctrl.copy(), signals={"phase": -1.0})
+            return Command(
+                ctrl=self._home_ctrl.copy(), signals=Signals.of(SIGNAL_LAYOUT, {"phase": -1.0})
+            )
         if t_walk < 0.0:
             command = self._sway(t_walk)
             split[2] += clock() - t1
@@ -395,7 +418,7 @@ class TimeProjectionController(Controller):
             "load": load,
             "ankle_torque": ankle_torque,
         }
-        command = Command(ctrl=ctrl, signals=signals, events=events)
+        command = Command(ctrl=ctrl, signals=Signals.of(SIGNAL_LAYOUT, signals), events=events)
         split[3] += clock() - t3
         return command
 
@@ -464,7 +487,7 @@ class TimeProjectionController(Controller):
         q = self._ik.solve(targets)
         ctrl = self._home_ctrl.copy()
         ctrl[LEG] = q + 0.5 * self._leg_offset_full
-        return Command(ctrl=ctrl, signals={"phase": -1.0, "sway": y_p})
+        return Command(ctrl=ctrl, signals=Signals.of(SIGNAL_LAYOUT, {"phase": -1.0, "sway": y_p}))
 
     def _new_step(self, k: int) -> tuple[dict, ...]:
         """Touchdown bookkeeping at a phase change: side, width/speed ramps, blends."""
