@@ -284,7 +284,13 @@ class WrenchEncoder:
             if head is None:
                 head = heads[name] = self._head(name)
             parts.append(head)
-            parts.append(np.asarray(wrench, dtype=np.float64).tobytes())
+            if (
+                type(wrench) is not np.ndarray
+                or wrench.dtype != np.float64
+                or not wrench.flags.c_contiguous
+            ):
+                wrench = np.ascontiguousarray(wrench, dtype=np.float64)
+            parts.append(wrench)  # its buffer: join copies the 48 bytes
         return b"".join(parts)
 
     def _head(self, name: str) -> bytes:
