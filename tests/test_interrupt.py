@@ -97,9 +97,12 @@ def test_ctrl_c_at_any_moment_keeps_a_useful_run(tmp_path: Path, moment: float |
 @pytest.mark.slow
 @pytest.mark.parametrize("moment", [0.3, 4.0])
 def test_ctrl_c_of_forward_walk(tmp_path: Path, moment: float) -> None:
-    """The issue's case: Ctrl-C of forward_walk 0.3 s and 4 s after its loop starts leaves a re-checkable run."""
+    """The issue's case: Ctrl-C of forward_walk 0.3 s and 4 s after its loop starts leaves a re-checkable run.
+
+    The walk is lengthened to 200 s simulated so that no machine finishes it before the
+    Ctrl-C (at 4 s of wall time a fast one had already completed the 16.5 s walk)."""
     out = tmp_path / "runs"
-    code, text = interrupt_run(["forward_walk"], out, moment)
+    code, text = interrupt_run(["forward_walk", "--set", "sim.duration=200"], out, moment)
     run = only_run(out)
     assert_useful(run, code, text)
     code, text = recheck(run)

@@ -645,6 +645,70 @@ class LogWriter:
         if i + 1 == self._batch_rows:
             self._flush_batches()
 
+    def write_tick(
+        self,
+        step: int,
+        t: float,
+        qpos: np.ndarray,
+        qvel: np.ndarray,
+        act: np.ndarray,
+        snapshot: Any,
+        signals: Signals | Mapping[str, Any],
+        ctrl: np.ndarray,
+        xfrc: Mapping[str, np.ndarray],
+    ) -> None:
+        """A control tick's ``/sim/state``, ``/sensors``, ``/controller/signals`` and
+        ``/sim/inputs``: what :meth:`write_state`, :meth:`write_sensors`,
+        :meth:`write_signals` and :meth:`write_inputs` write, in one call with one time
+        check. Anything but the simulation loop's steady case (a snapshot read at ``t``, the
+        run's Signals layout, no disturbance) goes through those four methods.
+        """
+        state, sensors, logged = self._state_rows, self._sensor_rows, self._signal_rows
+        if (
+            sensors is None
+            or logged is None
+            or not self._sensor_reading
+            or snapshot.reading is None
+            or snapshot.t != t
+            or type(signals) is not Signals
+            or signals.layout is not self._signal_layout
+            or not state.n == sensors.n == logged.n
+            or (len(qpos), len(qvel), len(act)) != self._state_dims
+            or xfrc
+        ):
+            self.write_state(step, t, qpos, qvel, act)
+            self.write_sensors(snapshot)
+            self.write_signals(t, signals)
+            self.write_inputs(step, ctrl, xfrc, t)
+            return
+        if t != self._last_t:
+            self._set_time(TOPIC_STATE, t)
+        a, b = self._state_split
+        i = state.n
+        row = state.rows[i]
+        row[0] = step
+        row[1] = t
+        row[2:a] = qpos
+        row[a:b] = qvel
+        row[b:] = act
+        row = sensors.rows[i]
+        row[0] = t
+        row[1:] = snapshot.reading
+        row = logged.rows[i]
+        row[0] = t
+        row[1:] = signals.vector
+        inputs = self._input_rows
+        j = inputs.n
+        row = inputs.rows[j]
+        row[0] = step
+        row[1:] = ctrl
+        stamp = self._last_stamp
+        state.stamps[i] = sensors.stamps[i] = logged.stamps[i] = inputs.stamps[j] = stamp
+        state.n = sensors.n = logged.n = i + 1
+        inputs.n = j + 1
+        if i + 1 == self._batch_rows or j + 1 == self._batch_rows:
+            self._flush_batches()
+
     def encode_ctrl(self, ctrl: np.ndarray) -> np.ndarray:
         """A float64 ``ctrl`` vector checked once per control tick, to pass to
         :meth:`write_inputs` for every physics step it is held.

@@ -260,14 +260,14 @@ def run(
                     raise SimulationError(f"simulation state became NaN/inf at t = {t:.4f} s")
                 reason = fall.check(data)
                 lap("bookkeeping")
-                writer.write_state(step, t, qpos, qvel, act)
                 if step % frame_steps == 0:
                     writer.write_frames(t, xpos, xquat)
-                lap("logging")
                 if reason:
+                    writer.write_state(step, t, qpos, qvel, act)
                     outcome, fall_time, message = "fell", t, f"fell at t = {t:.3f} s ({reason})"
                     writer.write(record.TOPIC_EVENTS, {"t": t, "kind": "fall", "reason": reason}, t)
                     break
+                lap("logging")
                 snapshot = sensors.read(model, data)
                 lap("sensors")
                 command = controller.step(t, snapshot)
@@ -276,15 +276,14 @@ def run(
                 ctrl = np.asarray(command.ctrl, dtype=np.float64)
                 ctrl_held = _checked_ctrl(writer, ctrl, model.nu, t)
                 ctrl_in[:] = ctrl  # mj_step leaves ctrl alone: held until the next tick
-                writer.write_sensors(snapshot)
-                writer.write_signals(t, command.signals)
-                for event in command.events:
-                    writer.write(record.TOPIC_EVENTS, {"t": t, **_jsonable(event)}, t)
-                lap("logging")
                 now = time.perf_counter()
                 if progress is not None and now - last_report > 0.2:
                     progress(t, spec.sim.duration, t / max(now - wall_start, 1e-9))
                     last_report = now
+                lap("bookkeeping")
+                for event in command.events:
+                    writer.write(record.TOPIC_EVENTS, {"t": t, **_jsonable(event)}, t)
+                lap("logging")
             if disturbances.active_at(t):
                 wrenches, events = disturbances.wrenches(t, controller.frame, body_state)
                 for event in events:
@@ -296,7 +295,14 @@ def run(
             elif wrenches:
                 wrenches = {}
                 data.xfrc_applied[:] = 0.0
-            writer.write_inputs(step, ctrl_held, wrenches, t)
+            if tick:
+                # The state this tick saw (unchanged since mj_step1), the snapshot, the
+                # signals, and the inputs of this step.
+                writer.write_tick(
+                    step, t, qpos, qvel, act, snapshot, command.signals, ctrl_held, wrenches
+                )
+            else:
+                writer.write_inputs(step, ctrl_held, wrenches, t)
             lap("logging")
             # Actuation, constraint forces and acceleration-stage sensors, then integration:
             # mj_step1 + mj_step2 is mj_step, so `walkrepro verify` replays it bit for bit.
