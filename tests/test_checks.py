@@ -76,6 +76,26 @@ def test_known_deviation_with_nan_fails() -> None:
     assert v.rows[0].status == FAIL and not v.passed and "no steps" in v.rows[0].note
 
 
+def test_known_deviation_observed_not_measurable_holds_only_while_unmeasurable() -> None:
+    """``observed: not measurable`` is a known deviation while the metric cannot be measured
+    (its reason shown) and fails as soon as it can, whether the value meets the paper or not."""
+    dev = {"reason": "falls during the push", "observed": "not measurable"}
+    e = Expectation.model_validate(
+        {"metric": "footsteps", "op": ">=", "value": 4, "source": "s", "known_deviation": dev}
+    )
+    v = evaluate(make_spec(e), {"footsteps": math.nan}, "fell", reasons={"footsteps": "fell"})
+    assert v.rows[0].status == KNOWN and v.passed and v.rows[0].observed_band == "not measurable"
+    assert "fell" in v.rows[0].note and "falls during the push" in v.rows[0].note
+    for value, says in ((5.0, "meets the paper"), (1.0, "misses the paper")):
+        v = evaluate(make_spec(e), {"footsteps": value}, "complete")
+        assert v.rows[0].status == FAIL and not v.passed and says in v.rows[0].note
+    with pytest.raises(ValueError):
+        Expectation.model_validate(
+            {"metric": "footsteps", "op": ">=", "value": 4, "source": "s",
+             "known_deviation": {"reason": "r", "observed": "unknown"}}
+        )  # fmt: skip
+
+
 def test_relative_known_deviation_without_partner_fails() -> None:
     """A relative known deviation with no partner value (NaN) fails, even with its measurement in the band."""
     rel = known(2, 4, value=None, relative_to={"experiment": "other"})

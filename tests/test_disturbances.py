@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
+from pydantic import ValidationError
 
 from walkrepro.disturbances import DisturbanceSchedule, profile_scale
 from walkrepro.spec import DisturbanceSpec
@@ -45,27 +47,32 @@ def test_wrenches_on_one_body_add_up() -> None:
     assert np.allclose(wrenches["pelvis"], [1, 2, 3, 0, 0, 1])
 
 
-def test_hold_is_a_one_sided_capped_spring_damper() -> None:
-    """A hold pushes back toward the onset position along its direction, never pulls, and is capped."""
+def test_ramped_push_in_a_frozen_frame_is_a_function_of_time_only() -> None:
+    """A ramp in O_w rises, holds its peak and falls in the frame frozen at onset, whatever the
+    frame does later: the same times give the same wrench (a human's push, not a fixture)."""
     spec = DisturbanceSpec(
-        name="hand", body="pelvis", force=(-1, 0, 0), start=0.0, duration=1.0,
-        profile="hold", stiffness=3000.0, damping=300.0, max_force=150.0,
+        name="hand", body="pelvis", frame="O_w", force=(-75, 0, 0), start=1.0, duration=2.3,
+        profile="ramp", ramp_time=0.3,
     )  # fmt: skip
-    schedule = DisturbanceSchedule([spec])
-    state = {"pos": np.zeros(3), "vel": np.zeros(3)}
-    lookup = lambda body: (state["pos"], state["vel"])  # noqa: E731
-    wrenches, _ = schedule.wrenches(0.0, lambda n: None, lookup)  # grabs at the origin
-    assert wrenches == {}  # no displacement, no force
-    state["pos"] = np.array([0.02, 0.0, 0.0])  # pushed 2 cm against the hand
-    wrenches, _ = schedule.wrenches(0.1, lambda n: None, lookup)
-    assert np.allclose(wrenches["pelvis"], [-60.0, 0, 0, 0, 0, 0])
-    state["vel"] = np.array([0.1, 0.0, 0.0])  # still moving into the hand: damping adds
-    assert np.allclose(
-        schedule.wrenches(0.2, lambda n: None, lookup)[0]["pelvis"][:3], [-90.0, 0, 0]
-    )
-    state["pos"], state["vel"] = np.array([-0.02, 0.0, 0.0]), np.zeros(3)  # moved away: no pull
-    assert schedule.wrenches(0.3, lambda n: None, lookup)[0] == {}
-    state["pos"] = np.array([0.5, 0.0, 0.0])  # far into the hand: capped
-    assert np.allclose(
-        schedule.wrenches(0.4, lambda n: None, lookup)[0]["pelvis"][:3], [-150.0, 0, 0]
-    )
+    rot90 = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    times = (1.15, 1.3, 2.0, 3.0, 3.15, 3.3)
+    expect = (37.5, 75.0, 75.0, 75.0, 37.5, 0.0)
+    for later in (rot90, np.eye(3)):  # O_w after onset: unchanged, or turned back by 90°
+        schedule = DisturbanceSchedule([spec])
+        assert schedule.wrenches(1.0, lambda n: rot90)[0] == {}  # the ramp starts from 0
+        for k, (t, f) in enumerate(zip(times, expect, strict=True)):
+            # onset (first non-zero force) with O_w's x along the world's y, then `later`
+            frame = rot90 if k == 0 else later
+            wrenches, _ = schedule.wrenches(t, lambda n, frame=frame: frame)
+            got = wrenches.get("pelvis", np.zeros(6))
+            assert np.allclose(got, [0, -f, 0, 0, 0, 0]), (t, got)
+
+
+def test_spec_rejects_a_ramp_longer_than_its_window_and_unknown_profiles() -> None:
+    """Ramps must fit twice in the window; 'hold' (a state-dependent hand) is not a profile."""
+    with pytest.raises(ValidationError):
+        DisturbanceSpec(
+            name="r", body="pelvis", start=0, duration=0.5, profile="ramp", ramp_time=0.3
+        )
+    with pytest.raises(ValidationError):
+        DisturbanceSpec(name="h", body="pelvis", start=0, duration=1.0, profile="hold")

@@ -17,6 +17,7 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from walkrepro.deviation import NOT_MEASURABLE
 from walkrepro.spec import Expectation, ExperimentSpec
 
 PASS, FAIL, KNOWN = "pass", "fail", "known deviation"
@@ -35,7 +36,8 @@ class CheckRow:
         source: where in the paper the expectation comes from.
         note: free text from the spec, plus the deviation reason (and, when a known
             deviation left its band, which way), or why the metric is not measurable.
-        observed: a known deviation's observed band ``(low, high)``, else None.
+        observed: a known deviation's observed band ``(low, high)`` or ``"not measurable"``,
+            else None.
     """
 
     metric: str
@@ -45,7 +47,7 @@ class CheckRow:
     status: str
     source: str
     note: str
-    observed: tuple[float, float] | None = None
+    observed: tuple[float, float] | str | None = None
 
     @property
     def band(self) -> str:
@@ -58,7 +60,9 @@ class CheckRow:
     @property
     def observed_band(self) -> str:
         """A known deviation's observed band as text, ``""`` for other rows."""
-        return "" if self.observed is None else f"[{self.observed[0]:g}, {self.observed[1]:g}]"
+        if self.observed is None or isinstance(self.observed, str):
+            return self.observed or ""
+        return f"[{self.observed[0]:g}, {self.observed[1]:g}]"
 
 
 @dataclass(frozen=True)
@@ -197,6 +201,18 @@ def _row(
     if dev.observed is None:  # the spec of a log written before observed bands existed
         notes.append(f"Known deviation without an observed band (an older spec): {dev.reason}")
         return CheckRow(e.metric, e.op, value, measured, FAIL, source, " ".join(notes))
+    if dev.observed == NOT_MEASURABLE:
+        if math.isnan(measured):
+            notes.append(f"Known deviation: {dev.reason}")
+            return CheckRow(e.metric, e.op, value, measured, KNOWN, source, " ".join(notes),
+                            NOT_MEASURABLE)  # fmt: skip
+        met = "meets the paper" if holds(e.op, measured, value) else "misses the paper"
+        notes.append(
+            f"The known deviation says not measurable, but it measures {measured:g} ({met}): "
+            f"the deviation has changed; update the spec. Known deviation: {dev.reason}"
+        )
+        return CheckRow(e.metric, e.op, value, measured, FAIL, source, " ".join(notes),
+                        NOT_MEASURABLE)  # fmt: skip
     lo, hi = dev.observed
     comparable = not math.isnan(measured) and not _has_nan(value)
     if comparable and lo <= measured <= hi:

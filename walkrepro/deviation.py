@@ -5,7 +5,13 @@ Shared by expectations (``expect:``) and map claims (``sweeps:``).
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+#: The observed result of a metric that the reproduction cannot measure today (e.g. a
+#: behaviour after a push that the robot does not survive).
+NOT_MEASURABLE = "not measurable"
 
 
 class KnownDeviation(BaseModel):
@@ -13,15 +19,18 @@ class KnownDeviation(BaseModel):
 
     A known deviation is an observed band, not an excuse: the expectation's row fails when
     the measured value leaves ``observed`` in either direction (worse is a regression;
-    better means the deviation may be gone and the spec must be updated).
+    better means the deviation may be gone and the spec must be updated). ``observed: not
+    measurable`` records that the metric cannot be measured today (its reason is shown); the
+    row fails as soon as it can be, with the value to put in the spec.
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     reason: str = Field(description="why the reproduction misses the paper, with the evidence")
-    observed: tuple[float, float] | None = Field(
-        description="[low, high]: the band the reproduction measures today (closed interval); "
-        "required in every spec, None only in the spec of a log written before bands existed"
+    observed: tuple[float, float] | Literal["not measurable"] | None = Field(
+        description="[low, high]: the band the reproduction measures today (closed interval), "
+        "or 'not measurable'; required in every spec, None only in the spec of a log written "
+        "before bands existed"
     )
 
     @model_validator(mode="before")
@@ -35,6 +44,6 @@ class KnownDeviation(BaseModel):
 
     @model_validator(mode="after")
     def _band_is_ordered(self) -> KnownDeviation:
-        if self.observed is not None and not self.observed[0] <= self.observed[1]:
+        if isinstance(self.observed, tuple) and not self.observed[0] <= self.observed[1]:
             raise ValueError("observed needs [low, high] with low <= high")
         return self

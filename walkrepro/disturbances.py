@@ -16,8 +16,6 @@ from walkrepro.spec import DisturbanceSpec
 
 #: Looks up a controller frame (world-from-frame rotation) by name, or None if unknown.
 FrameLookup = Callable[[str], "np.ndarray | None"]
-#: World position [m] and linear velocity [m/s] of a body's centre of mass, by body name.
-BodyState = Callable[[str], "tuple[np.ndarray, np.ndarray]"]
 
 
 #: What a body's wrench starts from before the disturbances on it are added (0.0 + x, as the
@@ -37,17 +35,11 @@ def in_window(s: DisturbanceSpec, t: float) -> bool:
     return s.start - TIME_RESOLUTION <= t < s.start + s.duration - TIME_RESOLUTION
 
 
-def _no_body_state(body: str) -> tuple[np.ndarray, np.ndarray]:
-    raise RuntimeError(f"a hold on {body!r} needs the body state")
-
-
 @dataclass
 class _Active:
     spec: DisturbanceSpec
     rotation: np.ndarray | None = None  # world-from-frame, frozen at onset
-    anchor: np.ndarray | None = None  # hold: the body's CoM at onset [m]
-    wrench: np.ndarray | None = None  # constant/ramp: the world-frame wrench at scale 1
-    direction: np.ndarray | None = None  # hold: unit world-frame push direction
+    wrench: np.ndarray | None = None  # the world-frame wrench at scale 1
     on: bool = False
 
 
@@ -66,9 +58,12 @@ class DisturbanceSchedule:
         return False
 
     def wrenches(
-        self, t: float, frame_lookup: FrameLookup, body_state: BodyState = _no_body_state
+        self, t: float, frame_lookup: FrameLookup
     ) -> tuple[dict[str, np.ndarray], list[dict]]:
         """World-frame wrenches per body at time ``t`` [s], and on/off events.
+
+        A wrench is a function of time only (the profile times the spec's wrench, in its
+        frame frozen at onset): it never reads the robot's state.
 
         Runs at every physics step while a disturbance is on, so the six components are
         Python floats until the end (the same IEEE operations, in the same order, as the
@@ -86,26 +81,18 @@ class DisturbanceSchedule:
             if scale > 0 and not item.on:
                 item.on = True
                 item.rotation = rot = self._frame_rotation(s, frame_lookup)
-                if s.profile == "hold":
-                    item.anchor = body_state(s.body)[0].copy()
-                    item.direction = _unit(rot @ np.asarray(s.force, dtype=float))
-                else:  # the frame is frozen at onset, so is the wrench's direction
-                    item.wrench = np.concatenate(
-                        [rot @ np.asarray(s.force), rot @ np.asarray(s.torque)]
-                    )
+                # The frame is frozen at onset, so is the wrench's direction.
+                item.wrench = np.concatenate(
+                    [rot @ np.asarray(s.force), rot @ np.asarray(s.torque)]
+                )
                 events.append({"kind": "disturbance_on", "name": s.name, "body": s.body})
             elif scale == 0 and item.on:
                 item.on = False
                 events.append({"kind": "disturbance_off", "name": s.name, "body": s.body})
             if scale == 0:
                 continue
-            if s.profile == "hold":
-                assert item.direction is not None
-                push = _hold_push(s, item.direction, item.anchor, *body_state(s.body))
-                wrench = [scale * (push * u) for u in item.direction.tolist()] + [scale * 0.0] * 3
-            else:
-                assert item.wrench is not None
-                wrench = [scale * w for w in item.wrench.tolist()]
+            assert item.wrench is not None
+            wrench = [scale * w for w in item.wrench.tolist()]
             total = out.get(s.body, _ZERO_WRENCH)
             out[s.body] = [a + b for a, b in zip(total, wrench, strict=True)]
         return {b: np.array(w) for b, w in out.items() if any(w)}, events
@@ -125,27 +112,6 @@ def profile_scale(s: DisturbanceSpec, t: float) -> float:
     end = s.start + s.duration
     if not in_window(s, t):
         return 0.0
-    if s.profile == "constant" or (s.profile == "hold" and s.ramp_time == 0):
+    if s.profile == "constant":
         return 1.0
-    if s.profile == "hold":  # grab at once, release over the last ramp_time
-        return float(min(1.0, (end - t) / s.ramp_time))
     return float(min(1.0, (t - s.start) / s.ramp_time, (end - t) / s.ramp_time))
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v)
-
-
-def _hold_push(
-    s: DisturbanceSpec,
-    u: np.ndarray,
-    anchor: np.ndarray | None,
-    pos: np.ndarray,
-    vel: np.ndarray,
-) -> float:
-    """A hand's push [N] along the unit direction ``u`` (of ``force``, frozen at onset): a
-    one-sided spring-damper from the grab point ``anchor``, capped at ``max_force``."""
-    assert anchor is not None
-    assert s.stiffness is not None and s.max_force is not None
-    push = s.stiffness * float((anchor - pos) @ u) - s.damping * float(vel @ u)
-    return min(max(push, 0.0), s.max_force)

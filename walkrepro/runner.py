@@ -202,16 +202,6 @@ def run(
     contacts = ContactReader(model)
     body_ids = {d.body: model.body(d.body).id for d in spec.disturbances}
 
-    body_vel = np.zeros(6)
-
-    def body_state(body: str) -> tuple[np.ndarray, np.ndarray]:
-        """A body's CoM position and linear velocity, world frame, in the current state
-        (``mj_step1`` has run; the resulting force is logged, so replay holds). Views, valid
-        until the next call or physics step: copy what must last."""
-        i = body_ids[body]
-        mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, i, body_vel, 0)
-        return data.xipos[i], body_vel[3:]
-
     fall = FallDetector(robot, model, spec)
 
     writer = record.LogWriter(
@@ -285,7 +275,7 @@ def run(
                     writer.write(record.TOPIC_EVENTS, {"t": t, **_jsonable(event)}, t)
                 lap("logging")
             if disturbances.active_at(t):
-                wrenches, events = disturbances.wrenches(t, controller.frame, body_state)
+                wrenches, events = disturbances.wrenches(t, controller.frame)
                 for event in events:
                     writer.write(record.TOPIC_EVENTS, {"t": t, **event}, t)
                 data.xfrc_applied[:] = 0.0

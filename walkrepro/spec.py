@@ -174,13 +174,9 @@ class DisturbanceSpec(_Strict):
 
     ``frame`` is ``world`` or a controller frame name (e.g. ``O_w``); a controller frame is
     frozen at the disturbance onset. ``ramp`` rises linearly over ``ramp_time`` and falls
-    linearly over the last ``ramp_time`` of the window.
-
-    ``hold`` models a hand that holds the body where it was at onset (Paper I's human who
-    "blocks" the robot): a one-sided spring-damper along the direction of ``force``, pushing
-    only, F = clip(stiffness·Δx − damping·v, 0, max_force), with Δx and v the body's
-    displacement from its onset position and its velocity along that direction. The force
-    that results is logged like any other disturbance; ``ramp_time`` releases it gradually.
+    linearly over the last ``ramp_time`` of the window (a human's push that builds up, is
+    held and is let go). Every profile is a function of time only: a disturbance never
+    reads the robot's state, so it models a force the paper applied, not a fixture.
     """
 
     name: str
@@ -190,25 +186,13 @@ class DisturbanceSpec(_Strict):
     torque: Vec3 = (0.0, 0.0, 0.0)
     start: float = Field(ge=0.0)
     duration: float = Field(gt=0.0)
-    profile: Literal["constant", "ramp", "hold"] = "constant"
+    profile: Literal["constant", "ramp"] = "constant"
     ramp_time: float = Field(0.0, ge=0.0)
-    stiffness: float | None = Field(None, gt=0.0, description="hold: [N/m]")
-    damping: float = Field(0.0, ge=0.0, description="hold: [N s/m]")
-    max_force: float | None = Field(None, gt=0.0, description="hold: largest push [N]")
 
     @model_validator(mode="after")
     def _profile_fits(self) -> DisturbanceSpec:
         if self.profile == "ramp" and not 0 < 2 * self.ramp_time <= self.duration:
             raise ValueError("a ramp needs 0 < 2 * ramp_time <= duration")
-        if self.profile == "hold":
-            if self.stiffness is None or self.max_force is None:
-                raise ValueError("a hold needs stiffness [N/m] and max_force [N]")
-            if not any(self.force):
-                raise ValueError("a hold needs a force direction (force: [fx, fy, fz])")
-            if self.ramp_time > self.duration:
-                raise ValueError("a hold's release ramp_time must fit in its duration")
-        elif self.stiffness is not None or self.max_force is not None:
-            raise ValueError("stiffness and max_force apply to profile: hold only")
         return self
 
 

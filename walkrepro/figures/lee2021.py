@@ -142,7 +142,7 @@ def fig12_push(d: LogData, out_dir: Path) -> list[Path]:
         ax.legend(loc="best", fontsize="small")
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("time [s]")
-    fig.suptitle(f"{d.spec.name}: Fig. 12 — upper body held during walking")
+    fig.suptitle(f"{d.spec.name}: Fig. 12 — a push on the upper body during walking")
     return save(fig, out_dir / "fig12_push")
 
 

@@ -99,6 +99,9 @@ def evaluate_claim(
     observed = dev.observed if dev is not None else None
     if dev is None:
         status = PASS if ok else FAIL
+    elif isinstance(observed, str):  # "not measurable": a claim always counts its cells
+        status = FAIL
+        text = f"{text}. A claim's known deviation needs an observed band of contradicting cells"
     elif observed is not None and not unknown and observed[0] <= measured <= observed[1]:
         # A known deviation is a band of contradicting cells: it fails when it leaves it.
         status = KNOWN

@@ -221,7 +221,7 @@ def unit_of(field: str, parameters: dict | None = None) -> str:
 
 _UNITS = [
     (r".*_deg", "deg"),
-    (r"force|max_force", "N"),
+    (r"force", "N"),
     (r"torque", "N·m"),
     (r"start|duration|ramp_time|timestep|control_period|delay|fall_time", "s"),
     (r"size|position|step_length|step_width|zeta", "m"),
