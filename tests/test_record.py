@@ -632,6 +632,25 @@ def test_write_signals_writes_the_bytes_of_write(tmp_path: Path, encoder: str) -
     assert raw[0] == raw[1] == raw[2] and len(raw[0]) == len(cases) + 1  # and the scene
 
 
+def test_contact_pairs_keep_their_order_as_the_pair_set_changes(tmp_path: Path) -> None:
+    """Contacts are gathered per set of pairs; as the set changes every few ticks (and comes
+    back), the messages read back in order, with their names, values and sequence numbers."""
+    path = tmp_path / "contacts.mcap"
+    sets = [("a/floor",), ("a/floor",), ("a/floor", "b/floor"), (), ("b/floor",), ("a/floor",)]
+    rng = np.random.default_rng(3)
+    written = []
+    with new_writer(path, chunk_size=4 << 10) as log:
+        for k in range(60):
+            names = sets[k % len(sets)]
+            wrenches = rng.standard_normal((len(names), 6))
+            log.write_contact_pairs(k, k * 0.002, names, wrenches)
+            written.append({"step": k, "t": k * 0.002,
+                            "pairs": dict(zip(names, wrenches.tolist(), strict=True))})  # fmt: skip
+    assert as_bits(read_log(path).messages(TOPIC_CONTACTS)) == as_bits(written)
+    sequences = [m[1] for m in _raw_messages(path) if m[0] == 3]
+    assert sequences == list(range(60))
+
+
 def test_write_signals_still_checks(tmp_path: Path, encoder: str) -> None:
     """write_signals refuses a non-mapping, a bad time and a closed log."""
     log = new_writer(tmp_path / "a.mcap")

@@ -76,6 +76,10 @@ def _pair_wrenches(
     return out
 
 
+_NO_WRENCHES = np.zeros((0, 6))
+_NO_WRENCHES.flags.writeable = False
+
+
 @dataclass(frozen=True)
 class _PairPlan:
     """How one contact set (a tuple of geom pairs) maps onto pair wrenches.
@@ -121,9 +125,15 @@ class ContactReader:
         The torque is about the world origin, so a pair's centre of pressure on a
         horizontal surface is ``(-ty / fz, tx / fz)``.
         """
+        keys, wrenches = self.read_pairs(data)
+        return dict(zip(keys, wrenches, strict=True))
+
+    def read_pairs(self, data: mujoco.MjData) -> tuple[tuple[str, ...], np.ndarray]:
+        """:meth:`read` as the pairs' names (one tuple object per contact set, so a caller
+        can tell a set it has seen by identity) and their wrenches, shape (pairs, 6)."""
         n = data.ncon
         if n == 0:
-            return {}
+            return (), _NO_WRENCHES
         contact = data.contact  # each field access builds a view: read each once
         geom = contact.geom[:n]
         signature = geom.tobytes()
@@ -133,7 +143,7 @@ class ContactReader:
                 self._plans.clear()
             plan = self._plans[signature] = self._plan(geom, contact.dim[:n])
         if plan is None:
-            return {}
+            return (), _NO_WRENCHES
         if plan.in_efc_force:
             source, address = data.efc_force, contact.efc_address[:n]
         else:
@@ -148,7 +158,7 @@ class ContactReader:
             plan.pair,
             len(plan.keys),
         )
-        return dict(zip(plan.keys, wrenches, strict=True))
+        return plan.keys, wrenches
 
     def _plan(self, geom: np.ndarray, dim: np.ndarray) -> _PairPlan | None:
         """The plan for this contact set, or None when no contact is robot-world.

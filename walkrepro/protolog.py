@@ -98,6 +98,9 @@ def _core_messages() -> list[descriptor_pb2.DescriptorProto]:
 SCALAR, INTEGER, ARRAY, NULL = "scalar", "integer", "array", "null"
 #: A row column that holds a message's ``step`` (``fixed64``).
 COUNT = "count"
+#: A run of doubles after bytes given as the field's ``number`` (e.g. a ``Wrench``
+#: sub-message's key, length, name and packed-field head, :meth:`WrenchEncoder.head`).
+RAW = "raw"
 
 
 def sensors_layout(message: Mapping[str, Any]) -> tuple[tuple[str, str], ...]:
@@ -215,7 +218,8 @@ class RowEncoder:
 
     ``fields`` are ``(field number, kind, size)`` in row order (which is also the wire order;
     protobuf allows any): a ``SCALAR`` (``double``), ``INTEGER`` (``sfixed64``) or ``COUNT``
-    (``fixed64``) takes one column, an ``ARRAY`` (packed ``repeated double``) ``size`` columns.
+    (``fixed64``) takes one column, an ``ARRAY`` (packed ``repeated double``) ``size`` columns,
+    and a ``RAW`` run ``size`` columns after the bytes given in place of its number.
     Every value is 8 bytes, so each sits at a fixed byte offset of the message: a batch is
     the message template repeated, with the rows' bytes put in place (integers converted
     first). The row holds integers as float64, exact up to 2**53.
@@ -228,7 +232,9 @@ class RowEncoder:
         integer_columns: list[tuple[int, int]] = []  # (column, byte offset)
         width = 0
         for number, kind, size in fields:
-            if kind == ARRAY:
+            if kind == RAW:
+                template += number
+            elif kind == ARRAY:
                 if size == 0:
                     continue  # an empty repeated field is not on the wire
                 template += packed_head(number, size)
@@ -293,6 +299,13 @@ class WrenchEncoder:
             parts.append(wrench)  # its buffer: join copies the 48 bytes
         return b"".join(parts)
 
+    def head(self, name: str) -> bytes:
+        """The bytes of the entry ``name`` before its six doubles."""
+        head = self._heads.get(name)
+        if head is None:
+            head = self._heads[name] = self._head(name)
+        return head
+
     def _head(self, name: str) -> bytes:
         name_field = length_delimited(1, name.encode())
         body = len(name_field) + 2 + 48
@@ -342,6 +355,13 @@ class ContactsEncoder:
 
     def __init__(self) -> None:
         self._pairs = WrenchEncoder(3)
+
+    def row_fields(self, names: Sequence[str]) -> list[tuple[Any, str, int]]:
+        """:class:`RowEncoder` fields of the messages with these pairs: rows ``[step, t,
+        *wrenches.ravel()]``."""
+        return [(1, COUNT, 1), (2, SCALAR, 1)] + [
+            (self._pairs.head(name), RAW, 6) for name in names
+        ]
 
     def encode(self, step: int, t: float, pairs: Mapping[str, Any]) -> bytes:
         return b"".join((_STEP, _U64.pack(step), _T, _DOUBLE.pack(t), self._pairs.encode(pairs)))

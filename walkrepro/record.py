@@ -401,7 +401,10 @@ class LogWriter:
         self._signal_layout: SignalLayout | None = None
         self._batches = [self._state_rows, self._input_rows]
         self._frames = foxglove.FrameEncoder(model)
-        self._append_contacts = self._channels[TOPIC_CONTACTS].append
+        # /sim/contacts: one batch per set of pairs, the current one gathering.
+        self._contact_batches: dict[tuple[str, ...], _RowBatch] = {}
+        self._contact_rows: _RowBatch | None = None
+        self._contact_names: tuple[str, ...] | None = None
         self._last_t, self._last_stamp = math.nan, 0
         self._closed = False
         self._channels[TOPIC_SCENE].append(
@@ -468,10 +471,50 @@ class LogWriter:
             channel.append(self._last_stamp, data)
 
     def write_contacts(self, step: int, t: float, pairs: Mapping[str, Any]) -> None:
-        """One ``/sim/contacts`` message: ``{"geom1|geom2": 6-vector}`` wrenches."""
+        """One ``/sim/contacts`` message: ``{"<robot body>/<world geom>": 6-vector}``."""
+        names = tuple(pairs)
+        wrenches = np.array([np.asarray(w, dtype=np.float64) for w in pairs.values()])
+        if names and wrenches.shape != (len(names), 6):
+            raise ValueError(f"{TOPIC_CONTACTS} pair wrenches must have 6 entries each")
+        self.write_contact_pairs(step, t, names, wrenches.reshape(len(names), 6))
+
+    def write_contact_pairs(
+        self, step: int, t: float, names: tuple[str, ...], wrenches: np.ndarray
+    ) -> None:
+        """One ``/sim/contacts`` message from the pairs' names and wrenches (float64, shape
+        (pairs, 6)), as :meth:`walkrepro.contacts.ContactReader.read_pairs` gives them.
+
+        Messages with the same pairs are gathered as rows; the batch is written when the set
+        of pairs changes (a few times per step) or with the other batches.
+        """
+        batch = self._contact_rows
+        if names is not self._contact_names:
+            if batch is None or names != self._contact_names:
+                if batch is not None:
+                    batch.flush()
+                batch = self._contact_batch(names)
+            self._contact_names = names
         if t != self._last_t:
             self._set_time(TOPIC_CONTACTS, t)
-        self._append_contacts(self._last_stamp, self._contacts.encode(step, t, pairs))
+        i = batch.n
+        row = batch.rows[i]
+        row[0] = step
+        row[1] = t
+        row[2:] = wrenches.ravel()
+        batch.stamps[i] = self._last_stamp
+        batch.n = i + 1
+        if i + 1 == self._batch_rows:
+            self._flush_batches()
+
+    def _contact_batch(self, names: tuple[str, ...]) -> _RowBatch:
+        """The (empty) batch of the messages with these pairs, made once per set."""
+        batch = self._contact_batches.get(names)
+        if batch is None:
+            encoder = protolog.RowEncoder(self._contacts.row_fields(names))
+            writer = self._channels[TOPIC_CONTACTS].writer
+            batch = self._contact_batches[names] = _RowBatch(encoder, writer, self._batch_rows)
+        self._contact_rows = batch
+        return batch
 
     def write_sensors(self, snapshot: Any) -> None:
         """One ``/sensors`` message from a :class:`walkrepro.sensors.SensorSnapshot` (its
@@ -751,6 +794,8 @@ class LogWriter:
         messages of one stretch of time, each channel's in order."""
         for batch in self._batches:
             batch.flush()
+        if self._contact_rows is not None:
+            self._contact_rows.flush()
         self._writer.flush_chunk()
 
     def write_frames(self, t: float, xpos: np.ndarray, xquat: np.ndarray) -> None:

@@ -306,9 +306,9 @@ def run(
             if tick:
                 # The contact forces that acted during this step (data.contact is still this
                 # step's, efc_force was just solved with the new command).
-                pairs = contacts.read(data)
+                pair_names, pair_wrenches = contacts.read_pairs(data)
                 lap("bookkeeping")
-                writer.write_contacts(step, t, pairs)
+                writer.write_contact_pairs(step, t, pair_names, pair_wrenches)
                 lap("logging")
         else:
             step = n_steps
