@@ -18,6 +18,7 @@ from pydantic import BaseModel, ConfigDict
 if TYPE_CHECKING:
     from walkrepro.robot import Robot
     from walkrepro.sensors import SensorSnapshot
+    from walkrepro.signals import Signals
 
 
 class ControllerParams(BaseModel):
@@ -33,12 +34,14 @@ class Command:
     Attributes:
         ctrl: actuator inputs, shape (nu,), in actuator order: joint torques [Nm] for
             torque-controlled robots, motor position targets [rad] for position-controlled ones.
-        signals: named internal signals to log on ``/controller/signals`` (floats or lists).
+        signals: named internal signals to log on ``/controller/signals``: a
+            :class:`walkrepro.signals.Signals` (one vector in a fixed layout, the fast path),
+            or a dict of numbers and 1-D arrays with one set of names per run.
         events: discrete events to log on ``/events``; each a dict with at least ``kind``.
     """
 
     ctrl: np.ndarray
-    signals: Mapping[str, Any] = field(default_factory=dict)
+    signals: Signals | Mapping[str, Any] = field(default_factory=dict)
     events: tuple[Mapping[str, Any], ...] = ()
 
 
