@@ -22,9 +22,10 @@ from test_metrics import (
 from walkrepro.metrics import LogData
 from walkrepro.paper_metrics.faraji import (
     CORRECTIVE_SIGMAS,
-    corrective_threshold,
+    corrective_band,
     count_corrective,
     footstep_scatter,
+    step_adjustments,
 )
 
 ROBOT = "coman"
@@ -112,6 +113,9 @@ def _footsteps(tmp_path: Path, peaks: list[float], outcome: str = "complete") ->
 
 
 UNDISTURBED = [0.0, 0.01, 0.02, 0.015, 0.025, 0.01, 0.02, 0.015, 0.02]  # steps from 0.5 s
+#: The steps the band is estimated from: they end before the push (by 3.7 s), without the
+#: first (it starts from standing).
+BAND_STEPS = slice(1, 8)
 
 
 def test_push_recovered_in_two_corrective_steps(tmp_path: Path) -> None:
@@ -129,16 +133,46 @@ def test_undisturbed_run_has_no_corrective_step(tmp_path: Path) -> None:
     )
 
 
-def test_corrective_threshold_follows_the_undisturbed_spread(tmp_path: Path) -> None:
-    """The threshold is the undisturbed steps' mean + 3σ: wide undisturbed steps make a 6 cm
+def test_corrective_band_follows_the_undisturbed_spread(tmp_path: Path) -> None:
+    """The band is the undisturbed steps' μ ± 3σ: wide undisturbed steps make a 6 cm
     adjustment ordinary, narrow ones make it corrective."""
     narrow = _footsteps(tmp_path, UNDISTURBED + [0.06, 0.02, 0.02, 0.02])
     assert measured(narrow, "recovery_steps") == 1
     wide = [0.0, 0.01, 0.05, 0.02, 0.06, 0.01, 0.05, 0.02, 0.06]
     assert measured(_footsteps(tmp_path, wide + [0.06, 0.02, 0.02, 0.02]), "recovery_steps") == 0
-    peaks = np.array(UNDISTURBED[1:])
-    expected = peaks.mean() + CORRECTIVE_SIGMAS * peaks.std(ddof=1)
-    assert measured(narrow, "corrective_step_threshold") == pytest.approx(expected, abs=2e-3)
+    peaks = np.array(UNDISTURBED[BAND_STEPS])
+    half = CORRECTIVE_SIGMAS * peaks.std(ddof=1)
+    assert measured(narrow, "corrective_band_low") == pytest.approx(peaks.mean() - half, abs=1e-6)
+    assert measured(narrow, "corrective_band_high") == pytest.approx(peaks.mean() + half, abs=1e-6)
+
+
+def test_step_against_a_biased_gait_is_corrective(tmp_path: Path) -> None:
+    """Undisturbed steps all adjusted forward (1–2.5 cm): a −2.5 cm step lies outside μ ± 3σ
+    of their signed peaks (−0.03 to 3.3 cm) and counts, though its |peak| is below the
+    |peak| rule's threshold (mean + 3σ of the |peaks|, 3.3 cm), which counted 0."""
+    d = _footsteps(tmp_path, UNDISTURBED + [-0.025, 0.02, 0.015, 0.02])
+    assert measured(d, "recovery_steps") == 1
+    peaks = np.abs(UNDISTURBED[BAND_STEPS])
+    assert 0.025 < peaks.mean() + CORRECTIVE_SIGMAS * peaks.std(ddof=1)  # the |peak| rule's miss
+
+
+def test_steps_inside_the_band_are_not_corrective(tmp_path: Path) -> None:
+    """Undisturbed steps spread both ways around a forward bias (μ 1.1 cm, σ 1.6 cm): +5 cm
+    and −3 cm stay inside μ ± 3σ (−3.7 to 5.9 cm) and do not count (+5 cm exceeds the
+    |peak| rule's 4.9 cm, which counted it)."""
+    mixed = [0.0, 0.02, -0.01, 0.03, 0.0, 0.025, -0.005, 0.02, 0.01]
+    d = _footsteps(tmp_path, mixed + [0.05, -0.03, 0.02, 0.01])
+    assert measured(d, "recovery_steps") == 0
+    assert measured(d, "corrective_band_low") < -0.03
+    assert measured(d, "corrective_band_high") > 0.05
+
+
+def test_signed_peak_is_the_adjustment_at_its_largest_magnitude() -> None:
+    """A step that swings +1 cm then −3 cm has signed peak −3 cm; an empty step has 0."""
+    t = np.array([0.0, 0.1, 0.2, 0.3, 0.5])
+    v = np.array([0.0, 0.01, -0.03, 0.0, 0.02])
+    phases = np.array([0.0, 0.4, 0.45])
+    assert step_adjustments(t, v, phases) == pytest.approx([-0.03, 0.0, 0.02])
 
 
 def test_recovery_not_measurable_after_a_fall(tmp_path: Path) -> None:
@@ -151,7 +185,7 @@ def test_recovery_needs_enough_undisturbed_steps() -> None:
     """With fewer than six undisturbed steps before the push there is no threshold."""
     phases = 0.5 + STEP * np.arange(6)
     with pytest.raises(Exception, match="undisturbed step"):
-        corrective_threshold(np.full(6, 0.01), phases, 2.0)
+        corrective_band(np.full(6, 0.01), phases, 2.0)
 
 
 def test_recovery_still_going_at_the_end_is_not_measurable() -> None:
@@ -159,7 +193,7 @@ def test_recovery_still_going_at_the_end_is_not_measurable() -> None:
     phases = 0.5 + STEP * np.arange(12)
     peaks = np.r_[np.full(9, 0.01), 0.1, 0.1, 0.1]
     with pytest.raises(Exception, match="settled"):
-        count_corrective(peaks, phases, PUSH_AT, 0.05)
+        count_corrective(peaks, phases, PUSH_AT, (-0.05, 0.05))
 
 
 def test_adjustment_within_truncation(tmp_path: Path) -> None:

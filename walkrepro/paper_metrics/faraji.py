@@ -14,8 +14,9 @@ import numpy as np
 
 from walkrepro.metrics import LogData, NotMeasurable, metric
 
-#: A step is corrective when its peak footstep adjustment exceeds the undisturbed steps'
-#: mean by this many standard deviations (a 3σ outlier of the undisturbed gait).
+#: A step is corrective when its signed peak footstep adjustment lies further than this many
+#: standard deviations from the undisturbed steps' mean signed peak (a 3σ outlier of the
+#: undisturbed gait, either way: issue 14's "exceeds the undisturbed gait's spread").
 CORRECTIVE_SIGMAS = 3.0
 #: Undisturbed steps needed before the push to estimate that spread (mean and σ of fewer
 #: are too uncertain: with 6 samples σ is known to about ±30 %).
@@ -99,47 +100,63 @@ def _mean_abs_speed(d: LogData, arg: str) -> float:
 
 
 def step_adjustments(t: np.ndarray, v: np.ndarray, phases: np.ndarray) -> np.ndarray:
-    """Largest |footstep adjustment| commanded in each step, shape (len(phases),) [m].
+    """Signed peak footstep adjustment of each step, shape (len(phases),) [m].
+
+    A step's signed peak is the adjustment at the sample of its largest |adjustment| (the
+    first such sample on a tie; 0 for a step with no sample): its magnitude is the step's
+    peak |adjustment| and its sign says which way (forward +) that peak points. A step that
+    swings both ways is represented by its larger excursion.
 
     Args:
         t, v: times [s] and values [m] of the ``footstep`` signal.
         phases: step start times [s]; the last step runs to the end of the signal.
     """
     bounds = np.append(phases, np.inf)
-    return np.array(
-        [
-            float(np.max(np.abs(v[(t >= lo) & (t < hi)]), initial=0.0))
-            for lo, hi in zip(bounds[:-1], bounds[1:], strict=True)
-        ]
-    )
+    peaks = []
+    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):
+        w = v[(t >= lo) & (t < hi)]
+        peaks.append(float(w[np.argmax(np.abs(w))]) if w.size else 0.0)
+    return np.array(peaks)
 
 
-def corrective_threshold(peaks: np.ndarray, phases: np.ndarray, t_push: float) -> float:
-    """Threshold of a corrective step: mean + 3σ of the undisturbed steps' peaks [m].
+def corrective_band(peaks: np.ndarray, phases: np.ndarray, t_push: float) -> tuple[float, float]:
+    """Band of the undisturbed gait: μ ∓ 3σ of the undisturbed steps' signed peaks [m].
 
     The undisturbed steps are those that end before the push, without the first (it starts
-    from standing). Raises :class:`NotMeasurable` with fewer than MIN_UNDISTURBED_STEPS.
+    from standing). μ and σ (ddof 1) are taken over the signed peaks, so a gait whose
+    adjustments are biased one way (the in-place gait drifts forward) gives a band centred
+    on that bias, and a step the other way is measured against the spread, not the bias.
+    Raises :class:`NotMeasurable` with fewer than MIN_UNDISTURBED_STEPS.
+
+    Returns:
+        (low, high): μ − 3σ and μ + 3σ [m].
     """
     ends = np.append(phases[1:], np.inf)
     undisturbed = peaks[1:][ends[1:] <= t_push]
     if undisturbed.size < MIN_UNDISTURBED_STEPS:
         raise NotMeasurable(
             f"{undisturbed.size} undisturbed step(s) before the push at t = {t_push:.3f} s; "
-            f"{MIN_UNDISTURBED_STEPS} are needed for the corrective-step threshold"
+            f"{MIN_UNDISTURBED_STEPS} are needed for the corrective-step band"
         )
-    return float(np.mean(undisturbed) + CORRECTIVE_SIGMAS * np.std(undisturbed, ddof=1))
+    mu = float(np.mean(undisturbed))  # [m]
+    half = CORRECTIVE_SIGMAS * float(np.std(undisturbed, ddof=1))  # 3σ [m]
+    return mu - half, mu + half
 
 
-def count_corrective(peaks: np.ndarray, phases: np.ndarray, t_push: float, threshold: float) -> int:
-    """Corrective steps from the step the push falls in: steps above ``threshold``, counted
-    until the first step below it after one above (the recovery's end).
+def count_corrective(
+    peaks: np.ndarray, phases: np.ndarray, t_push: float, band: tuple[float, float]
+) -> int:
+    """Corrective steps from the step the push falls in: steps whose signed peak lies
+    outside ``band`` (|a − μ| > 3σ), counted until the first step back inside it after
+    one outside (the recovery's end).
 
     Raises :class:`NotMeasurable` when the log ends while the steps are still corrective.
     """
+    low, high = band
     first = max(0, int(np.searchsorted(phases, t_push, side="right")) - 1)
     count = 0
     for a in peaks[first:-1]:  # the last step may be cut short by the end of the log
-        if a > threshold:
+        if a < low or a > high:
             count += 1
         elif count:
             return count
@@ -165,37 +182,52 @@ def _adjustment_peaks(d: LogData) -> tuple[np.ndarray, np.ndarray]:
 
 
 @metric(
-    "corrective_step_threshold",
-    "peak footstep adjustment above which a step is corrective: mean + 3σ of the per-step "
-    "peaks of the undisturbed steps before the push (arg: push time [s]) [m]",
+    "corrective_band_low",
+    "lower edge of the undisturbed gait's band, μ − 3σ of the signed peak footstep "
+    "adjustments of the undisturbed steps before the push (arg: push time [s]) [m]",
 )
-def _corrective_step_threshold(d: LogData, arg: str) -> float:
-    """Pre-fall (only steps before the push are read); see :func:`corrective_threshold`."""
+def _corrective_band_low(d: LogData, arg: str) -> float:
+    """Pre-fall (only steps before the push are read); see :func:`corrective_band`."""
     phases, peaks = _adjustment_peaks(d)
-    return corrective_threshold(peaks, phases, _push_time(d, arg))
+    return corrective_band(peaks, phases, _push_time(d, arg))[0]
+
+
+@metric(
+    "corrective_band_high",
+    "upper edge of the undisturbed gait's band, μ + 3σ of the signed peak footstep "
+    "adjustments of the undisturbed steps before the push (arg: push time [s]) [m]",
+)
+def _corrective_band_high(d: LogData, arg: str) -> float:
+    """Pre-fall (only steps before the push are read); see :func:`corrective_band`."""
+    phases, peaks = _adjustment_peaks(d)
+    return corrective_band(peaks, phases, _push_time(d, arg))[1]
 
 
 @metric(
     "recovery_steps",
     "corrective steps after the push (arg: push time [s], default the spec's first "
-    "disturbance): steps from the one the push falls in whose peak |footstep adjustment| "
-    "exceeds the undisturbed steps' mean + 3σ, until the first step below it (Fig. 16)",
+    "disturbance): steps from the one the push falls in whose signed peak footstep "
+    "adjustment a lies outside the undisturbed steps' band, |a − μ| > 3σ, until the first "
+    "step back inside it (Fig. 16)",
 )
 def _recovery_steps(d: LogData, arg: str) -> float:
     """Completed: "the push is recovered in N corrective steps" needs a run that completed,
     so a fall or an early stop makes it not measurable.
 
-    Reads the commanded ``footstep`` adjustment: Fig. 16's claim is about the controller's
-    footstep adjustments. The threshold comes from the same run's undisturbed steps before
-    the push (:func:`corrective_threshold`, mean + 3σ of their per-step peaks), so the metric
-    holds under ``--set`` overrides; the undisturbed in-place gait reaches 3.8 cm, which a
-    fixed 4 cm threshold barely cleared.
+    Issue 14's definition: a corrective step is one whose adjustment exceeds the undisturbed
+    gait's spread by a margin derived from that spread (3σ). Reads the commanded
+    ``footstep`` adjustment: Fig. 16's claim is about the controller's footstep adjustments.
+    Each step's signed peak (:func:`step_adjustments`) is compared with the band μ ± 3σ of
+    the same run's undisturbed steps before the push (:func:`corrective_band`), so the
+    metric holds under ``--set`` overrides. The band is signed: an earlier |peak| threshold
+    (mean + 3σ of the |peaks|) measured the in-place gait's forward bias (all its undisturbed
+    peaks are forward) rather than its spread, and missed backward corrective steps.
     """
     d.require_completed("the push was recovered")
     phases, peaks = _adjustment_peaks(d)
     t_push = _push_time(d, arg)
-    threshold = corrective_threshold(peaks, phases, t_push)
-    return float(count_corrective(peaks, phases, t_push, threshold))
+    band = corrective_band(peaks, phases, t_push)
+    return float(count_corrective(peaks, phases, t_push, band))
 
 
 @metric("max_footstep_adjustment", "largest |commanded footstep adjustment| after truncation [m]")
