@@ -21,8 +21,9 @@ from test_metrics import (
     write_log,
 )
 
+from walkrepro.errors import UnknownNameError
 from walkrepro.metrics import LogData
-from walkrepro.paper_metrics.lee2021 import eq3_cop_lead, ow_x
+from walkrepro.paper_metrics.lee2021 import eq3_cop_lead, ow_x, switch_torque_jumps
 
 ROBOT = "dyros_red"
 BOX = {"name": "obstacle_box", "size": [0.2, 0.2, 0.15], "position": [0.4, -0.1, 0.075]}
@@ -241,22 +242,59 @@ def test_eq3_not_measurable_when_com_never_near(tmp_path: Path) -> None:
 # ---- torques and CoP error ----------------------------------------------------------------
 
 
-def _torques(tmp_path: Path, jump: float) -> LogData:
-    tau = [np.full(12, 0.01 * k) + (jump if k >= 50 else 0.0) for k in range(100)]
-    ticks = [Tick(k * DT, signals={"tau_ref": tau[k].tolist()}) for k in range(100)]
+def _torques(tmp_path: Path, steps: dict[tuple[int, int], float], switches: bool = True) -> LogData:
+    """Reference torques rising 0.01 Nm per tick, plus a step of ``steps[(tick, joint)]``
+    [Nm] from that tick on; the E-FSM goes DS → SSD at tick 30 and SSD → SSA at tick 60
+    (``switches``), else stays in DS. dyros_red's left leg is actuators 0–5."""
+    tau = np.array([np.full(12, 0.01 * k) for k in range(100)])
+    for (k, j), step in steps.items():
+        tau[k:, j] += step
+    phase = [2 if k < 30 or not switches else 0 if k < 60 else 1 for k in range(100)]
+    ticks = [
+        Tick(k * DT, signals={"tau_ref": tau[k].tolist(), "efsm_phase": phase[k]})
+        for k in range(100)
+    ]
     return write_log(tmp_path / "tau.mcap", ticks, _spec())
 
 
-def test_torque_jump_found(tmp_path: Path) -> None:
-    """A 50 Nm step in the reference torques is ≥ 5× a smooth run's largest change."""
-    smooth = measured(_torques(tmp_path, 0.0), "max_torque_jump")
-    assert measured(_torques(tmp_path, 50.0), "max_torque_jump") >= 5 * smooth
+def test_switch_torque_jump_found(tmp_path: Path) -> None:
+    """A 50 Nm step of a left-leg torque at a state switch is the measured jump."""
+    d = _torques(tmp_path, {(30, 3): 50.0})
+    assert measured(d, "switch_torque_jump") == pytest.approx(50.01)
+    assert measured(d, "switch_torque_jump:left") == pytest.approx(50.01)
 
 
-def test_smooth_torques_have_no_jump(tmp_path: Path) -> None:
-    """Smooth reference torques change by their slope only (no ≥ 5× jump)."""
-    assert measured(_torques(tmp_path, 0.0), "max_torque_jump") == pytest.approx(0.01)
-    assert measured(_torques(tmp_path, 0.0), "max_torque_jump:0.6-1.0") == pytest.approx(0.01)
+def test_switch_torque_jump_ignores_other_ticks_and_the_other_leg(tmp_path: Path) -> None:
+    """Bigger steps away from the switches, or on the right leg, do not count for the left."""
+    d = _torques(tmp_path, {(45, 0): 80.0, (30, 6): 90.0, (60, 5): 5.0})
+    assert measured(d, "switch_torque_jump") == pytest.approx(5.01)
+    assert measured(d, "switch_torque_jump:right") == pytest.approx(90.01)
+
+
+def test_smooth_torques_jump_by_their_slope_only(tmp_path: Path) -> None:
+    """Smooth reference torques change at the switches by their slope only."""
+    assert measured(_torques(tmp_path, {}), "switch_torque_jump") == pytest.approx(0.01)
+
+
+def test_switch_torque_jump_needs_a_switch(tmp_path: Path) -> None:
+    """Without an E-FSM state switch there is no switch jump to measure."""
+    d = _torques(tmp_path, {(30, 3): 50.0}, switches=False)
+    assert "never switched state" in unmeasurable_reason(d, "switch_torque_jump")
+
+
+def test_switch_torque_jump_unknown_leg_lists_the_legs(tmp_path: Path) -> None:
+    """A leg other than left or right is a spec error naming the valid legs."""
+    with pytest.raises(UnknownNameError, match="left, right"):
+        measured(_torques(tmp_path, {}), "switch_torque_jump:middle")
+
+
+def test_switch_torque_jumps_per_switch() -> None:
+    """Each switch gets the jump into its first tick, over the given joints only."""
+    phase = np.array([2, 2, 0, 0, 1])
+    tau = np.array([[0.0, 0.0], [0.0, 9.0], [1.0, 9.0], [1.0, 0.0], [3.0, 0.0]])
+    ticks, jumps = switch_torque_jumps(phase, tau, np.array([0]))
+    np.testing.assert_array_equal(ticks, [2, 4])
+    np.testing.assert_allclose(jumps, [1.0, 2.0])
 
 
 def _cop_error(tmp_path: Path, err: float) -> LogData:

@@ -18,7 +18,14 @@ import pytest
 
 from walkrepro import ROBOTS_DIR
 from walkrepro.errors import UnknownNameError
-from walkrepro.robot import FRAME_NAMES, SENSOR_NAMES, Robot, list_robots, load_robot
+from walkrepro.robot import (
+    FRAME_NAMES,
+    SENSOR_NAMES,
+    Robot,
+    leg_actuators,
+    list_robots,
+    load_robot,
+)
 
 ROBOTS = ("coman", "dyros_red", "dyros_red_actuated", "kist_humanoid")
 GRAVITY = 9.81
@@ -181,6 +188,21 @@ def test_names_and_order_follow_the_conventions(name: str) -> None:
     text = robot.xml_path.read_text()
     assert '<compiler angle="radian" autolimits="true" />' in text
     assert "<option" not in text and "<light" not in text and "floor" not in text
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_leg_actuators_are_the_legs_joints(name: str) -> None:
+    """A leg's actuators are the hip-to-ankle joints of that side, in actuator order."""
+    robot = load_robot(name)
+    for side in ("left", "right"):
+        ids = leg_actuators(robot.mj_model, f"{side}_foot")
+        assert [robot.joint_names[i] for i in ids] == [f"{side[0]}_{j}" for j in LEG]
+
+
+def test_leg_actuators_unknown_foot_lists_the_feet() -> None:
+    """An unknown foot name lists the valid ones."""
+    with pytest.raises(UnknownNameError, match="left_foot, right_foot"):
+        leg_actuators(load_robot("dyros_red").mj_model, "pelvis")
 
 
 @pytest.mark.parametrize("name", ROBOTS)

@@ -469,6 +469,27 @@ class Robot:
         return int(self.pin_model.getJointId(name))
 
 
+def leg_actuators(model: mujoco.MjModel, foot: str) -> np.ndarray:
+    """Indices of the actuators of one leg: those driving a joint between the pelvis and the
+    foot body, in actuator order (dyros_red: 0–5 for ``"left_foot"``).
+
+    Read from the model's kinematic tree, so it holds for any scene (a log's recompiled
+    ``scene.xml`` too) and for series-elastic joints (the motor DoF sits in the link body).
+
+    Args:
+        model: a model holding the robot (robot alone or a scene).
+        foot: a foot body, ``"left_foot"`` or ``"right_foot"``.
+    """
+    if foot not in FOOT_BODIES:
+        raise UnknownNameError("foot", foot, FOOT_BODIES)
+    chain, body = set(), model.body(foot).id
+    while body > 0:  # up to the world body (0); the pelvis's free joint drives no actuator
+        chain.add(body)
+        body = int(model.body_parentid[body])
+    joints = model.actuator_trnid[:, 0]
+    return np.array([i for i, j in enumerate(joints) if model.jnt_bodyid[j] in chain], dtype=int)
+
+
 def list_robots() -> list[str]:
     """Names of the robots: the folders of ``robots/`` that hold a ``robot.xml``."""
     if not ROBOTS_DIR.is_dir():

@@ -16,10 +16,14 @@ import numpy as np
 from walkrepro.figures import CompareFn, FigureFn
 from walkrepro.figures.style import save
 from walkrepro.metrics import LogData
+from walkrepro.paper_metrics.lee2021 import switch_torque_jumps
+from walkrepro.robot import leg_actuators
 
-#: Actuator indices of the left leg (hip yaw … ankle roll), as in Fig. 14.
-LEFT_LEG = range(6)
-LEFT_LEG_NAMES = ("hip yaw", "hip roll", "hip pitch", "knee", "ankle pitch", "ankle roll")
+#: Fig. 14 shows the first steps: the paper's robot falls after t ≈ 1 s without ε [s].
+FIG14_SPAN = 2.5
+#: Colours of the E-FSM switches marked in Fig. 14, by (from, to) phase (efsm_phase codes).
+SWITCH_COLOURS = {(2.0, 0.0): "tab:blue", (0.0, 1.0): "tab:green", (1.0, 2.0): "tab:red"}
+PHASE_NAMES = {0.0: "SSD", 1.0: "SSA", 2.0: "DS"}
 
 
 def _sig(d: LogData, name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -146,50 +150,101 @@ def fig12_push(d: LogData, out_dir: Path) -> list[Path]:
     return save(fig, out_dir / "fig12_push")
 
 
+def _switches(ax: plt.Axes, d: LogData, t_max: float) -> None:
+    """Mark the E-FSM state switches (efsm_phase changes) up to ``t_max`` [s]."""
+    t, phase = _sig(d, "efsm_phase")
+    seen = set()
+    for k in np.nonzero(np.diff(phase) != 0)[0] + 1:
+        if t[k] > t_max:
+            break
+        kind = (phase[k - 1], phase[k])
+        label = None if kind in seen else "→".join(PHASE_NAMES[p] for p in kind)
+        seen.add(kind)
+        ax.axvline(t[k], color=SWITCH_COLOURS[kind], linestyle=":", linewidth=1.0, label=label)
+
+
 def _torques(ax: plt.Axes, d: LogData, t_max: float) -> None:
+    """The left leg's reference torques (Fig. 14(a)/(b)), the switches marked, and the
+    largest jump at a switch (``switch_torque_jump:left``) circled and labelled."""
     t, tau = _sig(d, "tau_ref")
+    model = d.model
+    joints = leg_actuators(model, "left_foot")
     keep = t <= t_max
-    for i in LEFT_LEG:
-        ax.plot(t[keep], tau[keep, i], label=LEFT_LEG_NAMES[i], linewidth=0.9)
+    for j in joints:
+        ax.plot(t[keep], tau[keep, j], label=model.actuator(j).name, linewidth=0.9)
+    _switches(ax, d, t_max)
+    _, phase = _sig(d, "efsm_phase")
+    if phase.size == t.size:
+        ticks, jumps = switch_torque_jumps(phase, tau, joints)
+        shown = t[ticks] <= t_max
+        if np.any(shown):
+            i = int(np.argmax(np.where(shown, jumps, -np.inf)))
+            k = ticks[i]
+            j = joints[int(np.argmax(np.abs(tau[k, joints] - tau[k - 1, joints])))]
+            span = (tau[k - 1, j], tau[k, j])
+            ax.plot([t[k], t[k]], span, color="k", linewidth=2.5, label="largest switch jump")
+            ax.annotate(
+                f"{jumps[i]:.1f} Nm in one tick ({model.actuator(j).name});"
+                f" over the run: {np.max(jumps):.1f} Nm",
+                (t[k], float(np.mean(span))),
+                xytext=(12, 0),
+                textcoords="offset points",
+                fontsize="x-small",
+                va="center",
+                bbox={"boxstyle": "round", "facecolor": "white", "alpha": 0.8, "linewidth": 0},
+            )
     ax.set_ylabel("reference torque [Nm]")
-    ax.legend(loc="best", fontsize="x-small", ncol=3)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="x-small")
+    ax.grid(alpha=0.3)
+
+
+def _epsilon(ax: plt.Axes, d: LogData, t_max: float) -> None:
+    """Fig. 14(c): ε (Eq. 23) and the onset ramp this reproduction adds in DS."""
+    t, eps = _sig(d, "epsilon")
+    keep = t <= t_max
+    ax.plot(t[keep], eps[keep], label="ε (§IV-B)")
+    _, onset = _sig(d, "epsilon_onset")
+    if onset.size == t.size and np.any(onset[keep] < 1.0):
+        ax.plot(t[keep], onset[keep], "--", linewidth=0.9, label="ε onset ramp\nin DS (assumed)")
+    _switches(ax, d, t_max)
+    ax.set_ylabel("ε")
+    ax.set_ylim(-0.05, 1.05)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="x-small")
     ax.grid(alpha=0.3)
 
 
 def fig14_torques(d: LogData, out_dir: Path) -> list[Path]:
     """Fig. 14 for one run: left-leg reference torques and ε over the first steps."""
-    t, eps = _sig(d, "epsilon")
-    if not t.size:
+    t, _ = _sig(d, "epsilon")
+    if not t.size or not _sig(d, "tau_ref")[0].size:
         return []
-    t_max = min(float(t[-1]), 3.0)
-    fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    t_max = min(float(t[-1]), FIG14_SPAN)
+    fig, axes = plt.subplots(2, 1, figsize=(12, 6.5), sharex=True)
     _torques(axes[0], d, t_max)
-    keep = t <= t_max
-    axes[1].plot(t[keep], eps[keep])
-    axes[1].set_ylabel("ε")
+    _epsilon(axes[1], d, t_max)
     axes[1].set_xlabel("time [s]")
-    axes[1].grid(alpha=0.3)
-    fig.suptitle(f"{d.spec.name}: Fig. 14 — left-leg reference torques and ε")
+    fig.suptitle(f"{d.spec.name}: Fig. 14 — left-leg reference torques and ε (dotted: switches)")
     return save(fig, out_dir / "fig14_torques")
 
 
 def fig14_compare(a: LogData, b: LogData, out_dir: Path) -> list[Path]:
-    """Fig. 14 (a)(b)(c): torques of two runs (e.g. without and with ε) and ε of the second."""
-    t, eps = _sig(b, "epsilon")
-    if not t.size or not _sig(a, "tau_ref")[0].size:
+    """Fig. 14 (a)(b)(c): left-leg torques of two runs (without and with ε) and ε of the
+    second, over the first FIG14_SPAN seconds, the E-FSM switches marked."""
+    if not _sig(b, "epsilon")[0].size or not _sig(a, "tau_ref")[0].size:
         return []
-    t_max = 3.0
-    fig, axes = plt.subplots(3, 1, figsize=(9, 9), sharex=True)
-    _torques(axes[0], a, t_max)
-    _torques(axes[1], b, t_max)
-    keep = t <= t_max
-    axes[2].plot(t[keep], eps[keep])
-    axes[2].set_ylabel("ε")
-    axes[2].grid(alpha=0.3)
-    for ax, tag, name in zip(axes, "abc", (a.spec.name, b.spec.name, b.spec.name), strict=True):
-        ax.set_title(f"({tag}) {name}", loc="left", fontsize="small")
+    fig, axes = plt.subplots(3, 1, figsize=(12, 10), sharex=True)
+    _torques(axes[0], a, FIG14_SPAN)
+    _torques(axes[1], b, FIG14_SPAN)
+    _epsilon(axes[2], b, FIG14_SPAN)
+    titles = (
+        f"(a) {a.spec.name}: reference torques of the left leg",
+        f"(b) {b.spec.name}: reference torques of the left leg",
+        f"(c) {b.spec.name}: state-transition parameter ε",
+    )
+    for ax, title in zip(axes, titles, strict=True):
+        ax.set_title(title, loc="left", fontsize="small")
     axes[-1].set_xlabel("time [s]")
-    fig.suptitle("Fig. 14 — reference torques without and with ε")
+    fig.suptitle("Fig. 14 — left-leg reference torques without and with ε (dotted: E-FSM switches)")
     return save(fig, out_dir / f"fig14_{a.spec.name}_vs_{b.spec.name}")
 
 

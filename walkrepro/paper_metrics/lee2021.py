@@ -19,7 +19,9 @@ import math
 import mujoco
 import numpy as np
 
+from walkrepro.errors import UnknownNameError
 from walkrepro.metrics import Footstep, LogData, NotMeasurable, metric, window_arg
+from walkrepro.robot import leg_actuators
 from walkrepro.world import FLOOR_NAME
 
 FEET = ("left", "right")
@@ -258,17 +260,45 @@ def _eq3_cop_lead(d: LogData, arg: str) -> float:
     return eq3_cop_lead(ss.com_x, ss.cop_x, _zeta(d))
 
 
-@metric("max_torque_jump", "largest tick-to-tick change of a reference torque (arg 't0-t1') [Nm]")
-def _max_torque_jump(d: LogData, arg: str) -> float:
-    """Pre-fall. Reads ``tau_ref``: §VI-D1's claim (Fig. 14) is about the reference torques."""
+def switch_torque_jumps(
+    phase: np.ndarray, tau: np.ndarray, joints: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Largest tick-to-tick reference-torque change of some joints at each E-FSM switch.
+
+    Args:
+        phase: ``efsm_phase`` per control tick, shape (N,).
+        tau: ``tau_ref`` at the same ticks, shape (N, n_actuators) [Nm].
+        joints: the actuator indices judged (e.g. :func:`walkrepro.robot.leg_actuators`).
+
+    Returns:
+        (ticks, jumps): the ticks k whose phase differs from tick k − 1's (the first tick
+        computed in the new state), and max_j |τ_j[k] − τ_j[k − 1]| over ``joints`` there [Nm].
+    """
+    ticks = np.nonzero(np.diff(phase) != 0)[0] + 1
+    jumps = np.max(np.abs(tau[ticks][:, joints] - tau[ticks - 1][:, joints]), axis=1)
+    return ticks, jumps
+
+
+@metric(
+    "switch_torque_jump",
+    "largest tick-to-tick change of a leg's reference torques (arg left|right, default left) "
+    "at the E-FSM state switches (Fig. 14) [Nm]",
+)
+def _switch_torque_jump(d: LogData, arg: str) -> float:
+    """Pre-fall. Reads ``tau_ref`` and ``efsm_phase``: §VI-D1's claim (Fig. 14) is about the
+    left leg's reference torques, which jump where the E-FSM switches state without ε. The
+    jump at a switch is the one into the first tick computed in the new state; the leg's
+    joints come from the log's model (:func:`walkrepro.robot.leg_actuators`)."""
+    side = arg or "left"
+    if side not in FEET:
+        raise UnknownNameError("leg", side, FEET, where="switch_torque_jump")
     t, tau = d.require_signal("tau_ref")
-    if t.size < 2:
-        raise NotMeasurable("fewer than two reference torques logged")
-    t0, t1 = window_arg(arg, (-math.inf, math.inf))
-    keep = (t[1:] >= t0) & (t[1:] <= t1)
-    jumps = np.max(np.abs(np.diff(tau, axis=0)), axis=1)[keep]
-    if not jumps.size:
-        raise NotMeasurable(f"no reference torques in the window {arg}{d.stopped_note()}")
+    t_phase, phase = d.require_signal("efsm_phase")
+    if t_phase.size != t.size or not np.array_equal(t_phase, t):
+        raise NotMeasurable("efsm_phase and tau_ref were not logged at the same ticks")
+    ticks, jumps = switch_torque_jumps(phase, tau, leg_actuators(d.model, f"{side}_foot"))
+    if not ticks.size:
+        raise NotMeasurable(f"the E-FSM never switched state{d.stopped_note()}")
     return float(np.max(jumps))
 
 
