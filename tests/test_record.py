@@ -131,11 +131,9 @@ def use_encoder(monkeypatch: pytest.MonkeyPatch, name: str) -> None:
         orjson = pytest.importorskip("orjson")
         monkeypatch.setattr(record, "orjson", orjson)
         monkeypatch.setattr(record, "_encode", record._encode_orjson)
-        monkeypatch.setattr(record, "_encode_float64", record._encode_orjson_float64)
         monkeypatch.setattr(record, "_decode_json", orjson.loads)
     else:
         monkeypatch.setattr(record, "_encode", record._encode_stdlib)
-        monkeypatch.setattr(record, "_encode_float64", record._encode_stdlib)
         monkeypatch.setattr(record, "_decode_json", json.loads)
 
 

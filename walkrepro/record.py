@@ -12,21 +12,24 @@ re-simulate the run, with no other file:
   ``outcome`` (one of :data:`OUTCOMES`) and any extra keys given to :meth:`LogWriter.close`
   (e.g. ``fall_time``, ``error``). It is written last, by ``close()``, because the outcome is
   only known then;
-- the numeric topics ``/sim/state``, ``/sim/inputs``, ``/sim/contacts`` and ``/sensors`` as
-  protobuf messages (schemas ``walkrepro.*``, see :mod:`walkrepro.protolog`), the Foxglove
-  topics ``/frames`` and ``/scene`` as protobuf messages of Foxglove's published schemas
-  (:mod:`walkrepro.foxglove`), ``/controller/signals`` and ``/events`` as JSON (schema
-  encoding ``jsonschema``); each schema is stored in the file. Messages go into
-  zstd-compressed chunks.
+- the numeric topics ``/sim/state``, ``/sim/inputs``, ``/sim/contacts``, ``/sensors`` and
+  ``/controller/signals`` as protobuf messages (schemas ``walkrepro.*``, see
+  :mod:`walkrepro.protolog`), the Foxglove topics ``/frames`` and ``/scene`` as protobuf
+  messages of Foxglove's published schemas (:mod:`walkrepro.foxglove`), ``/events`` as JSON
+  (schema encoding ``jsonschema``); each schema is stored in the file. Messages go into
+  zstd-compressed chunks. The per-tick topics are gathered as float64 rows and written a batch
+  at a time (:class:`_RowBatch`), so a chunk holds one stretch of time with each channel's
+  messages in order.
 
 ``log_time`` and ``publish_time`` of a message are wall-clock UTC in [ns]: the run's start
 (``log_time_origin``, ns since 1970) plus the simulated time; the simulated time ``t`` [s]
 itself is in the payload. ``sequence`` counts the messages of each channel from 0.
 
 Floats round-trip bit for bit: protobuf's ``double`` is the IEEE float64 itself, and the JSON
-topics hold the shortest repr that parses back to the same double (orjson, or Python's
+topic holds the shortest repr that parses back to the same double (orjson, or Python's
 ``json``). The binary topics hold any float64; the runner stops on a non-finite state or
-command before it is logged. JSON rejects NaN and infinity, so its topics are always valid.
+command before it is logged, and a NaN signal means "not defined at this tick"
+(:mod:`walkrepro.signals`). JSON rejects NaN and infinity, so ``/events`` is always valid.
 
 A log whose writer was killed has no summary and no ``walkrepro`` metadata; :func:`read_log`
 still reads every complete chunk before the damage. :func:`read_log` also reads format 1
@@ -174,25 +177,13 @@ def _reject_nonfinite(message: Any, data: bytes) -> None:
         raise ValueError("Out of range float values are not JSON compliant")
 
 
-def _encode_orjson_float64(message: Mapping[str, Any]) -> bytes:
-    """Like :func:`_encode_orjson` for messages whose arrays are all float64 (or int): orjson
-    writes them straight from their buffers, the same bytes as ``tolist()`` first, in half the
-    time. Arrays of other float dtypes would be written in their own precision."""
-    data = orjson.dumps(message, default=_json_default, option=orjson.OPT_SERIALIZE_NUMPY)
-    if _find_null(data) is not None:
-        _reject_nonfinite(message, data)
-    return data
-
-
 # orjson is optional: both spell every double as its shortest exact repr, so logs read back
 # bit for bit either way. With the stdlib, a 37-dof state costs ~35 us to encode, with orjson ~5.
 if orjson is None:
     _encode = _encode_stdlib
-    _encode_float64 = _encode_stdlib
     _decode_json: Callable[[bytes], Any] = json.loads
 else:
     _encode = _encode_orjson
-    _encode_float64 = _encode_orjson_float64
     _decode_json = orjson.loads
 
 
@@ -274,16 +265,13 @@ def _json_schemas() -> dict[str, tuple[str, dict[str, Any]]]:
 
 
 class _Channel:
-    """A topic's MCAP channel writer, the keys its messages need, and whether their vector
-    sizes are checked (the replay-critical topics)."""
+    """A topic's MCAP channel writer, and its ``append`` bound once (called per message)."""
 
-    __slots__ = ("append", "required", "sized", "writer")
+    __slots__ = ("append", "writer")
 
-    def __init__(self, writer: ChannelWriter, required: frozenset[str], sized: bool) -> None:
+    def __init__(self, writer: ChannelWriter) -> None:
         self.writer = writer
-        self.append = writer.append  # bound once: called for every message
-        self.required = required
-        self.sized = sized
+        self.append = writer.append
 
 
 class _RowBatch:
@@ -415,11 +403,7 @@ class LogWriter:
         schema_id = self._writer.add_schema(name, encoding, schema)
         message_encoding = "protobuf" if encoding == "protobuf" else "json"
         channel_id = self._writer.add_channel(topic, message_encoding, schema_id)
-        self._channels[topic] = _Channel(
-            self._writer.channel_writer(channel_id),
-            _REQUIRED_KEYS.get(topic, frozenset()),
-            sized=topic in (TOPIC_STATE, TOPIC_INPUTS),
-        )
+        self._channels[topic] = _Channel(self._writer.channel_writer(channel_id))
 
     @property
     def closed(self) -> bool:
