@@ -162,7 +162,8 @@ def check(
         bool,
         typer.Option(
             "--update-reference",
-            help="Copy each run's metrics, verdict and PNG figures to results/<experiment>/.",
+            help="Copy each run's metrics, verdict and PNG figures to results/<experiment>/ "
+            "(implies --figures: a reference's figures are drawn from its own run).",
         ),
     ] = False,
     sweeps: Annotated[
@@ -187,6 +188,7 @@ def check(
     from walkrepro.spec import experiment_names
 
     overrides = list(set_ or [])
+    figures = figures or update_reference
     if update_reference and overrides:
         raise WalkreproError(
             "--update-reference takes runs of the experiments as shipped; drop --set "
