@@ -199,6 +199,7 @@ class SensorModel:
         # encoder, a hysteresis the encoder reading lags the link by up to half of.
         offset_rng = np.random.default_rng([seed, _OFFSET_STREAM])
         self._offset = spec.joint_position_offset * offset_rng.standard_normal(n)
+        self._has_offset = spec.joint_position_offset > 0
         self._half_play = np.zeros(n)
         for pattern, play in spec.joint_backlash.items():
             for j, name in enumerate(robot.joint_names):
@@ -253,7 +254,8 @@ class SensorModel:
         joint_pos = reading[:n]
         if self._has_play:
             joint_pos[:] = self._through_play(joint_pos)
-        joint_pos += self._offset
+        if self._has_offset:
+            joint_pos += self._offset
         if self._noisy.size:
             noise = self._noise_std * self._rng.standard_normal(self._noisy.size)
             reading[self._noisy] += noise
