@@ -111,6 +111,66 @@ def test_quantization_rounds_encoders_to_the_step(coman) -> None:  # noqa: ANN00
     assert np.abs(snap.joint_pos - exact.joint_pos).max() <= step / 2 + 1e-12
 
 
+def test_calibration_offset_is_fixed_per_seed_and_zero_by_default(coman) -> None:  # noqa: ANN001
+    """A calibration offset is the same in every reading of a run (systematic, not noise), is
+    drawn per seed with the given σ, and σ = 0 reads the links exactly."""
+    robot, model, data = coman
+    exact = SensorModel(robot, model, SensorsSpec(), 0.002, 0).read(model, data)
+    zero = SensorModel(robot, model, SensorsSpec(joint_position_offset=0.0), 0.002, 0)
+    assert np.array_equal(zero.read(model, data).joint_pos, exact.joint_pos)
+    spec = SensorsSpec(joint_position_offset=0.003)
+    sensors = SensorModel(robot, model, spec, 0.002, 0)
+    first, later = sensors.read(model, data), sensors.read(model, data)
+    offset = first.joint_pos - exact.joint_pos
+    assert np.array_equal(later.joint_pos - exact.joint_pos, offset)  # the same every tick
+    assert np.all(offset != 0) and np.abs(offset).max() < 5 * 0.003
+    again = SensorModel(robot, model, spec, 0.002, 0).read(model, data)
+    other = SensorModel(robot, model, spec, 0.002, 1).read(model, data)
+    assert np.array_equal(again.joint_pos, first.joint_pos)
+    assert not np.array_equal(other.joint_pos, first.joint_pos)
+
+
+def test_calibration_offset_leaves_the_noise_draws_unchanged(coman) -> None:  # noqa: ANN001
+    """The offsets come from their own seed stream: adding them shifts the noisy readings by
+    the offsets and nothing else."""
+    robot, model, data = coman
+    noisy = SensorModel(robot, model, SensorsSpec(joint_position_noise=0.001), 0.002, 3)
+    both = SensorModel(
+        robot, model, SensorsSpec(joint_position_noise=0.001, joint_position_offset=0.003), 0.002, 3
+    )
+    only = SensorModel(robot, model, SensorsSpec(joint_position_offset=0.003), 0.002, 3)
+    exact = SensorModel(robot, model, SensorsSpec(), 0.002, 3).read(model, data).joint_pos
+    offset = only.read(model, data).joint_pos - exact
+    for _ in range(3):
+        a, b = noisy.read(model, data).joint_pos, both.read(model, data).joint_pos
+        assert b == pytest.approx(a + offset, abs=1e-15)
+
+
+def test_backlash_lags_the_link_by_up_to_half_the_play_and_only_where_set(coman) -> None:  # noqa: ANN001
+    """Behind a play b the encoder holds still while the link moves within ±b/2, then follows
+    it b/2 behind; joints without play read the link exactly."""
+    robot, model, data = coman
+    play = 0.02
+    spec = SensorsSpec(joint_backlash={"*knee": play})
+    sensors = SensorModel(robot, model, spec, 0.002, 0)
+    knee = [i for i, n in enumerate(robot.joint_names) if n.endswith("knee")]
+    other = [i for i, n in enumerate(robot.joint_names) if not n.endswith("knee")]
+    link = robot.link_joint_qpos_adr(model)
+    start = sensors.read(model, data).joint_pos.copy()
+    assert np.array_equal(start, link.link_values(data.qpos))  # starts centred
+    knee_adr = [model.joint(robot.joint_names[i]).qposadr[0] for i in knee]
+    saved = data.qpos.copy()
+    for delta, expected in ((0.006, 0.0), (0.02, 0.01), (0.015, 0.01), (-0.01, -0.0)):
+        data.qpos[:] = saved
+        data.qpos[knee_adr] += delta  # the spring DoF: the link moves, the motor does not
+        mujoco.mj_forward(model, data)
+        snap = sensors.read(model, data)
+        assert snap.joint_pos[knee] - start[knee] == pytest.approx(np.full(2, expected), abs=1e-12)
+        assert np.array_equal(snap.joint_pos[other], link.link_values(data.qpos)[other])
+    data.qpos[:] = saved
+    mujoco.mj_forward(model, data)
+
+
 def test_delay_holds_back_whole_control_periods(coman) -> None:  # noqa: ANN001
     robot, model, data = coman
     sensors = SensorModel(robot, model, SensorsSpec(delay=0.004), 0.002, 0)

@@ -101,6 +101,14 @@ def test_unknown_body_lists_valid_bodies(tmp_path: Path) -> None:
     assert "Valid bodies:" in msg
 
 
+def test_backlash_names_actuators_and_is_non_negative(tmp_path: Path) -> None:
+    """sensors.joint_backlash keys must match an actuator (the error lists them), values >= 0."""
+    msg = error_of(tmp_path, GOOD, ('sensors.joint_backlash={"*kneee": 0.01}',))
+    assert "'*kneee'" in msg and "Valid actuators:" in msg
+    msg = error_of(tmp_path, GOOD, ('sensors.joint_backlash={"*knee*": -0.01}',))
+    assert "backlash must be >= 0" in msg
+
+
 def test_unknown_metric_lists_valid_metrics(tmp_path: Path) -> None:
     """An unknown metric lists the registered metrics."""
     msg = error_of(tmp_path, GOOD.replace("metric: fell", "metric: fel"))

@@ -8,6 +8,7 @@ spec's ``sensors`` block and are seeded, so a run is deterministic.
 
 from __future__ import annotations
 
+import fnmatch
 from collections import deque
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar
@@ -23,6 +24,8 @@ if TYPE_CHECKING:
     from walkrepro.spec import SensorsSpec
 
 FOOT_SIDES = ("left", "right")
+#: The seed stream of the calibration offsets, apart from the noise's (any fixed integer).
+_OFFSET_STREAM = 0x0FF5E7
 
 
 @dataclass(frozen=True)
@@ -190,6 +193,20 @@ class SensorModel:
         self._noisy = np.flatnonzero(std != 0)
         self._noise_std = std[self._noisy]
         self._n = n
+        # Systematic encoder errors (spec ``joint_position_offset``, ``joint_backlash``): a
+        # calibration offset per joint, drawn once from its own stream so that σ = 0 leaves
+        # the noise draws (and every run without it) unchanged; and the play between link and
+        # encoder, a hysteresis the encoder reading lags the link by up to half of.
+        offset_rng = np.random.default_rng([seed, _OFFSET_STREAM])
+        self._offset = spec.joint_position_offset * offset_rng.standard_normal(n)
+        self._has_offset = spec.joint_position_offset > 0
+        self._half_play = np.zeros(n)
+        for pattern, play in spec.joint_backlash.items():
+            for j, name in enumerate(robot.joint_names):
+                if fnmatch.fnmatchcase(name, pattern):
+                    self._half_play[j] = 0.5 * play
+        self._has_play = bool(np.any(self._half_play > 0))
+        self._encoder: np.ndarray | None = None  # the encoder shafts' angles behind the play
         # After the noisy segments: the IMU orientation, then the base state if provided.
         rows = [np.arange(sensor[name].start, sensor[name].stop) for name, _, _ in segments[2:]]
         self._sensor_rows = np.concatenate([*rows, np.arange(self._quat.start, self._quat.stop)])
@@ -234,10 +251,14 @@ class SensorModel:
             self._base_qvel_rows,
             reading,
         )
+        joint_pos = reading[:n]
+        if self._has_play:
+            joint_pos[:] = self._through_play(joint_pos)
+        if self._has_offset:
+            joint_pos += self._offset
         if self._noisy.size:
             noise = self._noise_std * self._rng.standard_normal(self._noisy.size)
             reading[self._noisy] += noise
-        joint_pos = reading[:n]
         if spec.joint_position_quantization > 0:
             step = spec.joint_position_quantization
             joint_pos[:] = np.round(joint_pos / step) * step
@@ -258,6 +279,24 @@ class SensorModel:
             base_angvel=None if base is None else base[10:13],
             reading=reading,
         )
+
+    def _through_play(self, link_pos: np.ndarray) -> np.ndarray:
+        """The encoder shafts' angles behind the play, given the links' [rad].
+
+        A shaft stays where it is until the link pushes it, at half the play either side
+        (backlash: a dead band in position, Tao & Kokotović's "play" operator). The first
+        reading starts each shaft centred on its link.
+        """
+        if self._encoder is None:
+            self._encoder = link_pos.copy()
+        else:
+            np.clip(
+                self._encoder,
+                link_pos - self._half_play,
+                link_pos + self._half_play,
+                out=self._encoder,
+            )
+        return self._encoder
 
 
 def _snapshot(**fields: Any) -> SensorSnapshot:

@@ -207,9 +207,29 @@ class SensorsSpec(_Strict):
     ft_force_noise: float = Field(0.0, ge=0.0, description="[N]")
     ft_torque_noise: float = Field(0.0, ge=0.0, description="[Nm]")
     delay: float = Field(0.0, ge=0.0, description="sensor-to-controller delay [s]")
+    joint_position_offset: float = Field(
+        0.0,
+        ge=0.0,
+        description="σ of each link encoder's fixed calibration offset, drawn once per seed "
+        "(a systematic error: the same in every reading of the run) [rad]",
+    )
+    joint_backlash: dict[str, float] = Field(
+        default_factory=dict,
+        description="total play between a link and its encoder by actuator name or glob "
+        "(``*knee*``): the encoder follows the link only once the link has crossed the play "
+        "[rad]; later entries win where globs overlap",
+    )
     base_state: bool = Field(
         True, description="the simulator provides the floating-base pose and velocity"
     )
+
+    @field_validator("joint_backlash")
+    @classmethod
+    def _non_negative(cls, play: dict[str, float]) -> dict[str, float]:
+        bad = [k for k, v in play.items() if v < 0]
+        if bad:
+            raise ValueError(f"backlash must be >= 0 [rad]; not so for {', '.join(bad)}")
+        return play
 
 
 class ActuatorsSpec(_Strict):
@@ -579,6 +599,14 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
             raise SpecError(
                 f"{loaded.where(('actuators', 'position_gain'))}: robot {robot.name!r} has torque "
                 "actuators; position_gain applies to position servos only."
+            )
+    for pattern in spec.sensors.joint_backlash:
+        if not fnmatch.filter(actuator_names, pattern):
+            raise UnknownNameError(
+                "actuator",
+                pattern,
+                actuator_names,
+                loaded.where(("sensors", "joint_backlash", pattern)),
             )
     valid_metrics = metric_names()
     for i, exp in enumerate(spec.expect):
