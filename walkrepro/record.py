@@ -658,19 +658,30 @@ class LogWriter:
             self._check_sizes(TOPIC_STATE, message)
         if t != self._last_t:
             self._set_time(TOPIC_STATE, t)
-        a, b = self._state_split
         batch = self._state_rows
         i = batch.n
-        row = batch.rows[i]
+        self._fill_state_row(batch.rows[i], step, t, qpos, qvel, act)
+        batch.stamps[i] = self._last_stamp
+        batch.n = i + 1
+        if i + 1 == self._batch_rows:
+            self._flush_batches()
+
+    def _fill_state_row(
+        self,
+        row: np.ndarray,
+        step: int,
+        t: float,
+        qpos: np.ndarray,
+        qvel: np.ndarray,
+        act: np.ndarray,
+    ) -> None:
+        """A ``/sim/state`` row: ``[step, t, *qpos, *qvel, *act]``."""
+        a, b = self._state_split
         row[0] = step
         row[1] = t
         row[2:a] = qpos
         row[a:b] = qvel
         row[b:] = act
-        batch.stamps[i] = self._last_stamp
-        batch.n = i + 1
-        if i + 1 == self._batch_rows:
-            self._flush_batches()
 
     def write_tick(
         self,
@@ -710,14 +721,8 @@ class LogWriter:
             return
         if t != self._last_t:
             self._set_time(TOPIC_STATE, t)
-        a, b = self._state_split
         i = state.n
-        row = state.rows[i]
-        row[0] = step
-        row[1] = t
-        row[2:a] = qpos
-        row[a:b] = qvel
-        row[b:] = act
+        self._fill_state_row(state.rows[i], step, t, qpos, qvel, act)
         row = sensors.rows[i]
         row[0] = t
         row[1:] = snapshot.reading
