@@ -111,6 +111,25 @@ def test_step_in_place_does_not_advance(poser: Poser, tmp_path: Path) -> None:
     assert measured(d, "lifted_steps") == 1 and measured(d, "advancing_steps") == 0
 
 
+def test_swing_apex_reaches_the_raise_height(poser: Poser, tmp_path: Path) -> None:
+    """A swing whose sole rises 5 cm (Table II's raise height) has a 5 cm apex."""
+    d = write_log(tmp_path / "a.mcap", _swing(poser, "left_foot", 0.2, 0.6, 0.1, 0.05, 80), _spec())
+    assert measured(d, "swing_apex") == pytest.approx(0.05, abs=2e-3)
+    assert measured(d, "swing_apex:min") == pytest.approx(0.05, abs=2e-3)
+
+
+def test_swing_apex_of_a_low_swing(poser: Poser, tmp_path: Path) -> None:
+    """A swing that rises only 2 cm has a 2 cm apex, 3 cm short of the raise height."""
+    d = write_log(tmp_path / "a.mcap", _swing(poser, "left_foot", 0.2, 0.6, 0.1, 0.02, 80), _spec())
+    assert measured(d, "swing_apex") == pytest.approx(0.02, abs=2e-3)
+
+
+def test_swing_apex_of_a_slide_is_not_measurable(poser: Poser, tmp_path: Path) -> None:
+    """A foot slid along the floor takes no step, so there is no apex to measure."""
+    d = write_log(tmp_path / "a.mcap", _swing(poser, "left_foot", 0.2, 0.6, 0.1, 0.0, 80), _spec())
+    assert unmeasurable_reason(d, "swing_apex").startswith("no advancing step")
+
+
 def test_walk_speed_over_the_steps(poser: Poser, tmp_path: Path) -> None:
     """With the pelvis at 0.1 m/s the walk speed is 0.1 m/s, in §VI-A's band."""
     ticks = _swing(poser, "left_foot", 0.2, 0.6, 0.15, 0.04, 80, pelvis_speed=0.1)

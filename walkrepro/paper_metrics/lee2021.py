@@ -85,6 +85,29 @@ def _advancing_steps(d: LogData, arg: str) -> float:
 
 
 @metric(
+    "swing_apex",
+    "sole clearance at the apex of the advancing steps' swings, median (arg median|min) [m]",
+)
+def _swing_apex(d: LogData, arg: str) -> float:
+    """The largest clearance of each advancing step's sole (its lowest corner above the
+    surfaces it left and landed on, :func:`walkrepro.metrics.detect_steps`), reduced over the
+    steps by ``arg``: ``median`` (default) or ``min``.
+
+    Table II raises the swing foot to 0.05 m in SSD; Fig. 7(c) plots the reached height.
+    Measured from the logged state, never from the controller's reference. A foot that slid
+    is no step and has no apex here (``slid_steps`` reports it).
+    """
+    _need_walk(d)
+    reduce = {"": np.median, "median": np.median, "min": np.min}.get(arg)
+    if reduce is None:
+        raise UnknownNameError("swing_apex reduction", arg, ["median", "min"])
+    adv = advancing_steps(d)
+    if not adv:
+        raise NotMeasurable(f"no advancing step{d.stopped_note()}")
+    return float(reduce([s.clearance for s in adv]))
+
+
+@metric(
     "walk_speed",
     "pelvis x speed from the first step's lift-off to the last advancing step's touchdown [m/s]",
 )
