@@ -84,14 +84,25 @@ def _advancing_steps(d: LogData, arg: str) -> float:
     return float(len(advancing_steps(d)))
 
 
+def swing_apex(d: LogData, step: Footstep) -> float:
+    """Largest height [m] of a step's sole centre above the surfaces it left and landed on.
+
+    The sole centre (site ``<side>_sole``, logged state) is the point whose height Table II
+    sets (0.05 m raising, 0.005 m landing); the surfaces are the sole centre's heights at
+    lift-off and at touchdown, the larger of the two.
+    """
+    centre_z = d.sole_tracks[step.foot].centre[:, 2]
+    i_off, i_on = (int(i) for i in d.state_index(np.array([step.liftoff_t, step.t])))
+    return float(np.max(centre_z[i_off : i_on + 1]) - max(centre_z[i_off], centre_z[i_on]))
+
+
 @metric(
     "swing_apex",
-    "sole clearance at the apex of the advancing steps' swings, median (arg median|min) [m]",
+    "apex height of the advancing steps' sole centres, median (arg median|min) [m]",
 )
 def _swing_apex(d: LogData, arg: str) -> float:
-    """The largest clearance of each advancing step's sole (its lowest corner above the
-    surfaces it left and landed on, :func:`walkrepro.metrics.detect_steps`), reduced over the
-    steps by ``arg``: ``median`` (default) or ``min``.
+    """:func:`swing_apex` of each advancing step, reduced over the steps by ``arg``:
+    ``median`` (default) or ``min``.
 
     Table II raises the swing foot to 0.05 m in SSD; Fig. 7(c) plots the reached height.
     Measured from the logged state, never from the controller's reference. A foot that slid
@@ -104,7 +115,7 @@ def _swing_apex(d: LogData, arg: str) -> float:
     adv = advancing_steps(d)
     if not adv:
         raise NotMeasurable(f"no advancing step{d.stopped_note()}")
-    return float(reduce([s.clearance for s in adv]))
+    return float(reduce([swing_apex(d, s) for s in adv]))
 
 
 @metric(
