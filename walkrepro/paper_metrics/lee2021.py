@@ -88,12 +88,15 @@ def swing_apex(d: LogData, step: Footstep) -> float:
     """Largest height [m] of a step's sole centre above the surfaces it left and landed on.
 
     The sole centre (site ``<side>_sole``, logged state) is the point whose height Table II
-    sets (0.05 m raising, 0.005 m landing); the surfaces are the sole centre's heights at
-    lift-off and at touchdown, the larger of the two.
+    sets (0.05 m raising, 0.005 m landing). The surfaces are the heights of the sole's
+    lowest corner at lift-off and at touchdown (the larger of the two), as in
+    :func:`walkrepro.metrics.detect_steps`: a foot touches down on a corner, its centre
+    still ≈ 8 mm up in ``forward_walk``, so the centre then is not the surface.
     """
-    centre_z = d.sole_tracks[step.foot].centre[:, 2]
+    track = d.sole_tracks[step.foot]
     i_off, i_on = (int(i) for i in d.state_index(np.array([step.liftoff_t, step.t])))
-    return float(np.max(centre_z[i_off : i_on + 1]) - max(centre_z[i_off], centre_z[i_on]))
+    surface = max(track.lowest[i_off], track.lowest[i_on])
+    return float(np.max(track.centre[i_off : i_on + 1, 2]) - surface)
 
 
 @metric(
