@@ -496,13 +496,16 @@ def build_dyros(drive: DriveModel | None = None) -> RobotDesign:
 #: DYROS RED's drives (Lee et al. §V-A; values and sources: robots/dyros_red_actuated/README.md).
 DYROS_DRIVE = DriveModel(
     gear_ratio=100.0,  # paper §V-A: 100:1 harmonic gear
-    rotor_inertia=1.0e-5,  # assumed: frameless servo rotor of this size class [kg m^2]
+    rotor_inertia=1.0e-5,  # assumed (no Kollmorgen KBM value found): rotor, motor side [kg m^2]
     motor_damping=2.0,  # notes: joint damping ≈ 2 Nms/rad of the lab's simulation model
-    friction=1.0,  # assumed: Coulomb friction of motor and gear, link side [Nm]
-    stiffness=5.0e4,  # assumed: torsional stiffness of a size-32 harmonic drive [Nm/rad]
-    gear_damping=7.0,  # assumed: damping ratio ≈ 0.05 of the rotor against a fixed link
+    friction=1.0,  # assumed (no gear-only value found): Coulomb friction, link side [Nm]
+    # Harmonic Drive size 32, ratio > 50 (CHA-32A data sheet, Harmonic Drive AG 1018854):
+    # K1 = 6.7e4 Nm/rad below T1 = 29 Nm (K2 = 1.1e5 to T2 = 108 Nm, K3 = 1.2e5 above);
+    # one linear spring, the low-torque K1 [Nm/rad].
+    stiffness=6.7e4,
+    gear_damping=7.0,  # assumed: light damping, ζ ≈ 0.055 of the rotor against a held link
     torque_lag=0.5e-3,  # assumed: torque-loop time constant (≈ 320 Hz bandwidth) [s]
-    spring_range=0.05,  # deflection limit [rad]: 2500 Nm at 5e4 Nm/rad, never reached
+    spring_range=0.05,  # deflection limit [rad]: 3350 Nm at 6.7e4 Nm/rad, never reached
 )
 
 
