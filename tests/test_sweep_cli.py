@@ -103,7 +103,9 @@ def test_bad_grid_is_one_paragraph_exit_2_and_nothing_runs(
 def test_ctrl_c_keeps_finished_cells_and_resume_completes(tmp_path: Path) -> None:
     """SIGINT during a sweep exits 130 with every finished cell kept; --resume runs the rest."""
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
-    grid = "sim.duration=0.3,0.31,0.32,0.33,0.34,0.35,0.36,0.37"
+    # Cells of 2 s simulated: after the first row the other seven take seconds, so the
+    # SIGINT below reaches the sweep mid-way even on a loaded machine (0.3 s cells did not).
+    grid = "sim.duration=2.0,2.01,2.02,2.03,2.04,2.05,2.06,2.07"
     cmd = [sys.executable, "-m", "walkrepro", "sweep", "stand_dyros_red", "--grid", grid]
     proc = subprocess.Popen(
         [*cmd, "--jobs", "1", "--out", str(tmp_path)],
@@ -115,7 +117,7 @@ def test_ctrl_c_keeps_finished_cells_and_resume_completes(tmp_path: Path) -> Non
     deadline = time.monotonic() + 900
     while time.monotonic() < deadline and proc.poll() is None:
         dirs = _sweep_dirs(tmp_path)
-        if dirs and (dirs[0] / "cells.csv").is_file() and len(_rows(dirs[0])) >= 2:
+        if dirs and (dirs[0] / "cells.csv").is_file() and len(_rows(dirs[0])) >= 1:
             break
         time.sleep(0.05)
     assert proc.poll() is None, "the sweep ended before it could be interrupted"
@@ -125,7 +127,7 @@ def test_ctrl_c_keeps_finished_cells_and_resume_completes(tmp_path: Path) -> Non
     assert "interrupted" in output
     (directory,) = _sweep_dirs(tmp_path)
     kept = _rows(directory)
-    assert 2 <= len(kept) < 8
+    assert 1 <= len(kept) < 8
     resumed = subprocess.run(
         [sys.executable, "-m", "walkrepro", "sweep", "--resume", str(directory), "--jobs", "1"],
         env=env,

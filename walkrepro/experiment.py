@@ -146,9 +146,11 @@ def execute(
     its reason) and ``check.json``. ``overrides`` are the ``--set`` strings the spec was
     resolved with; ``run.json`` records them so partner runs can be matched later.
     """
-    run_dir = results.new_run_dir(out_root, spec.name)
-    log_path = run_dir.work / results.LOG_FILE
+    # The flag is installed before the run directory exists: a Ctrl-C from the moment the
+    # directory appears is a request, and the directory is always finished.
     with InterruptFlag() as flag:
+        run_dir = results.new_run_dir(out_root, spec.name)
+        log_path = run_dir.work / results.LOG_FILE
         try:
             (run_dir.work / results.SPEC_FILE).write_text(spec.to_yaml())
             try:
