@@ -55,6 +55,18 @@ def test_exact_reading_matches_the_simulator(coman) -> None:  # noqa: ANN001
     assert np.linalg.norm(snap.imu_acc) == pytest.approx(G, rel=0.05)
 
 
+def test_motor_encoders_read_the_motor_dof_without_imperfections(coman) -> None:  # noqa: ANN001
+    """coman's pre-spring motor encoders read the motor DoF exactly, apart from the link
+    encoders' noise and quantization; the link reading is motor + spring."""
+    robot, model, data = coman
+    spec = SensorsSpec(joint_position_noise=0.01, joint_position_quantization=0.01)
+    snap = SensorModel(robot, model, spec, 0.002, 0).read(model, data)
+    link = robot.link_joint_qpos_adr(model)
+    motor = data.qpos[link.adr[link.starts]]
+    assert np.array_equal(snap.motor_pos, motor)
+    assert not np.array_equal(snap.joint_pos, motor)  # the springs are pre-loaded at home
+
+
 def test_no_base_state_unless_the_spec_provides_it(coman) -> None:  # noqa: ANN001
     robot, model, data = coman
     snap = SensorModel(robot, model, SensorsSpec(base_state=False), 0.002, 0).read(model, data)

@@ -202,3 +202,20 @@ def test_stance_ankle_push_off_never_brakes_and_is_off_in_place() -> None:
         cmd = ctrl.step(0.002 * i, SensorSnapshot(**{**snap.__dict__, "joint_pos": q}))
     assert cmd.signals["e_raw"][3] > 0.0  # faster than the gait
     assert cmd.signals["ankle_torque"] == 0.0
+
+
+def test_paper_torso_term_targets_motor_encoder_plus_pitch() -> None:
+    """With torso_term 'motor', the stance hip's target mid-stance is the motor encoder plus
+    the IMU pitch (Eq. 24: a voltage from the pitch alone), whatever the link encoder reads."""
+    robot, ctrl = _controller(start_time=0.0, torso_term="motor")
+    snap = _snapshot(robot, 0.0)
+    motor = robot.home_joint_pos.copy() + 0.03  # a spring deflection the law must not see
+    pitch = 0.05
+    quat = np.array([np.cos(pitch / 2), 0.0, np.sin(pitch / 2), 0.0])
+    t = 0.2  # phase 0.2 s of the first step: γ_stance = exp(−(0.2/0.08)²) ≈ 0.002
+    cmd = ctrl.step(
+        t, SensorSnapshot(**{**snap.__dict__, "t": t, "imu_quat": quat, "motor_pos": motor})
+    )
+    swing_side = cmd.signals["swing_side"]
+    stance_hip = 8 if swing_side > 0 else 2  # coman's leg order: left 0-5, right 6-11
+    assert cmd.ctrl[stance_hip] == pytest.approx(motor[stance_hip] + pitch, abs=2e-3)

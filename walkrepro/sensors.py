@@ -17,7 +17,7 @@ import mujoco
 import numba
 import numpy as np
 
-from walkrepro.robot import SENSOR_NAMES
+from walkrepro.robot import SENSOR_NAMES, _motor_only
 
 if TYPE_CHECKING:
     from walkrepro.robot import Robot
@@ -47,6 +47,11 @@ class SensorSnapshot:
         base_quat: pelvis orientation world-from-pelvis (w, x, y, z), or None.
         base_linvel: pelvis linear velocity in the world frame [m/s], or None.
         base_angvel: pelvis angular velocity in the pelvis frame [rad/s], or None.
+        motor_pos: motor-side (pre-spring) encoder angles of series-elastic joints, shape
+            (n,), actuator order [rad] (a rigid joint reads its link angle); None for a robot
+            without series-elastic joints. Paper II's COMAN has them ("incremental optical
+            encoders to measure pre-spring motor shaft positions", precise after the N = 101
+            reduction), so they are read without noise or quantization.
         reading: the one float64 vector the array fields above are views of, in
             :data:`READING` order (what the log records); None for a snapshot built by hand.
     """
@@ -54,7 +59,7 @@ class SensorSnapshot:
     #: The array fields in the order ``reading`` holds them.
     READING: ClassVar[tuple[str, ...]] = (
         "joint_pos", "joint_vel", "imu_gyro", "imu_acc", "left_ft", "right_ft", "imu_quat",
-        "base_pos", "base_quat", "base_linvel", "base_angvel",
+        "base_pos", "base_quat", "base_linvel", "base_angvel", "motor_pos",
     )  # fmt: skip
 
     t: float
@@ -69,6 +74,7 @@ class SensorSnapshot:
     base_quat: np.ndarray | None = None
     base_linvel: np.ndarray | None = None
     base_angvel: np.ndarray | None = None
+    motor_pos: np.ndarray | None = None
     reading: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     def pinocchio_state(
@@ -214,8 +220,17 @@ class SensorModel:
         self._sensor_sign[6:18] = -1.0  # the F/T part
         self._base_qpos_rows = np.arange(7 if spec.base_state else 0)
         self._base_qvel_rows = np.arange(6 if spec.base_state else 0)
+        # The motor-side encoders of series-elastic joints (the motor DoF), after the rest.
+        link_adr = robot.link_joint_qpos_adr(model)
+        self._motor_qpos_adr = (
+            _motor_only(link_adr).adr if len(link_adr.adr) != len(link_adr.starts) else None
+        )
         self._reading_size = (
-            2 * n + self._sensor_rows.size + self._base_qpos_rows.size + self._base_qvel_rows.size
+            2 * n
+            + self._sensor_rows.size
+            + self._base_qpos_rows.size
+            + self._base_qvel_rows.size
+            + (n if self._motor_qpos_adr is not None else 0)
         )
         # A delay of d seconds holds back round(d / control_period) readings.
         self._delay_ticks = int(round(spec.delay / control_period))
@@ -263,7 +278,11 @@ class SensorModel:
             step = spec.joint_position_quantization
             joint_pos[:] = np.round(joint_pos / step) * step
         i = 2 * n  # gyro, accelerometer, F/T, IMU orientation, base position ... velocity
-        base = reading[i + 22 :] if spec.base_state else None
+        base = reading[i + 22 : i + 35] if spec.base_state else None
+        motor_pos = None
+        if self._motor_qpos_adr is not None:
+            motor_pos = reading[self._reading_size - n :]
+            motor_pos[:] = data.qpos[self._motor_qpos_adr]
         return _snapshot(
             t=data.time,
             joint_pos=joint_pos,
@@ -277,6 +296,7 @@ class SensorModel:
             base_quat=None if base is None else base[3:7],
             base_linvel=None if base is None else base[7:10],
             base_angvel=None if base is None else base[10:13],
+            motor_pos=motor_pos,
             reading=reading,
         )
 

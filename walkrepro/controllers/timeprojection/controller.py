@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Iterable
+from typing import Literal
 
 import numpy as np
 import pinocchio as pin
@@ -99,6 +100,15 @@ class TimeProjectionParams(ControllerParams):
     roll_amplitude: float = Field(0.1, ge=0, description="pelvis roll, Eq. 22 [rad]")
     lift_amplitude: float = Field(0.01, ge=0, description="swing lift, Eq. 23 [m]")
     hip_switch_ratio: float = Field(0.2, gt=0, description="t1 / T of Eq. 24")
+    torso_term: Literal["link", "motor"] = Field(
+        "link",
+        description="the stance-hip torso term of Eq. 24 as a motor target: 'motor' is the "
+        "paper's v = k_d(γ(θ_des − θ_m) + (1 − γ)(−θ_pitch)), target θ_m + θ_pitch from the "
+        "pre-spring motor encoder, a motor torque k_d/β·θ_pitch (222 Nm/rad at 100 V/rad), "
+        "the spring compensation on the tracking part only; 'link' (walkrepro's departure, "
+        "README known deviations) targets the link encoder + θ_pitch, which also feeds back "
+        "the hip spring's deflection: the servo in series with the spring (142 Nm/rad)",
+    )
     zeta: float = Field(0.1, gt=0, le=1, description="IIR ζ, Eq. 26")
     velocity_window: int = Field(30, ge=1, description="derivative averaging window [samples]")
     dead_zone_thresholds: tuple[float, float, float, float] = Field(
@@ -353,7 +363,7 @@ class TimeProjectionController(Controller):
         t3 = clock()
         split[2] += t3 - t2
 
-        # ---- attack angle on the swing hip; hip switch (Eq. 24)
+        # ---- attack angle on the swing hip
         # q_open: the open-loop posture, before the footstep feedback.
         q_des = list(q_open)
         sw_hip, st_hip = (
@@ -361,28 +371,30 @@ class TimeProjectionController(Controller):
         )
         if not p.attack_in_ik:
             q_des[sw_hip] -= self._attack  # hip flexion is negative pitch in coman
-        ctrl_legs = list(q_des)
+
+        # ---- hip switch (Eq. 24) and spring compensation (Eq. 21, knees; the other leg
+        # joints alike). Eq. 24 is v = k_d(γ(θ_des − θ_act) + (1 − γ)(−θ_pitch)) and the servo
+        # is v = k_d(ctrl − θ_m), θ_m the motor encoder ("position control only on the motor
+        # shaft"): the paper's torso term is the target θ_m + θ_pitch ('motor'), a voltage
+        # from the IMU pitch alone, a motor torque k_d/β·θ_pitch that the spring passes on.
+        # It gets no spring offset (a constant voltage there would be a torque bias on the
+        # torso). 'link' targets the link encoder + θ_pitch: k_d(θ_pitch − spring deflection),
+        # the servo in series with the hip spring, with the offsets added after the switch.
         t1 = p.hip_switch_ratio * T
-        joint_pos = sensors.joint_pos
+        paper_torso = p.torso_term == "motor"
+        ctrl_legs = list(q_des)
+        if paper_torso:
+            self._compensate_springs(ctrl_legs, forces, q_open, roll_cmd)
+        encoder = sensors.joint_pos
+        if paper_torso and sensors.motor_pos is not None:
+            encoder = sensors.motor_pos  # a robot without springs: the link angle is θ_m
         for i, swinging in ((sw_hip, True), (st_hip, False)):
             gamma = lift.hip_switch_gamma(phase, t1, swinging)
-            torso = float(joint_pos[i]) + pitch  # drives the pelvis pitch to zero
-            ctrl_legs[i] = gamma * q_des[i] + (1.0 - gamma) * torso
-
-        # ---- spring compensation (Eq. 21, knees; the other leg joints alike)
+            torso = float(encoder[i]) + pitch  # drives the pelvis pitch to zero
+            ctrl_legs[i] = gamma * ctrl_legs[i] + (1.0 - gamma) * torso
+        if not paper_torso:
+            self._compensate_springs(ctrl_legs, forces, q_open, roll_cmd)
         load = [forces[0] / self._weight, forces[1] / self._weight]
-        offset = self._offset_full
-        for i in range(12):
-            ctrl_legs[i] += load[i // 6] * offset[i]
-        if self._posture_springs:
-            # Eq. 21 with μ from the commanded posture instead of home: the sagittal springs'
-            # static deflection under the body weight at the sole point (the 3LP CoP).
-            self._pin_q[self._pin_legs] = q_open
-            for leg in (0, 1):
-                mu = self._deflection(leg, roll_cmd, SAGITTAL_JOINTS)
-                for j, mu_j in zip(SAGITTAL_JOINTS, mu, strict=True):
-                    i = 6 * leg + j
-                    ctrl_legs[i] += load[leg] * (mu_j - offset[i])
 
         # ---- stance-ankle push-off through the ankle spring: adds only the speed the pelvis
         # lacks along the commanded direction, after the force transfer (the stance weight
@@ -421,6 +433,29 @@ class TimeProjectionController(Controller):
         command = Command(ctrl=ctrl, signals=Signals.of(SIGNAL_LAYOUT, signals), events=events)
         split[3] += clock() - t3
         return command
+
+    def _compensate_springs(
+        self, ctrl_legs: list[float], forces: tuple[float, float], q_open: list[float], roll: float
+    ) -> None:
+        """Add the spring compensation of Eq. 21 to the legs' targets ``ctrl_legs`` in place.
+
+        The load-scaled offsets at full weight (home-based); with posture springs, the
+        sagittal joints' (hip pitch, knee, ankle pitch) static deflection under the body
+        weight at the sole point of the commanded posture ``q_open`` instead [rad].
+        """
+        load = (forces[0] / self._weight, forces[1] / self._weight)
+        offset = self._offset_full
+        for i in range(12):
+            ctrl_legs[i] += load[i // 6] * offset[i]
+        if self._posture_springs:
+            # Eq. 21 with μ from the commanded posture instead of home: the sagittal springs'
+            # static deflection under the body weight at the sole point (the 3LP CoP).
+            self._pin_q[self._pin_legs] = q_open
+            for leg in (0, 1):
+                mu = self._deflection(leg, roll, SAGITTAL_JOINTS)
+                for j, mu_j in zip(SAGITTAL_JOINTS, mu, strict=True):
+                    i = 6 * leg + j
+                    ctrl_legs[i] += load[leg] * (mu_j - offset[i])
 
     def timing(self) -> dict[str, float]:
         """Wall time [s] of the tick's parts: estimation (kinematics, filters), feedback
