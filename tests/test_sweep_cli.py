@@ -101,7 +101,8 @@ def test_bad_grid_is_one_paragraph_exit_2_and_nothing_runs(
 
 @pytest.mark.slow
 def test_ctrl_c_keeps_finished_cells_and_resume_completes(tmp_path: Path) -> None:
-    """SIGINT during a sweep exits 130 with every finished cell kept; --resume runs the rest."""
+    """SIGINT during a sweep exits 130 with every finished cell kept, even in a process that
+    inherited SIGINT ignored; --resume runs the rest."""
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
     # Cells of 2 s simulated: after the first row the other seven take seconds, so the
     # SIGINT below reaches the sweep mid-way even on a loaded machine (0.3 s cells did not).
@@ -112,6 +113,9 @@ def test_ctrl_c_keeps_finished_cells_and_resume_completes(tmp_path: Path) -> Non
         env=env,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
+        # Started as a background job of a script is: SIGINT inherited ignored. The sweep
+        # must still stop on it (it once ran every cell and exited 0 there).
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
     )
     # A fresh checkout compiles the kernels first (a minute or more on a loaded machine).
     deadline = time.monotonic() + 900

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import signal
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from types import FrameType
 
 
@@ -40,3 +42,23 @@ class InterruptFlag:
         self.requested = True
         # The next Ctrl-C raises KeyboardInterrupt wherever the program is.
         signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+@contextmanager
+def sigint_raises() -> Iterator[None]:
+    """Inside, SIGINT raises ``KeyboardInterrupt`` (main thread only), whatever the process
+    inherited.
+
+    A process started with SIGINT ignored (a background job of a non-interactive shell, or
+    under ``nohup``) keeps it ignored, Python's default handler included, so Ctrl-C or a
+    ``kill -INT`` would not stop it. Commands that stop on ``KeyboardInterrupt`` (the sweep)
+    install the handler themselves, as :class:`InterruptFlag` does for a run.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)

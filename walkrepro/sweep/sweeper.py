@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from walkrepro.errors import UnknownNameError, WalkreproError
+from walkrepro.interrupt import sigint_raises
 from walkrepro.sweep import store
 from walkrepro.sweep.cells import CellTask
 from walkrepro.sweep.engines import Engine
@@ -224,7 +225,7 @@ def run_plan(
         transient=False,
     )
     try:
-        with progress:
+        with sigint_raises(), progress:
             bar = progress.add_task(
                 "cells", total=len(plan.cells), completed=len(plan.done), failures=0
             )
