@@ -71,6 +71,7 @@ class Tick:
     signals: dict[str, Any] = field(default_factory=dict)
     events: list[dict[str, Any]] = field(default_factory=list)
     xfrc: dict[str, list[float]] = field(default_factory=dict)
+    ctrl: np.ndarray | None = None
 
 
 @cache
@@ -160,7 +161,13 @@ def write_log(
             w.write(record.TOPIC_CONTACTS, {"step": step, "t": tick.t, "pairs": pairs}, tick.t)
             w.write(
                 record.TOPIC_INPUTS,
-                {"step": step, "ctrl": [0.0] * scene.model.nu, "xfrc": tick.xfrc},
+                {
+                    "step": step,
+                    "ctrl": [0.0] * scene.model.nu
+                    if tick.ctrl is None
+                    else list(map(float, tick.ctrl)),
+                    "xfrc": tick.xfrc,
+                },
                 tick.t,
             )
         w.close(outcome, extra or {})

@@ -741,3 +741,11 @@ def test_arrays_equal_the_messages(written_log: tuple[Path, dict]) -> None:
         log.arrays(TOPIC_CONTACTS)
     with pytest.raises(UnknownNameError):
         log.arrays("/nope")
+
+
+def test_arrays_of_chosen_fields(written_log: tuple[Path, dict]) -> None:
+    """Log.arrays stacks only the fields asked for, so a topic with a map field still reads."""
+    path, written = written_log
+    contacts = read_log(path).arrays(TOPIC_CONTACTS, ("step", "t"))
+    assert sorted(contacts) == ["step", "t"]
+    assert contacts["step"].tolist() == [m["step"] for m in written[TOPIC_CONTACTS]]

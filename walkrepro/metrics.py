@@ -349,6 +349,18 @@ class LogData:
         return t, v
 
     @cached_property
+    def inputs_ctrl(self) -> tuple[np.ndarray, np.ndarray]:
+        """Times [s], shape (N,), and the actuator inputs ``ctrl`` of every physics step,
+        shape (N, nu), before the fall (a position servo's ``ctrl`` is its target [rad])."""
+        inputs = self.log.arrays(record.TOPIC_INPUTS, ("step", "ctrl"))
+        nu = self.model.nu
+        if "step" not in inputs:
+            return np.zeros(0), np.zeros((0, nu))
+        t = np.asarray(inputs["step"], dtype=float) * self.spec.sim.timestep
+        keep = t < self._cut
+        return t[keep], np.asarray(inputs["ctrl"], dtype=float).reshape(len(t), nu)[keep]
+
+    @cached_property
     def inputs_xfrc(self) -> list[dict[str, list[float]]]:
         """Per-physics-step applied external wrenches (only non-zero bodies), before the fall."""
         dt = self.spec.sim.timestep

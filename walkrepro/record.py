@@ -43,7 +43,7 @@ import json
 import math
 import re
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from importlib import metadata as importlib_metadata
@@ -958,16 +958,21 @@ class Log:
             out += rows if rows is not None else [decode(data) for data in raw]
         return out
 
-    def arrays(self, topic: str) -> dict[str, np.ndarray]:
+    def arrays(self, topic: str, fields: Collection[str] | None = None) -> dict[str, np.ndarray]:
         """The messages of a topic of numbers and fixed-size float vectors (``/sim/state``,
         ``/sensors``) as arrays, one row per message in file order: e.g. ``t`` (N,),
         ``qpos`` (N, nq). A protobuf topic is read at numpy speed (≈ 10x faster than
         :meth:`messages`); other topics are stacked from :meth:`messages`. Fields that are
         not provided (None) are left out; an empty topic gives ``{}``.
 
+        Args:
+            topic: the topic.
+            fields: only these fields (None: all), e.g. ``("step", "ctrl")`` of
+                ``/sim/inputs``, whose ``xfrc`` is a map.
+
         Raises:
             UnknownNameError: as :meth:`messages`.
-            ValueError: the topic has fields that are not numbers or fixed-size vectors.
+            ValueError: a field asked for is not a number or a fixed-size vector.
         """
         segments = self._raw.get(topic)
         if segments is None:
@@ -979,10 +984,11 @@ class Log:
                 continue
             descriptor = getattr(decode, "descriptor", None)
             got = protolog.flat_arrays(raw, descriptor) if descriptor is not None else None
-            parts.append(got if got is not None else _stack([decode(data) for data in raw]))
+            parts.append(got if got is not None else _stack([decode(d) for d in raw], fields))
         if not parts:
             return {}
-        return {key: np.concatenate([part[key] for part in parts]) for key in parts[0]}
+        keys = [k for k in parts[0] if fields is None or k in fields]
+        return {key: np.concatenate([part[key] for part in parts]) for key in keys}
 
     def count(self, topic: str) -> int:
         """Number of messages of ``topic`` (0 if none)."""
@@ -993,11 +999,14 @@ class Log:
         return [topic for topic, segments in self._raw.items() if any(r for _, r in segments)]
 
 
-def _stack(messages: list[dict[str, Any]]) -> dict[str, np.ndarray]:
-    """Messages' numbers and vectors as arrays, None fields left out."""
+def _stack(
+    messages: list[dict[str, Any]], fields: Collection[str] | None = None
+) -> dict[str, np.ndarray]:
+    """Messages' numbers and vectors as arrays (only ``fields`` if given), None fields left
+    out."""
     out = {}
     for key, value in messages[0].items():
-        if value is None:
+        if value is None or (fields is not None and key not in fields):
             continue
         try:
             values = np.array([message[key] for message in messages])

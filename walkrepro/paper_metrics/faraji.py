@@ -383,3 +383,108 @@ def _ankle_stiffness(d: LogData, arg: str) -> float:
     if not lean:
         raise NotMeasurable("the pelvis did not move under the pull (zero lean)")
     return abs(force) * (neck - ankle) / (2.0 * lean)
+
+
+# ---- position tracking delay (Hardware Limitations, Sensor Quality; Fig. 4) ----------------
+
+#: Longest lag searched between a joint's position command and its link angle [s].
+MAX_TRACKING_LAG = 0.1
+#: Grid on which the command and the link angle are compared [s] (the lag is then refined
+#: between grid points by a parabola through the correlation peak).
+TRACKING_GRID = 0.0005
+#: Below this correlation the link does not follow its command (e.g. a stance ankle whose
+#: spring carries the body) and a lag would mean nothing.
+MIN_TRACKING_CORRELATION = 0.9
+
+
+def tracking_lag(
+    command: np.ndarray, link: np.ndarray, dt: float, max_lag: float
+) -> tuple[float, float]:
+    """Lag of ``link`` behind ``command`` and their correlation there.
+
+    The lag s ∈ [0, max_lag] maximises the normalised correlation of the mean-free signals
+    c(t) and θ(t + s), both sampled every ``dt`` [s]; a parabola through the peak and its
+    neighbours refines s between samples. Returns (s [s], correlation at the best sample).
+    """
+    c = command - command.mean()
+    y = link - link.mean()
+    n_lags = min(int(round(max_lag / dt)), c.size - 2)
+    if n_lags < 2:
+        raise NotMeasurable("too few samples to measure a tracking lag")
+    r = np.empty(n_lags + 1)
+    for k in range(n_lags + 1):
+        a, b = c[: c.size - k], y[k:]
+        den = float(np.linalg.norm(a) * np.linalg.norm(b))
+        r[k] = float(a @ b) / den if den > 0 else 0.0
+    k = int(np.argmax(r))
+    shift = 0.0
+    if 0 < k < n_lags:
+        curv = r[k - 1] - 2 * r[k] + r[k + 1]
+        if curv < 0:
+            shift = 0.5 * (r[k - 1] - r[k + 1]) / curv
+    return (k + shift) * dt, float(r[k])
+
+
+def _position_servos(model: mujoco.MjModel, joint: str) -> list[tuple[str, int, list[int]]]:
+    """(link joint name, actuator, qpos addresses summing to the link angle) of each position
+    servo driving a joint named ``*_<joint>`` (both legs' knees for ``"knee"``)."""
+    out = []
+    for a in range(model.nu):
+        affine = model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE
+        if not affine or model.actuator_biasprm[a, 1] >= 0:
+            continue  # not a position servo (a torque motor has no position feedback)
+        jid = int(model.actuator_trnid[a, 0])
+        name = model.joint(jid).name.removesuffix("_motor")
+        if not name.endswith(f"_{joint}"):
+            continue
+        parts = [jid]
+        link = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+        if link >= 0 and link != jid:
+            parts.append(link)  # series-elastic: link angle = motor + spring deflection
+        out.append((name, a, [int(model.jnt_qposadr[j]) for j in parts]))
+    return out
+
+
+@metric(
+    "tracking_delay",
+    "lag of the link angle behind its position command, the smallest over the joints "
+    "'*_<arg>' (arg 'knee' or 'knee@t0-t1') [s]",
+)
+def _tracking_delay(d: LogData, arg: str) -> float:
+    """Paper II, Hardware Limitations: "a delayed position tracking of at least 20 ms in the
+    stiffest and aggressive conditions" (Fig. 4: commands against link encoders in place).
+
+    The paper's delay is what its controller saw: a command sent against the link encoder
+    read back. Here that is the lag of the link angle of the logged state (motor plus
+    spring for a series-elastic joint) behind the servo's target (``ctrl``, logged every
+    physics step), which is everything between the controller's output and the link's
+    motion (servo, motor, spring, load), plus the spec's sensing delay (``sensors.delay``,
+    by which every reading reaches the controller late). Window ``@t0-t1`` (default: the
+    whole pre-fall run); the smallest lag over the matching joints, each of which must
+    follow its command (correlation ≥ :data:`MIN_TRACKING_CORRELATION`).
+    """
+    joint, _, window = arg.partition("@")
+    if not joint:
+        raise NotMeasurable("name a joint, e.g. tracking_delay:knee")
+    servos = _position_servos(d.model, joint)
+    if not servos:
+        raise NotMeasurable(f"no position servo drives a joint '*_{joint}' in this robot")
+    d.require_states(2)
+    t_u, ctrl = d.inputs_ctrl
+    lo, hi = (float(d.t[0]), float(d.t[-1])) if not window else map(float, window.split("-"))
+    if window:
+        d.require_until(hi, f"the end of the window {window}")
+    lo, hi = max(lo, float(d.t[0]), float(t_u[0])), min(hi, float(d.t[-1]), float(t_u[-1]))
+    grid = np.arange(lo, hi, TRACKING_GRID)
+    lags = []
+    for name, a, adr in servos:
+        command = np.interp(grid, t_u, ctrl[:, a])
+        link = np.interp(grid, d.t, d.qpos[:, adr].sum(axis=1))
+        lag, corr = tracking_lag(command, link, TRACKING_GRID, MAX_TRACKING_LAG)
+        if corr < MIN_TRACKING_CORRELATION:
+            raise NotMeasurable(
+                f"{name} does not follow its command (correlation {corr:.2f} < "
+                f"{MIN_TRACKING_CORRELATION})"
+            )
+        lags.append(lag)
+    return float(min(lags)) + d.spec.sensors.delay
