@@ -307,6 +307,20 @@ def test_switch_torque_jump_unknown_leg_lists_the_legs(tmp_path: Path) -> None:
         measured(_torques(tmp_path, {}), "switch_torque_jump:middle")
 
 
+def test_switch_torque_jump_of_one_kind_of_switch(tmp_path: Path) -> None:
+    """@FROM-TO keeps one kind of switch: the DS → SSD jump is not the SSD → SSA one."""
+    d = _torques(tmp_path, {(30, 3): 50.0, (60, 2): 7.0})
+    assert measured(d, "switch_torque_jump:left@DS-SSD") == pytest.approx(50.01)
+    assert measured(d, "switch_torque_jump:left@SSD-SSA") == pytest.approx(7.01)
+    assert "never switched SSA → DS" in unmeasurable_reason(d, "switch_torque_jump:left@SSA-DS")
+
+
+def test_switch_torque_jump_unknown_switch_lists_the_kinds(tmp_path: Path) -> None:
+    """A switch kind outside Table I's cycle is a spec error naming the valid kinds."""
+    with pytest.raises(UnknownNameError, match="DS-SSD, SSA-DS, SSD-SSA"):
+        measured(_torques(tmp_path, {}), "switch_torque_jump:left@DS-SSA")
+
+
 def test_switch_torque_jumps_per_switch() -> None:
     """Each switch gets the jump into its first tick, over the given joints only."""
     phase = np.array([2, 2, 0, 0, 1])

@@ -316,26 +316,41 @@ def switch_torque_jumps(
     return ticks, jumps
 
 
+#: Switch kinds of ``switch_torque_jump``'s ``@FROM-TO`` argument (Table I's cycle).
+SWITCHES = ("SSD-SSA", "SSA-DS", "DS-SSD")
+
+
 @metric(
     "switch_torque_jump",
-    "largest tick-to-tick change of a leg's reference torques (arg left|right, default left) "
-    "at the E-FSM state switches (Fig. 14) [Nm]",
+    "largest tick-to-tick change of a leg's reference torques at the E-FSM state switches "
+    "(Fig. 14), arg 'left' or 'right' (default left), optionally '@FROM-TO' for one kind of "
+    "switch, e.g. 'left@SSA-DS' [Nm]",
 )
 def _switch_torque_jump(d: LogData, arg: str) -> float:
     """Pre-fall. Reads ``tau_ref`` and ``efsm_phase``: §VI-D1's claim (Fig. 14) is about the
     left leg's reference torques, which jump where the E-FSM switches state without ε. The
     jump at a switch is the one into the first tick computed in the new state; the leg's
-    joints come from the log's model (:func:`walkrepro.robot.leg_actuators`)."""
-    side = arg or "left"
+    joints come from the log's model (:func:`walkrepro.robot.leg_actuators`). ``@FROM-TO``
+    keeps the switches of one kind: ε acts on the contact switches (§IV-B: F_s fades before
+    the landing of SSA → DS, the redistribution wrench before the lift-off of DS → SSD),
+    not on SSD → SSA, where Table II steps the swing height target."""
+    side, _, kind = (arg or "left").partition("@")
     if side not in FEET:
         raise UnknownNameError("leg", side, FEET, where="switch_torque_jump")
+    if kind and kind not in SWITCHES:
+        raise UnknownNameError("E-FSM switch kind", kind, SWITCHES, where="switch_torque_jump")
     t, tau = d.require_signal("tau_ref")
     t_phase, phase = d.require_signal("efsm_phase")
     if t_phase.size != t.size or not np.array_equal(t_phase, t):
         raise NotMeasurable("efsm_phase and tau_ref were not logged at the same ticks")
     ticks, jumps = switch_torque_jumps(phase, tau, leg_actuators(d.model, f"{side}_foot"))
+    if kind:
+        old, new = (PHASES[name] for name in kind.split("-"))
+        keep = (phase[ticks - 1] == old) & (phase[ticks] == new)
+        ticks, jumps = ticks[keep], jumps[keep]
     if not ticks.size:
-        raise NotMeasurable(f"the E-FSM never switched state{d.stopped_note()}")
+        what = f"switched {kind.replace('-', ' → ')}" if kind else "switched state"
+        raise NotMeasurable(f"the E-FSM never {what}{d.stopped_note()}")
     return float(np.max(jumps))
 
 
