@@ -24,8 +24,10 @@ from walkrepro import record
 from walkrepro.metrics import (
     LIFT_CLEARANCE,
     LogData,
+    MetricArgError,
     MetricResults,
     NotMeasurable,
+    check_metric_arg,
     compute,
     default_metric_names,
     detect_steps,
@@ -602,3 +604,40 @@ def test_step_duration_spread_needs_two_intervals(log: LogData, tmp_path: Path) 
     assert unmeasurable_reason(log, "step_duration_spread")
     standing = write_log(tmp_path / "stand.mcap", [Tick(round(k * DT, 6)) for k in range(50)])
     assert unmeasurable_reason(standing, "step_duration_spread")
+
+
+# ---- metric arguments ------------------------------------------------------------------------
+
+
+def test_metric_arguments_checked_before_a_run() -> None:
+    """Windows, numbers and choices a metric cannot read are refused with the reason;
+    readable ones, and metrics that read any argument, pass."""
+    for ok in (
+        "mean_forward_speed",
+        "mean_forward_speed:2.9-12.9",
+        "footsteps:right_foot",
+        "state_time:1",
+        "peak_contact_force:right_foot/obstacle*",
+        "tracking_delay:knee@2-10",
+        "switch_torque_jump:left@SSA-DS",
+    ):
+        check_metric_arg(ok)
+    for bad, reason in (
+        ("mean_forward_speed:12.9-2.9", "t0 < t1"),
+        ("mean_forward_speed:2.9", "t0-t1"),
+        ("footsteps:left", "left_foot, right_foot"),
+        ("state_time", "needs a number"),
+        ("recovery_steps:soon", "not a number"),
+        ("tracking_delay:knee@2-x", "t0-t1"),
+        ("switch_torque_jump:left@DS-SSA", "SSD-SSA, SSA-DS, DS-SSD"),
+    ):
+        with pytest.raises(MetricArgError, match=reason):
+            check_metric_arg(bad)
+
+
+def test_unreadable_argument_of_an_old_spec_is_not_measurable(tmp_path: Path) -> None:
+    """A log whose spec predates the argument checks gets NaN and the reason, not a crash."""
+    d = write_log(tmp_path / "a.mcap", [Tick(0.0), Tick(DT)])
+    r = evaluate(d, ["mean_forward_speed:2-x"])
+    assert math.isnan(r.values["mean_forward_speed:2-x"])
+    assert "t0-t1" in r.reasons["mean_forward_speed:2-x"]

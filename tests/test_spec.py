@@ -115,6 +115,15 @@ def test_unknown_metric_lists_valid_metrics(tmp_path: Path) -> None:
     assert "line 19" in msg and "'fel'" in msg and "pelvis_drift" in msg
 
 
+def test_malformed_metric_argument_named_at_load(tmp_path: Path) -> None:
+    """A metric argument the metric cannot read (a window that is not t0-t1) is a spec
+    error naming file, line and field, before anything runs."""
+    msg = error_of(tmp_path, GOOD.replace("metric: fell", "metric: mean_forward_speed:2-x"))
+    assert "line 19" in msg and "expect.0.metric" in msg and "'2-x'" in msg and "t0-t1" in msg
+    msg = error_of(tmp_path, GOOD.replace("metric: fell", "metric: footsteps:left"))
+    assert "line 19" in msg and "left_foot, right_foot" in msg
+
+
 def test_unknown_controller_and_bad_param(tmp_path: Path) -> None:
     """Unknown controllers and invalid controller params are named precisely."""
     msg = error_of(tmp_path, GOOD.replace("type: posture", "type: mpc"))

@@ -418,17 +418,82 @@ class LogData:
 
 
 MetricFn = Callable[[LogData, str], float]
-_METRICS: dict[str, tuple[MetricFn, str]] = {}
+#: Checks a metric's argument before any run: raises :class:`MetricArgError` if the metric
+#: could not read it.
+ArgCheck = Callable[[str], None]
+_METRICS: dict[str, tuple[MetricFn, str, ArgCheck | None]] = {}
 
 
-def metric(name: str, doc: str) -> Callable[[MetricFn], MetricFn]:
-    """Register a metric function under ``name`` with a one-line description (with units)."""
+class MetricArgError(ValueError):
+    """A metric's argument that the metric cannot read: a spec error, not a bug."""
+
+
+def metric(name: str, doc: str, arg: ArgCheck | None = None) -> Callable[[MetricFn], MetricFn]:
+    """Register a metric function under ``name`` with a one-line description (with units)
+    and, for a metric that reads its argument, the check of that argument (``arg``), which
+    specs run when they load (:func:`check_metric_arg`)."""
 
     def register(fn: MetricFn) -> MetricFn:
-        _METRICS[name] = (fn, doc)
+        _METRICS[name] = (fn, doc, arg)
         return fn
 
     return register
+
+
+def check_metric_arg(full: str) -> None:
+    """Raise :class:`MetricArgError` if the metric ``full`` (``name:arg``) cannot read its
+    argument; a metric without an argument check reads any (e.g. a contact pattern)."""
+    base, arg = split_metric(full)
+    check = _METRICS[base][2] if base in _METRICS else None
+    if check is not None:
+        try:
+            check(arg)
+        except MetricArgError as exc:
+            raise MetricArgError(f"metric {base!r}: {exc}") from None
+
+
+def parse_window(arg: str) -> tuple[float, float]:
+    """``"t0-t1"`` -> (t0, t1) [s], t0 < t1; :class:`MetricArgError` otherwise."""
+    lo, sep, hi = arg.partition("-")
+    try:
+        t0, t1 = float(lo), float(hi)
+    except ValueError:
+        t0 = t1 = math.nan
+    if not sep or not t0 < t1:
+        raise MetricArgError(f"window {arg!r} is not 't0-t1' in seconds with t0 < t1")
+    return t0, t1
+
+
+def window_check(arg: str) -> None:
+    """Argument check: none, or a window ``t0-t1`` [s]."""
+    if arg:
+        parse_window(arg)
+
+
+def number_check(required: bool = False) -> ArgCheck:
+    """Argument check: a number (or, unless ``required``, none)."""
+
+    def check(arg: str) -> None:
+        if not arg:
+            if required:
+                raise MetricArgError("needs a number as its argument, e.g. name:1")
+            return
+        try:
+            float(arg)
+        except ValueError:
+            raise MetricArgError(f"argument {arg!r} is not a number") from None
+
+    return check
+
+
+def choice_check(*choices: str) -> ArgCheck:
+    """Argument check: none, or one of ``choices``."""
+
+    def check(arg: str) -> None:
+        if arg and arg not in choices:
+            raise MetricArgError(f"argument {arg!r} is none of {', '.join(choices)}")
+
+    return check
 
 
 def metric_names() -> list[str]:
@@ -450,8 +515,9 @@ def split_metric(full: str) -> tuple[str, str]:
 def evaluate(data: LogData, names: list[str]) -> MetricResults:
     """Evaluate the named metrics (with arguments) on a log.
 
-    A metric that raises :class:`NotMeasurable` gets NaN and its reason; any other
-    exception is a bug and propagates.
+    A metric that raises :class:`NotMeasurable` gets NaN and its reason, as does one whose
+    argument it cannot read (:class:`MetricArgError`: specs check arguments when they load,
+    but an old log's spec may not have been); any other exception is a bug and propagates.
     """
     values, reasons = {}, {}
     for full in names:
@@ -463,6 +529,8 @@ def evaluate(data: LogData, names: list[str]) -> MetricResults:
             values[full] = float(_METRICS[base][0](data, arg))
         except NotMeasurable as exc:
             values[full], reasons[full] = math.nan, exc.reason
+        except MetricArgError as exc:
+            values[full], reasons[full] = math.nan, f"metric {base!r}: {exc}"
     return MetricResults(values, reasons)
 
 
@@ -498,10 +566,7 @@ def default_metric_names(spec: ExperimentSpec) -> list[str]:
 
 def window_arg(arg: str, default: tuple[float, float]) -> tuple[float, float]:
     """``"t0-t1"`` -> (t0, t1) [s]; ``default`` for an empty argument."""
-    if not arg:
-        return default
-    lo, _, hi = arg.partition("-")
-    return float(lo), float(hi)
+    return parse_window(arg) if arg else default
 
 
 @metric("fell", "1 if the run ended in a fall, else 0 (not measurable if it stopped early)")
@@ -544,6 +609,7 @@ def _pelvis_drift(d: LogData, arg: str) -> float:
     "footsteps",
     "number of steps: touchdowns after the sole cleared the surface by 1 cm for 50 ms "
     "(arg: left_foot or right_foot for one foot)",
+    arg=choice_check(*FOOT_BODIES),
 )
 def _footsteps(d: LogData, arg: str) -> float:
     """Pre-fall count of :attr:`LogData.footsteps`."""
@@ -556,6 +622,7 @@ def _footsteps(d: LogData, arg: str) -> float:
     "slid_steps",
     f"times a foot moved ≥ {SLIDE_DISTANCE} m along the surface without lifting (not steps) "
     "(arg: left_foot or right_foot)",
+    arg=choice_check(*FOOT_BODIES),
 )
 def _slid_steps(d: LogData, arg: str) -> float:
     """Pre-fall: ground phases (:func:`detect_steps`) whose net sole shift is ≥ SLIDE_DISTANCE."""
@@ -576,6 +643,7 @@ def _slid_steps(d: LogData, arg: str) -> float:
     "sliding_distance",
     "total horizontal distance the soles moved while on the surface (between steps) [m] "
     "(arg: left_foot or right_foot)",
+    arg=choice_check(*FOOT_BODIES),
 )
 def _sliding_distance(d: LogData, arg: str) -> float:
     """Pre-fall: sum of the net sole shifts of every ground phase (:func:`detect_steps`)."""
@@ -625,6 +693,7 @@ def _step_duration_spread(d: LogData, arg: str) -> float:
 @metric(
     "mean_forward_speed",
     "pelvis x displacement / time [m/s] (arg 't0-t1' restricts the window [s])",
+    arg=window_check,
 )
 def _mean_forward_speed(d: LogData, arg: str) -> float:
     """Window: with an argument the data must cover it; without, pre-fall over the log."""
@@ -669,7 +738,11 @@ def _need_state_arg(name: str, arg: str) -> None:
         raise NotMeasurable(f"{name} needs the fsm_state value as its argument, e.g. {name}:1")
 
 
-@metric("state_time", "total time the controller's 'fsm_state' signal equals arg [s]")
+@metric(
+    "state_time",
+    "total time the controller's 'fsm_state' signal equals arg [s]",
+    arg=number_check(required=True),
+)
 def _state_time(d: LogData, arg: str) -> float:
     """Pre-fall."""
     t, v = d.require_signal("fsm_state")
@@ -681,6 +754,7 @@ def _state_time(d: LogData, arg: str) -> float:
 @metric(
     "state_duration_spread",
     "std/mean of the durations of the visits of fsm_state == arg (0 = clock-like) [-]",
+    arg=number_check(required=True),
 )
 def _state_duration_spread(d: LogData, arg: str) -> float:
     """Pre-fall, over complete visits."""

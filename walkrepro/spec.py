@@ -550,7 +550,7 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
     """
     # Imported here: the registries import heavy modules (mujoco, pinocchio).
     from walkrepro.controllers import controller_class, controller_names
-    from walkrepro.metrics import metric_names, split_metric
+    from walkrepro.metrics import MetricArgError, check_metric_arg, metric_names, split_metric
     from walkrepro.robot import list_robots, load_robot
 
     spec = loaded.spec
@@ -621,6 +621,10 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
             raise UnknownNameError(
                 "metric", base, valid_metrics, loaded.where(("expect", i, "metric"))
             )
+        try:
+            check_metric_arg(exp.metric)
+        except MetricArgError as exc:
+            raise SpecError(f"{loaded.where(('expect', i, 'metric'))}: {exc}") from None
         if exp.relative_to is not None:
             where = ("expect", i, "relative_to")
             if exp.relative_to.experiment not in experiment_names():
@@ -635,6 +639,10 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
                 raise UnknownNameError(
                     "metric", ref_base, valid_metrics, loaded.where((*where, "metric"))
                 )
+            try:
+                check_metric_arg(exp.reference_metric)
+            except MetricArgError as exc:
+                raise SpecError(f"{loaded.where((*where, 'metric'))}: {exc}") from None
     if spec.sim.duration < spec.sim.control_period:
         raise SpecError(
             f"{loaded.where(('sim', 'duration'))}: duration must cover one control period."

@@ -12,7 +12,15 @@ from functools import cache
 import mujoco
 import numpy as np
 
-from walkrepro.metrics import LogData, NotMeasurable, metric
+from walkrepro.metrics import (
+    LogData,
+    MetricArgError,
+    NotMeasurable,
+    metric,
+    number_check,
+    parse_window,
+    window_check,
+)
 
 #: A step is corrective when its signed peak footstep adjustment lies further than this many
 #: standard deviations from the undisturbed steps' mean signed peak (a 3σ outlier of the
@@ -49,8 +57,8 @@ def _stride_speed(d: LogData) -> tuple[np.ndarray, np.ndarray]:
 def _window(t: np.ndarray, arg: str) -> np.ndarray:
     if not arg:
         return np.ones(t.size, dtype=bool)
-    lo, _, hi = arg.partition("-")
-    return (t >= float(lo)) & (t <= float(hi))
+    lo, hi = parse_window(arg)
+    return (t >= lo) & (t <= hi)
 
 
 def _speed_in_window(d: LogData, arg: str) -> np.ndarray:
@@ -60,7 +68,7 @@ def _speed_in_window(d: LogData, arg: str) -> np.ndarray:
     makes the metric not measurable, so speeds of a fall are never reported).
     """
     if arg:
-        d.require_until(float(arg.partition("-")[2]), f"the end of the window {arg}")
+        d.require_until(parse_window(arg)[1], f"the end of the window {arg}")
     t, v = _stride_speed(d)
     m = _window(t, arg)
     if not m.any():
@@ -68,14 +76,22 @@ def _speed_in_window(d: LogData, arg: str) -> np.ndarray:
     return v[m]
 
 
-@metric("peak_pelvis_speed", "largest |stride-averaged pelvis x speed| [m/s] (arg 't0-t1')")
+@metric(
+    "peak_pelvis_speed",
+    "largest |stride-averaged pelvis x speed| [m/s] (arg 't0-t1')",
+    arg=window_check,
+)
 def _peak_pelvis_speed(d: LogData, arg: str) -> float:
     """Window (see :func:`_speed_in_window`); pre-fall without an argument."""
     v = _speed_in_window(d, arg)
     return float(np.max(np.abs(v)))
 
 
-@metric("peak_forward_pelvis_speed", "largest stride-averaged pelvis x speed [m/s] (arg 't0-t1')")
+@metric(
+    "peak_forward_pelvis_speed",
+    "largest stride-averaged pelvis x speed [m/s] (arg 't0-t1')",
+    arg=window_check,
+)
 def _peak_forward(d: LogData, arg: str) -> float:
     """Window (see :func:`_speed_in_window`); pre-fall without an argument."""
     v = _speed_in_window(d, arg)
@@ -85,6 +101,7 @@ def _peak_forward(d: LogData, arg: str) -> float:
 @metric(
     "peak_backward_pelvis_speed",
     "largest backward stride-averaged pelvis speed, as a positive number [m/s] (arg 't0-t1')",
+    arg=window_check,
 )
 def _peak_backward(d: LogData, arg: str) -> float:
     """Window (see :func:`_speed_in_window`); pre-fall without an argument."""
@@ -92,7 +109,11 @@ def _peak_backward(d: LogData, arg: str) -> float:
     return float(-np.min(v))
 
 
-@metric("mean_abs_pelvis_speed", "mean |stride-averaged pelvis x speed| [m/s] (arg 't0-t1')")
+@metric(
+    "mean_abs_pelvis_speed",
+    "mean |stride-averaged pelvis x speed| [m/s] (arg 't0-t1')",
+    arg=window_check,
+)
 def _mean_abs_speed(d: LogData, arg: str) -> float:
     """Window (see :func:`_speed_in_window`); pre-fall without an argument."""
     v = _speed_in_window(d, arg)
@@ -185,6 +206,7 @@ def _adjustment_peaks(d: LogData) -> tuple[np.ndarray, np.ndarray]:
     "corrective_band_low",
     "lower edge of the undisturbed gait's band, μ − 3σ of the signed peak footstep "
     "adjustments of the undisturbed steps before the push (arg: push time [s]) [m]",
+    arg=number_check(),
 )
 def _corrective_band_low(d: LogData, arg: str) -> float:
     """Pre-fall (only steps before the push are read); see :func:`corrective_band`."""
@@ -196,6 +218,7 @@ def _corrective_band_low(d: LogData, arg: str) -> float:
     "corrective_band_high",
     "upper edge of the undisturbed gait's band, μ + 3σ of the signed peak footstep "
     "adjustments of the undisturbed steps before the push (arg: push time [s]) [m]",
+    arg=number_check(),
 )
 def _corrective_band_high(d: LogData, arg: str) -> float:
     """Pre-fall (only steps before the push are read); see :func:`corrective_band`."""
@@ -209,6 +232,7 @@ def _corrective_band_high(d: LogData, arg: str) -> float:
     "disturbance): steps from the one the push falls in whose signed peak footstep "
     "adjustment a lies outside the undisturbed steps' band, |a − μ| > 3σ, until the first "
     "step back inside it (Fig. 16)",
+    arg=number_check(),
 )
 def _recovery_steps(d: LogData, arg: str) -> float:
     """Completed: "the push is recovered in N corrective steps" needs a run that completed,
@@ -271,6 +295,7 @@ def _feet_relative(d: LogData, times: np.ndarray) -> np.ndarray:
     "footstep_scatter",
     "spread of the feet relative to the pelvis at phase changes (Fig. 14): RMS distance of "
     "each foot's sample from that foot's mean, both feet pooled [m] (arg 't0-t1')",
+    arg=window_check,
 )
 def _footstep_scatter(d: LogData, arg: str) -> float:
     """Pre-fall: the feet at the phase changes before any fall."""
@@ -445,10 +470,20 @@ def _position_servos(model: mujoco.MjModel, joint: str) -> list[tuple[str, int, 
     return out
 
 
+def _tracking_delay_arg(arg: str) -> None:
+    """Argument check of ``tracking_delay``: a joint name, then optionally ``@t0-t1``."""
+    joint, at, window = arg.partition("@")
+    if not joint:
+        raise MetricArgError("name a joint, e.g. tracking_delay:knee or tracking_delay:knee@2-10")
+    if at:
+        parse_window(window)
+
+
 @metric(
     "tracking_delay",
     "lag of the link angle behind its position command, the smallest over the joints "
     "'*_<arg>' (arg 'knee' or 'knee@t0-t1') [s]",
+    arg=_tracking_delay_arg,
 )
 def _tracking_delay(d: LogData, arg: str) -> float:
     """Paper II, Hardware Limitations: "a delayed position tracking of at least 20 ms in the
@@ -463,15 +498,14 @@ def _tracking_delay(d: LogData, arg: str) -> float:
     whole pre-fall run); the smallest lag over the matching joints, each of which must
     follow its command (correlation ≥ :data:`MIN_TRACKING_CORRELATION`).
     """
+    _tracking_delay_arg(arg)
     joint, _, window = arg.partition("@")
-    if not joint:
-        raise NotMeasurable("name a joint, e.g. tracking_delay:knee")
     servos = _position_servos(d.model, joint)
     if not servos:
         raise NotMeasurable(f"no position servo drives a joint '*_{joint}' in this robot")
     d.require_states(2)
     t_u, ctrl = d.inputs_ctrl
-    lo, hi = (float(d.t[0]), float(d.t[-1])) if not window else map(float, window.split("-"))
+    lo, hi = (float(d.t[0]), float(d.t[-1])) if not window else parse_window(window)
     if window:
         d.require_until(hi, f"the end of the window {window}")
     lo, hi = max(lo, float(d.t[0]), float(t_u[0])), min(hi, float(d.t[-1]), float(t_u[-1]))

@@ -10,7 +10,14 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from walkrepro.metrics import GRAVITY, TOUCHDOWN_WEIGHT_FRACTION, LogData, NotMeasurable, metric
+from walkrepro.metrics import (
+    GRAVITY,
+    TOUCHDOWN_WEIGHT_FRACTION,
+    LogData,
+    NotMeasurable,
+    choice_check,
+    metric,
+)
 from walkrepro.world import FLOOR_NAME
 
 #: World geoms that are obstacles (spec: names start with "obstacle").
@@ -50,6 +57,7 @@ JUDGE_DELAY = 0.05
     "stepped_on_off",
     "1 if the foot (arg, default right_foot) stepped onto an obstacle* and a later step of "
     "it landed on the floor alone, without a fall; else 0",
+    arg=choice_check("left_foot", "right_foot"),
 )
 def _stepped_on_off(d: LogData, arg: str) -> float:
     """Whole run, with falls measured: the claim of the no-impedance specs is "does not
@@ -134,6 +142,7 @@ def sole_velocity_z(d: LogData, foot: str, i0: int, i1: int) -> tuple[np.ndarray
     "swing_z_settling_time",
     "time from the foot's (arg, default right_foot) first obstacle contact until its sole "
     f"z velocity stays below {SETTLED_SPEED} m/s, within {SETTLE_WINDOW} s [s] (Fig. 5b)",
+    arg=choice_check("left_foot", "right_foot"),
 )
 def _swing_z_settling_time(d: LogData, arg: str) -> float:
     """Window: the data must cover SETTLE_WINDOW after the first obstacle contact (a fall
@@ -168,6 +177,7 @@ def _contact_time(d: LogData, foot: str) -> float:
     "peak_landing_force",
     "largest contact force norm on the foot (arg, default right_foot) within 0.3 s of its "
     "first obstacle contact [N] (Fig. 4)",
+    arg=choice_check("left_foot", "right_foot"),
 )
 def _peak_landing_force(d: LogData, arg: str) -> float:
     """Window: the data must cover LANDING_WINDOW after the first obstacle contact (a fall
@@ -188,6 +198,7 @@ _SIDE_INDEX = {"left_foot": 0.0, "right_foot": 1.0}
     "swing_height_error",
     "largest |z_d − z| of the foot's (arg, default right_foot) sole while it swings, the "
     "planned height z_d against the measured one [m] (flat-ground tracking, §II)",
+    arg=choice_check("left_foot", "right_foot"),
 )
 def _swing_height_error(d: LogData, arg: str) -> float:
     """Whole logged time before any fall, from the controller's signals: the plan's
@@ -209,6 +220,7 @@ def _swing_height_error(d: LogData, arg: str) -> float:
     "obstacle_rehits",
     "times the obstacle's push on the foot (arg, default right_foot) rises through 10 N again "
     'within 0.3 s of its first contact (Fig. 5c: the foot "continuously hits the obstacle")',
+    arg=choice_check("left_foot", "right_foot"),
 )
 def _obstacle_rehits(d: LogData, arg: str) -> float:
     """Window: the data must cover LANDING_WINDOW after the first obstacle contact. Counts

@@ -20,7 +20,16 @@ import mujoco
 import numpy as np
 
 from walkrepro.errors import UnknownNameError
-from walkrepro.metrics import Footstep, LogData, NotMeasurable, metric, window_arg
+from walkrepro.metrics import (
+    Footstep,
+    LogData,
+    MetricArgError,
+    NotMeasurable,
+    choice_check,
+    metric,
+    window_arg,
+    window_check,
+)
 from walkrepro.robot import leg_actuators
 from walkrepro.world import FLOOR_NAME
 
@@ -66,6 +75,7 @@ def _need_walk(d: LogData) -> None:
 @metric(
     "lifted_steps",
     "steps: touchdowns after the sole cleared the floor by 1 cm for 50 ms (arg 't0-t1': window [s])",
+    arg=window_check,
 )
 def _lifted_steps(d: LogData, arg: str) -> float:
     """Pre-fall count of steps with touchdowns in the window."""
@@ -102,6 +112,7 @@ def swing_apex(d: LogData, step: Footstep) -> float:
 @metric(
     "swing_apex",
     "apex height of the advancing steps' sole centres, median (arg median|min) [m]",
+    arg=choice_check("median", "min"),
 )
 def _swing_apex(d: LogData, arg: str) -> float:
     """:func:`swing_apex` of each advancing step, reduced over the steps by ``arg``:
@@ -162,6 +173,7 @@ def _visits(d: LogData, phase: float) -> list[tuple[float, float]]:
 @metric(
     "phase_duration_spread",
     "std/mean of the durations of complete visits of an E-FSM phase (arg SSD|SSA|DS) [-]",
+    arg=choice_check(*PHASES),
 )
 def _phase_duration_spread(d: LogData, arg: str) -> float:
     """Pre-fall. Reads ``efsm_phase``: §VI-A's claim is about the E-FSM's state durations
@@ -320,11 +332,20 @@ def switch_torque_jumps(
 SWITCHES = ("SSD-SSA", "SSA-DS", "DS-SSD")
 
 
+def _switch_arg(arg: str) -> None:
+    """Argument check of ``switch_torque_jump``: a leg, then optionally ``@FROM-TO``."""
+    side, at, kind = arg.partition("@")
+    choice_check(*FEET)(side)
+    if at and kind not in SWITCHES:
+        raise MetricArgError(f"switch {kind!r} is none of {', '.join(SWITCHES)}")
+
+
 @metric(
     "switch_torque_jump",
     "largest tick-to-tick change of a leg's reference torques at the E-FSM state switches "
     "(Fig. 14), arg 'left' or 'right' (default left), optionally '@FROM-TO' for one kind of "
     "switch, e.g. 'left@SSA-DS' [Nm]",
+    arg=_switch_arg,
 )
 def _switch_torque_jump(d: LogData, arg: str) -> float:
     """Pre-fall. Reads ``tau_ref`` and ``efsm_phase``: §VI-D1's claim (Fig. 14) is about the
@@ -391,7 +412,11 @@ def _steps_after_contact(d: LogData, arg: str) -> float:
     return float(sum(1 for s in d.footsteps if s.t > t_hit))
 
 
-@metric("max_sole_x", "largest x of a sole centre (arg left|right) over the run [m]")
+@metric(
+    "max_sole_x",
+    "largest x of a sole centre (arg left|right) over the run [m]",
+    arg=choice_check(*FEET),
+)
 def _max_sole_x(d: LogData, arg: str) -> float:
     """Pre-fall (Fig. 10: the right foot cannot pass the obstacle)."""
     d.require_states()
@@ -494,6 +519,7 @@ def _swing_force(d: LogData, foot: str) -> tuple[np.ndarray, np.ndarray]:
 @metric(
     "peak_swing_obstacle_force",
     "largest obstacle contact force on a foot while it is the E-FSM swing foot (arg left|right) [N]",
+    arg=choice_check(*FEET),
 )
 def _peak_swing_obstacle_force(d: LogData, arg: str) -> float:
     """Pre-fall; 0 when the swing foot never touches an obstacle."""
@@ -512,6 +538,7 @@ BLOCKED_TIME = 0.05
     "largest obstacle contact force on the E-FSM swing foot (arg left|right) once it is "
     "completely blocked: touching the obstacle and its sole slower than BLOCKED_SPEED for "
     "BLOCKED_TIME (§VI-B; the impact transient before that is left out) [N]",
+    arg=choice_check(*FEET),
 )
 def _blocked_swing_obstacle_force(d: LogData, arg: str) -> float:
     """Pre-fall; 0 when the swing foot is never blocked. Sole speed from the logged state."""

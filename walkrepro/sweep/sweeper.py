@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from walkrepro.errors import UnknownNameError, WalkreproError
+from walkrepro.errors import SpecError, UnknownNameError, WalkreproError
 from walkrepro.interrupt import sigint_raises
 from walkrepro.sweep import store
 from walkrepro.sweep.cells import CellTask
@@ -276,13 +276,17 @@ def update_reference(directory: Path, name: str) -> Path:
 
 
 def _check_metrics(names: Sequence[str]) -> None:
-    from walkrepro.metrics import metric_names, split_metric
+    from walkrepro.metrics import MetricArgError, check_metric_arg, metric_names, split_metric
 
     valid = metric_names()
     for name in names:
         base, _ = split_metric(name)
         if base not in valid:
             raise UnknownNameError("metric", base, valid, f"--metric {name}")
+        try:
+            check_metric_arg(name)
+        except MetricArgError as exc:
+            raise SpecError(f"--metric {name}: {exc}") from None
 
 
 def _metric_columns(cells: Sequence[Cell], extra: Sequence[str]) -> list[str]:
