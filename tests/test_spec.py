@@ -124,6 +124,20 @@ def test_malformed_metric_argument_named_at_load(tmp_path: Path) -> None:
     assert "line 19" in msg and "left_foot, right_foot" in msg
 
 
+def test_map_claim_metric_checked_at_load(tmp_path: Path) -> None:
+    """A declared map's claim names a metric as an expectation does, checked the same way."""
+    sweep = """sweeps:
+  - name: m
+    grid: {disturbances.0.start: "0.1,0.2"}
+    claims:
+      - {kind: everywhere, region: {metric: "REGION", op: ">", value: 0}, source: t}
+"""
+    msg = error_of(tmp_path, GOOD + sweep.replace("REGION", "mean_forward_speed:1-x"))
+    assert "sweeps.0.claims.0.region.metric" in msg and "'1-x'" in msg
+    msg = error_of(tmp_path, GOOD + sweep.replace("REGION", "fel"))
+    assert "sweeps.0.claims.0.region.metric" in msg and "'fel'" in msg
+
+
 def test_unknown_controller_and_bad_param(tmp_path: Path) -> None:
     """Unknown controllers and invalid controller params are named precisely."""
     msg = error_of(tmp_path, GOOD.replace("type: posture", "type: mpc"))

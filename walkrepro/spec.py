@@ -609,6 +609,17 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
                 loaded.where(("sensors", "joint_backlash", pattern)),
             )
     valid_metrics = metric_names()
+
+    def check_metric(full: str, path: tuple[str | int, ...]) -> None:
+        """A registered metric whose argument it can read, else an error at ``path``."""
+        base, _ = split_metric(full)
+        if base not in valid_metrics:
+            raise UnknownNameError("metric", base, valid_metrics, loaded.where(path))
+        try:
+            check_metric_arg(full)
+        except MetricArgError as exc:
+            raise SpecError(f"{loaded.where(path)}: {exc}") from None
+
     for i, exp in enumerate(spec.expect):
         if exp.known_deviation is not None and exp.known_deviation.observed is None:
             raise SpecError(
@@ -616,15 +627,7 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
                 "the band the reproduction measures today, e.g. known_deviation: {observed: "
                 "[0.065, 0.070], reason: '...'}; its row fails when the value leaves the band."
             )
-        base, _ = split_metric(exp.metric)
-        if base not in valid_metrics:
-            raise UnknownNameError(
-                "metric", base, valid_metrics, loaded.where(("expect", i, "metric"))
-            )
-        try:
-            check_metric_arg(exp.metric)
-        except MetricArgError as exc:
-            raise SpecError(f"{loaded.where(('expect', i, 'metric'))}: {exc}") from None
+        check_metric(exp.metric, ("expect", i, "metric"))
         if exp.relative_to is not None:
             where = ("expect", i, "relative_to")
             if exp.relative_to.experiment not in experiment_names():
@@ -634,15 +637,14 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
                     experiment_names(),
                     loaded.where((*where, "experiment")),
                 )
-            ref_base, _ = split_metric(exp.reference_metric)
-            if ref_base not in valid_metrics:
-                raise UnknownNameError(
-                    "metric", ref_base, valid_metrics, loaded.where((*where, "metric"))
-                )
-            try:
-                check_metric_arg(exp.reference_metric)
-            except MetricArgError as exc:
-                raise SpecError(f"{loaded.where((*where, 'metric'))}: {exc}") from None
+            check_metric(exp.reference_metric, (*where, "metric"))
+    for i, sweep in enumerate(spec.sweeps):
+        if sweep.metric is not None:
+            check_metric(sweep.metric, ("sweeps", i, "metric"))
+        if sweep.success is not None:
+            check_metric(sweep.success.metric, ("sweeps", i, "success", "metric"))
+        for j, claim in enumerate(sweep.claims):
+            check_metric(claim.region.metric, ("sweeps", i, "claims", j, "region", "metric"))
     if spec.sim.duration < spec.sim.control_period:
         raise SpecError(
             f"{loaded.where(('sim', 'duration'))}: duration must cover one control period."
