@@ -610,8 +610,9 @@ def test_step_duration_spread_needs_two_intervals(log: LogData, tmp_path: Path) 
 
 
 def test_metric_arguments_checked_before_a_run() -> None:
-    """Windows, numbers and choices a metric cannot read are refused with the reason;
-    readable ones, and metrics that read any argument, pass."""
+    """Windows, numbers and choices a metric cannot read, and an argument to a metric that
+    takes none, are refused with the reason; readable ones, and metrics that read any
+    argument, pass."""
     for ok in (
         "mean_forward_speed",
         "mean_forward_speed:2.9-12.9",
@@ -630,6 +631,7 @@ def test_metric_arguments_checked_before_a_run() -> None:
         ("recovery_steps:soon", "not a number"),
         ("tracking_delay:knee@2-x", "t0-t1"),
         ("switch_torque_jump:left@DS-SSA", "SSD-SSA, SSA-DS, DS-SSD"),
+        ("fell:x", "takes no argument"),
     ):
         with pytest.raises(MetricArgError, match=reason):
             check_metric_arg(bad)

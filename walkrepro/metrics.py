@@ -421,17 +421,27 @@ MetricFn = Callable[[LogData, str], float]
 #: Checks a metric's argument before any run: raises :class:`MetricArgError` if the metric
 #: could not read it.
 ArgCheck = Callable[[str], None]
-_METRICS: dict[str, tuple[MetricFn, str, ArgCheck | None]] = {}
+_METRICS: dict[str, tuple[MetricFn, str, ArgCheck]] = {}
 
 
 class MetricArgError(ValueError):
     """A metric's argument that the metric cannot read: a spec error, not a bug."""
 
 
-def metric(name: str, doc: str, arg: ArgCheck | None = None) -> Callable[[MetricFn], MetricFn]:
+def no_argument(arg: str) -> None:
+    """Argument check of a metric that reads no argument."""
+    if arg:
+        raise MetricArgError(f"takes no argument, got {arg!r}")
+
+
+def any_argument(arg: str) -> None:
+    """Argument check of a metric that reads any argument (e.g. a contact-pair pattern)."""
+
+
+def metric(name: str, doc: str, arg: ArgCheck = no_argument) -> Callable[[MetricFn], MetricFn]:
     """Register a metric function under ``name`` with a one-line description (with units)
-    and, for a metric that reads its argument, the check of that argument (``arg``), which
-    specs run when they load (:func:`check_metric_arg`)."""
+    and the check of its argument (``arg``; by default it takes none), which specs run when
+    they load (:func:`check_metric_arg`)."""
 
     def register(fn: MetricFn) -> MetricFn:
         _METRICS[name] = (fn, doc, arg)
@@ -442,12 +452,11 @@ def metric(name: str, doc: str, arg: ArgCheck | None = None) -> Callable[[Metric
 
 def check_metric_arg(full: str) -> None:
     """Raise :class:`MetricArgError` if the metric ``full`` (``name:arg``) cannot read its
-    argument; a metric without an argument check reads any (e.g. a contact pattern)."""
+    argument (an unknown metric is not checked here)."""
     base, arg = split_metric(full)
-    check = _METRICS[base][2] if base in _METRICS else None
-    if check is not None:
+    if base in _METRICS:
         try:
-            check(arg)
+            _METRICS[base][2](arg)
         except MetricArgError as exc:
             raise MetricArgError(f"metric {base!r}: {exc}") from None
 
@@ -711,7 +720,9 @@ def _mean_forward_speed(d: LogData, arg: str) -> float:
 
 
 @metric(
-    "peak_contact_force", "largest contact force norm [N] on pairs matching 'body/geom' or 'geom'"
+    "peak_contact_force",
+    "largest contact force norm [N] on pairs matching 'body/geom' or 'geom'",
+    arg=any_argument,
 )
 def _peak_contact_force(d: LogData, arg: str) -> float:
     """Pre-fall; 0 when no pair matches."""

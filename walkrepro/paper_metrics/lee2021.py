@@ -25,6 +25,7 @@ from walkrepro.metrics import (
     LogData,
     MetricArgError,
     NotMeasurable,
+    any_argument,
     choice_check,
     metric,
     window_arg,
@@ -402,6 +403,7 @@ def _first_obstacle_contact(d: LogData, pattern: str) -> float:
 @metric(
     "steps_after_contact",
     "steps after the first contact on pairs 'body/geom' = arg (e.g. right_foot/obstacle*)",
+    arg=any_argument,
 )
 def _steps_after_contact(d: LogData, arg: str) -> float:
     """Completed: §VI-B's "keeps walking in the same place" needs the whole run after the
