@@ -20,6 +20,7 @@ from test_metrics import (
     write_log,
 )
 
+from walkrepro.controllers.timeprojection.controller import TimeProjectionParams
 from walkrepro.metrics import LogData
 from walkrepro.paper_metrics.faraji import (
     CORRECTIVE_SIGMAS,
@@ -370,3 +371,29 @@ def test_tracking_lag_refined_between_samples() -> None:
     lag, corr = tracking_lag(np.sin(5 * t), np.sin(5 * (t - 0.0213)), 0.002, 0.1)
     assert lag == pytest.approx(0.0213, abs=2e-4)
     assert corr > 0.99
+
+
+# ---- dead-zone thresholds against the open-loop error spread (Fig. 9) -----------------------
+
+
+def _errors_log(tmp_path: Path, scale: float) -> LogData:
+    """Filtered errors alternating ± ``scale`` × each default dead-zone threshold: their
+    standard deviation is ``scale`` thresholds."""
+    a = np.array(TimeProjectionParams().dead_zone_thresholds)
+    ticks = [
+        Tick(k * DT, signals={"e_raw": list((1 if k % 2 else -1) * scale * a)}) for k in range(200)
+    ]
+    return write_log(tmp_path / "e.mcap", ticks, _spec(2.0))
+
+
+def test_dead_zone_thresholds_set_to_the_spread(tmp_path: Path) -> None:
+    """Errors spreading by exactly the thresholds give a ratio of 1 (Fig. 9's procedure)."""
+    d = _errors_log(tmp_path, 1.0)
+    for name in ("e1x", "e2x", "de1x", "de2x"):
+        assert measured(d, f"dead_zone_spread:{name}") == pytest.approx(1.0)
+    assert measured(d, "dead_zone_spread:e1x@0.5-1.5") == pytest.approx(1.0, rel=1e-3)
+
+
+def test_dead_zone_thresholds_stale_against_the_spread(tmp_path: Path) -> None:
+    """Errors spreading 1.25× the thresholds show thresholds that no longer follow Fig. 9."""
+    assert measured(_errors_log(tmp_path, 1.25), "dead_zone_spread:e1x") == pytest.approx(1.25)

@@ -522,3 +522,55 @@ def _tracking_delay(d: LogData, arg: str) -> float:
             )
         lags.append(lag)
     return float(min(lags)) + d.spec.sensors.delay
+
+
+# ---- dead-zone thresholds against the open-loop error spread (Fig. 9, Eq. 27) -------------
+
+#: The sagittal state errors the dead-zones act on, in ``e_raw`` order (Eq. 15).
+ERROR_NAMES = ("e1x", "e2x", "de1x", "de2x")
+
+
+def _dead_zone_spread_arg(arg: str) -> None:
+    """Argument check of ``dead_zone_spread``: an error name, then optionally ``@t0-t1``."""
+    name, at, window = arg.partition("@")
+    if name not in ERROR_NAMES:
+        raise MetricArgError(f"error {name!r} is none of {', '.join(ERROR_NAMES)}")
+    if at:
+        parse_window(window)
+
+
+@metric(
+    "dead_zone_spread",
+    "standard deviation of a filtered sagittal state error (arg e1x, e2x, de1x or de2x, "
+    "optionally '@t0-t1') over the run, divided by the dead-zone threshold a the run's "
+    "controller used for it (Fig. 9: a is set to that deviation) [-]",
+    arg=_dead_zone_spread_arg,
+)
+def _dead_zone_spread(d: LogData, arg: str) -> float:
+    """Paper II, Fig. 9 and Eq. 27: "We simply fit a Gaussian model on these measurements and
+    estimate the typical standard deviation which is later used to determine the threshold
+    for a dead-zone function" (the filtered state errors of open-loop in-place walking).
+    Reads the controller's filtered errors before the dead-zone (``e_raw``): the claim is
+    about them. The threshold is the run's (its spec's controller parameters, defaults
+    included). Window ``@t0-t1`` (default: the whole pre-fall run)."""
+    from walkrepro.controllers import controller_class
+
+    _dead_zone_spread_arg(arg)
+    name, _, window = arg.partition("@")
+    t, e = d.require_signal("e_raw")
+    if window:
+        d.require_until(parse_window(window)[1], f"the end of the window {window}")
+        keep = _window(t, window)
+        t, e = t[keep], e[keep]
+    if t.size < 2:
+        raise NotMeasurable(
+            f"fewer than two filtered errors in the window {window or 'of the run'}"
+        )
+    params = controller_class(d.spec.controller.type).Params.model_validate(
+        d.spec.controller.params
+    )
+    thresholds = getattr(params, "dead_zone_thresholds", None)
+    if thresholds is None:
+        raise NotMeasurable(f"controller {d.spec.controller.type!r} has no dead-zones")
+    i = ERROR_NAMES.index(name)
+    return float(np.std(e[:, i]) / thresholds[i])

@@ -114,7 +114,8 @@ class TimeProjectionParams(ControllerParams):
     dead_zone_thresholds: tuple[float, float, float, float] = Field(
         (0.022, 0.023, 0.23, 0.051),
         description="a of Eq. 27 for e1x, e2x [m], de1x, de2x [m/s]: the std of the "
-        "open-loop in-place errors (Fig. 9 procedure; see in_place_open_loop)",
+        "open-loop in-place errors (Fig. 9 procedure) of the first coman model; "
+        "in_place_open_loop's dead_zone_spread rows measure how far today's errors are",
     )
     footstep_limit: float = Field(0.15, gt=0, description="truncation [m] (Fig. 13: 15 cm)")
     knee_deflection: float | None = Field(
