@@ -495,12 +495,25 @@ def number_check(required: bool = False) -> ArgCheck:
     return check
 
 
-def choice_check(*choices: str) -> ArgCheck:
-    """Argument check: none, or one of ``choices``."""
+def choice_check(*choices: str, required: bool = False) -> ArgCheck:
+    """Argument check: one of ``choices`` (or, unless ``required``, none)."""
 
     def check(arg: str) -> None:
-        if arg and arg not in choices:
+        if (arg or required) and arg not in choices:
             raise MetricArgError(f"argument {arg!r} is none of {', '.join(choices)}")
+
+    return check
+
+
+def qualified_check(head: ArgCheck, qualifier: ArgCheck) -> ArgCheck:
+    """Argument check of ``head`` or ``head@qualifier``, e.g. a joint and a window
+    (``knee@2-10``) or a leg and a kind of switch (``left@SSA-DS``)."""
+
+    def check(arg: str) -> None:
+        first, at, rest = arg.partition("@")
+        head(first)
+        if at:
+            qualifier(rest)
 
     return check
 

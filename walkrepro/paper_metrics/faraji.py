@@ -16,9 +16,11 @@ from walkrepro.metrics import (
     LogData,
     MetricArgError,
     NotMeasurable,
+    choice_check,
     metric,
     number_check,
     parse_window,
+    qualified_check,
     window_check,
 )
 
@@ -470,13 +472,13 @@ def _position_servos(model: mujoco.MjModel, joint: str) -> list[tuple[str, int, 
     return out
 
 
-def _tracking_delay_arg(arg: str) -> None:
-    """Argument check of ``tracking_delay``: a joint name, then optionally ``@t0-t1``."""
-    joint, at, window = arg.partition("@")
-    if not joint:
+def _joint_name(arg: str) -> None:
+    if not arg:
         raise MetricArgError("name a joint, e.g. tracking_delay:knee or tracking_delay:knee@2-10")
-    if at:
-        parse_window(window)
+
+
+#: Argument check of ``tracking_delay``: a joint name, then optionally ``@t0-t1``.
+_tracking_delay_arg = qualified_check(_joint_name, parse_window)
 
 
 @metric(
@@ -530,13 +532,8 @@ def _tracking_delay(d: LogData, arg: str) -> float:
 ERROR_NAMES = ("e1x", "e2x", "de1x", "de2x")
 
 
-def _dead_zone_spread_arg(arg: str) -> None:
-    """Argument check of ``dead_zone_spread``: an error name, then optionally ``@t0-t1``."""
-    name, at, window = arg.partition("@")
-    if name not in ERROR_NAMES:
-        raise MetricArgError(f"error {name!r} is none of {', '.join(ERROR_NAMES)}")
-    if at:
-        parse_window(window)
+#: Argument check of ``dead_zone_spread``: an error name, then optionally ``@t0-t1``.
+_dead_zone_spread_arg = qualified_check(choice_check(*ERROR_NAMES, required=True), parse_window)
 
 
 @metric(

@@ -23,11 +23,11 @@ from walkrepro.errors import UnknownNameError
 from walkrepro.metrics import (
     Footstep,
     LogData,
-    MetricArgError,
     NotMeasurable,
     any_argument,
     choice_check,
     metric,
+    qualified_check,
     window_arg,
     window_check,
 )
@@ -333,12 +333,8 @@ def switch_torque_jumps(
 SWITCHES = ("SSD-SSA", "SSA-DS", "DS-SSD")
 
 
-def _switch_arg(arg: str) -> None:
-    """Argument check of ``switch_torque_jump``: a leg, then optionally ``@FROM-TO``."""
-    side, at, kind = arg.partition("@")
-    choice_check(*FEET)(side)
-    if at and kind not in SWITCHES:
-        raise MetricArgError(f"switch {kind!r} is none of {', '.join(SWITCHES)}")
+#: Argument check of ``switch_torque_jump``: a leg, then optionally ``@FROM-TO``.
+_switch_arg = qualified_check(choice_check(*FEET), choice_check(*SWITCHES, required=True))
 
 
 @metric(
