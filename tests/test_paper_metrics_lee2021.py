@@ -21,8 +21,7 @@ from test_metrics import (
     write_log,
 )
 
-from walkrepro.errors import UnknownNameError
-from walkrepro.metrics import LogData
+from walkrepro.metrics import LogData, MetricArgError, check_metric_arg
 from walkrepro.paper_metrics.lee2021 import eq3_cop_lead, ow_x, switch_torque_jumps
 
 ROBOT = "dyros_red"
@@ -302,9 +301,11 @@ def test_switch_torque_jump_needs_a_switch(tmp_path: Path) -> None:
 
 
 def test_switch_torque_jump_unknown_leg_lists_the_legs(tmp_path: Path) -> None:
-    """A leg other than left or right is a spec error naming the valid legs."""
-    with pytest.raises(UnknownNameError, match="left, right"):
-        measured(_torques(tmp_path, {}), "switch_torque_jump:middle")
+    """A leg other than left or right is refused, naming the valid legs: by the spec check,
+    and as not measurable on a log whose spec was never checked."""
+    with pytest.raises(MetricArgError, match="left, right"):
+        check_metric_arg("switch_torque_jump:middle")
+    assert "left, right" in unmeasurable_reason(_torques(tmp_path, {}), "switch_torque_jump:middle")
 
 
 def test_switch_torque_jump_of_one_kind_of_switch(tmp_path: Path) -> None:
@@ -316,9 +317,12 @@ def test_switch_torque_jump_of_one_kind_of_switch(tmp_path: Path) -> None:
 
 
 def test_switch_torque_jump_unknown_switch_lists_the_kinds(tmp_path: Path) -> None:
-    """A switch kind outside Table I's cycle is a spec error naming the valid kinds."""
-    with pytest.raises(UnknownNameError, match="DS-SSD, SSA-DS, SSD-SSA"):
-        measured(_torques(tmp_path, {}), "switch_torque_jump:left@DS-SSA")
+    """A switch kind outside Table I's cycle is refused, naming the valid kinds; a missing
+    leg before @ means the left one."""
+    with pytest.raises(MetricArgError, match="SSD-SSA, SSA-DS, DS-SSD"):
+        check_metric_arg("switch_torque_jump:left@DS-SSA")
+    d = _torques(tmp_path, {(30, 3): 50.0})
+    assert measured(d, "switch_torque_jump:@DS-SSD") == pytest.approx(50.01)
 
 
 def test_switch_torque_jumps_per_switch() -> None:

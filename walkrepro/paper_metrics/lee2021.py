@@ -352,11 +352,9 @@ def _switch_torque_jump(d: LogData, arg: str) -> float:
     keeps the switches of one kind: ε acts on the contact switches (§IV-B: F_s fades before
     the landing of SSA → DS, the redistribution wrench before the lift-off of DS → SSD),
     not on SSD → SSA, where Table II steps the swing height target."""
-    side, _, kind = (arg or "left").partition("@")
-    if side not in FEET:
-        raise UnknownNameError("leg", side, FEET, where="switch_torque_jump")
-    if kind and kind not in SWITCHES:
-        raise UnknownNameError("E-FSM switch kind", kind, SWITCHES, where="switch_torque_jump")
+    _switch_arg(arg)  # specs check it when they load; an old log's spec may not have
+    side, _, kind = arg.partition("@")
+    side = side or "left"
     t, tau = d.require_signal("tau_ref")
     t_phase, phase = d.require_signal("efsm_phase")
     if t_phase.size != t.size or not np.array_equal(t_phase, t):
