@@ -88,3 +88,13 @@ def test_a_declared_success_region_sets_the_drawn_boundary() -> None:
     assert _inside(stood_slid, success) is False and _inside(stepped, success) is True
     assert _inside({"outcome": "error"}, success) is None
     assert "stepped_on_off:right_foot == 1" in _boundary_label(success)
+
+
+def test_a_reference_copy_of_the_cells_is_in_cell_order(tmp_path: Path) -> None:
+    """Cells finished out of order (two jobs) are copied in cell order, values unchanged,
+    and a torn last line is dropped; the sweep's own file keeps its finish order."""
+    source, target = tmp_path / "cells.csv", tmp_path / "ref.csv"
+    source.write_text("cell,h,outcome\n2,0.3,complete\n0,0.1,fell\n1,0.2,complete\n3,0.")
+    store.copy_cells_sorted(source, target)
+    assert target.read_text() == "cell,h,outcome\n0,0.1,fell\n1,0.2,complete\n2,0.3,complete\n"
+    assert source.read_text().startswith("cell,h,outcome\n2,")

@@ -130,6 +130,16 @@ class CellsTable:
         return [r.get(name, math.nan) for r in self.rows]
 
 
+def copy_cells_sorted(source: Path, target: Path) -> None:
+    """Copy ``cells.csv`` with its whole rows in cell order (a reference's rows then do not
+    depend on which job finished first; the values are copied as text, unchanged)."""
+    lines = list(csv.reader(io.StringIO(source.read_text())))
+    header, body = (lines[0], lines[1:]) if lines else ([], [])
+    whole = sorted((r for r in body if len(r) == len(header)), key=lambda r: int(r[0]))
+    with target.open("w", newline="") as f:
+        csv.writer(f, lineterminator="\n").writerows([header, *whole] if header else [])
+
+
 def read_cells(path: Path, repair: bool = False) -> CellsTable:
     """Parse ``cells.csv`` (a torn last line from a killed sweep is dropped).
 

@@ -263,15 +263,17 @@ def run_plan(
 
 
 def update_reference(directory: Path, name: str) -> Path:
-    """Copy a finished declared sweep (sweep.yaml, cells.csv, map.png) to results/maps/<name>/."""
+    """Copy a finished declared sweep (sweep.yaml, cells.csv in cell order, map.png) to
+    results/maps/<name>/."""
     from walkrepro import RESULTS_DIR
 
     target = RESULTS_DIR / MAPS_DIR_NAME / name
     target.mkdir(parents=True, exist_ok=True)
     for old in target.glob("map*.png"):
         old.unlink()
-    for f in [store.SWEEP_FILE, store.CELLS_FILE, *(p.name for p in directory.glob("map*.png"))]:
+    for f in [store.SWEEP_FILE, *(p.name for p in directory.glob("map*.png"))]:
         shutil.copyfile(directory / f, target / f)
+    store.copy_cells_sorted(directory / store.CELLS_FILE, target / store.CELLS_FILE)
     return target
 
 

@@ -112,10 +112,11 @@ class TimeProjectionParams(ControllerParams):
     zeta: float = Field(0.1, gt=0, le=1, description="IIR ζ, Eq. 26")
     velocity_window: int = Field(30, ge=1, description="derivative averaging window [samples]")
     dead_zone_thresholds: tuple[float, float, float, float] = Field(
-        (0.022, 0.023, 0.23, 0.051),
-        description="a of Eq. 27 for e1x, e2x [m], de1x, de2x [m/s]: the std of the "
-        "open-loop in-place errors (Fig. 9 procedure) of the first coman model; "
-        "in_place_open_loop's dead_zone_spread rows measure how far today's errors are",
+        (0.0275, 0.0271, 0.275, 0.052),
+        description="a of Eq. 27 for e1x, e2x [m], de1x, de2x [m/s]: the standard deviation "
+        "of the filtered errors of the open-loop in-place gait (Fig. 9 procedure: "
+        "in_place_open_loop, 2-10.5 s, seed 0, on the coman model of 2026-12-02); "
+        "in_place_open_loop's dead_zone_spread rows fail when the model moves them",
     )
     footstep_limit: float = Field(0.15, gt=0, description="truncation [m] (Fig. 13: 15 cm)")
     knee_deflection: float | None = Field(
