@@ -25,6 +25,7 @@ from walkrepro.metrics import LogData
 from walkrepro.paper_metrics.faraji import (
     CORRECTIVE_SIGMAS,
     corrective_band,
+    corrective_steps,
     count_corrective,
     footstep_scatter,
     step_adjustments,
@@ -397,3 +398,40 @@ def test_dead_zone_thresholds_set_to_the_spread(tmp_path: Path) -> None:
 def test_dead_zone_thresholds_stale_against_the_spread(tmp_path: Path) -> None:
     """Errors spreading 1.25× the thresholds show thresholds that no longer follow Fig. 9."""
     assert measured(_errors_log(tmp_path, 1.25), "dead_zone_spread:e1x") == pytest.approx(1.25)
+
+
+# ---- the corrective steps drawn (Figs. 16-17) -----------------------------------------------
+
+
+def test_corrective_steps_are_the_counted_steps() -> None:
+    """The steps named corrective are the ones the count counts, from the pushed step on."""
+    phases = 0.5 + STEP * np.arange(14)
+    peaks = np.r_[UNDISTURBED, 0.1, -0.06, 0.02, 0.08, 0.015]
+    band = corrective_band(peaks, phases, PUSH_AT)
+    assert corrective_steps(peaks, phases, PUSH_AT, band) == [9, 10]
+    assert count_corrective(peaks, phases, PUSH_AT, band) == 2  # the later 8 cm is another story
+
+
+def test_push_figure_marks_the_corrective_steps(tmp_path: Path) -> None:
+    """Fig. 16 draws the band and marks the counted steps, with their count in the legend."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib import pyplot as plt
+
+    from walkrepro.figures import faraji as figs
+
+    d = _footsteps(tmp_path, UNDISTURBED + [0.1, -0.06, 0.02, 0.015])
+    _, ax = plt.subplots()
+    t, v = d.signal("footstep")
+    figs._mark_corrective(ax, d, t, v)
+    labels = [line.get_label() for line in ax.get_lines()]
+    assert "corrective steps (2)" in labels
+    red = ax.get_lines()[labels.index("corrective steps (2)")]
+    assert list(red.get_ydata()) == pytest.approx([0.1, -0.06], abs=1e-3)
+    (tmp_path / "fell").mkdir()
+    fell = _footsteps(tmp_path / "fell", UNDISTURBED + [0.1, -0.06], outcome="fell")
+    _, ax2 = plt.subplots()
+    figs._mark_corrective(ax2, fell, *fell.signal("footstep"))
+    assert any("not counted (fell)" in line.get_label() for line in ax2.get_lines())
+    plt.close("all")

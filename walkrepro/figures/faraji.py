@@ -13,8 +13,15 @@ import numpy as np
 
 from walkrepro.figures import CompareFn, FigureFn
 from walkrepro.figures.style import save
-from walkrepro.metrics import LogData
-from walkrepro.paper_metrics.faraji import _feet_relative, _phase_times, _stride_speed
+from walkrepro.metrics import LogData, NotMeasurable
+from walkrepro.paper_metrics.faraji import (
+    _feet_relative,
+    _phase_times,
+    _stride_speed,
+    corrective_band,
+    corrective_steps,
+    step_adjustments,
+)
 
 ERROR_NAMES = ("e₁ = p − f [m]", "e₂ = p − s [m]", "ė₁ [m/s]", "ė₂ [m/s]")
 
@@ -112,6 +119,7 @@ def fig16_push(d: LogData, out_dir: Path) -> list[Path]:
     t_raw, v_raw = d.signal("footstep_raw")
     ax[1].plot(t_raw, v_raw, color="gray", alpha=0.6, label="footstep adjustment (raw)")
     ax[1].plot(t, v, label="footstep adjustment (truncated at 15 cm)")
+    _mark_corrective(ax[1], d, t, v)
     ax[1].set_ylabel("[m]")
     ax[1].grid(alpha=0.3)
     ax[1].legend(fontsize="small")
@@ -119,6 +127,37 @@ def fig16_push(d: LogData, out_dir: Path) -> list[Path]:
     ax[-1].set_xlabel("time [s]")
     fig.suptitle(f"{d.spec.name}: push recovery (Paper II Figs. 16-17)")
     return save(fig, out_dir / "fig16_push")
+
+
+def _mark_corrective(ax: plt.Axes, d: LogData, t: np.ndarray, v: np.ndarray) -> None:
+    """The corrective-step rule of ``recovery_steps`` drawn on the adjustment panel: the
+    undisturbed band μ ∓ 3σ of the steps' signed peaks before the push, each step's signed
+    peak (at its sample), and the corrective ones (red) with their count."""
+    phases = _phase_times(d)
+    if phases.size < 2 or not t.size:
+        return
+    peaks = step_adjustments(t, v, phases)
+    t_push = float(d.spec.disturbances[0].start)
+    try:
+        band = corrective_band(peaks, phases, t_push)
+    except NotMeasurable:
+        return
+    bounds = np.append(phases, np.inf)
+    at = []
+    for lo, hi, a in zip(bounds[:-1], bounds[1:], peaks, strict=True):
+        inside = np.flatnonzero((t >= lo) & (t < hi) & (v == a))
+        at.append(t[inside[0]] if inside.size else np.nan)
+    at = np.array(at)
+    ax.axhspan(*band, color="tab:green", alpha=0.12, label="undisturbed band μ ∓ 3σ")
+    ax.plot(at, peaks, "o", mfc="none", color="k", ms=5, label="step's signed peak")
+    try:
+        chosen = corrective_steps(peaks, phases, t_push, band)
+        label = f"corrective steps ({len(chosen)})"
+    except NotMeasurable as exc:
+        chosen, label = [], f"corrective steps: {exc}"
+    if d.outcome != "complete":
+        chosen, label = [], f"corrective steps: not counted ({d.outcome})"
+    ax.plot(at[chosen], peaks[chosen], "o", color="tab:red", ms=7, label=label)
 
 
 def _errors(ax: plt.Axes, d: LogData) -> None:

@@ -166,26 +166,33 @@ def corrective_band(peaks: np.ndarray, phases: np.ndarray, t_push: float) -> tup
     return mu - half, mu + half
 
 
-def count_corrective(
+def corrective_steps(
     peaks: np.ndarray, phases: np.ndarray, t_push: float, band: tuple[float, float]
-) -> int:
-    """Corrective steps from the step the push falls in: steps whose signed peak lies
-    outside ``band`` (|a − μ| > 3σ), counted until the first step back inside it after
+) -> list[int]:
+    """Indices of the corrective steps, from the step the push falls in: steps whose signed
+    peak lies outside ``band`` (|a − μ| > 3σ), until the first step back inside it after
     one outside (the recovery's end).
 
     Raises :class:`NotMeasurable` when the log ends while the steps are still corrective.
     """
     low, high = band
     first = max(0, int(np.searchsorted(phases, t_push, side="right")) - 1)
-    count = 0
-    for a in peaks[first:-1]:  # the last step may be cut short by the end of the log
-        if a < low or a > high:
-            count += 1
-        elif count:
-            return count
-    if count:
+    steps: list[int] = []
+    for k in range(first, peaks.size - 1):  # the last step may be cut short by the log's end
+        if peaks[k] < low or peaks[k] > high:
+            steps.append(k)
+        elif steps:
+            return steps
+    if steps:
         raise NotMeasurable("the log ends before the footstep adjustments settled")
-    return 0
+    return steps
+
+
+def count_corrective(
+    peaks: np.ndarray, phases: np.ndarray, t_push: float, band: tuple[float, float]
+) -> int:
+    """Number of :func:`corrective_steps`."""
+    return len(corrective_steps(peaks, phases, t_push, band))
 
 
 def _push_time(d: LogData, arg: str) -> float:
