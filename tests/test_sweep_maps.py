@@ -98,3 +98,12 @@ def test_a_reference_copy_of_the_cells_is_in_cell_order(tmp_path: Path) -> None:
     store.copy_cells_sorted(source, target)
     assert target.read_text() == "cell,h,outcome\n0,0.1,fell\n1,0.2,complete\n2,0.3,complete\n"
     assert source.read_text().startswith("cell,h,outcome\n2,")
+
+
+def test_a_map_labels_the_metric_with_its_value_unit_not_its_arguments() -> None:
+    """A unit in the argument's parenthesis ("push time [s]") is not the value's unit."""
+    from walkrepro.sweep.maps import _metric_label
+
+    assert _metric_label("recovery_steps:4.0") == "recovery_steps:4.0"
+    assert _metric_label("mean_forward_speed:2-4") == "mean_forward_speed:2-4 [m/s]"
+    assert _metric_label("max_footstep_adjustment") == "max_footstep_adjustment [m]"

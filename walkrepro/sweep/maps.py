@@ -66,15 +66,21 @@ def _label(field: str, units: dict[str, str]) -> str:
 
 
 def _metric_label(metric: str) -> str:
-    """The metric with the unit its registered description gives (``[N]``), if any."""
+    """The metric with the unit its registered description gives (``[N]``), if any: the
+    last bracket outside parentheses (a parenthesis describes the argument, e.g. "(arg: push
+    time [s])", not the value)."""
     import re
 
     from walkrepro.metrics import metric_doc, split_metric
 
     try:
-        units = re.findall(r"\[([^\]]+)\]", metric_doc(split_metric(metric)[0]))
+        doc = metric_doc(split_metric(metric)[0])
     except KeyError:
-        units = []
+        doc = ""
+    outside = None
+    while outside != doc:
+        outside, doc = doc, re.sub(r"\([^()]*\)", "", doc)
+    units = re.findall(r"\[([^\]]+)\]", doc)
     return f"{metric} [{units[-1]}]" if units else metric
 
 
