@@ -219,3 +219,24 @@ def test_paper_torso_term_targets_motor_encoder_plus_pitch() -> None:
     swing_side = cmd.signals["swing_side"]
     stance_hip = 8 if swing_side > 0 else 2  # coman's leg order: left 0-5, right 6-11
     assert cmd.ctrl[stance_hip] == pytest.approx(motor[stance_hip] + pitch, abs=2e-3)
+
+
+def test_paper_knee_compensation_offsets_only_the_knees() -> None:
+    """Eq. 21 as the paper writes it (spring_compensation 'knees'): the loaded knee motor
+    targets extend by μ·|F|/(m g) and no other leg joint gets an offset, where the other
+    modes also offset the ankle pitch for the weight it carries (the home pre-load)."""
+    mu = 0.022
+    robot, knees = _controller(start_time=0.0, spring_compensation="knees", knee_deflection=mu)
+    _, knees0 = _controller(start_time=0.0, spring_compensation="knees", knee_deflection=0.0)
+    _, home = _controller(start_time=0.0, knee_deflection=mu)  # home-based offsets elsewhere
+    snap = _snapshot(robot, 0.0)  # each foot carries half the weight
+    a, b, c = (ctrl.step(0.0, snap).ctrl[:12] for ctrl in (knees, knees0, home))
+    diff = a - b
+    for knee in (3, 9):
+        assert diff[knee] == pytest.approx(-0.5 * mu, rel=1e-6)  # knee > 0 is flexion
+    np.testing.assert_allclose(np.delete(diff, [3, 9]), 0.0, atol=1e-12)
+    preload = (robot.home_ctrl - robot.home_joint_pos)[:12]  # motor minus link at home
+    for ankle in (4, 10):  # half weight: the home pre-load, which 'knees' leaves out
+        assert abs(preload[ankle]) > 0.01
+        assert c[ankle] - a[ankle] == pytest.approx(preload[ankle], rel=1e-6)
+    np.testing.assert_allclose((c - a)[[3, 9]], 0.0, atol=1e-12)

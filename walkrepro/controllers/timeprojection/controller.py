@@ -124,6 +124,14 @@ class TimeProjectionParams(ControllerParams):
         description="μ of Eq. 21 [rad]; None derives it from the home keyframe's knee "
         "pre-load (deflection at full body weight)",
     )
+    spring_compensation: Literal["posture", "knees"] = Field(
+        "posture",
+        description="Eq. 21: 'knees' is the paper's, a load-scaled offset −μ·|F|/(m g) on the "
+        "knee targets only (μ: knee_deflection, identified from the open-loop in-place gait's "
+        "stance knee compressions, Fig. 7); 'posture' (walkrepro's) adds the hip pitch, knee "
+        "and ankle pitch springs' static deflection under the body weight at the sole point "
+        "of the commanded posture, and the home pre-load on the other leg joints",
+    )
     footstep_scale: float = Field(
         1.0,
         ge=0,
@@ -188,6 +196,10 @@ class TimeProjectionController(Controller):
         offset = robot.home_ctrl - robot.home_joint_pos  # static spring + servo pre-load
         # Leg joints carry half the weight at home: the offset at full load is twice it.
         self._leg_offset_full = 2.0 * offset[LEG]
+        if p.spring_compensation == "knees":  # the knees' load-scaled offsets only
+            knees = self._leg_offset_full[list(KNEE)].copy()
+            self._leg_offset_full[:] = 0.0
+            self._leg_offset_full[list(KNEE)] = knees
         if p.knee_deflection is not None:
             for i in KNEE:
                 self._leg_offset_full[i] = -p.knee_deflection
@@ -204,7 +216,11 @@ class TimeProjectionController(Controller):
         )
         # Eq. 21 with μ from the commanded posture (see `step`): the legs' Jacobian columns
         # and spring stiffnesses.
-        self._posture_springs = p.knee_deflection is None and robot.spring_stiffness is not None
+        self._posture_springs = (
+            p.spring_compensation == "posture"
+            and p.knee_deflection is None
+            and robot.spring_stiffness is not None
+        )
         self._v_legs = [int(i) for i in robot.pin_v_idx[LEG]]
         stiffness = robot.spring_stiffness
         self._stiffness_legs = [] if stiffness is None else [float(k) for k in stiffness[LEG]]
