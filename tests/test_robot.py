@@ -25,6 +25,7 @@ from walkrepro.robot import (
     leg_actuators,
     list_robots,
     load_robot,
+    with_servo_gains,
 )
 
 ROBOTS = ("coman", "dyros_red", "dyros_red_actuated", "kist_humanoid")
@@ -675,3 +676,25 @@ def test_pin_state_is_pinocchios_rotation(name: str) -> None:
         np.testing.assert_allclose(q, q_ref, rtol=0, atol=1e-12)
         np.testing.assert_allclose(v, v_ref, rtol=0, atol=1e-12)
         assert np.array_equal(robot.pin_configuration(pos, quat, joint_pos), q)
+
+
+def test_controller_robot_carries_the_specs_servo_gains() -> None:
+    """with_servo_gains copies the scene's servo gains (a spec's actuators.position_gain:
+    in_place runs its hip pitch at 1111 Nm/rad, the robot model at 222) into a copy of the
+    robot; the cached robot keeps its own, and a torque robot comes back unchanged."""
+    from walkrepro.spec import load_spec
+    from walkrepro.world import build_scene
+
+    robot = load_robot("coman")
+    scene = build_scene(robot, load_spec("in_place").spec)
+    seen = with_servo_gains(robot, scene.model)
+    assert seen is not robot
+    assert seen.mj_model.actuator("l_hip_pitch").gainprm[0] == pytest.approx(1111.1)
+    assert seen.mj_model.actuator("l_hip_pitch").biasprm[1] == pytest.approx(-1111.1)
+    assert seen.mj_model.actuator("l_knee").gainprm[0] == pytest.approx(1111.11)
+    assert robot.mj_model.actuator("l_hip_pitch").gainprm[0] == pytest.approx(222.222)
+    assert load_robot("coman").mj_model.actuator("l_hip_pitch").gainprm[0] == pytest.approx(
+        222.222
+    )
+    torque = load_robot("dyros_red")
+    assert with_servo_gains(torque, build_scene(torque, load_spec("forward_walk").spec).model) is torque

@@ -240,3 +240,24 @@ def test_paper_knee_compensation_offsets_only_the_knees() -> None:
         assert abs(preload[ankle]) > 0.01
         assert c[ankle] - a[ankle] == pytest.approx(preload[ankle], rel=1e-6)
     np.testing.assert_allclose((c - a)[[3, 9]], 0.0, atol=1e-12)
+
+
+def test_series_compensation_adds_the_servo_yield() -> None:
+    """'posture_series' divides the static torques by the servo in series with the spring,
+    so each sagittal offset grows by k_spring / k_series (knee 300 and ankle 125 Nm/rad
+    behind 1111 Nm/rad servos: 1.27× and 1.11×); the roll and yaw targets do not change."""
+    from walkrepro.controllers.timeprojection.openloop import series_stiffness
+
+    robot, series = _controller(start_time=0.0, spring_compensation="posture_series")
+    _, spring = _controller(start_time=0.0)
+    snap = _snapshot(robot, 0.0)
+    a, b = (ctrl.step(0.0, snap) for ctrl in (series, spring))
+    q_des = np.asarray(b.signals["q_cmd_legs"])
+    np.testing.assert_allclose(a.signals["q_cmd_legs"], q_des)
+    for j, name in ((3, "l_knee"), (4, "l_ankle_pitch")):
+        ratio = robot.spring_stiffness[j] / series_stiffness(robot, name)
+        assert ratio > 1.1
+        offset_series, offset_spring = a.ctrl[j] - q_des[j], b.ctrl[j] - q_des[j]
+        assert abs(offset_spring) > 1e-3
+        assert offset_series == pytest.approx(ratio * offset_spring, rel=1e-6)
+    np.testing.assert_allclose(a.ctrl[[0, 1, 5]], b.ctrl[[0, 1, 5]], atol=1e-12)

@@ -40,6 +40,8 @@ springs exist only in MuJoCo, as on the real robot.
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import functools
 import math
 import tempfile
@@ -558,6 +560,25 @@ def load_robot(name: str) -> Robot:
         _qpos_adr=LinkAddresses(_frozen(qpos_adr.adr), _frozen(qpos_adr.starts)),
         _qvel_adr=LinkAddresses(_frozen(qvel_adr.adr), _frozen(qvel_adr.starts)),
     )
+
+
+def with_servo_gains(robot: Robot, scene_model: mujoco.MjModel) -> Robot:
+    """``robot`` with the position servos' gains that run in ``scene_model``.
+
+    A spec's ``actuators.position_gain`` sets the servos of the scene (`walkrepro.world`),
+    not of the shared :func:`load_robot` model; a controller that reasons about its own
+    servos (e.g. a spring compensation that includes the servo's yield) must see the gains
+    it runs. Returns a copy whose ``mj_model`` carries the scene's ``gainprm`` and
+    ``biasprm`` for every actuator; the cached robot is not touched. A torque-controlled
+    robot is returned as it is.
+    """
+    if robot.control_mode != "position":
+        return robot
+    model = copy.copy(robot.mj_model)  # MjModel copies its arrays
+    for name in robot.joint_names:
+        model.actuator(name).gainprm[:] = scene_model.actuator(name).gainprm
+        model.actuator(name).biasprm[:] = scene_model.actuator(name).biasprm
+    return dataclasses.replace(robot, mj_model=model)
 
 
 # ---- helpers ----------------------------------------------------------------------------

@@ -32,7 +32,7 @@ from walkrepro.disturbances import DisturbanceSchedule
 from walkrepro.foxglove import frame_every
 from walkrepro.interrupt import InterruptFlag
 from walkrepro.provenance import run_metadata
-from walkrepro.robot import Robot, load_robot
+from walkrepro.robot import Robot, load_robot, with_servo_gains
 from walkrepro.sensors import SensorModel
 from walkrepro.spec import ExperimentSpec
 from walkrepro.world import build_scene
@@ -195,7 +195,9 @@ def run(
     cls = controller_class(spec.controller.type)
     controller = cls()
     controller.reset(
-        robot, cls.Params.model_validate(spec.controller.params), spec.sim.control_period
+        with_servo_gains(robot, model),  # the spec's servo gains, as the controller runs them
+        cls.Params.model_validate(spec.controller.params),
+        spec.sim.control_period,
     )
     sensors = SensorModel(robot, model, spec.sensors, spec.sim.control_period, spec.sim.seed)
     disturbances = DisturbanceSchedule(spec.disturbances)

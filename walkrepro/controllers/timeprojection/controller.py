@@ -46,6 +46,7 @@ from walkrepro.controllers.timeprojection.openloop import (
     LegIk,
     LegTargets,
     ankle_series_stiffness,
+    series_stiffness,
     relative_footstep_gains,
     threelp_params_from_robot,
 )
@@ -124,13 +125,16 @@ class TimeProjectionParams(ControllerParams):
         description="μ of Eq. 21 [rad]; None derives it from the home keyframe's knee "
         "pre-load (deflection at full body weight)",
     )
-    spring_compensation: Literal["posture", "knees"] = Field(
+    spring_compensation: Literal["posture", "posture_series", "knees"] = Field(
         "posture",
         description="Eq. 21: 'knees' is the paper's, a load-scaled offset −μ·|F|/(m g) on the "
         "knee targets only (μ: knee_deflection, identified from the open-loop in-place gait's "
         "stance knee compressions, Fig. 7); 'posture' (walkrepro's) adds the hip pitch, knee "
         "and ankle pitch springs' static deflection under the body weight at the sole point "
-        "of the commanded posture, and the home pre-load on the other leg joints",
+        "of the commanded posture, and the home pre-load on the other leg joints; "
+        "'posture_series' divides those torques by the running servo in series with the "
+        "spring, 1/(1/k + 1/kp), the servo's own yield included (README, Known deviations → "
+        "Paper II, why the in-place gait drifts forward; not adopted)",
     )
     footstep_scale: float = Field(
         1.0,
@@ -217,13 +221,18 @@ class TimeProjectionController(Controller):
         # Eq. 21 with μ from the commanded posture (see `step`): the legs' Jacobian columns
         # and spring stiffnesses.
         self._posture_springs = (
-            p.spring_compensation == "posture"
+            p.spring_compensation != "knees"
             and p.knee_deflection is None
             and robot.spring_stiffness is not None
         )
         self._v_legs = [int(i) for i in robot.pin_v_idx[LEG]]
         stiffness = robot.spring_stiffness
-        self._stiffness_legs = [] if stiffness is None else [float(k) for k in stiffness[LEG]]
+        if stiffness is None:
+            self._stiffness_legs = []
+        elif p.spring_compensation == "posture_series":
+            self._stiffness_legs = [series_stiffness(robot, j) for j in robot.joint_names[LEG]]
+        else:
+            self._stiffness_legs = [float(k) for k in stiffness[LEG]]
         lf, rf, _, _ = self._kin.feet(np.array([1.0, 0, 0, 0]), robot.home_joint_pos)
         self._home_width = float(lf[1] - rf[1])
         self._home_x = 0.5 * float(lf[0] + rf[0])
@@ -486,7 +495,9 @@ class TimeProjectionController(Controller):
 
         τ = Jᵀ (0, 0, m g): the sole-point Jacobian (Pinocchio, rigid twin) in the commanded
         posture ``q_legs``, the world-vertical weight expressed in the pelvis frame rolled by
-        ``roll``; the offset is −τ / k (the home keyframe's pre-load is this at home).
+        ``roll``; the offset is −τ / k, k the spring's stiffness (the home keyframe's
+        pre-load is this at home within 10 %), or the servo and spring in series with
+        ``spring_compensation="posture_series"``.
         """
         self._pin_q[self._pin_legs] = q_legs
         return np.array(self._deflection(leg, roll, range(6)))

@@ -74,19 +74,25 @@ def threelp_params_from_robot(robot: Robot, leg_inertia: bool = True) -> ThreeLP
     )
 
 
-def ankle_series_stiffness(robot: Robot, side: str = "l") -> float:
-    """Ankle pitch servo (kp from the MJCF) in series with its spring [Nm/rad], 0 if rigid.
+def series_stiffness(robot: Robot, joint: str) -> float:
+    """A joint's motor-side position servo in series with its spring [Nm/rad], 0 if the
+    robot has no springs.
 
     Paper II, Effective Ankle Stiffness: the servo's ≈ 1100 Nm/rad acts "in series" with
-    the ankle spring: k_eff = 1 / (1/k + 1/kp). The servo gain is the robot model's (the
-    controller's knowledge of its hardware), not a spec's ``actuators`` override.
+    the spring: k_eff = 1 / (1/k + 1/kp), kp = k_d/β of the motor model (Eqs. 19-20). kp
+    is ``robot.mj_model``'s: the gain that runs when the runner passed the robot through
+    :func:`walkrepro.robot.with_servo_gains` (a spec's ``actuators`` override included).
     """
     if robot.spring_stiffness is None:
         return 0.0
-    i = robot.joint_names.index(f"{side}_ankle_pitch")
-    k_spring = float(robot.spring_stiffness[i])
-    k_servo = float(robot.mj_model.actuator(robot.joint_names[i]).gainprm[0])
+    k_spring = float(robot.spring_stiffness[robot.joint_names.index(joint)])
+    k_servo = float(robot.mj_model.actuator(joint).gainprm[0])
     return 1.0 / (1.0 / k_spring + 1.0 / k_servo)
+
+
+def ankle_series_stiffness(robot: Robot, side: str = "l") -> float:
+    """:func:`series_stiffness` of the ``side`` leg's ankle pitch [Nm/rad]."""
+    return series_stiffness(robot, f"{side}_ankle_pitch")
 
 
 def _subtree_pitch_inertia(model: mujoco.MjModel, data: mujoco.MjData, root: int) -> float:
