@@ -45,8 +45,11 @@ def _spec(duration: float, **fields):  # noqa: ANN202
 # ---- pelvis speed under the drag (Fig. 18) -------------------------------------------------
 
 
-def _pelvis(tmp_path: Path, speed, duration: float = 4.0, outcome: str = "complete") -> LogData:  # noqa: ANN001
-    """The pelvis moves at ``speed(t)`` [m/s] (the legs at home move with it)."""
+def _pelvis(  # noqa: ANN001
+    tmp_path: Path, speed, duration: float = 4.0, outcome: str = "complete", params=None
+) -> LogData:
+    """The pelvis moves at ``speed(t)`` [m/s] (the legs at home move with it); ``params``:
+    the spec's controller parameters."""
     q0 = Poser(ROBOT).home
     ticks, x = [], 0.0
     for k in range(int(round(duration / DT)) + 1):
@@ -56,7 +59,8 @@ def _pelvis(tmp_path: Path, speed, duration: float = 4.0, outcome: str = "comple
         x += speed(k * DT) * DT
     if outcome == "fell":
         ticks[-1].events = [{"kind": "fall", "reason": "pelvis low"}]
-    return write_log(tmp_path / "p.mcap", ticks, _spec(duration), outcome)
+    spec = make_spec(ROBOT, duration, controller={"type": "timeprojection", "params": params or {}})
+    return write_log(tmp_path / "p.mcap", ticks, spec, outcome)
 
 
 def test_drag_makes_the_robot_walk(tmp_path: Path) -> None:
@@ -88,6 +92,41 @@ def test_speed_window_after_a_fall_not_measurable(tmp_path: Path) -> None:
     assert unmeasurable_reason(d, "peak_forward_pelvis_speed:0.5-3.0").startswith(
         "the robot fell at t = 2.000 s"
     )
+
+
+# ---- walking speed against the command (Fig. 19) -------------------------------------------
+
+
+def _walk(tmp_path: Path, speed: float, command: float | None) -> LogData:
+    """The pelvis moves at ``speed`` [m/s] for 4 s under a spec commanding ``command``."""
+    params = None if command is None else {"speed": command}
+    return _pelvis(tmp_path, lambda t: speed, params=params)
+
+
+def test_speed_within_a_quarter_of_the_command(tmp_path: Path) -> None:
+    """0.11 m/s under a 0.1 m/s command is 1.1× the command, inside Fig. 19's ±25 %."""
+    ratio = measured(_walk(tmp_path, 0.11, 0.1), "speed_to_command:0.5-3.5")
+    assert ratio == pytest.approx(1.1, abs=1e-6)
+    assert 0.75 <= ratio <= 1.25
+
+
+def test_speed_far_below_the_command(tmp_path: Path) -> None:
+    """A walk at half the commanded speed is outside the ±25 % band."""
+    ratio = measured(_walk(tmp_path, 0.1, 0.2), "speed_to_command:0.5-3.5")
+    assert ratio == pytest.approx(0.5, abs=1e-6)
+    assert not 0.75 <= ratio <= 1.25
+
+
+def test_speed_ratio_follows_the_spec_command(tmp_path: Path) -> None:
+    """The same 0.2 m/s walk is on target for a 0.2 m/s command, 2× a 0.1 m/s one."""
+    assert measured(_walk(tmp_path, 0.2, 0.2), "speed_to_command:0.5-3.5") == pytest.approx(1.0)
+    assert measured(_walk(tmp_path, 0.2, 0.1), "speed_to_command:0.5-3.5") == pytest.approx(2.0)
+
+
+def test_speed_ratio_needs_a_forward_command(tmp_path: Path) -> None:
+    """In-place walking (no speed commanded) has no realised-to-commanded ratio."""
+    reason = unmeasurable_reason(_walk(tmp_path, 0.0, None), "speed_to_command:0.5-3.5")
+    assert "commands no forward speed" in reason
 
 
 # ---- corrective steps after a push (Fig. 16) -----------------------------------------------

@@ -717,7 +717,7 @@ def _step_duration_spread(d: LogData, arg: str) -> float:
     "pelvis x displacement / time [m/s] (arg 't0-t1' restricts the window [s])",
     arg=window_check,
 )
-def _mean_forward_speed(d: LogData, arg: str) -> float:
+def mean_forward_speed(d: LogData, arg: str) -> float:
     """Window: with an argument the data must cover it; without, pre-fall over the log."""
     d.require_states(2)
     t0, t1 = float(d.t[0]), float(d.t[-1])

@@ -17,6 +17,7 @@ from walkrepro.metrics import (
     MetricArgError,
     NotMeasurable,
     choice_check,
+    mean_forward_speed,
     metric,
     number_check,
     parse_window,
@@ -324,6 +325,22 @@ def footstep_scatter(rel: np.ndarray) -> float:
     """
     dev = rel - rel.mean(axis=0, keepdims=True)
     return float(np.sqrt(np.mean(np.sum(dev**2, axis=2))))
+
+
+@metric(
+    "speed_to_command",
+    "mean pelvis x speed over the window (arg 't0-t1' [s], as mean_forward_speed) divided "
+    "by the commanded 3LP speed, the spec's controller.params.speed (Fig. 19) [-]",
+    arg=window_check,
+)
+def _speed_to_command(d: LogData, arg: str) -> float:
+    """Window as :func:`walkrepro.metrics.mean_forward_speed`. Fig. 19's claim is about the
+    speed realised against the one commanded, so the ratio follows a ``--set`` of the
+    command where a band in m/s would not. Not measurable without a forward command."""
+    command = float(d.spec.controller.params.get("speed", 0.0))  # [m/s]
+    if command <= 0.0:
+        raise NotMeasurable(f"the spec commands no forward speed (speed = {command} m/s)")
+    return mean_forward_speed(d, arg) / command
 
 
 def _pull(d: LogData) -> tuple[float, float, float]:
