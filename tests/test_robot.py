@@ -693,8 +693,9 @@ def test_controller_robot_carries_the_specs_servo_gains() -> None:
     assert seen.mj_model.actuator("l_hip_pitch").biasprm[1] == pytest.approx(-1111.1)
     assert seen.mj_model.actuator("l_knee").gainprm[0] == pytest.approx(1111.11)
     assert robot.mj_model.actuator("l_hip_pitch").gainprm[0] == pytest.approx(222.222)
-    assert load_robot("coman").mj_model.actuator("l_hip_pitch").gainprm[0] == pytest.approx(
-        222.222
-    )
+    assert load_robot("coman").mj_model.actuator("l_hip_pitch").gainprm[0] == pytest.approx(222.222)
     torque = load_robot("dyros_red")
-    assert with_servo_gains(torque, build_scene(torque, load_spec("forward_walk").spec).model) is torque
+    assert (
+        with_servo_gains(torque, build_scene(torque, load_spec("forward_walk").spec).model)
+        is torque
+    )

@@ -197,3 +197,105 @@ def test_an_exceeds_claim_needs_its_inner_selector() -> None:
         SweepClaim.model_validate(
             {"kind": "exceeds", "region": {"metric": "fell", "op": "==", "value": 0}, "source": "x"}
         )
+
+
+# ---- paired claims: a metric against its value at the partner cell ----------------------------
+
+PAIRED = SweepClaim.model_validate(
+    {
+        "kind": "paired",
+        "region": {"metric": "speed", "op": "<", "value": 1.0},
+        "where": {"stepping": True},
+        "than": {"stepping": False},
+        "source": "Faraji, Continuous Pushes",
+    }
+)
+FORCES = (2.0, 4.0, 6.0, 8.0)
+
+
+def drag_table(speeds: dict[tuple[float, bool], float], fell: frozenset = frozenset()) -> list:
+    """Cells over force × stepping with a mean speed each; ``fell`` cells have none."""
+    rows = []
+    for k, (f, step) in enumerate(itertools.product(FORCES, (True, False))):
+        down = (f, step) in fell
+        rows.append(
+            {
+                "cell": k,
+                "force": f,
+                "stepping": step,
+                "outcome": "fell" if down else "complete",
+                "fell": float(down),
+                "speed": math.nan if down else speeds[(f, step)],
+            }
+        )
+    return rows
+
+
+def slower_with_stepping(factor: float) -> dict[tuple[float, bool], float]:
+    """Speeds growing with the force; with stepping ``factor`` × the open-loop speed."""
+    return {(f, s): 0.03 * f * (factor if s else 1.0) for f in FORCES for s in (True, False)}
+
+
+def test_paired_holds_when_every_cell_is_below_its_partner() -> None:
+    """Stepping slower at every force: no contradicting cell."""
+    row = evaluate_claim(drag_table(slower_with_stepping(0.7)), ("force", "stepping"), PAIRED, "m")
+    assert row.status == PASS and row.measured == 0
+    assert "holds at 4 of 4 cells where stepping=true" in row.note
+
+
+def test_paired_fails_where_a_cell_is_not_below_its_partner() -> None:
+    """One force where stepping is faster: one contradicting cell, named with both values."""
+    speeds = slower_with_stepping(0.7)
+    speeds[(4.0, True)] = 0.2
+    row = evaluate_claim(drag_table(speeds), ("force", "stepping"), PAIRED, "m")
+    assert row.status == FAIL and row.measured == 1
+    assert "(force=4.0) (0.2 against 0.12)" in row.note
+
+
+def test_paired_scale_sets_how_much_lower() -> None:
+    """``value`` scales the partner: 0.8× slower at every force fails "below 0.5×"."""
+    claim = PAIRED.model_copy(update={"region": PAIRED.region.model_copy(update={"value": 0.5})})
+    row = evaluate_claim(drag_table(slower_with_stepping(0.8)), ("force", "stepping"), claim, "m")
+    assert row.status == FAIL and row.measured == 4
+
+
+def test_paired_partner_without_a_measurement_is_unknown() -> None:
+    """A partner that fell has no speed: the claim cannot hold there, and says why."""
+    rows = drag_table(slower_with_stepping(0.7), fell=frozenset({(8.0, False)}))
+    row = evaluate_claim(rows, ("force", "stepping"), PAIRED, "m")
+    assert row.status == FAIL and row.measured == 0
+    assert "(force=8.0) where stepping=false (fell: no speed)" in row.note
+    # Restricting the claim to the forces both modes survive makes it measurable again.
+    where = {"stepping": True, "force": {"op": "<=", "value": 6.0}}
+    row = evaluate_claim(
+        rows, ("force", "stepping"), PAIRED.model_copy(update={"where": where}), "m"
+    )
+    assert row.status == PASS and "3 of 3" in row.note
+
+
+@pytest.mark.parametrize(
+    "claim, message",
+    [
+        ({"kind": "paired", "region": {"metric": "s", "op": "<", "value": 1}}, "needs than"),
+        (
+            {
+                "kind": "paired",
+                "region": {"metric": "s", "op": "between", "value": [0, 1]},
+                "than": {"a": 1},
+            },
+            "single-number op",
+        ),
+        (
+            {
+                "kind": "everywhere",
+                "region": {"metric": "s", "op": "<", "value": 1},
+                "than": {"a": 1},
+            },
+            "kind paired only",
+        ),
+    ],
+)
+def test_paired_claims_are_validated(claim: dict, message: str) -> None:
+    """A paired claim without a partner selector, or with a band, is a spec error."""
+    with pytest.raises(ValueError, match=message):
+        SweepClaim.model_validate({**claim, "source": "x"})

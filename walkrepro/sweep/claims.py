@@ -78,6 +78,13 @@ def evaluate_claim(
         violations, unknown, note = _contains(rows, fields, claim)
         sign = "⊇" if claim.kind == "contains" else "⊋"
         label = f"map {map_name}: {claim.region} where {_sel(claim.where)} {sign} where {_sel(claim.contains or {})}"
+    elif claim.kind == "paired":
+        violations, unknown, note = _paired(rows, fields, claim)
+        r = claim.region
+        label = (
+            f"map {map_name}: {r.metric} where {_sel(claim.where)} {r.op} {r.value:g} × "
+            f"its value where {_sel(claim.than or {})}"
+        )
     else:
         violations, unknown, note = _everywhere(rows, fields, claim)
         label = f"map {map_name}: {claim.region} for every cell" + (
@@ -197,6 +204,52 @@ def _everywhere(
             violations.append(_at(r, fields))
     n_in = sum(in_region(r, claim) is True for r in chosen)
     return violations, unknown, f"region {claim.region}: {n_in} of {len(chosen)} selected cells"
+
+
+def _measured(row: Row, metric: str) -> float | None:
+    """A cell's metric, or None when the cell has no measurement of it."""
+    if row.get("outcome") not in MEASURED:
+        return None
+    try:
+        value = float(row.get(metric, math.nan))
+    except (TypeError, ValueError):
+        return None
+    return None if math.isnan(value) else value
+
+
+def _paired(
+    rows: Sequence[Row], fields: Sequence[str], claim: SweepClaim
+) -> tuple[list[str], list[str], str]:
+    """metric(where cell) op value × metric(partner), the partner matching ``than`` with the
+    same values of the fields ``than`` does not name."""
+    region, than = claim.region, claim.than or {}
+    others = [f for f in fields if f not in than]
+
+    def key(row: Row) -> tuple[str, ...]:
+        return tuple(value_text(row.get(f)) for f in others)
+
+    partners = {key(r): r for r in rows if matches(r, than)}
+    chosen = [r for r in rows if matches(r, claim.where) and not matches(r, than)]
+    violations, unknown = [], []
+    n_hold = 0
+    for r in chosen:
+        partner = partners.get(key(r))
+        here = _measured(r, region.metric)
+        there = None if partner is None else _measured(partner, region.metric)
+        if here is None or there is None:
+            which = r if here is None else partner
+            status = "missing" if which is None else which.get("outcome")
+            side = "" if here is None else f" where {_sel(than)}"
+            unknown.append(f"{_at(r, others)}{side} ({status}: no {region.metric})")
+        elif holds(region.op, here, float(region.value) * there):  # type: ignore[arg-type]
+            n_hold += 1
+        else:
+            violations.append(f"{_at(r, others)} ({here:.4g} against {there:.4g})")
+    note = (
+        f"{region.metric} {region.op} {region.value:g} × its value where {_sel(than)}: holds at "
+        f"{n_hold} of {len(chosen)} cells where {_sel(claim.where)}"
+    )
+    return violations, unknown, note
 
 
 def _sel(selector: Mapping[str, Any]) -> str:

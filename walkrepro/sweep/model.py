@@ -89,15 +89,20 @@ class SweepClaim(_Strict):
         ``everywhere``: every cell matching ``where`` lies in the region, e.g. "every push
             up to 6 N·s is recovered at every phase" (with region ``stepped_on_off == 0``:
             "fails everywhere there").
+        ``paired``: at every cell matching ``where``, ``region.metric op region.value ×``
+            the same metric at its partner, the cell matching ``than`` with the same values
+            of the fields ``than`` does not name, e.g. "with stepping the same drag gives a
+            lower mean speed" (``mean_speed < 1 ×`` its value with stepping off).
 
-    ``where``/``contains`` map a grid field to a value (equality) or a condition
+    ``where``/``contains``/``than`` map a grid field to a value (equality) or a condition
     ``{op, value}``.
     """
 
-    kind: Literal["contains", "exceeds", "everywhere"]
+    kind: Literal["contains", "exceeds", "everywhere", "paired"]
     region: Region
     where: dict[str, Any] = Field(default_factory=dict)
     contains: dict[str, Any] | None = None
+    than: dict[str, Any] | None = None
     source: str
     note: str = ""
     known_deviation: KnownDeviation | None = None
@@ -106,8 +111,15 @@ class SweepClaim(_Strict):
     def _fits_kind(self) -> SweepClaim:
         if self.kind in ("contains", "exceeds") and not self.contains:
             raise ValueError(f"a '{self.kind}' claim needs contains: {{field: value}}")
-        if self.kind == "everywhere" and self.contains is not None:
+        if self.kind in ("everywhere", "paired") and self.contains is not None:
             raise ValueError("'contains' applies to kinds contains and exceeds only")
+        if self.kind == "paired":
+            if not self.than:
+                raise ValueError("a 'paired' claim needs than: {field: value}")
+            if self.region.op == "between":
+                raise ValueError("a 'paired' claim needs a single-number op (<, <=, >, >=, ==)")
+        elif self.than is not None:
+            raise ValueError("'than' applies to kind paired only")
         return self
 
 

@@ -126,7 +126,9 @@ def plan_new(
     map_metric = metrics[0] if metrics else (declared.metric if declared else None)
     map_metric = map_metric or _default_map_metric(cells[0].spec)
     success = declared.success if declared else None
-    extra = [map_metric, *([success.metric] if success else [])] if declared else []
+    # The claims' metrics too, so that every claim can be evaluated on the cells table.
+    claimed = [c.region.metric for c in declared.claims] if declared else []
+    extra = [map_metric, *([success.metric] if success else []), *claimed] if declared else []
     metric_names = _metric_columns(cells, [*metrics, *extra])
     source = find_spec_file(experiment)
     directory = store.new_sweep_dir(out, cells[0].spec.name)
@@ -150,7 +152,7 @@ def plan_new(
     }
     store.write_info(directory, info)
     store.CellsWriter(directory / store.CELLS_FILE, info["columns"]).close()
-    computed = [*metrics, map_metric, *([success.metric] if success else [])]
+    computed = [*metrics, map_metric, *([success.metric] if success else []), *claimed]
     return SweepPlan(directory, info, cells, set(), tuple(dict.fromkeys(computed)))
 
 
@@ -173,7 +175,8 @@ def plan_resume(directory: Path) -> SweepPlan:
                 f"grid in {store.SWEEP_FILE}; this sweep cannot be resumed."
             )
     success = [info["success"]["metric"]] if info.get("success") else []
-    metrics = tuple(dict.fromkeys([*info["metrics"], info["map_metric"], *success]))
+    claimed = [c["region"]["metric"] for c in info.get("claims", [])]
+    metrics = tuple(dict.fromkeys([*info["metrics"], info["map_metric"], *success, *claimed]))
     return SweepPlan(directory, info, cells, {r["cell"] for r in table.rows}, metrics)
 
 

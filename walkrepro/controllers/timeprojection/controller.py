@@ -46,8 +46,8 @@ from walkrepro.controllers.timeprojection.openloop import (
     LegIk,
     LegTargets,
     ankle_series_stiffness,
-    series_stiffness,
     relative_footstep_gains,
+    series_stiffness,
     threelp_params_from_robot,
 )
 from walkrepro.controllers.timeprojection.projection import TimeProjection, truncate_footstep
