@@ -10,7 +10,7 @@ region; a claim that depends on one fails (or is a known deviation) and says whi
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any
 
 from walkrepro.checks import FAIL, KNOWN, PASS, CheckRow, holds
@@ -145,17 +145,24 @@ def evaluate_sweep(
     return [evaluate_claim(rows, fields, c, sweep.name, n_cells, origin) for c in sweep.claims]
 
 
-def _contains(
-    rows: Sequence[Row], fields: Sequence[str], claim: SweepClaim
-) -> tuple[list[str], list[str], str]:
-    """Region(where) ⊇ region(contains), cells paired by the fields neither selector names."""
-    inner_sel = claim.contains or {}
-    named = set(claim.where) | set(inner_sel)
+def _pairing(
+    fields: Sequence[str], named: set[str]
+) -> tuple[list[str], Callable[[Row], tuple[str, ...]]]:
+    """The grid fields that pair two cells (those no selector names), and a cell's key."""
     others = [f for f in fields if f not in named]
 
     def key(row: Row) -> tuple[str, ...]:
         return tuple(value_text(row.get(f)) for f in others)
 
+    return others, key
+
+
+def _contains(
+    rows: Sequence[Row], fields: Sequence[str], claim: SweepClaim
+) -> tuple[list[str], list[str], str]:
+    """Region(where) ⊇ region(contains), cells paired by the fields neither selector names."""
+    inner_sel = claim.contains or {}
+    others, key = _pairing(fields, set(claim.where) | set(inner_sel))
     outer = {key(r): r for r in rows if matches(r, claim.where)}
     inner = [r for r in rows if matches(r, inner_sel)]
     violations, unknown = [], []
@@ -223,11 +230,7 @@ def _paired(
     """metric(where cell) op value × metric(partner), the partner matching ``than`` with the
     same values of the fields ``than`` does not name."""
     region, than = claim.region, claim.than or {}
-    others = [f for f in fields if f not in than]
-
-    def key(row: Row) -> tuple[str, ...]:
-        return tuple(value_text(row.get(f)) for f in others)
-
+    others, key = _pairing(fields, set(than))
     partners = {key(r): r for r in rows if matches(r, than)}
     chosen = [r for r in rows if matches(r, claim.where) and not matches(r, than)]
     violations, unknown = [], []
