@@ -138,6 +138,34 @@ def test_map_claim_metric_checked_at_load(tmp_path: Path) -> None:
     assert "sweeps.0.claims.0.region.metric" in msg and "'fel'" in msg
 
 
+@pytest.mark.parametrize("selector", ["where", "than"])
+def test_map_claim_selector_names_a_grid_field(tmp_path: Path, selector: str) -> None:
+    """A claim's selector on a field the grid does not vary would match no cell, and a claim
+    over no cells holds whatever the map shows: it is a spec error naming file, line and
+    field, and the grid's fields."""
+    sweep = """sweeps:
+  - name: m
+    grid: {disturbances.0.start: "0.1,0.2", sim.seed: "0,1"}
+    claims:
+      - kind: paired
+        region: {metric: fell, op: "<=", value: 1}
+        where: {WHERE: 0}
+        than: {THAN: 1}
+        source: t
+"""
+    good = sweep.replace("WHERE", "sim.seed").replace("THAN", "sim.seed")
+    typo = "sim.sed"
+    bad = (
+        good.replace("where: {sim.seed", f"where: {{{typo}")
+        if selector == "where"
+        else (good.replace("than: {sim.seed", f"than: {{{typo}"))
+    )
+    resolve_spec(load_spec(str(write(tmp_path, GOOD + good))))  # grid fields: it loads
+    msg = error_of(tmp_path, GOOD + bad)
+    assert f"sweeps.0.claims.0.{selector}" in msg and f"'{typo}'" in msg
+    assert "disturbances.0.start, sim.seed" in msg
+
+
 def test_unknown_controller_and_bad_param(tmp_path: Path) -> None:
     """Unknown controllers and invalid controller params are named precisely."""
     msg = error_of(tmp_path, GOOD.replace("type: posture", "type: mpc"))

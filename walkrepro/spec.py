@@ -645,6 +645,16 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
             check_metric(sweep.success.metric, ("sweeps", i, "success", "metric"))
         for j, claim in enumerate(sweep.claims):
             check_metric(claim.region.metric, ("sweeps", i, "claims", j, "region", "metric"))
+            # A selector on a field the grid does not vary matches no cell, and a claim over
+            # no cells would hold whatever the map shows.
+            for key in ("where", "contains", "than"):
+                for field in getattr(claim, key) or {}:
+                    if field not in sweep.grid:
+                        raise SpecError(
+                            f"{loaded.where(('sweeps', i, 'claims', j, key))}: {field!r} is not "
+                            f"a field of this map's grid ({', '.join(sweep.grid)}); a claim "
+                            "selects cells by their grid values."
+                        )
     if spec.sim.duration < spec.sim.control_period:
         raise SpecError(
             f"{loaded.where(('sim', 'duration'))}: duration must cover one control period."
