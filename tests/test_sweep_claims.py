@@ -299,3 +299,35 @@ def test_paired_claims_are_validated(claim: dict, message: str) -> None:
     """A paired claim without a partner selector, or with a band, is a spec error."""
     with pytest.raises(ValueError, match=message):
         SweepClaim.model_validate({**claim, "source": "x"})
+
+
+@pytest.mark.parametrize(
+    "claim",
+    [
+        PAIRED.model_copy(update={"where": {"stepping": True, "force": {"op": ">", "value": 9.0}}}),
+        SweepClaim.model_validate(
+            {
+                "kind": "everywhere",
+                "region": {"metric": "fell", "op": "==", "value": 0},
+                "where": {"force": {"op": ">", "value": 9.0}},
+                "source": "x",
+            }
+        ),
+        SweepClaim.model_validate(
+            {
+                "kind": "contains",
+                "region": {"metric": "fell", "op": "==", "value": 0},
+                "where": {"stepping": True},
+                "contains": {"force": 9.5},
+                "source": "x",
+            }
+        ),
+    ],
+    ids=["paired", "everywhere", "contains"],
+)
+def test_a_claim_over_no_cells_fails(claim: SweepClaim) -> None:
+    """A selector that no cell of the map matches (a force the grid does not hold) leaves
+    nothing to contradict the claim: it fails and says which selector is empty."""
+    row = evaluate_claim(drag_table(slower_with_stepping(0.7)), ("force", "stepping"), claim, "m")
+    assert row.status == FAIL and row.measured == 0
+    assert "no cell of the map where" in row.note

@@ -145,6 +145,11 @@ def evaluate_sweep(
     return [evaluate_claim(rows, fields, c, sweep.name, n_cells, origin) for c in sweep.claims]
 
 
+def _selects_none(chosen: Sequence[Row], selector: Mapping[str, Any]) -> list[str]:
+    """A claim over no cells would hold whatever the map shows: say so, so that it fails."""
+    return [] if chosen else [f"no cell of the map where {_sel(selector)}"]
+
+
 def _pairing(
     fields: Sequence[str], named: set[str]
 ) -> tuple[list[str], Callable[[Row], tuple[str, ...]]]:
@@ -165,7 +170,8 @@ def _contains(
     others, key = _pairing(fields, set(claim.where) | set(inner_sel))
     outer = {key(r): r for r in rows if matches(r, claim.where)}
     inner = [r for r in rows if matches(r, inner_sel)]
-    violations, unknown = [], []
+    violations = []
+    unknown = _selects_none(list(outer.values()), claim.where) + _selects_none(inner, inner_sel)
     n_inner = n_outer = n_more = 0
     for r in inner:
         here = in_region(r, claim)
@@ -202,7 +208,7 @@ def _everywhere(
 ) -> tuple[list[str], list[str], str]:
     """Every cell matching ``where`` lies in the region."""
     chosen = [r for r in rows if matches(r, claim.where)]
-    violations, unknown = [], []
+    violations, unknown = [], _selects_none(chosen, claim.where)
     for r in chosen:
         inside = in_region(r, claim)
         if inside is None:
@@ -233,7 +239,7 @@ def _paired(
     others, key = _pairing(fields, set(than))
     partners = {key(r): r for r in rows if matches(r, than)}
     chosen = [r for r in rows if matches(r, claim.where) and not matches(r, than)]
-    violations, unknown = [], []
+    violations, unknown = [], _selects_none(chosen, claim.where)
     n_hold = 0
     for r in chosen:
         partner = partners.get(key(r))
