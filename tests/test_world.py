@@ -80,6 +80,29 @@ def test_obstacle_friction_takes_precedence() -> None:
     assert all(m.geom_priority[slick] > m.geom_priority[g] for g in foot_geoms)
 
 
+def test_floor_friction_acts_on_the_soles() -> None:
+    """world.floor_friction is the friction of every sole-floor contact, also below the
+    soles' own 1.0 (MuJoCo would otherwise take the larger of the two), and a free obstacle
+    keeps its own friction against the floor."""
+    box = {"name": "obstacle_free", "size": [0.2, 0.2, 0.1], "position": [1, 0, 0.05]}
+    for mu in (0.3, 1.0):
+        spec = make_spec(
+            world={"floor_friction": mu, "obstacles": [{**box, "fixed": False, "mass": 5.0}]}
+        )
+        m = build_scene(load_robot("coman"), spec).model
+        d = mujoco.MjData(m)
+        mujoco.mj_resetDataKeyframe(m, d, m.key("home").id)
+        d.qpos[2] -= 0.002  # press the soles 2 mm into the floor
+        mujoco.mj_forward(m, d)
+        floor = m.geom("floor").id
+        soles = {m.geom("left_foot_sole").id, m.geom("right_foot_sole").id}
+        on_floor = [c for c in d.contact[: d.ncon] if floor in (c.geom1, c.geom2)]
+        sole_contacts = [c for c in on_floor if soles & {c.geom1, c.geom2}]
+        assert sole_contacts and all(c.friction[0] == mu for c in sole_contacts)
+        box_id = m.geom("obstacle_free").id
+        assert m.geom_priority[box_id] > m.geom_priority[floor]
+
+
 def test_top_anchored_obstacle_tilts_about_its_top_face_centre() -> None:
     """With anchor: top the top face's centre stays at ``position`` whatever the tilt."""
     for tilt in (0.0, 10.0, 20.0):

@@ -22,6 +22,9 @@ from walkrepro.spec import ExperimentSpec, ObstacleSpec
 WORLD_CONTYPE = 1
 WORLD_CONAFFINITY = 3
 FLOOR_NAME = "floor"
+#: Contact priority of the floor: above the robots' geoms (0), so that the floor's friction
+#: acts on the soles; obstacles get one more.
+FLOOR_PRIORITY = 1
 
 
 @dataclass(frozen=True)
@@ -52,6 +55,11 @@ def build_scene(robot: Robot, spec: ExperimentSpec) -> Scene:
     floor.type = mujoco.mjtGeom.mjGEOM_PLANE
     floor.size = [0.0, 0.0, 1.0]  # infinite plane, grid spacing 1 m
     floor.friction = [spec.world.floor_friction, 0.005, 0.0001]
+    # MuJoCo mixes two geoms' friction by taking the larger, so against the robot's soles
+    # (friction 1) a lower floor friction would not act; the higher priority makes the
+    # floor's own friction (and its default solref/solimp, which the robots' geoms share)
+    # the one of every robot-floor contact.
+    floor.priority = FLOOR_PRIORITY
     floor.contype = WORLD_CONTYPE
     floor.conaffinity = WORLD_CONAFFINITY
     floor.material = "grid"
@@ -81,9 +89,10 @@ def _add_obstacle(mjspec: mujoco.MjSpec, obstacle: ObstacleSpec, floor_friction:
         geom.pos = [0.0, 0.0, -obstacle.size[2] / 2]  # the body's origin is the top face's centre
     friction = obstacle.friction if obstacle.friction is not None else floor_friction
     geom.friction = [friction, 0.005, 0.0001]
-    # MuJoCo otherwise mixes two geoms' friction by taking the larger; the priority makes
-    # the obstacle's own friction the one that acts on the foot.
-    geom.priority = 1
+    # MuJoCo otherwise mixes two geoms' friction by taking the larger; the priority (above
+    # the floor's) makes the obstacle's own friction the one that acts on the foot, and on
+    # the floor under a free obstacle.
+    geom.priority = FLOOR_PRIORITY + 1
     if obstacle.solref is not None:
         # With the higher priority, the obstacle's solref is the one its contacts use.
         geom.solref = list(obstacle.solref)
