@@ -112,6 +112,36 @@ def test_noise_is_seeded_has_the_given_spread_and_leaves_exact_channels_alone(co
         assert np.array_equal(r.left_ft[3:], exact.left_ft[3:])
 
 
+#: Each noise field of the spec and the channels it must reach: (field, [(snapshot attribute,
+#: slice of it)]). The F/T fields reach both feet's sensors.
+NOISE_CHANNELS = [
+    ("joint_position_noise", [("joint_pos", slice(None))]),
+    ("joint_velocity_noise", [("joint_vel", slice(None))]),
+    ("imu_gyro_noise", [("imu_gyro", slice(None))]),
+    ("imu_acc_noise", [("imu_acc", slice(None))]),
+    ("ft_force_noise", [("left_ft", slice(0, 3)), ("right_ft", slice(0, 3))]),
+    ("ft_torque_noise", [("left_ft", slice(3, 6)), ("right_ft", slice(3, 6))]),
+]
+ALL_CHANNELS = [c for _, channels in NOISE_CHANNELS for c in channels]
+
+
+@pytest.mark.parametrize("field, channels", NOISE_CHANNELS, ids=[f for f, _ in NOISE_CHANNELS])
+def test_each_noise_field_reaches_its_channels_and_only_them(coman, field, channels) -> None:  # noqa: ANN001
+    """Every noise field of ``sensors:`` acts: its channels get the given spread, and every
+    other channel reads exactly (a field that silently did nothing would fail here)."""
+    robot, model, data = coman
+    std = 0.05
+    sensors = SensorModel(robot, model, SensorsSpec(**{field: std}), 0.002, 3)
+    exact = SensorModel(robot, model, SensorsSpec(), 0.002, 3).read(model, data)
+    reads = [sensors.read(model, data) for _ in range(400)]
+    for attr, part in ALL_CHANNELS:
+        err = np.array([getattr(r, attr)[part] - getattr(exact, attr)[part] for r in reads])
+        if (attr, part) in channels:
+            assert err.std() == pytest.approx(std, rel=0.1), (field, attr)
+        else:
+            assert not err.any(), (field, attr)
+
+
 def test_quantization_rounds_encoders_to_the_step(coman) -> None:  # noqa: ANN001
     robot, model, data = coman
     step = 0.001534
