@@ -128,6 +128,25 @@ def test_a_non_foot_body_on_the_floor_is_a_fall(tmp_path: Path) -> None:
     assert body not in ("left_foot", "right_foot", "floor") and body in spec_robot_bodies()
 
 
+def test_the_contact_fall_criterion_can_be_turned_off(tmp_path: Path) -> None:
+    """``sim.fall.non_foot_ground_contact: false`` leaves the height criterion alone: the same
+    limp robot lies on the floor with its pelvis above 1 % of its height, and the run
+    completes."""
+    spec = spec_of(
+        "stand_dyros_red",
+        "sim.duration=4",
+        "sim.fall.pelvis_height_ratio=0.01",
+        "sim.fall.non_foot_ground_contact=false",
+        "controller.params.kp=0",
+        "controller.params.kd=0",
+        "controller.params.gravity_compensation=false",
+    )
+    result = runner.run(spec, tmp_path / "log.mcap")
+    assert result.outcome == "complete"
+    data = LogData.from_path(tmp_path / "log.mcap")
+    assert data.qpos[-1, 2] < 0.5  # it did collapse (the pelvis starts 0.95 m up)
+
+
 def spec_robot_bodies() -> set[str]:
     from walkrepro.robot import load_robot
 
