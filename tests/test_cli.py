@@ -101,6 +101,11 @@ def test_unwritable_output_directory(tmp_path: Path) -> None:
     )
 
 
+def log_mujoco_version(run: Path) -> str:
+    """The MuJoCo version the run's log records in its metadata."""
+    return record.read_log(run / "log.mcap").metadata["mujoco_version"]
+
+
 def test_run_writes_a_complete_run_directory(tmp_path: Path) -> None:
     """A run creates a new directory with spec, log, metrics, verdict and figures; runs never collide."""
     path = tmp_path / "ok.yaml"
@@ -122,6 +127,16 @@ def test_run_writes_a_complete_run_directory(tmp_path: Path) -> None:
     ):
         assert (run / name).is_file(), name
     assert json.loads((run / "check.json").read_text())["passed"] is True
+    # run.json says what made the numbers: the commit and the libraries' versions.
+    made_by = json.loads((run / "run.json").read_text())
+    assert made_by["commit"] and set(made_by["versions"]) == {
+        "python",
+        "mujoco",
+        "pinocchio",
+        "numpy",
+        "numba",
+    }
+    assert made_by["versions"]["mujoco"] == log_mujoco_version(run)
     log = record.read_log(run / "log.mcap")
     assert log.metadata["outcome"] == "complete" and log.metadata["experiment"] == "tiny_stand"
     assert "<mujoco" in log.scene_xml and "tiny_stand" in log.spec_yaml

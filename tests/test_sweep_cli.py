@@ -10,6 +10,7 @@ import sys
 import time
 from pathlib import Path
 
+import mujoco
 import pytest
 from typer.testing import CliRunner
 
@@ -51,6 +52,7 @@ def test_sweep_writes_cells_and_a_map_and_resume_runs_nothing(tmp_path: Path) ->
     assert not (directory / "cells").exists() and not (directory / ".cells").exists()
     info = store.read_info(directory)
     assert info["grid"][0] == {"field": "sim.duration", "values": [0.1, 0.15], "unit": "s"}
+    assert info["provenance"]["versions"]["mujoco"] == mujoco.__version__
 
     again = runner.invoke(app, ["sweep", "--resume", str(directory)])
     assert again.exit_code == 0, again.output

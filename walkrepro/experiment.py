@@ -13,7 +13,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from walkrepro import RESULTS_DIR, checks, metrics, results
+from walkrepro import RESULTS_DIR, checks, metrics, provenance, results
 from walkrepro.errors import WalkreproError
 from walkrepro.interrupt import InterruptFlag
 from walkrepro.runner import ProgressCallback, RunResult, run
@@ -169,6 +169,8 @@ def execute(
                     "wall_time": result.wall_time,
                     "real_time_factor": result.real_time_factor,
                     "overrides": list(overrides),
+                    "commit": provenance.git_commit(),
+                    "versions": provenance.library_versions(),
                 },
             )
             values, verdict = _evaluate_interruptible(

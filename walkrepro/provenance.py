@@ -47,6 +47,24 @@ def pinocchio_version() -> str:
     return str(pinocchio.__version__)
 
 
+def library_versions() -> dict[str, str]:
+    """The versions of the libraries a run's numbers depend on (physics, dynamics, arrays,
+    compiled kernels) and of Python: floating-point results can differ between them in the
+    last digits, which contact chaos can grow."""
+    import platform
+
+    import numba
+    import numpy
+
+    return {
+        "python": platform.python_version(),
+        "mujoco": mujoco.__version__,
+        "pinocchio": pinocchio_version(),
+        "numpy": numpy.__version__,
+        "numba": numba.__version__,
+    }
+
+
 def utc_now() -> datetime:
     """Now, in UTC."""
     return datetime.now(timezone.utc)

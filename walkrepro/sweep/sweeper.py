@@ -348,4 +348,5 @@ def _provenance() -> dict[str, Any]:
         "created": provenance.utc_now().isoformat(),
         "walkrepro": __version__,
         "commit": provenance.git_commit(),
+        "versions": provenance.library_versions(),
     }
