@@ -252,6 +252,79 @@ def test_adjustment_beyond_truncation(tmp_path: Path) -> None:
     assert measured(_footsteps(tmp_path, UNDISTURBED + [0.20]), "max_footstep_adjustment") > 0.15
 
 
+# ---- realised footstep adjustment (Fig. 13's truncation, where the foot lands) ---------------
+
+
+def _landing_log(
+    tmp_path: Path, offsets: list[float], commanded: list[float], nominal: float = 0.0
+) -> LogData:
+    """Phase changes every 0.4 s from 0.5 s, the left foot swinging first; at the end of step
+    k the foot that swung sits ``offsets[k]`` [m] ahead of the 3LP nominal ``nominal`` [m]
+    (f − p, relative to the pelvis), while the controller's ``footstep`` signal says
+    ``commanded[k]``. The pelvis stays at home's x; between phase changes the robot stands."""
+    poser = Poser(ROBOT)
+    data = mujoco.MjData(poser.model)
+    data.qpos[:] = poser.home
+    mujoco.mj_kinematics(poser.model, data)
+    pelvis_x = float(data.xpos[poser.model.body("pelvis").id, 0])
+    per_step, start = int(round(STEP / DT)), int(round(0.5 / DT))
+    ticks = []
+    for k in range(start + per_step * len(offsets) + 1):
+        t = round(k * DT, 6)
+        i, j = divmod(k - start, per_step)
+        nan = math.nan
+        signals = {"phase": -1.0, "swing_side": nan, "e_nominal": [nan] * 4, "footstep": nan}
+        events, qpos = [], None
+        if k >= start:
+            ending = i - 1 if j == 0 else i  # the step this tick belongs to (its last tick)
+            signals = {
+                "phase": j * DT,
+                "swing_side": 1.0 if i % 2 == 0 else -1.0,
+                "e_nominal": [-nominal, 0.0, 0.0, 0.0],
+                "footstep": commanded[min(i, len(offsets) - 1)],
+            }
+            if j == 0:
+                events = [{"kind": "phase", "step": i}]
+            if j == 0 and ending >= 0:
+                foot = "left_foot" if ending % 2 == 0 else "right_foot"
+                _, y, z = home_sole(ROBOT, foot)
+                # The pelvis 6 cm lower than home, so that a long step stays in reach.
+                qpos = poser(
+                    (0.0, 0.0, -0.06), **{foot: (pelvis_x + nominal + offsets[ending], y, z)}
+                )
+        ticks.append(Tick(t, qpos=qpos, signals=signals, events=events))
+    return write_log(tmp_path / "l.mcap", ticks, _spec(0.5 + STEP * len(offsets) + DT))
+
+
+def test_landing_adjustment_is_where_the_foot_lands(tmp_path: Path) -> None:
+    """A foot placed 10 cm ahead of the nominal after a 10 cm command: 0.10, inside 15 cm."""
+    d = _landing_log(tmp_path, [0.0, 0.01, 0.10, -0.02], [0.0, 0.01, 0.10, -0.02])
+    assert measured(d, "max_landing_adjustment") == pytest.approx(0.10, abs=1e-4)
+
+
+def test_landing_beyond_the_truncation_though_the_command_is_truncated(tmp_path: Path) -> None:
+    """The command stops at the 15 cm truncation but the foot lands 18 cm ahead (servo lag,
+    the pelvis's own motion): the metric reads the foot, so the truncation claim fails."""
+    d = _landing_log(tmp_path, [0.0, 0.01, 0.18, 0.02], [0.0, 0.01, 0.15, 0.02])
+    assert measured(d, "max_footstep_adjustment") == pytest.approx(0.15)
+    assert measured(d, "max_landing_adjustment") == pytest.approx(0.18, abs=1e-4)
+
+
+def test_landing_adjustment_is_measured_from_the_gait_nominal(tmp_path: Path) -> None:
+    """A walking gait whose feet land on its 4 cm nominal has no realised adjustment; a foot
+    5 cm behind it has −5 cm (the magnitude is reported)."""
+    on_nominal = _landing_log(tmp_path, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], nominal=0.04)
+    assert measured(on_nominal, "max_landing_adjustment") == pytest.approx(0.0, abs=1e-4)
+    behind = _landing_log(tmp_path, [0.0, -0.05, 0.0], [0.0, 0.0, 0.0], nominal=0.04)
+    assert measured(behind, "max_landing_adjustment") == pytest.approx(0.05, abs=1e-4)
+
+
+def test_landing_adjustment_needs_the_gait_reference(tmp_path: Path) -> None:
+    """A log without the 3LP reference (another controller) cannot place the nominal step."""
+    d = _footsteps(tmp_path, UNDISTURBED)
+    assert "e_nominal" in unmeasurable_reason(d, "max_landing_adjustment")
+
+
 # ---- footstep scatter (Fig. 14) ------------------------------------------------------------
 
 

@@ -278,6 +278,52 @@ def _max_adjustment_raw(d: LogData, arg: str) -> float:
     return float(np.max(np.abs(v)))
 
 
+def landing_adjustments(d: LogData) -> tuple[np.ndarray, np.ndarray]:
+    """Realised footstep adjustment of each step, from the logged state (Fig. 13, 16-17).
+
+    At each phase change (the fixed-timing gait's touchdown) the foot that swung in the
+    ending step sits where the step placed it: its sole centre's x relative to the pelvis
+    (world axes, from ``qpos``), minus the 3LP gait's nominal swing-foot position relative to
+    the pelvis at that instant (−s₁ of ``e_nominal``, the controller's reference, not its
+    measurement). What the controller commands (``footstep``, truncated at 15 cm) reaches
+    the floor through the servos, the springs and the pelvis's own motion; this is what did.
+
+    Steps before the gait's reference exists (standing) are skipped; pre-fall.
+
+    Returns:
+        times [s] of the phase changes and the signed realised adjustments [m] (forward +).
+    """
+    d.require_states()
+    sig = [
+        m
+        for m in d.signals
+        if "e_nominal" in m and "swing_side" in m and np.isfinite(m["e_nominal"][0])
+    ]
+    if not sig:
+        raise NotMeasurable(f"the log has no 3LP reference (e_nominal){d.stopped_note()}")
+    t = np.array([m["t"] for m in sig])
+    phases = _phase_times(d)
+    phases = phases[(phases > t[0]) & (phases <= min(t[-1], d.t[-1]))]
+    if not phases.size:
+        raise NotMeasurable(f"no phase change while the gait ran{d.stopped_note()}")
+    last = np.searchsorted(t, phases, side="left") - 1  # the ending step's last tick
+    rel = _feet_relative(d, phases)  # (n, foot: left, right, xy)
+    swing = np.array([0 if sig[i]["swing_side"] > 0 else 1 for i in last])  # +1: left swings
+    nominal = np.array([-sig[i]["e_nominal"][0] for i in last])  # f − p of the 3LP gait [m]
+    return phases, rel[np.arange(phases.size), swing, 0] - nominal
+
+
+@metric(
+    "max_landing_adjustment",
+    "largest |realised footstep adjustment| [m]: at each phase change the swing foot's sole "
+    "centre x relative to the pelvis (logged state) minus the 3LP gait's nominal (Fig. 13's "
+    "15 cm truncation, measured where the foot lands)",
+)
+def _max_landing_adjustment(d: LogData, arg: str) -> float:
+    """Pre-fall; see :func:`landing_adjustments`."""
+    return float(np.max(np.abs(landing_adjustments(d)[1])))
+
+
 @cache
 def _site_ids(xml: str) -> tuple[mujoco.MjModel, int, int, int]:
     model = mujoco.MjModel.from_xml_string(xml)
