@@ -28,7 +28,6 @@ from walkrepro.paper_metrics.faraji import (
     corrective_steps,
     count_corrective,
     footstep_scatter,
-    step_adjustments,
     tracking_lag,
 )
 from walkrepro.robot import load_robot
@@ -133,8 +132,8 @@ def test_speed_ratio_needs_a_forward_command(tmp_path: Path) -> None:
 
 
 def _footsteps(tmp_path: Path, peaks: list[float], outcome: str = "complete") -> LogData:
-    """Phase changes every 0.4 s from 0.5 s; in step k the footstep adjustment rises to
-    ``peaks[k]`` [m]; a push at 4.0 s."""
+    """Phase changes every 0.4 s from 0.5 s; in step k the commanded footstep adjustment
+    rises to ``peaks[k]`` [m]; a push at 4.0 s. No state moves: only the command is logged."""
     n = len(peaks)
     duration = 0.5 + STEP * n
     ticks = []
@@ -145,15 +144,66 @@ def _footsteps(tmp_path: Path, peaks: list[float], outcome: str = "complete") ->
         adj = peaks[i] * math.sin(math.pi * j / per_step) if k >= start else 0.0
         events = [{"kind": "phase", "step": i}] if k >= start and j == 0 else []
         ticks.append(Tick(t, signals={"footstep": adj, "footstep_raw": 1.5 * adj}, events=events))
-    push = {
-        "name": "push",
-        "body": "torso",
-        "frame": "world",
-        "force": [60, 0, 0],
-        "start": PUSH_AT,
-        "duration": 0.1,
-    }
-    return write_log(tmp_path / "f.mcap", ticks, _spec(duration, disturbances=[push]), outcome)
+    return write_log(tmp_path / "f.mcap", ticks, _spec(duration, disturbances=[PUSH]), outcome)
+
+
+PUSH = {
+    "name": "push",
+    "body": "torso",
+    "frame": "world",
+    "force": [60, 0, 0],
+    "start": PUSH_AT,
+    "duration": 0.1,
+}
+
+
+def _landing_log(
+    tmp_path: Path,
+    offsets: list[float],
+    commanded: list[float] | None = None,
+    nominal: float = 0.0,
+    outcome: str = "complete",
+) -> LogData:
+    """Phase changes every 0.4 s from 0.5 s, the left foot swinging first, a push at 4.0 s
+    (in step 8); at the end of step k the foot that swung sits ``offsets[k]`` [m] ahead of
+    the 3LP nominal ``nominal`` [m] (f − p, relative to the pelvis), while the controller's
+    ``footstep`` signal says ``commanded[k]`` (default: the offsets). The pelvis stays at
+    home's x; between phase changes the robot stands. Before 0.5 s the gait's signals are
+    NaN."""
+    commanded = offsets if commanded is None else commanded
+    poser = Poser(ROBOT)
+    data = mujoco.MjData(poser.model)
+    data.qpos[:] = poser.home
+    mujoco.mj_kinematics(poser.model, data)
+    pelvis_x = float(data.xpos[poser.model.body("pelvis").id, 0])
+    per_step, start = int(round(STEP / DT)), int(round(0.5 / DT))
+    ticks = []
+    for k in range(start + per_step * len(offsets) + 1):
+        t = round(k * DT, 6)
+        i, j = divmod(k - start, per_step)
+        nan = math.nan
+        signals = {"phase": -1.0, "swing_side": nan, "e_nominal": [nan] * 4, "footstep": nan}
+        events, qpos = [], None
+        if k >= start:
+            ending = i - 1 if j == 0 else i  # the step this tick belongs to (its last tick)
+            signals = {
+                "phase": j * DT,
+                "swing_side": 1.0 if i % 2 == 0 else -1.0,
+                "e_nominal": [-nominal, 0.0, 0.0, 0.0],
+                "footstep": commanded[min(i, len(offsets) - 1)],
+            }
+            if j == 0:
+                events = [{"kind": "phase", "step": i}]
+            if j == 0 and ending >= 0:
+                foot = "left_foot" if ending % 2 == 0 else "right_foot"
+                _, y, z = home_sole(ROBOT, foot)
+                # The pelvis 6 cm lower than home, so that a long step stays in reach.
+                x = pelvis_x + nominal + offsets[ending]
+                qpos = poser((0.0, 0.0, -0.06), **{foot: (x, y, z)})
+        ticks.append(Tick(t, qpos=qpos, signals=signals, events=events))
+    spec = _spec(0.5 + STEP * len(offsets) + DT, disturbances=[PUSH])
+    path = tmp_path / f"landing{len(list(tmp_path.glob('landing*.mcap')))}.mcap"  # a new file
+    return write_log(path, ticks, spec, outcome)
 
 
 UNDISTURBED = [0.0, 0.01, 0.02, 0.015, 0.025, 0.01, 0.02, 0.015, 0.02]  # steps from 0.5 s
@@ -163,65 +213,66 @@ BAND_STEPS = slice(1, 8)
 
 
 def test_push_recovered_in_two_corrective_steps(tmp_path: Path) -> None:
-    """Two steps adjusted by 10 cm after the push, then calm steps: 2 corrective steps."""
-    d = _footsteps(tmp_path, UNDISTURBED + [0.10, 0.09, 0.02, 0.015, 0.02])
+    """Two steps land 10 and 9 cm ahead after the push, then calm steps: 2 corrective."""
+    d = _landing_log(tmp_path, UNDISTURBED + [0.10, 0.09, 0.02, 0.015, 0.02])
     assert measured(d, "recovery_steps:4.0") == 2
     assert measured(d, "recovery_steps") == 2  # the push time from the spec
 
 
 def test_undisturbed_run_has_no_corrective_step(tmp_path: Path) -> None:
     """Steps no larger than the undisturbed ones are not corrective: 0 (outside 1–5)."""
-    assert (
-        measured(_footsteps(tmp_path, UNDISTURBED + [0.02, 0.025, 0.02, 0.015]), "recovery_steps")
-        == 0
-    )
+    d = _landing_log(tmp_path, UNDISTURBED + [0.02, 0.025, 0.02, 0.015])
+    assert measured(d, "recovery_steps") == 0
 
 
 def test_corrective_band_follows_the_undisturbed_spread(tmp_path: Path) -> None:
     """The band is the undisturbed steps' μ ± 3σ: wide undisturbed steps make a 6 cm
-    adjustment ordinary, narrow ones make it corrective."""
-    narrow = _footsteps(tmp_path, UNDISTURBED + [0.06, 0.02, 0.02, 0.02])
+    landing ordinary, narrow ones make it corrective."""
+    narrow = _landing_log(tmp_path, UNDISTURBED + [0.06, 0.02, 0.02, 0.02])
     assert measured(narrow, "recovery_steps") == 1
     wide = [0.0, 0.01, 0.05, 0.02, 0.06, 0.01, 0.05, 0.02, 0.06]
-    assert measured(_footsteps(tmp_path, wide + [0.06, 0.02, 0.02, 0.02]), "recovery_steps") == 0
+    assert measured(_landing_log(tmp_path, wide + [0.06, 0.02, 0.02, 0.02]), "recovery_steps") == 0
     peaks = np.array(UNDISTURBED[BAND_STEPS])
     half = CORRECTIVE_SIGMAS * peaks.std(ddof=1)
-    assert measured(narrow, "corrective_band_low") == pytest.approx(peaks.mean() - half, abs=1e-6)
-    assert measured(narrow, "corrective_band_high") == pytest.approx(peaks.mean() + half, abs=1e-6)
+    low, high = peaks.mean() - half, peaks.mean() + half
+    assert measured(narrow, "corrective_band_low") == pytest.approx(low, abs=1e-5)
+    assert measured(narrow, "corrective_band_high") == pytest.approx(high, abs=1e-5)
 
 
 def test_step_against_a_biased_gait_is_corrective(tmp_path: Path) -> None:
-    """Undisturbed steps all adjusted forward (1–2.5 cm): a −2.5 cm step lies outside μ ± 3σ
-    of their signed peaks (−0.03 to 3.3 cm) and counts, though its |peak| is below the
-    |peak| rule's threshold (mean + 3σ of the |peaks|, 3.3 cm), which counted 0."""
-    d = _footsteps(tmp_path, UNDISTURBED + [-0.025, 0.02, 0.015, 0.02])
+    """Undisturbed steps all landing forward (1–2.5 cm): a step landing 2.5 cm behind lies
+    outside μ ± 3σ of their signed values (−0.03 to 3.3 cm) and counts, though its
+    magnitude is below a |value| rule's threshold (mean + 3σ of the magnitudes, 3.3 cm)."""
+    d = _landing_log(tmp_path, UNDISTURBED + [-0.025, 0.02, 0.015, 0.02])
     assert measured(d, "recovery_steps") == 1
     peaks = np.abs(UNDISTURBED[BAND_STEPS])
-    assert 0.025 < peaks.mean() + CORRECTIVE_SIGMAS * peaks.std(ddof=1)  # the |peak| rule's miss
+    assert 0.025 < peaks.mean() + CORRECTIVE_SIGMAS * peaks.std(ddof=1)  # the |value| rule's miss
 
 
 def test_steps_inside_the_band_are_not_corrective(tmp_path: Path) -> None:
     """Undisturbed steps spread both ways around a forward bias (μ 1.1 cm, σ 1.6 cm): +5 cm
-    and −3 cm stay inside μ ± 3σ (−3.7 to 5.9 cm) and do not count (+5 cm exceeds the
-    |peak| rule's 4.9 cm, which counted it)."""
+    and −3 cm stay inside μ ± 3σ (−3.7 to 5.9 cm) and do not count."""
     mixed = [0.0, 0.02, -0.01, 0.03, 0.0, 0.025, -0.005, 0.02, 0.01]
-    d = _footsteps(tmp_path, mixed + [0.05, -0.03, 0.02, 0.01])
+    d = _landing_log(tmp_path, mixed + [0.05, -0.03, 0.02, 0.01])
     assert measured(d, "recovery_steps") == 0
     assert measured(d, "corrective_band_low") < -0.03
     assert measured(d, "corrective_band_high") > 0.05
 
 
-def test_signed_peak_is_the_adjustment_at_its_largest_magnitude() -> None:
-    """A step that swings +1 cm then −3 cm has signed peak −3 cm; an empty step has 0."""
-    t = np.array([0.0, 0.1, 0.2, 0.3, 0.5])
-    v = np.array([0.0, 0.01, -0.03, 0.0, 0.02])
-    phases = np.array([0.0, 0.4, 0.45])
-    assert step_adjustments(t, v, phases) == pytest.approx([-0.03, 0.0, 0.02])
+def test_corrective_steps_are_where_the_feet_land_not_the_command(tmp_path: Path) -> None:
+    """A command that peaks at 15 cm while the foot lands on the undisturbed band is not a
+    corrective step; a foot landing 10 cm ahead is one, whatever the command said."""
+    calm = UNDISTURBED + [0.02, 0.02, 0.015, 0.02]
+    transient = _landing_log(tmp_path, calm, commanded=UNDISTURBED + [0.15, -0.15, 0.015, 0.02])
+    assert measured(transient, "max_footstep_adjustment") == pytest.approx(0.15)
+    assert measured(transient, "recovery_steps") == 0
+    landed = _landing_log(tmp_path, UNDISTURBED + [0.10, 0.02, 0.015, 0.02], commanded=calm)
+    assert measured(landed, "recovery_steps") == 1
 
 
 def test_recovery_not_measurable_after_a_fall(tmp_path: Path) -> None:
     """A pushed robot that falls has not recovered: not measurable, with the fall time."""
-    d = _footsteps(tmp_path, UNDISTURBED + [0.1, 0.1], outcome="fell")
+    d = _landing_log(tmp_path, UNDISTURBED + [0.1, 0.1], outcome="fell")
     assert "before the push was recovered" in unmeasurable_reason(d, "recovery_steps")
 
 
@@ -253,47 +304,6 @@ def test_adjustment_beyond_truncation(tmp_path: Path) -> None:
 
 
 # ---- realised footstep adjustment (Fig. 13's truncation, where the foot lands) ---------------
-
-
-def _landing_log(
-    tmp_path: Path, offsets: list[float], commanded: list[float], nominal: float = 0.0
-) -> LogData:
-    """Phase changes every 0.4 s from 0.5 s, the left foot swinging first; at the end of step
-    k the foot that swung sits ``offsets[k]`` [m] ahead of the 3LP nominal ``nominal`` [m]
-    (f − p, relative to the pelvis), while the controller's ``footstep`` signal says
-    ``commanded[k]``. The pelvis stays at home's x; between phase changes the robot stands."""
-    poser = Poser(ROBOT)
-    data = mujoco.MjData(poser.model)
-    data.qpos[:] = poser.home
-    mujoco.mj_kinematics(poser.model, data)
-    pelvis_x = float(data.xpos[poser.model.body("pelvis").id, 0])
-    per_step, start = int(round(STEP / DT)), int(round(0.5 / DT))
-    ticks = []
-    for k in range(start + per_step * len(offsets) + 1):
-        t = round(k * DT, 6)
-        i, j = divmod(k - start, per_step)
-        nan = math.nan
-        signals = {"phase": -1.0, "swing_side": nan, "e_nominal": [nan] * 4, "footstep": nan}
-        events, qpos = [], None
-        if k >= start:
-            ending = i - 1 if j == 0 else i  # the step this tick belongs to (its last tick)
-            signals = {
-                "phase": j * DT,
-                "swing_side": 1.0 if i % 2 == 0 else -1.0,
-                "e_nominal": [-nominal, 0.0, 0.0, 0.0],
-                "footstep": commanded[min(i, len(offsets) - 1)],
-            }
-            if j == 0:
-                events = [{"kind": "phase", "step": i}]
-            if j == 0 and ending >= 0:
-                foot = "left_foot" if ending % 2 == 0 else "right_foot"
-                _, y, z = home_sole(ROBOT, foot)
-                # The pelvis 6 cm lower than home, so that a long step stays in reach.
-                qpos = poser(
-                    (0.0, 0.0, -0.06), **{foot: (pelvis_x + nominal + offsets[ending], y, z)}
-                )
-        ticks.append(Tick(t, qpos=qpos, signals=signals, events=events))
-    return write_log(tmp_path / "l.mcap", ticks, _spec(0.5 + STEP * len(offsets) + DT))
 
 
 def test_landing_adjustment_is_where_the_foot_lands(tmp_path: Path) -> None:
@@ -533,17 +543,17 @@ def test_push_figure_marks_the_corrective_steps(tmp_path: Path) -> None:
 
     from walkrepro.figures import faraji as figs
 
-    d = _footsteps(tmp_path, UNDISTURBED + [0.1, -0.06, 0.02, 0.015])
+    d = _landing_log(tmp_path, UNDISTURBED + [0.1, -0.06, 0.02, 0.015])
     _, ax = plt.subplots()
-    t, v = d.signal("footstep")
-    figs._mark_corrective(ax, d, t, v)
+    figs._mark_corrective(ax, d)
     labels = [line.get_label() for line in ax.get_lines()]
     assert "corrective steps (2)" in labels
     red = ax.get_lines()[labels.index("corrective steps (2)")]
-    assert list(red.get_ydata()) == pytest.approx([0.1, -0.06], abs=1e-3)
+    assert list(red.get_ydata()) == pytest.approx([0.1, -0.06], abs=1e-4)
+    assert list(red.get_xdata()) == pytest.approx([0.5 + 10 * STEP, 0.5 + 11 * STEP])
     (tmp_path / "fell").mkdir()
-    fell = _footsteps(tmp_path / "fell", UNDISTURBED + [0.1, -0.06], outcome="fell")
+    fell = _landing_log(tmp_path / "fell", UNDISTURBED + [0.1, -0.06], outcome="fell")
     _, ax2 = plt.subplots()
-    figs._mark_corrective(ax2, fell, *fell.signal("footstep"))
+    figs._mark_corrective(ax2, fell)
     assert any("not counted (fell)" in line.get_label() for line in ax2.get_lines())
     plt.close("all")

@@ -20,7 +20,7 @@ from walkrepro.paper_metrics.faraji import (
     _stride_speed,
     corrective_band,
     corrective_steps,
-    step_adjustments,
+    landings,
 )
 
 ERROR_NAMES = ("e₁ = p − f [m]", "e₂ = p − s [m]", "ė₁ [m/s]", "ė₂ [m/s]")
@@ -117,9 +117,9 @@ def fig16_push(d: LogData, out_dir: Path) -> list[Path]:
     _footstep_plot(d, ax[0])
     t, v = d.signal("footstep")
     t_raw, v_raw = d.signal("footstep_raw")
-    ax[1].plot(t_raw, v_raw, color="gray", alpha=0.6, label="footstep adjustment (raw)")
-    ax[1].plot(t, v, label="footstep adjustment (truncated at 15 cm)")
-    _mark_corrective(ax[1], d, t, v)
+    ax[1].plot(t_raw, v_raw, color="gray", alpha=0.6, label="commanded adjustment (raw)")
+    ax[1].plot(t, v, label="commanded adjustment (truncated at 15 cm)")
+    _mark_corrective(ax[1], d)
     ax[1].set_ylabel("[m]")
     ax[1].grid(alpha=0.3)
     ax[1].legend(fontsize="small")
@@ -129,35 +129,38 @@ def fig16_push(d: LogData, out_dir: Path) -> list[Path]:
     return save(fig, out_dir / "fig16_push")
 
 
-def _mark_corrective(ax: plt.Axes, d: LogData, t: np.ndarray, v: np.ndarray) -> None:
-    """The corrective-step rule of ``recovery_steps`` drawn on the adjustment panel: the
-    undisturbed band μ ∓ 3σ of the steps' signed peaks before the push, each step's signed
-    peak (at its sample), and the corrective ones (red) with their count."""
-    phases = _phase_times(d)
-    if phases.size < 2 or not t.size:
-        return
-    peaks = step_adjustments(t, v, phases)
-    t_push = float(d.spec.disturbances[0].start)
+def _mark_corrective(ax: plt.Axes, d: LogData) -> None:
+    """The corrective-step rule of ``recovery_steps`` drawn on the adjustment panel: each
+    step's realised adjustment (where it put the foot, at the phase change that ends it),
+    the undisturbed band μ ∓ 3σ of the steps before the push, and the corrective steps
+    (red) with their count."""
     try:
-        band = corrective_band(peaks, phases, t_push)
+        steps = landings(d)
     except NotMeasurable:
         return
-    bounds = np.append(phases, np.inf)
-    at = []
-    for lo, hi, a in zip(bounds[:-1], bounds[1:], peaks, strict=True):
-        inside = np.flatnonzero((t >= lo) & (t < hi) & (v == a))
-        at.append(t[inside[0]] if inside.size else np.nan)
-    at = np.array(at)
-    ax.axhspan(*band, color="tab:green", alpha=0.12, label="undisturbed band μ ∓ 3σ")
-    ax.plot(at, peaks, "o", mfc="none", color="k", ms=5, label="step's signed peak")
+    ax.plot(
+        steps.end,
+        steps.adjustment,
+        "o",
+        mfc="none",
+        color="k",
+        ms=5,
+        label="realised (foot at the phase change)",
+    )
+    t_push = float(d.spec.disturbances[0].start)
     try:
-        chosen = corrective_steps(peaks, phases, t_push, band)
+        band = corrective_band(steps.adjustment, steps.start, t_push)
+    except NotMeasurable:
+        return
+    ax.axhspan(*band, color="tab:green", alpha=0.12, label="undisturbed band μ ∓ 3σ")
+    try:
+        chosen = corrective_steps(steps.adjustment, steps.start, t_push, band)
         label = f"corrective steps ({len(chosen)})"
     except NotMeasurable as exc:
         chosen, label = [], f"corrective steps: {exc}"
     if d.outcome != "complete":
         chosen, label = [], f"corrective steps: not counted ({d.outcome})"
-    ax.plot(at[chosen], peaks[chosen], "o", color="tab:red", ms=7, label=label)
+    ax.plot(steps.end[chosen], steps.adjustment[chosen], "o", color="tab:red", ms=7, label=label)
 
 
 def _errors(ax: plt.Axes, d: LogData) -> None:

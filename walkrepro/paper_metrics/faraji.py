@@ -8,6 +8,7 @@ changes (Fig. 14), corrective steps after pushes (Figs. 16-17), pelvis speed und
 from __future__ import annotations
 
 from functools import cache
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -123,34 +124,16 @@ def _mean_abs_speed(d: LogData, arg: str) -> float:
     return float(np.mean(np.abs(v)))
 
 
-def step_adjustments(t: np.ndarray, v: np.ndarray, phases: np.ndarray) -> np.ndarray:
-    """Signed peak footstep adjustment of each step, shape (len(phases),) [m].
-
-    A step's signed peak is the adjustment at the sample of its largest |adjustment| (the
-    first such sample on a tie; 0 for a step with no sample): its magnitude is the step's
-    peak |adjustment| and its sign says which way (forward +) that peak points. A step that
-    swings both ways is represented by its larger excursion.
-
-    Args:
-        t, v: times [s] and values [m] of the ``footstep`` signal.
-        phases: step start times [s]; the last step runs to the end of the signal.
-    """
-    bounds = np.append(phases, np.inf)
-    peaks = []
-    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):
-        w = v[(t >= lo) & (t < hi)]
-        peaks.append(float(w[np.argmax(np.abs(w))]) if w.size else 0.0)
-    return np.array(peaks)
-
-
 def corrective_band(peaks: np.ndarray, phases: np.ndarray, t_push: float) -> tuple[float, float]:
-    """Band of the undisturbed gait: μ ∓ 3σ of the undisturbed steps' signed peaks [m].
+    """Band of the undisturbed gait: μ ∓ 3σ of the undisturbed steps' adjustments [m].
 
-    The undisturbed steps are those that end before the push, without the first (it starts
-    from standing). μ and σ (ddof 1) are taken over the signed peaks, so a gait whose
-    adjustments are biased one way (the in-place gait drifts forward) gives a band centred
-    on that bias, and a step the other way is measured against the spread, not the bias.
-    Raises :class:`NotMeasurable` with fewer than MIN_UNDISTURBED_STEPS.
+    ``peaks`` holds one signed adjustment per step (the realised one, :func:`landings`);
+    ``phases`` the steps' start times. The undisturbed steps are those that end before the
+    push, without the first (it starts from standing). μ and σ (ddof 1) are taken over the
+    signed values, so a gait whose steps are biased one way (the in-place gait lands its
+    feet ≈ 1 cm ahead of the pelvis) gives a band centred on that bias, and a step the other
+    way is measured against the spread, not the bias. Raises :class:`NotMeasurable` with
+    fewer than MIN_UNDISTURBED_STEPS.
 
     Returns:
         (low, high): μ − 3σ and μ + 3σ [m].
@@ -171,8 +154,8 @@ def corrective_steps(
     peaks: np.ndarray, phases: np.ndarray, t_push: float, band: tuple[float, float]
 ) -> list[int]:
     """Indices of the corrective steps, from the step the push falls in: steps whose signed
-    peak lies outside ``band`` (|a − μ| > 3σ), until the first step back inside it after
-    one outside (the recovery's end).
+    adjustment lies outside ``band`` (|a − μ| > 3σ), until the first step back inside it
+    after one outside (the recovery's end).
 
     Raises :class:`NotMeasurable` when the log ends while the steps are still corrective.
     """
@@ -204,44 +187,45 @@ def _push_time(d: LogData, arg: str) -> float:
     return float(d.spec.disturbances[0].start)
 
 
-def _adjustment_peaks(d: LogData) -> tuple[np.ndarray, np.ndarray]:
-    t, v = d.require_signal("footstep")
-    phases = _phase_times(d)
-    if phases.size < 2:
-        raise NotMeasurable(f"{phases.size} phase change(s) logged, 2 needed")
-    return phases, step_adjustments(t, v, phases)
+def _landing_steps(d: LogData) -> tuple[np.ndarray, np.ndarray]:
+    """Step start times [s] and realised adjustments [m] (:func:`landings`)."""
+    steps = landings(d)
+    if steps.end.size < 2:
+        raise NotMeasurable(f"{steps.end.size} step(s) ended while the gait ran, 2 needed")
+    return steps.start, steps.adjustment
 
 
 @metric(
     "corrective_band_low",
-    "lower edge of the undisturbed gait's band, μ − 3σ of the signed peak footstep "
+    "lower edge of the undisturbed gait's band, μ − 3σ of the realised footstep "
     "adjustments of the undisturbed steps before the push (arg: push time [s]) [m]",
     arg=number_check(),
 )
 def _corrective_band_low(d: LogData, arg: str) -> float:
     """Pre-fall (only steps before the push are read); see :func:`corrective_band`."""
-    phases, peaks = _adjustment_peaks(d)
+    phases, peaks = _landing_steps(d)
     return corrective_band(peaks, phases, _push_time(d, arg))[0]
 
 
 @metric(
     "corrective_band_high",
-    "upper edge of the undisturbed gait's band, μ + 3σ of the signed peak footstep "
+    "upper edge of the undisturbed gait's band, μ + 3σ of the realised footstep "
     "adjustments of the undisturbed steps before the push (arg: push time [s]) [m]",
     arg=number_check(),
 )
 def _corrective_band_high(d: LogData, arg: str) -> float:
     """Pre-fall (only steps before the push are read); see :func:`corrective_band`."""
-    phases, peaks = _adjustment_peaks(d)
+    phases, peaks = _landing_steps(d)
     return corrective_band(peaks, phases, _push_time(d, arg))[1]
 
 
 @metric(
     "recovery_steps",
     "corrective steps after the push (arg: push time [s], default the spec's first "
-    "disturbance): steps from the one the push falls in whose signed peak footstep "
-    "adjustment a lies outside the undisturbed steps' band, |a − μ| > 3σ, until the first "
-    "step back inside it (Fig. 16)",
+    "disturbance): steps from the one the push falls in whose realised footstep adjustment "
+    "a (the swing foot relative to the pelvis at the phase change, minus the 3LP nominal) "
+    "lies outside the undisturbed steps' band, |a − μ| > 3σ, until the first step back "
+    "inside it (Fig. 16)",
     arg=number_check(),
 )
 def _recovery_steps(d: LogData, arg: str) -> float:
@@ -249,16 +233,18 @@ def _recovery_steps(d: LogData, arg: str) -> float:
     so a fall or an early stop makes it not measurable.
 
     Issue 14's definition: a corrective step is one whose adjustment exceeds the undisturbed
-    gait's spread by a margin derived from that spread (3σ). Reads the commanded
-    ``footstep`` adjustment: Fig. 16's claim is about the controller's footstep adjustments.
-    Each step's signed peak (:func:`step_adjustments`) is compared with the band μ ± 3σ of
+    gait's spread by a margin derived from that spread (3σ). A step's adjustment is where
+    the step put the foot (:func:`landings`, from the logged state), as Fig. 16 counts
+    steps on snapshots "taken at phase change moments". The commanded adjustment is not
+    it: it is recomputed every tick from the filtered errors and reaches the floor through
+    the hip servo's lag, so its peak within a step can be a transient the foot never
+    follows (the strong backward push's second step commands +15 cm at its peak and lands
+    12 cm behind the nominal). Each step's adjustment is compared with the band μ ± 3σ of
     the same run's undisturbed steps before the push (:func:`corrective_band`), so the
-    metric holds under ``--set`` overrides. The band is signed: an earlier |peak| threshold
-    (mean + 3σ of the |peaks|) measured the in-place gait's forward bias (all its undisturbed
-    peaks are forward) rather than its spread, and missed backward corrective steps.
+    metric holds under ``--set`` overrides.
     """
     d.require_completed("the push was recovered")
-    phases, peaks = _adjustment_peaks(d)
+    phases, peaks = _landing_steps(d)
     t_push = _push_time(d, arg)
     band = corrective_band(peaks, phases, t_push)
     return float(count_corrective(peaks, phases, t_push, band))
@@ -278,8 +264,19 @@ def _max_adjustment_raw(d: LogData, arg: str) -> float:
     return float(np.max(np.abs(v)))
 
 
-def landing_adjustments(d: LogData) -> tuple[np.ndarray, np.ndarray]:
-    """Realised footstep adjustment of each step, from the logged state (Fig. 13, 16-17).
+class Landings(NamedTuple):
+    """Where each step of the fixed-timing gait put its swing foot (:func:`landings`)."""
+
+    #: start time of each step [s] (the phase change before it).
+    start: np.ndarray
+    #: the phase change that ends it (the gait's touchdown) [s].
+    end: np.ndarray
+    #: realised footstep adjustment [m], forward +.
+    adjustment: np.ndarray
+
+
+def landings(d: LogData) -> Landings:
+    """Realised footstep adjustment of each step, from the logged state (Figs. 13, 16-17).
 
     At each phase change (the fixed-timing gait's touchdown) the foot that swung in the
     ending step sits where the step placed it: its sole centre's x relative to the pelvis
@@ -287,11 +284,9 @@ def landing_adjustments(d: LogData) -> tuple[np.ndarray, np.ndarray]:
     the pelvis at that instant (−s₁ of ``e_nominal``, the controller's reference, not its
     measurement). What the controller commands (``footstep``, truncated at 15 cm) reaches
     the floor through the servos, the springs and the pelvis's own motion; this is what did.
+    Fig. 16 shows the same: snapshots "taken at phase change moments".
 
-    Steps before the gait's reference exists (standing) are skipped; pre-fall.
-
-    Returns:
-        times [s] of the phase changes and the signed realised adjustments [m] (forward +).
+    Steps that end before the gait's reference exists (standing) are skipped; pre-fall.
     """
     d.require_states()
     sig = [
@@ -303,14 +298,16 @@ def landing_adjustments(d: LogData) -> tuple[np.ndarray, np.ndarray]:
         raise NotMeasurable(f"the log has no 3LP reference (e_nominal){d.stopped_note()}")
     t = np.array([m["t"] for m in sig])
     phases = _phase_times(d)
-    phases = phases[(phases > t[0]) & (phases <= min(t[-1], d.t[-1]))]
-    if not phases.size:
+    ran = (phases > t[0]) & (phases <= min(t[-1], d.t[-1]))
+    if not ran.any():
         raise NotMeasurable(f"no phase change while the gait ran{d.stopped_note()}")
-    last = np.searchsorted(t, phases, side="left") - 1  # the ending step's last tick
-    rel = _feet_relative(d, phases)  # (n, foot: left, right, xy)
+    end = phases[ran]
+    before = np.append(phases[0] - STEP_TIME, phases[:-1])  # each phase change's predecessor
+    last = np.searchsorted(t, end, side="left") - 1  # the ending step's last tick
+    rel = _feet_relative(d, end)  # (n, foot: left, right, xy)
     swing = np.array([0 if sig[i]["swing_side"] > 0 else 1 for i in last])  # +1: left swings
     nominal = np.array([-sig[i]["e_nominal"][0] for i in last])  # f − p of the 3LP gait [m]
-    return phases, rel[np.arange(phases.size), swing, 0] - nominal
+    return Landings(before[ran], end, rel[np.arange(end.size), swing, 0] - nominal)
 
 
 @metric(
@@ -320,8 +317,8 @@ def landing_adjustments(d: LogData) -> tuple[np.ndarray, np.ndarray]:
     "15 cm truncation, measured where the foot lands)",
 )
 def _max_landing_adjustment(d: LogData, arg: str) -> float:
-    """Pre-fall; see :func:`landing_adjustments`."""
-    return float(np.max(np.abs(landing_adjustments(d)[1])))
+    """Pre-fall; see :func:`landings`."""
+    return float(np.max(np.abs(landings(d).adjustment)))
 
 
 @cache
