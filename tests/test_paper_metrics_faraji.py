@@ -29,6 +29,7 @@ from walkrepro.paper_metrics.faraji import (
     count_corrective,
     footstep_scatter,
     tracking_lag,
+    unsettled_steps,
 )
 from walkrepro.robot import load_robot
 
@@ -268,6 +269,33 @@ def test_corrective_steps_are_where_the_feet_land_not_the_command(tmp_path: Path
     assert measured(transient, "recovery_steps") == 0
     landed = _landing_log(tmp_path, UNDISTURBED + [0.10, 0.02, 0.015, 0.02], commanded=calm)
     assert measured(landed, "recovery_steps") == 1
+
+
+def test_gait_back_in_its_band_after_the_recovery(tmp_path: Path) -> None:
+    """Two corrective steps, then every step inside the band: nothing unsettled."""
+    d = _landing_log(tmp_path, UNDISTURBED + [0.10, 0.09, 0.02, 0.015, 0.02, 0.01])
+    assert measured(d, "unsettled_steps") == 0
+
+
+def test_sway_after_the_recovery_is_unsettled(tmp_path: Path) -> None:
+    """One step back inside ends the count at 1, but the gait keeps landing outside the band
+    (+6 and −4 cm) afterwards: 2 unsettled steps."""
+    d = _landing_log(tmp_path, UNDISTURBED + [0.10, 0.02, 0.06, 0.02, -0.04, 0.02, 0.01])
+    assert measured(d, "recovery_steps") == 1
+    assert measured(d, "unsettled_steps") == 2
+
+
+def test_unsettled_steps_without_corrective_steps() -> None:
+    """A push that moves no step out of the band leaves nothing unsettled; a later step
+    outside is a (late) corrective step, not an unsettled one."""
+    phases = 0.5 + STEP * np.arange(14)
+    calm = np.r_[UNDISTURBED, 0.02, 0.015, 0.02, 0.02, 0.01]
+    band = corrective_band(calm, phases, PUSH_AT)
+    assert corrective_steps(calm, phases, PUSH_AT, band) == []
+    assert unsettled_steps(calm, phases, PUSH_AT, band) == 0
+    late = np.r_[UNDISTURBED, 0.02, 0.015, 0.08, 0.02, 0.01]
+    assert corrective_steps(late, phases, PUSH_AT, band) == [11]
+    assert unsettled_steps(late, phases, PUSH_AT, band) == 0
 
 
 def test_recovery_not_measurable_after_a_fall(tmp_path: Path) -> None:

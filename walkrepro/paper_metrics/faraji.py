@@ -179,6 +179,23 @@ def count_corrective(
     return len(corrective_steps(peaks, phases, t_push, band))
 
 
+def unsettled_steps(
+    peaks: np.ndarray, phases: np.ndarray, t_push: float, band: tuple[float, float]
+) -> int:
+    """Steps after the recovery whose adjustment still lies outside ``band``.
+
+    The recovery ends at the first step back inside the band after the corrective ones
+    (:func:`corrective_steps`; with none, at the step the push falls in); every later step
+    to the end of the log is read, so a gait that keeps swaying beyond its undisturbed
+    spread after the count has stopped shows it here.
+    """
+    chosen = corrective_steps(peaks, phases, t_push, band)
+    first = max(0, int(np.searchsorted(phases, t_push, side="right")) - 1)
+    end = chosen[-1] + 1 if chosen else first
+    rest = peaks[end:]
+    return int(np.sum((rest < band[0]) | (rest > band[1])))
+
+
 def _push_time(d: LogData, arg: str) -> float:
     if arg:
         return float(arg)
@@ -248,6 +265,25 @@ def _recovery_steps(d: LogData, arg: str) -> float:
     t_push = _push_time(d, arg)
     band = corrective_band(peaks, phases, t_push)
     return float(count_corrective(peaks, phases, t_push, band))
+
+
+@metric(
+    "unsettled_steps",
+    "steps after the recovery (from the first step back inside the undisturbed band, to the "
+    "end of the run) whose realised footstep adjustment lies outside that band again "
+    "(arg: push time [s]); 0 when the gait has returned to its undisturbed spread (Figs. "
+    "16-17)",
+    arg=number_check(),
+)
+def _unsettled_steps(d: LogData, arg: str) -> float:
+    """Completed, as ``recovery_steps``: the count stops at the first step back inside the
+    band; this reads the steps after it, so a recovery that ends on one lucky step inside
+    a continuing sway is not taken for a settled gait."""
+    d.require_completed("the push was recovered")
+    phases, peaks = _landing_steps(d)
+    t_push = _push_time(d, arg)
+    band = corrective_band(peaks, phases, t_push)
+    return float(unsettled_steps(peaks, phases, t_push, band))
 
 
 @metric("max_footstep_adjustment", "largest |commanded footstep adjustment| after truncation [m]")
