@@ -212,6 +212,15 @@ def _landing_steps(d: LogData) -> tuple[np.ndarray, np.ndarray]:
     return steps.start, steps.adjustment
 
 
+def _recovery(d: LogData, arg: str) -> tuple[np.ndarray, np.ndarray, float, tuple[float, float]]:
+    """A completed pushed run's realised steps, their start times, the push time and the
+    undisturbed band: the arguments of :func:`count_corrective` and :func:`unsettled_steps`."""
+    d.require_completed("the push was recovered")
+    phases, peaks = _landing_steps(d)
+    t_push = _push_time(d, arg)
+    return peaks, phases, t_push, corrective_band(peaks, phases, t_push)
+
+
 @metric(
     "corrective_band_low",
     "lower edge of the undisturbed gait's band, μ − 3σ of the realised footstep "
@@ -260,11 +269,7 @@ def _recovery_steps(d: LogData, arg: str) -> float:
     the same run's undisturbed steps before the push (:func:`corrective_band`), so the
     metric holds under ``--set`` overrides.
     """
-    d.require_completed("the push was recovered")
-    phases, peaks = _landing_steps(d)
-    t_push = _push_time(d, arg)
-    band = corrective_band(peaks, phases, t_push)
-    return float(count_corrective(peaks, phases, t_push, band))
+    return float(count_corrective(*_recovery(d, arg)))
 
 
 @metric(
@@ -279,11 +284,7 @@ def _unsettled_steps(d: LogData, arg: str) -> float:
     """Completed, as ``recovery_steps``: the count stops at the first step back inside the
     band; this reads the steps after it, so a recovery that ends on one lucky step inside
     a continuing sway is not taken for a settled gait."""
-    d.require_completed("the push was recovered")
-    phases, peaks = _landing_steps(d)
-    t_push = _push_time(d, arg)
-    band = corrective_band(peaks, phases, t_push)
-    return float(unsettled_steps(peaks, phases, t_push, band))
+    return float(unsettled_steps(*_recovery(d, arg)))
 
 
 @metric("max_footstep_adjustment", "largest |commanded footstep adjustment| after truncation [m]")
