@@ -26,8 +26,8 @@ from walkrepro.metrics import (
     window_check,
 )
 
-#: A step is corrective when its signed peak footstep adjustment lies further than this many
-#: standard deviations from the undisturbed steps' mean signed peak (a 3σ outlier of the
+#: A step is corrective when its realised footstep adjustment lies further than this many
+#: standard deviations from the undisturbed steps' mean adjustment (a 3σ outlier of the
 #: undisturbed gait, either way: issue 14's "exceeds the undisturbed gait's spread").
 CORRECTIVE_SIGMAS = 3.0
 #: Undisturbed steps needed before the push to estimate that spread (mean and σ of fewer
@@ -124,10 +124,12 @@ def _mean_abs_speed(d: LogData, arg: str) -> float:
     return float(np.mean(np.abs(v)))
 
 
-def corrective_band(peaks: np.ndarray, phases: np.ndarray, t_push: float) -> tuple[float, float]:
+def corrective_band(
+    adjustments: np.ndarray, phases: np.ndarray, t_push: float
+) -> tuple[float, float]:
     """Band of the undisturbed gait: μ ∓ 3σ of the undisturbed steps' adjustments [m].
 
-    ``peaks`` holds one signed adjustment per step (the realised one, :func:`landings`);
+    ``adjustments`` holds one signed adjustment per step (the realised one, :func:`landings`);
     ``phases`` the steps' start times. The undisturbed steps are those that end before the
     push, without the first (it starts from standing). μ and σ (ddof 1) are taken over the
     signed values, so a gait whose steps are biased one way (the in-place gait lands its
@@ -139,7 +141,7 @@ def corrective_band(peaks: np.ndarray, phases: np.ndarray, t_push: float) -> tup
         (low, high): μ − 3σ and μ + 3σ [m].
     """
     ends = np.append(phases[1:], np.inf)
-    undisturbed = peaks[1:][ends[1:] <= t_push]
+    undisturbed = adjustments[1:][ends[1:] <= t_push]
     if undisturbed.size < MIN_UNDISTURBED_STEPS:
         raise NotMeasurable(
             f"{undisturbed.size} undisturbed step(s) before the push at t = {t_push:.3f} s; "
@@ -151,7 +153,7 @@ def corrective_band(peaks: np.ndarray, phases: np.ndarray, t_push: float) -> tup
 
 
 def corrective_steps(
-    peaks: np.ndarray, phases: np.ndarray, t_push: float, band: tuple[float, float]
+    adjustments: np.ndarray, phases: np.ndarray, t_push: float, band: tuple[float, float]
 ) -> list[int]:
     """Indices of the corrective steps, from the step the push falls in: steps whose signed
     adjustment lies outside ``band`` (|a − μ| > 3σ), until the first step back inside it
@@ -162,8 +164,8 @@ def corrective_steps(
     low, high = band
     first = max(0, int(np.searchsorted(phases, t_push, side="right")) - 1)
     steps: list[int] = []
-    for k in range(first, peaks.size - 1):  # the last step may be cut short by the log's end
-        if peaks[k] < low or peaks[k] > high:
+    for k in range(first, adjustments.size - 1):  # the last step may be cut short by the log's end
+        if adjustments[k] < low or adjustments[k] > high:
             steps.append(k)
         elif steps:
             return steps
@@ -173,14 +175,14 @@ def corrective_steps(
 
 
 def count_corrective(
-    peaks: np.ndarray, phases: np.ndarray, t_push: float, band: tuple[float, float]
+    adjustments: np.ndarray, phases: np.ndarray, t_push: float, band: tuple[float, float]
 ) -> int:
     """Number of :func:`corrective_steps`."""
-    return len(corrective_steps(peaks, phases, t_push, band))
+    return len(corrective_steps(adjustments, phases, t_push, band))
 
 
 def unsettled_steps(
-    peaks: np.ndarray, phases: np.ndarray, t_push: float, band: tuple[float, float]
+    adjustments: np.ndarray, phases: np.ndarray, t_push: float, band: tuple[float, float]
 ) -> int:
     """Steps after the recovery whose adjustment still lies outside ``band``.
 
@@ -189,10 +191,10 @@ def unsettled_steps(
     to the end of the log is read, so a gait that keeps swaying beyond its undisturbed
     spread after the count has stopped shows it here.
     """
-    chosen = corrective_steps(peaks, phases, t_push, band)
+    chosen = corrective_steps(adjustments, phases, t_push, band)
     first = max(0, int(np.searchsorted(phases, t_push, side="right")) - 1)
     end = chosen[-1] + 1 if chosen else first
-    rest = peaks[end:]
+    rest = adjustments[end:]
     return int(np.sum((rest < band[0]) | (rest > band[1])))
 
 
@@ -216,9 +218,9 @@ def _recovery(d: LogData, arg: str) -> tuple[np.ndarray, np.ndarray, float, tupl
     """A completed pushed run's realised steps, their start times, the push time and the
     undisturbed band: the arguments of :func:`count_corrective` and :func:`unsettled_steps`."""
     d.require_completed("the push was recovered")
-    phases, peaks = _landing_steps(d)
+    starts, adjustments = _landing_steps(d)
     t_push = _push_time(d, arg)
-    return peaks, phases, t_push, corrective_band(peaks, phases, t_push)
+    return adjustments, starts, t_push, corrective_band(adjustments, starts, t_push)
 
 
 @metric(
@@ -229,8 +231,8 @@ def _recovery(d: LogData, arg: str) -> tuple[np.ndarray, np.ndarray, float, tupl
 )
 def _corrective_band_low(d: LogData, arg: str) -> float:
     """Pre-fall (only steps before the push are read); see :func:`corrective_band`."""
-    phases, peaks = _landing_steps(d)
-    return corrective_band(peaks, phases, _push_time(d, arg))[0]
+    starts, adjustments = _landing_steps(d)
+    return corrective_band(adjustments, starts, _push_time(d, arg))[0]
 
 
 @metric(
@@ -241,8 +243,8 @@ def _corrective_band_low(d: LogData, arg: str) -> float:
 )
 def _corrective_band_high(d: LogData, arg: str) -> float:
     """Pre-fall (only steps before the push are read); see :func:`corrective_band`."""
-    phases, peaks = _landing_steps(d)
-    return corrective_band(peaks, phases, _push_time(d, arg))[1]
+    starts, adjustments = _landing_steps(d)
+    return corrective_band(adjustments, starts, _push_time(d, arg))[1]
 
 
 @metric(
