@@ -336,6 +336,100 @@ def rigid_joint_for(
     return [Joint(name, AXIS[base], rng, spec.damping, spec.armature)]
 
 
+@dataclass(frozen=True)
+class LegDims:
+    """A 6-joint leg (hip yaw, roll, pitch, knee, ankle pitch, roll) made of primitives.
+
+    Masses in [kg], lengths in [m]. Shapes are given in the frame of the link that carries
+    them and are symmetric in y, so both legs use them; only ``hip``'s y is mirrored for the
+    right leg. Hip roll and pitch sit at the hip-yaw origin and the ankle axes intersect.
+    """
+
+    hip: tuple[float, float]  # (y, z) of the left hip-yaw joint in the pelvis frame
+    thigh_length: float  # hip pitch axis to knee axis
+    shank_length: float  # knee axis to ankle pitch axis
+    hip_yaw_shapes: tuple[Shape, ...]
+    hip_roll_shapes: tuple[Shape, ...]
+    thigh_shapes: tuple[Shape, ...]
+    shank_shapes: tuple[Shape, ...]
+    ankle_shapes: tuple[Shape, ...]  # the ankle pitch link
+    foot_mass: float  # F/T housing + sole box (the sole takes the rest)
+    ft_housing: Shape  # F/T sensor housing in the foot frame, visual only (collide=False)
+    ft_site_z: float  # the <side>_foot_ft site, below the ankle axes (negative z)
+    foot_size: tuple[float, float]  # sole length (x) and width (y)
+    sole_half_thickness: float
+    ankle_height: float  # ankle axes above the sole bottom
+    foot_ahead: float  # sole centre ahead (x) of the ankle axes
+
+
+def leg(side: int, dims: LegDims, joint: Callable[[str, str], list[Joint]]) -> Body:
+    """The leg chain shared by every robot; ``joint(name, base)`` makes its joints.
+
+    Hip yaw link → hip roll link → thigh → shank → ankle pitch link → foot; the foot has
+    the F/T housing, the sole box ``<side>_foot_sole`` and the sites ``<side>_foot_ft``
+    (force/torque sensor) and ``<side>_sole`` (sole centre, on the sole bottom).
+    """
+    s = side_name(side)
+    lr = "left" if side > 0 else "right"
+    half_t = dims.sole_half_thickness
+    foot = Body(
+        f"{lr}_foot",
+        (0, 0, 0),  # ankle pitch and roll axes intersect
+        [
+            dims.ft_housing,
+            Shape(
+                "box",
+                dims.foot_mass - dims.ft_housing.mass,
+                (dims.foot_size[0] / 2, dims.foot_size[1] / 2, half_t),
+                (dims.foot_ahead, 0, -dims.ankle_height + half_t),
+                name=f"{lr}_foot_sole",
+                sole=True,
+            ),
+        ],
+        joint(f"{s}_ankle_roll", "ankle_roll"),
+        [
+            Site(f"{lr}_foot_ft", (0, 0, dims.ft_site_z)),
+            Site(f"{lr}_sole", (dims.foot_ahead, 0, -dims.ankle_height)),
+        ],
+    )
+    ankle = Body(
+        f"{s}_ankle_pitch_link",
+        (0, 0, -dims.shank_length),
+        list(dims.ankle_shapes),
+        joint(f"{s}_ankle_pitch", "ankle_pitch"),
+        children=[foot],
+    )
+    shank = Body(
+        f"{s}_shank",
+        (0, 0, -dims.thigh_length),
+        list(dims.shank_shapes),
+        joint(f"{s}_knee", "knee"),
+        children=[ankle],
+    )
+    thigh = Body(
+        f"{s}_thigh",
+        (0, 0, 0),
+        list(dims.thigh_shapes),
+        joint(f"{s}_hip_pitch", "hip_pitch"),
+        children=[shank],
+    )
+    roll = Body(
+        f"{s}_hip_roll_link",
+        (0, 0, 0),
+        list(dims.hip_roll_shapes),
+        joint(f"{s}_hip_roll", "hip_roll"),
+        children=[thigh],
+    )
+    y, z = dims.hip
+    return Body(
+        f"{s}_hip_yaw_link",
+        (0, side * y, z),
+        list(dims.hip_yaw_shapes),
+        joint(f"{s}_hip_yaw", "hip_yaw"),
+        children=[roll],
+    )
+
+
 # --------------------------------------------------------------------------------------
 # DYROS RED (Paper I, Lee et al. 2021)
 # --------------------------------------------------------------------------------------
@@ -351,74 +445,42 @@ DYROS_LEG_MASSES = (2.68, 2.67, 5.37, 3.88, 2.51, 3.46)  # notes: hip to foot [k
 DYROS_TOTAL_MASS = 89.6  # paper §V-A
 DYROS_WAIST_Z = 0.18  # notes: waist 0.18 m above the pelvis origin
 
+DYROS_LEG = LegDims(
+    hip=(DYROS_HIP_Y, DYROS_HIP_Z),
+    thigh_length=DYROS_THIGH,
+    shank_length=DYROS_SHANK,
+    # Link masses from DYROS_LEG_MASSES (hip yaw, hip roll, thigh, shank, ankle, foot).
+    hip_yaw_shapes=(
+        Shape("cylinder", DYROS_LEG_MASSES[0], (0.05,), fromto=(0, 0, 0.0, 0, 0, 0.08)),
+    ),
+    hip_roll_shapes=(Shape("box", DYROS_LEG_MASSES[1], (0.06, 0.045, 0.045), (0, 0, 0)),),
+    thigh_shapes=(
+        Shape("capsule", DYROS_LEG_MASSES[2], (0.06,), fromto=(0, 0, -0.06, 0, 0, -0.30)),
+    ),
+    shank_shapes=(
+        Shape("capsule", DYROS_LEG_MASSES[3], (0.05,), fromto=(0, 0, -0.05, 0, 0, -0.29)),
+    ),
+    ankle_shapes=(Shape("box", DYROS_LEG_MASSES[4], (0.045, 0.04, 0.035), (0, 0, 0)),),
+    foot_mass=DYROS_LEG_MASSES[5],
+    # F/T sensor and ankle roll housing.
+    ft_housing=Shape("box", 1.46, (0.05, 0.05, 0.03), (0, 0, -0.07), collide=False),
+    ft_site_z=-0.09,
+    foot_size=DYROS_FOOT,
+    sole_half_thickness=0.01,
+    ankle_height=DYROS_SOLE_DEPTH,
+    foot_ahead=0,
+)
+
 
 def dyros_leg(side: int, joints: dict[str, JointSpec], drive: DriveModel | None = None) -> Body:
-    s = side_name(side)
+    """One DYROS RED leg: rigid joints, or with ``drive`` motor and gear-compliance DoFs."""
 
-    def joint_for(joints: dict[str, JointSpec], name: str, base: str, side: int) -> list[Joint]:
+    def joint(name: str, base: str) -> list[Joint]:
         if drive is None:
             return rigid_joint_for(joints, name, base, side)
         return drive_joint(joints, name, base, side, drive)
 
-    m_yaw, m_roll, m_thigh, m_shank, m_ankle, m_foot = DYROS_LEG_MASSES
-    sole_half_t = 0.01
-    sole_z = -DYROS_SOLE_DEPTH + sole_half_t
-    foot = Body(
-        "left_foot" if side > 0 else "right_foot",
-        (0, 0, 0),  # ankle pitch and roll axes intersect
-        [
-            # F/T sensor and ankle roll housing (visual only: the sole owns the contacts).
-            Shape("box", 1.46, (0.05, 0.05, 0.03), (0, 0, -0.07), collide=False),
-            Shape(
-                "box",
-                m_foot - 1.46,
-                (DYROS_FOOT[0] / 2, DYROS_FOOT[1] / 2, sole_half_t),
-                (0, 0, sole_z),
-                name=f"{'left' if side > 0 else 'right'}_foot_sole",
-                sole=True,
-            ),
-        ],
-        joint_for(joints, f"{s}_ankle_roll", "ankle_roll", side),
-        [
-            Site(f"{'left' if side > 0 else 'right'}_foot_ft", (0, 0, -0.09)),
-            Site(f"{'left' if side > 0 else 'right'}_sole", (0, 0, -DYROS_SOLE_DEPTH)),
-        ],
-    )
-    ankle = Body(
-        f"{s}_ankle_pitch_link",
-        (0, 0, -DYROS_SHANK),
-        [Shape("box", m_ankle, (0.045, 0.04, 0.035), (0, 0, 0))],
-        joint_for(joints, f"{s}_ankle_pitch", "ankle_pitch", side),
-        children=[foot],
-    )
-    shank = Body(
-        f"{s}_shank",
-        (0, 0, -DYROS_THIGH),
-        [Shape("capsule", m_shank, (0.05,), fromto=(0, 0, -0.05, 0, 0, -0.29))],
-        joint_for(joints, f"{s}_knee", "knee", side),
-        children=[ankle],
-    )
-    thigh = Body(
-        f"{s}_thigh",
-        (0, 0, 0),
-        [Shape("capsule", m_thigh, (0.06,), fromto=(0, 0, -0.06, 0, 0, -0.30))],
-        joint_for(joints, f"{s}_hip_pitch", "hip_pitch", side),
-        children=[shank],
-    )
-    roll = Body(
-        f"{s}_hip_roll_link",
-        (0, 0, 0),
-        [Shape("box", m_roll, (0.06, 0.045, 0.045), (0, 0, 0))],
-        joint_for(joints, f"{s}_hip_roll", "hip_roll", side),
-        children=[thigh],
-    )
-    return Body(
-        f"{s}_hip_yaw_link",
-        (0, side * DYROS_HIP_Y, DYROS_HIP_Z),
-        [Shape("cylinder", m_yaw, (0.05,), fromto=(0, 0, 0.0, 0, 0, 0.08))],
-        joint_for(joints, f"{s}_hip_yaw", "hip_yaw", side),
-        children=[roll],
-    )
+    return leg(side, DYROS_LEG, joint)
 
 
 def build_dyros(drive: DriveModel | None = None) -> RobotDesign:
@@ -570,72 +632,37 @@ COMAN_KD = {"ankle_roll": 10.0, "hip_pitch": 100.0}
 COMAN_KD_DEFAULT = 500.0
 
 
+COMAN_LEG_LINK_MASSES = (0.9, 0.9, 2.0, 1.5, 0.55)  # assumed: hip yaw to ankle [kg]
+COMAN_LEG = LegDims(
+    hip=(COMAN_HIP_Y, 0),
+    thigh_length=COMAN_THIGH,
+    shank_length=COMAN_SHANK,
+    hip_yaw_shapes=(
+        Shape("cylinder", COMAN_LEG_LINK_MASSES[0], (0.035,), fromto=(0, 0, -0.01, 0, 0, 0.05)),
+    ),
+    hip_roll_shapes=(Shape("box", COMAN_LEG_LINK_MASSES[1], (0.04, 0.03, 0.03), (0, 0, -0.01)),),
+    thigh_shapes=(
+        Shape("capsule", COMAN_LEG_LINK_MASSES[2], (0.04,), fromto=(0, 0, -0.04, 0, 0, -0.18)),
+    ),
+    shank_shapes=(
+        Shape("capsule", 0.9, (0.035,), fromto=(0, 0, -0.035, 0, 0, -0.2)),
+        # The ankle motors sit on the shank, distal to the knee (paper).
+        Shape("box", COMAN_LEG_LINK_MASSES[3] - 0.9, (0.04, 0.035, 0.04), (0, 0, -0.17)),
+    ),
+    ankle_shapes=(Shape("box", COMAN_LEG_LINK_MASSES[4], (0.03, 0.03, 0.025)),),
+    foot_mass=COMAN_LEG_SHARE * COMAN_TOTAL_MASS - sum(COMAN_LEG_LINK_MASSES),
+    ft_housing=Shape("box", 0.3, (0.03, 0.03, 0.015), (0, 0, -0.03), collide=False),
+    ft_site_z=-0.04,
+    foot_size=COMAN_FOOT,
+    sole_half_thickness=0.0075,
+    ankle_height=COMAN_ANKLE_H,
+    foot_ahead=COMAN_FOOT_AHEAD,
+)
+
+
 def coman_leg(side: int, joints: dict[str, JointSpec]) -> Body:
-    s = side_name(side)
-    lr = "left" if side > 0 else "right"
-    leg_mass = COMAN_LEG_SHARE * COMAN_TOTAL_MASS
-    m_yaw, m_roll, m_thigh, m_shank, m_ankle = 0.9, 0.9, 2.0, 1.5, 0.55
-    m_foot = leg_mass - (m_yaw + m_roll + m_thigh + m_shank + m_ankle)
-    sole_half_t = 0.0075
-    foot = Body(
-        f"{lr}_foot",
-        (0, 0, 0),
-        [
-            Shape("box", 0.3, (0.03, 0.03, 0.015), (0, 0, -0.03), collide=False),  # F/T + housing
-            Shape(
-                "box",
-                m_foot - 0.3,
-                (COMAN_FOOT[0] / 2, COMAN_FOOT[1] / 2, sole_half_t),
-                (COMAN_FOOT_AHEAD, 0, -COMAN_ANKLE_H + sole_half_t),
-                name=f"{lr}_foot_sole",
-                sole=True,
-            ),
-        ],
-        sea_joint(joints, f"{s}_ankle_roll", "ankle_roll", side),
-        [
-            Site(f"{lr}_foot_ft", (0, 0, -0.04)),
-            Site(f"{lr}_sole", (COMAN_FOOT_AHEAD, 0, -COMAN_ANKLE_H)),
-        ],
-    )
-    ankle = Body(
-        f"{s}_ankle_pitch_link",
-        (0, 0, -COMAN_SHANK),
-        [Shape("box", m_ankle, (0.03, 0.03, 0.025))],
-        sea_joint(joints, f"{s}_ankle_pitch", "ankle_pitch", side),
-        children=[foot],
-    )
-    shank = Body(
-        f"{s}_shank",
-        (0, 0, -COMAN_THIGH),
-        [
-            Shape("capsule", 0.9, (0.035,), fromto=(0, 0, -0.035, 0, 0, -0.2)),
-            # The ankle motors sit on the shank, distal to the knee (paper).
-            Shape("box", m_shank - 0.9, (0.04, 0.035, 0.04), (0, 0, -0.17)),
-        ],
-        sea_joint(joints, f"{s}_knee", "knee", side),
-        children=[ankle],
-    )
-    thigh = Body(
-        f"{s}_thigh",
-        (0, 0, 0),
-        [Shape("capsule", m_thigh, (0.04,), fromto=(0, 0, -0.04, 0, 0, -0.18))],
-        sea_joint(joints, f"{s}_hip_pitch", "hip_pitch", side),
-        children=[shank],
-    )
-    roll = Body(
-        f"{s}_hip_roll_link",
-        (0, 0, 0),
-        [Shape("box", m_roll, (0.04, 0.03, 0.03), (0, 0, -0.01))],
-        sea_joint(joints, f"{s}_hip_roll", "hip_roll", side),
-        children=[thigh],
-    )
-    return Body(
-        f"{s}_hip_yaw_link",
-        (0, side * COMAN_HIP_Y, 0),
-        [Shape("cylinder", m_yaw, (0.035,), fromto=(0, 0, -0.01, 0, 0, 0.05))],
-        sea_joint(joints, f"{s}_hip_yaw", "hip_yaw", side),
-        children=[roll],
-    )
+    """One COMAN leg, every joint series-elastic (:func:`sea_joint`)."""
+    return leg(side, COMAN_LEG, lambda name, base: sea_joint(joints, name, base, side))
 
 
 @dataclass(frozen=True)
@@ -833,69 +860,36 @@ KIST_BODY_MASS = 20.0  # paper: body 20 kg (pelvis + waist + torso here)
 KIST_HEAD_MASS = 5.0  # paper: the remaining ≈ 5 kg (head)
 
 
+KIST_LEG_LINK_MASSES = (1.2, 1.3, 3.0, 2.3, 0.8)  # assumed: hip yaw to ankle [kg]
+KIST_LEG = LegDims(
+    hip=(KIST_HIP_Y, KIST_HIP_Z),
+    thigh_length=KIST_THIGH,
+    shank_length=KIST_SHANK,
+    hip_yaw_shapes=(
+        Shape("cylinder", KIST_LEG_LINK_MASSES[0], (0.045,), fromto=(0, 0, 0.0, 0, 0, 0.07)),
+    ),
+    hip_roll_shapes=(Shape("box", KIST_LEG_LINK_MASSES[1], (0.06, 0.045, 0.045)),),
+    thigh_shapes=(
+        Shape("capsule", KIST_LEG_LINK_MASSES[2], (0.06,), fromto=(0, 0, -0.05, 0, 0, -0.27)),
+    ),
+    shank_shapes=(
+        Shape("capsule", KIST_LEG_LINK_MASSES[3], (0.05,), fromto=(0, 0, -0.05, 0, 0, -0.27)),
+    ),
+    ankle_shapes=(Shape("box", KIST_LEG_LINK_MASSES[4], (0.04, 0.04, 0.035)),),
+    foot_mass=KIST_LEG_MASS - sum(KIST_LEG_LINK_MASSES),
+    # The 6-axis F/T sensor between ankle and sole (paper: below the ankles).
+    ft_housing=Shape("box", 0.4, (0.04, 0.04, 0.015), (0, 0, -0.06), collide=False),
+    ft_site_z=-0.06,
+    foot_size=KIST_FOOT,
+    sole_half_thickness=0.0125,
+    ankle_height=KIST_ANKLE_H,
+    foot_ahead=KIST_FOOT_AHEAD,
+)
+
+
 def kist_leg(side: int, joints: dict[str, JointSpec]) -> Body:
-    s = side_name(side)
-    lr = "left" if side > 0 else "right"
-    m_yaw, m_roll, m_thigh, m_shank, m_ankle = 1.2, 1.3, 3.0, 2.3, 0.8
-    m_foot = KIST_LEG_MASS - (m_yaw + m_roll + m_thigh + m_shank + m_ankle)
-    sole_half_t = 0.0125
-    ft_z = -0.06
-    foot = Body(
-        f"{lr}_foot",
-        (0, 0, 0),
-        [
-            # The 6-axis F/T sensor between ankle and sole (paper: below the ankles).
-            Shape("box", 0.4, (0.04, 0.04, 0.015), (0, 0, ft_z), collide=False),
-            Shape(
-                "box",
-                m_foot - 0.4,
-                (KIST_FOOT[0] / 2, KIST_FOOT[1] / 2, sole_half_t),
-                (KIST_FOOT_AHEAD, 0, -KIST_ANKLE_H + sole_half_t),
-                name=f"{lr}_foot_sole",
-                sole=True,
-            ),
-        ],
-        joint_for(joints, f"{s}_ankle_roll", "ankle_roll", side),
-        [
-            Site(f"{lr}_foot_ft", (0, 0, ft_z)),
-            Site(f"{lr}_sole", (KIST_FOOT_AHEAD, 0, -KIST_ANKLE_H)),
-        ],
-    )
-    ankle = Body(
-        f"{s}_ankle_pitch_link",
-        (0, 0, -KIST_SHANK),
-        [Shape("box", m_ankle, (0.04, 0.04, 0.035))],
-        joint_for(joints, f"{s}_ankle_pitch", "ankle_pitch", side),
-        children=[foot],
-    )
-    shank = Body(
-        f"{s}_shank",
-        (0, 0, -KIST_THIGH),
-        [Shape("capsule", m_shank, (0.05,), fromto=(0, 0, -0.05, 0, 0, -0.27))],
-        joint_for(joints, f"{s}_knee", "knee", side),
-        children=[ankle],
-    )
-    thigh = Body(
-        f"{s}_thigh",
-        (0, 0, 0),
-        [Shape("capsule", m_thigh, (0.06,), fromto=(0, 0, -0.05, 0, 0, -0.27))],
-        joint_for(joints, f"{s}_hip_pitch", "hip_pitch", side),
-        children=[shank],
-    )
-    roll = Body(
-        f"{s}_hip_roll_link",
-        (0, 0, 0),
-        [Shape("box", m_roll, (0.06, 0.045, 0.045))],
-        joint_for(joints, f"{s}_hip_roll", "hip_roll", side),
-        children=[thigh],
-    )
-    return Body(
-        f"{s}_hip_yaw_link",
-        (0, side * KIST_HIP_Y, KIST_HIP_Z),
-        [Shape("cylinder", m_yaw, (0.045,), fromto=(0, 0, 0.0, 0, 0, 0.07))],
-        joint_for(joints, f"{s}_hip_yaw", "hip_yaw", side),
-        children=[roll],
-    )
+    """One KIST humanoid leg, every joint a rigid torque-driven hinge."""
+    return leg(side, KIST_LEG, lambda name, base: joint_for(joints, name, base, side))
 
 
 KIST_ARM = ArmDims(
