@@ -77,6 +77,16 @@ def test_cells_table_round_trips_values_exactly(tmp_path: Path) -> None:
     assert table.column("peak")[3] == 300.0
 
 
+def test_exponent_floats_round_trip_as_floats(tmp_path: Path) -> None:
+    """A value JSON writes with an exponent only (5e-05) reads back as that float, not as
+    the string YAML 1.1 would make of it (which broke --resume and the claims' selectors)."""
+    directory = tmp_path / "sweep"
+    _fake_sweep(directory, [Axis("lag", (5e-05, 0.0005)), Axis("impedance", (True, False))])
+    assert "5e-05" in (directory / store.CELLS_FILE).read_text()
+    table = store.read_cells(directory / store.CELLS_FILE)
+    assert table.column("lag") == [5e-05, 5e-05, 0.0005, 0.0005]
+
+
 def test_a_declared_success_region_sets_the_drawn_boundary() -> None:
     """With ``success:`` a cell that stood but missed the region is outside; without it, only falls are."""
     from walkrepro.sweep.maps import _boundary_label, _inside

@@ -22,6 +22,7 @@ from typing import Any
 
 import yaml
 
+from walkrepro import yamlload
 from walkrepro.errors import SpecError, UnknownNameError, WalkreproError
 
 _NUMBER = r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?"
@@ -135,7 +136,7 @@ def _parse_range(text: str, where: str) -> tuple[float, ...]:
 
 def _scalar(text: str, where: str) -> Any:
     try:
-        value = yaml.safe_load(text)
+        value = yamlload.load(text)
     except yaml.YAMLError:
         value = text
     if isinstance(value, dict | list) or value is None:

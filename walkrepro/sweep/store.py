@@ -21,6 +21,7 @@ from typing import Any
 
 import yaml
 
+from walkrepro import yamlload
 from walkrepro.errors import WalkreproError
 from walkrepro.sweep.cells import CellResult
 from walkrepro.sweep.grid import Cell, value_text
@@ -66,7 +67,7 @@ def read_info(directory: Path) -> dict[str, Any]:
             f"{directory}: not a sweep directory (no {SWEEP_FILE}); sweeps are written under "
             "<out>/sweeps/<experiment>/."
         )
-    return yaml.safe_load(path.read_text())
+    return yamlload.load(path.read_text())
 
 
 class CellsWriter:
@@ -162,7 +163,7 @@ def read_cells(path: Path, repair: bool = False) -> CellsTable:
         row: dict[str, Any] = {}
         for name, text_value in zip(header, raw, strict=True):
             if name in fields:
-                row[name] = yaml.safe_load(text_value)
+                row[name] = yamlload.load(text_value)
             elif name in ("outcome", "message"):
                 row[name] = text_value
             elif name == "cell":
