@@ -109,6 +109,20 @@ def test_backlash_names_actuators_and_is_non_negative(tmp_path: Path) -> None:
     assert "backlash must be >= 0" in msg
 
 
+def test_torque_lag_needs_filtered_actuators(tmp_path: Path) -> None:
+    """actuators.torque_lag on a robot whose torques act without dynamics is an error naming
+    the field; on dyros_red_actuated it is accepted, and an exponent-only number is a float."""
+    msg = error_of(tmp_path, GOOD, ("actuators.torque_lag=0.002",))
+    assert "actuators.torque_lag" in msg and "no torque-loop dynamics" in msg
+    path = write(tmp_path, GOOD.replace("robot: dyros_red", "robot: dyros_red_actuated"))
+    loaded = load_spec(path, ("actuators.torque_lag=5e-05", "actuators.friction_loss=1e-1"))
+    resolve_spec(loaded)
+    assert loaded.spec.actuators.torque_lag == 5e-05
+    assert loaded.spec.actuators.friction_loss == 0.1
+    msg = error_of(tmp_path, GOOD, ("actuators.friction_loss=-1",))
+    assert "actuators.friction_loss" in msg
+
+
 def test_unknown_metric_lists_valid_metrics(tmp_path: Path) -> None:
     """An unknown metric lists the registered metrics."""
     msg = error_of(tmp_path, GOOD.replace("metric: fell", "metric: fel"))

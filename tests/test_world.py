@@ -59,6 +59,29 @@ def test_position_gain_override_sets_servo_stiffness() -> None:
     assert m.actuator_gainprm[pitch, 0] == default.actuator_gainprm[pitch, 0]
 
 
+def test_drive_friction_and_torque_lag_overrides() -> None:
+    """actuators.friction_loss sets the Coulomb friction of the DoF each actuator drives (the
+    motor DoF of a drive), actuators.torque_lag the time constant of filtered actuators."""
+    robot = load_robot("dyros_red_actuated")
+    spec = make_spec(
+        robot="dyros_red_actuated",
+        controller={"type": "efsm"},
+        actuators={"friction_loss": 0.25, "torque_lag": 0.002},
+    )
+    m = build_scene(robot, spec).model
+    default = robot.mj_model
+    for i in range(m.nu):
+        driven = m.actuator_trnid[i, 0]
+        assert m.joint(driven).name.endswith("_motor")
+        assert m.dof_frictionloss[m.jnt_dofadr[driven]] == 0.25
+        assert m.actuator_dynprm[i, 0] == 0.002
+    gear = m.jnt_dofadr[m.joint("l_knee").id]  # the gear DoF keeps the robot's value
+    assert m.dof_frictionloss[gear] == default.dof_frictionloss[default.joint("l_knee").dofadr[0]]
+    unset = build_scene(robot, make_spec(robot="dyros_red_actuated", controller={"type": "efsm"}))
+    assert np.array_equal(unset.model.dof_frictionloss, default.dof_frictionloss)
+    assert np.array_equal(unset.model.actuator_dynprm, default.actuator_dynprm)
+
+
 def test_obstacle_friction_takes_precedence() -> None:
     """An obstacle's own friction is the one MuJoCo uses against the robot's feet."""
     spec = make_spec(

@@ -28,7 +28,7 @@ from pydantic import (
     model_validator,
 )
 
-from walkrepro import EXPERIMENTS_DIR
+from walkrepro import EXPERIMENTS_DIR, yamlload
 from walkrepro.deviation import KnownDeviation
 from walkrepro.errors import SpecError, UnknownNameError
 from walkrepro.sweep.model import SweepParameter, SweepSpec
@@ -241,6 +241,20 @@ class ActuatorsSpec(_Strict):
     """
 
     position_gain: dict[str, float] = Field(default_factory=dict)
+    friction_loss: float | None = Field(
+        None,
+        ge=0,
+        description="Coulomb friction [Nm] (MuJoCo frictionloss) on the DoF each actuator "
+        "drives: the motor DoF of a drive or series-elastic joint, else the joint; None keeps "
+        "the robot's value (dyros_red_actuated: 1 Nm, assumed)",
+    )
+    torque_lag: float | None = Field(
+        None,
+        gt=0,
+        description="time constant [s] of the first-order torque loop of robots whose "
+        "actuators have one (MuJoCo dyntype filterexact; dyros_red_actuated: 0.5 ms, "
+        "assumed); None keeps the robot's value",
+    )
 
     @field_validator("position_gain")
     @classmethod
@@ -421,8 +435,8 @@ def _display_path(path: Path) -> str:
 def _parse_yaml(text: str, source: str) -> tuple[Any, dict[tuple[Any, ...], int]]:
     """YAML to plain data plus the 1-based line of every mapping key and list item."""
     try:
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
-        data = yaml.safe_load(text)
+        node = yaml.compose(text, Loader=yamlload.Loader)
+        data = yamlload.load(text)
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line = f", line {mark.line + 1}, column {mark.column + 1}" if mark else ""
@@ -510,7 +524,7 @@ def _apply_override(data: dict[str, Any], item: str) -> tuple[Any, ...]:
     if not all(str(p) for p in parts):
         raise SpecError(f"--set {item!r}: empty field name in {key!r}.")
     try:
-        value = yaml.safe_load(raw) if raw.strip() else ""
+        value = yamlload.load(raw) if raw.strip() else ""
     except yaml.YAMLError:
         value = raw
     node: Any = data
@@ -549,6 +563,8 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
         SpecError / UnknownNameError: naming file, line, field and the valid names.
     """
     # Imported here: the registries import heavy modules (mujoco, pinocchio).
+    import mujoco
+
     from walkrepro.controllers import controller_class, controller_names
     from walkrepro.metrics import MetricArgError, check_metric_arg, metric_names, split_metric
     from walkrepro.robot import list_robots, load_robot
@@ -599,6 +615,13 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
             raise SpecError(
                 f"{loaded.where(('actuators', 'position_gain'))}: robot {robot.name!r} has torque "
                 "actuators; position_gain applies to position servos only."
+            )
+    if spec.actuators.torque_lag is not None:
+        filtered = mujoco.mjtDyn.mjDYN_FILTEREXACT
+        if not all(int(d) == filtered for d in robot.mj_model.actuator_dyntype):
+            raise SpecError(
+                f"{loaded.where(('actuators', 'torque_lag'))}: robot {robot.name!r} has no "
+                "torque-loop dynamics to set (its actuators are not first-order filters)."
             )
     for pattern in spec.sensors.joint_backlash:
         if not fnmatch.filter(actuator_names, pattern):

@@ -66,6 +66,7 @@ def build_scene(robot: Robot, spec: ExperimentSpec) -> Scene:
     for obstacle in spec.world.obstacles:
         _add_obstacle(mjspec, obstacle, spec.world.floor_friction)
     _set_position_gains(mjspec, spec.actuators.position_gain)
+    _set_drives(mjspec, spec.actuators.friction_loss, spec.actuators.torque_lag)
     mjspec.compile()  # to_xml() writes the compiled spec
     xml = mjspec.to_xml()
     # Compile again from the text: the logged XML is the single source of truth.
@@ -111,6 +112,18 @@ def _set_position_gains(mjspec: mujoco.MjSpec, gains: dict[str, float]) -> None:
                 # A MuJoCo position servo is force = kp * ctrl - kp * q.
                 actuator.gainprm[0] = kp
                 actuator.biasprm[1] = -kp
+
+
+def _set_drives(
+    mjspec: mujoco.MjSpec, friction_loss: float | None, torque_lag: float | None
+) -> None:
+    """Set the Coulomb friction [Nm] of the DoF each actuator drives and the time constant
+    [s] of first-order actuator dynamics; None leaves the robot's own value."""
+    for actuator in mjspec.actuators:
+        if friction_loss is not None:
+            mjspec.joint(actuator.target).frictionloss = friction_loss
+        if torque_lag is not None:
+            actuator.dynprm[0] = torque_lag
 
 
 def _quat_xy(rx: float, ry: float) -> list[float]:
