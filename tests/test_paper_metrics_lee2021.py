@@ -508,6 +508,23 @@ def test_ds_late_or_never(tmp_path: Path) -> None:
     assert measured(_push(tmp_path, []), "ds_delay_after_push") == math.inf
 
 
+def test_ds_delay_after_onset_counts_a_ds_during_the_push(tmp_path: Path) -> None:
+    """A DS the push brings on (0.2 s after the onset, while it acts) counts from the onset;
+    counted from the release, the delay would be the next DS's (2.0 s)."""
+    d = _push(tmp_path, [0.7, 3.0 - DT])
+    assert measured(d, "ds_delay_after_onset") == pytest.approx(0.2)
+    assert measured(d, "ds_delay_after_push") == pytest.approx(2.0 - DT)
+
+
+def test_ds_delay_after_onset_late_never_or_unknown(tmp_path: Path) -> None:
+    """DS 1.5 s after the onset is what it is; a completed run without DS gives inf; a run
+    stopped before any DS does not answer."""
+    assert measured(_push(tmp_path, [2.0]), "ds_delay_after_onset") == pytest.approx(1.5)
+    assert measured(_push(tmp_path, []), "ds_delay_after_onset") == math.inf
+    d = _push(tmp_path, [], outcome="interrupted")
+    assert "before the E-FSM entered DS" in unmeasurable_reason(d, "ds_delay_after_onset")
+
+
 def test_ds_delay_not_measurable_when_stopped_early(tmp_path: Path) -> None:
     """A run stopped after the release, before any DS, does not answer the delay."""
     d = _push(tmp_path, [], outcome="interrupted")
@@ -539,6 +556,7 @@ def test_no_push_in_the_spec(tmp_path: Path) -> None:
     for name in (
         "ds_entries_during_push",
         "ds_delay_after_push",
+        "ds_delay_after_onset",
         "steps_after_push",
         "push_com_speed",
     ):

@@ -458,6 +458,20 @@ def _ds_delay_after_push(d: LogData, arg: str) -> float:
     return math.inf
 
 
+@metric("ds_delay_after_onset", "time from the push's onset to the next DS [s] (inf: never)")
+def _ds_delay_after_onset(d: LogData, arg: str) -> float:
+    """Completed: as ``ds_delay_after_push``, counted from the onset, so a DS that the push
+    itself brings on (the E-FSM's reaction to a short push toward the swing foot, §III-B:
+    SSA ends when x_CP ≥ x_s − r) counts. A fall or an early stop before the next DS makes
+    it not measurable; a completed run that never reaches DS again gives inf."""
+    t0, _ = _push_window(d)
+    later = [t for t in _ds_entries(d) if t > t0]
+    if later:
+        return float(later[0] - t0)
+    d.require_completed("the E-FSM entered DS after the push's onset")
+    return math.inf
+
+
 @metric("steps_after_push", "steps after the push's release")
 def _steps_after_push(d: LogData, arg: str) -> float:
     """Completed: "walking resumes" (Fig. 11(e)) is judged over the rest of a completed run."""
