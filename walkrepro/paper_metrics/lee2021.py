@@ -451,11 +451,7 @@ def _ds_delay_after_push(d: LogData, arg: str) -> float:
     completed run that never reaches DS again gives inf. Reads the E-FSM's events (Fig.
     12(a)(b): DS starts when the CP reaches x_s − r)."""
     _, t1 = _push_window(d)
-    later = [t for t in _ds_entries(d) if t > t1]
-    if later:
-        return float(later[0] - t1)
-    d.require_completed("the E-FSM entered DS after the push")
-    return math.inf
+    return _next_ds_delay(d, t1, "the E-FSM entered DS after the push")
 
 
 @metric("ds_delay_after_onset", "time from the push's onset to the next DS [s] (inf: never)")
@@ -465,10 +461,16 @@ def _ds_delay_after_onset(d: LogData, arg: str) -> float:
     SSA ends when x_CP ≥ x_s − r) counts. A fall or an early stop before the next DS makes
     it not measurable; a completed run that never reaches DS again gives inf."""
     t0, _ = _push_window(d)
-    later = [t for t in _ds_entries(d) if t > t0]
+    return _next_ds_delay(d, t0, "the E-FSM entered DS after the push's onset")
+
+
+def _next_ds_delay(d: LogData, since: float, what: str) -> float:
+    """Time from ``since`` [s] to the E-FSM's next transition into DS; inf if a completed run
+    has none; not measurable (``what`` did not happen) if the run ended early or fell."""
+    later = [t for t in _ds_entries(d) if t > since]
     if later:
-        return float(later[0] - t0)
-    d.require_completed("the E-FSM entered DS after the push's onset")
+        return float(later[0] - since)
+    d.require_completed(what)
     return math.inf
 
 
