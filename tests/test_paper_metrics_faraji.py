@@ -123,10 +123,21 @@ def test_speed_ratio_follows_the_spec_command(tmp_path: Path) -> None:
     assert measured(_walk(tmp_path, 0.2, 0.1), "speed_to_command:0.5-3.5") == pytest.approx(2.0)
 
 
-def test_speed_ratio_needs_a_forward_command(tmp_path: Path) -> None:
+def test_speed_ratio_needs_a_commanded_speed(tmp_path: Path) -> None:
     """In-place walking (no speed commanded) has no realised-to-commanded ratio."""
     reason = unmeasurable_reason(_walk(tmp_path, 0.0, None), "speed_to_command:0.5-3.5")
-    assert "commands no forward speed" in reason
+    assert "commands no walking speed" in reason
+
+
+def test_speed_ratio_of_a_backward_command_is_signed(tmp_path: Path) -> None:
+    """Backward at 0.09 m/s under a −0.1 m/s command is 0.9× it; drifting forward at
+    0.05 m/s under the same command is −0.5×, outside any band around 1."""
+    assert measured(_walk(tmp_path, -0.09, -0.1), "speed_to_command:0.5-3.5") == pytest.approx(
+        0.9, abs=1e-6
+    )
+    assert measured(_walk(tmp_path, 0.05, -0.1), "speed_to_command:0.5-3.5") == pytest.approx(
+        -0.5, abs=1e-6
+    )
 
 
 # ---- corrective steps after a push (Fig. 16) -----------------------------------------------

@@ -418,10 +418,12 @@ def footstep_scatter(rel: np.ndarray) -> float:
 def _speed_to_command(d: LogData, arg: str) -> float:
     """Window as :func:`walkrepro.metrics.mean_forward_speed`. Fig. 19's claim is about the
     speed realised against the one commanded, so the ratio follows a ``--set`` of the
-    command where a band in m/s would not. Not measurable without a forward command."""
+    command where a band in m/s would not. Signed: a backward command (speed < 0) walked
+    backward gives a positive ratio, walked forward a negative one. Not measurable without
+    a commanded speed (in place)."""
     command = float(d.spec.controller.params.get("speed", 0.0))  # [m/s]
-    if command <= 0.0:
-        raise NotMeasurable(f"the spec commands no forward speed (speed = {command} m/s)")
+    if command == 0.0:
+        raise NotMeasurable(f"the spec commands no walking speed (speed = {command} m/s)")
     return mean_forward_speed(d, arg) / command
 
 
