@@ -181,3 +181,21 @@ def test_old_log_spec_with_reason_only_loads_and_fails() -> None:
     assert old.known_deviation is not None and old.known_deviation.observed is None
     v = evaluate(make_spec(old), {"footsteps": 3.0}, "complete")
     assert v.rows[0].status == FAIL and "older spec" in v.rows[0].note
+
+
+def test_summary_line_names_the_experiment_its_outcome_and_counts() -> None:
+    """One experiment's line says whether it passed, its outcome and its row counts in the summary's wording."""
+    from walkrepro.checks import failing_row_text, summary_line
+
+    ok = Expectation(metric="fell", op="==", value=0, source="s")
+    bad = Expectation(metric="footsteps", op=">=", value=11, source="s")
+    good = evaluate(make_spec(ok), {"fell": 0.0}, "complete")
+    line = summary_line(good, 10)
+    assert line == "ok    t           complete    1 reproduced, 0 known deviations, 0 failed"
+    failed = evaluate(make_spec(ok, bad), {"fell": 0.0, "footsteps": 3.0}, "fell")
+    assert summary_line(failed).startswith("FAIL") and "fell" in summary_line(failed)
+    (text,) = failing_row_text(failed)
+    assert text.splitlines() == ["  fail  t · footsteps >= 11: measured 3", "        source: s"]
+    assert not failing_row_text(good)
+    broken = evaluate(make_spec(ok), {"fell": 0.0}, "interrupted")
+    assert failing_row_text(broken) == ["  fail  t · run: outcome interrupted"]

@@ -230,3 +230,64 @@ def test_save_reference_copies_metrics_and_figures(
         "run.json",
     ]
     assert [p.name for p in (target / "figures").iterdir()] == ["overview.png"]
+
+
+def test_check_prints_one_line_per_experiment_and_failing_rows_in_full(tmp_path: Path) -> None:
+    """`check` prints one line per experiment and the summary; a failing row is printed in full, --details prints all rows."""
+    path = tmp_path / "fails.yaml"
+    long_source = "a source long enough to wrap " * 8
+    path.write_text(
+        SPEC.replace(
+            "source: test}",
+            f"source: test}}\n  - {{metric: fell, op: '==', value: 1, "
+            f"source: '{long_source.strip()}'}}",
+        )
+    )
+    code, text = invoke("run", str(path), "--out", str(tmp_path / "runs"))
+    assert code == 0 or code == 1, text
+    (run,) = (tmp_path / "runs" / "tiny_stand").iterdir()
+    code, text = invoke("check", "--run", str(run))
+    assert code == 1, text
+    lines = text.splitlines()
+    assert sum(line.startswith("FAIL  tiny_stand") for line in lines) == 1, text
+    # The failing row, whole (its long source on one line, never cut); the passing row not.
+    assert "  fail  tiny_stand · fell == 1: measured 0" in lines, text
+    assert f"        source: {long_source.strip()}" in lines, text
+    assert "== 0" not in text, text
+    assert lines[-1] == "1 reproduced, 0 known deviations, 1 failed", text
+    code, details = invoke("check", "--run", str(run), "--details")
+    assert code == 1 and "paper expectations" in details and "reproduced" in details, details
+    assert details.splitlines()[-1] == lines[-1]
+
+
+def test_passing_check_is_two_lines(tmp_path: Path) -> None:
+    """A passing experiment takes one line, the count line another; nothing else (no table)."""
+    path = tmp_path / "ok.yaml"
+    path.write_text(SPEC)
+    code, text = invoke("run", str(path), "--out", str(tmp_path / "runs"))
+    assert code == 0, text
+    (run,) = (tmp_path / "runs" / "tiny_stand").iterdir()
+    code, text = invoke("check", "--run", str(run))
+    assert code == 0, text
+    assert text.splitlines() == [
+        "ok    tiny_stand  complete    1 reproduced, 0 known deviations, 0 failed",
+        "1 reproduced, 0 known deviations, 0 failed",
+    ]
+
+
+@pytest.mark.parametrize("shell", ["bash", "zsh", "fish"])
+def test_show_completion_prints_a_script(shell: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`--show-completion SHELL` prints a completion script for walkrepro (what --install-completion installs)."""
+    # Typer reads this when it builds the command: the shell is then an argument, not detected.
+    monkeypatch.setenv("_TYPER_COMPLETE_TEST_DISABLE_SHELL_DETECTION", "1")
+    result = CliRunner().invoke(app, ["--show-completion", shell], prog_name="walkrepro")
+    assert result.exit_code == 0, result.output
+    assert f"complete_{shell}" in result.output and "_WALKREPRO_COMPLETE" in result.output
+
+
+def test_unknown_completion_shell_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A shell Typer cannot complete for is an error, not an empty script."""
+    monkeypatch.setenv("_TYPER_COMPLETE_TEST_DISABLE_SHELL_DETECTION", "1")
+    result = CliRunner().invoke(app, ["--show-completion", "cmd.exe"], prog_name="walkrepro")
+    assert result.exit_code != 0
+    assert "_WALKREPRO_COMPLETE" not in result.output

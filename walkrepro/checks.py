@@ -124,6 +124,42 @@ class Verdict:
         }
 
 
+def summary_line(verdict: Verdict, name_width: int = 0) -> str:
+    """One line for one experiment (or map): verdict, name, run outcome and row counts.
+
+    E.g. ``FAIL  human_push                fell      3 reproduced, 2 known deviations, 1 failed``.
+    The counts keep :class:`Counts`' wording, so the batch summary line that follows parses
+    the same way.
+
+    Args:
+        verdict: the experiment's verdict.
+        name_width: pad the name to this many characters, to align a batch's lines.
+    """
+    mark = "ok  " if verdict.passed else "FAIL"
+    return f"{mark}  {verdict.experiment:<{name_width}}  {verdict.outcome:<11} {count([verdict])}"
+
+
+def failing_row_text(verdict: Verdict) -> list[str]:
+    """Each failing row of ``verdict`` in full, as plain text: what was expected, what was
+    measured (with a known deviation's observed band), the source and the note, never cut.
+
+    A run that did not end as a run can (interrupted, error) is a failing row of its own.
+    """
+    texts = []
+    if not verdict.run_ok:
+        texts.append(f"  fail  {verdict.experiment} · run: outcome {verdict.outcome}")
+    for r in verdict.rows:
+        if r.status != FAIL:
+            continue
+        observed = f" (known deviation's observed band {r.observed_band})" if r.observed else ""
+        head = f"  fail  {verdict.experiment} · {r.metric} {r.band}: measured {r.measured:.4g}"
+        lines = [head + observed, f"        source: {r.source}"]
+        if r.note:
+            lines.append(f"        note: {r.note}")
+        texts.append("\n".join(lines))
+    return texts
+
+
 def holds(op: str, measured: float, value: float | tuple[float, float]) -> bool:
     """Whether ``measured op value`` holds; NaN never holds."""
     if math.isnan(measured):

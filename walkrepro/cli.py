@@ -29,7 +29,7 @@ if TYPE_CHECKING:
 app = typer.Typer(
     help="Reproduce published biped-walking controllers in MuJoCo and check the reproduction.",
     no_args_is_help=True,
-    add_completion=False,
+    add_completion=True,
     pretty_exceptions_enable=False,
     context_settings={"help_option_names": ["-h", "--help"]},
 )
@@ -137,8 +137,8 @@ def run(
     summary = _run_one(experiment, set_ or [], out, figures, show_progress=True)
     _print_verdicts([summary.verdict])
     _console().print(f"run directory: [bold]{summary.run_dir}[/]")
-    if summary.interrupted:
-        raise typer.Exit(code=130)
+    if summary.interrupted:  # 130 after Ctrl-C, 143 after SIGTERM
+        raise typer.Exit(code=summary.exit_code)
     if summary.result.outcome == "error":
         _console(stderr=True).print(f"[bold red]error:[/] {escape(summary.result.message)}")
         raise typer.Exit(code=1)
@@ -172,6 +172,14 @@ def check(
             "--sweeps",
             help="Re-run the experiments' declared maps (default: check their claims on the "
             "committed results/maps/<map>/cells.csv).",
+        ),
+    ] = False,
+    details: Annotated[
+        bool,
+        typer.Option(
+            "--details",
+            help="Print every row (paper value, measured, observed band, source and note); "
+            "default: one line per experiment, failing rows in full.",
         ),
     ] = False,
 ) -> None:
@@ -228,7 +236,7 @@ def check(
         from walkrepro.sweep.command import map_verdicts
 
         verdicts += map_verdicts(names, sweeps, out, jobs, _console(stderr=True))
-    _print_verdicts(verdicts)
+    _print_verdicts(verdicts, details)
     interrupted = any(s.interrupted for s in summaries)
     if update_reference and not interrupted:
         _update_references(summaries)
@@ -591,27 +599,42 @@ def _resolved(name: str, overrides: list[str]):  # noqa: ANN202 - returns Experi
 
 
 def _run_one(name: str, overrides: list[str], out: Path, figures: bool, show_progress: bool):  # noqa: ANN202
-    """Resolve and execute one experiment (module-level so a process pool can pickle it)."""
-    from walkrepro.experiment import execute
+    """Resolve and execute one experiment (module-level so a process pool can pickle it).
 
-    spec = _resolved(name, overrides)
-    if not show_progress:
-        return execute(spec, out, None, figures, overrides)
-    with Progress(
-        TextColumn(f"[bold]{spec.name}[/]"),
-        BarColumn(),
-        TextColumn("{task.fields[sim]}"),
-        TextColumn("RTF {task.fields[rtf]}"),
-        TimeElapsedColumn(),
-        console=_console(stderr=True),
-        transient=False,
-    ) as bar:
-        task = bar.add_task("run", total=spec.sim.duration, sim="", rtf="")
+    The stop signals (Ctrl-C, SIGTERM) are taken as requests from here on, and the run
+    directory is created as soon as the spec is valid, before the slow imports and set-up:
+    a stop at any moment after that leaves a run directory with outcome ``interrupted``.
+    """
+    from walkrepro.interrupt import InterruptFlag
 
-        def progress(t: float, duration: float, rtf: float) -> None:
-            bar.update(task, completed=t, sim=f"{t:6.2f}/{duration:.2f} s", rtf=f"{rtf:5.2f}x")
+    with InterruptFlag() as flag:
+        spec = _resolved(name, overrides)
+        run_dir = results.new_run_dir(out, spec.name)
+        try:
+            from walkrepro.experiment import execute
+        except BaseException as exc:  # a second Ctrl-C during the import
+            outcome = "interrupted" if isinstance(exc, KeyboardInterrupt) else "error"
+            results.abandon(run_dir, spec.name, outcome, f"{outcome} before the run started")
+            raise
+        if not show_progress:
+            return execute(spec, out, None, figures, overrides, flag, run_dir)
+        with Progress(
+            TextColumn(f"[bold]{spec.name}[/]"),
+            BarColumn(),
+            TextColumn("{task.fields[sim]}"),
+            TextColumn("RTF {task.fields[rtf]}"),
+            TimeElapsedColumn(),
+            console=_console(stderr=True),
+            transient=False,
+        ) as bar:
+            task = bar.add_task("run", total=spec.sim.duration, sim="", rtf="")
 
-        return execute(spec, out, progress, figures, overrides)
+            def progress(t: float, duration: float, rtf: float) -> None:
+                bar.update(
+                    task, completed=t, sim=f"{t:6.2f}/{duration:.2f} s", rtf=f"{rtf:5.2f}x"
+                )
+
+            return execute(spec, out, progress, figures, overrides, flag, run_dir)
 
 
 def _plot_comparisons(summaries: list) -> None:  # list[RunSummary]
@@ -629,10 +652,36 @@ def _plot_comparisons(summaries: list) -> None:  # list[RunSummary]
             plot_compare(s.result.log_path, logs[other], s.run_dir / results.FIGURES_DIR)
 
 
-def _print_verdicts(verdicts: list) -> None:  # list[checks.Verdict]
-    """The verdict table (paper value, measured value and a known deviation's observed band
-    side by side) and the count line ``N reproduced, M known deviations, K failed``."""
-    from walkrepro.checks import FAIL, KNOWN, PASS, count
+def _print_verdicts(verdicts: list, details: bool = True) -> None:  # list[checks.Verdict]
+    """Print a batch's verdicts and the count line ``N reproduced, M known deviations, K failed``.
+
+    With ``details``, the table of every row (paper value, measured value and a known
+    deviation's observed band side by side). Without, one line per experiment, then the
+    failing rows in full: a failure is never hidden.
+    """
+    from walkrepro.checks import count, failing_row_text, summary_line
+
+    console = _console()
+    if details:
+        console.print(_verdict_table(verdicts))
+    else:
+        width = max((len(v.experiment) for v in verdicts), default=0)
+        for v in verdicts:
+            colour = "green" if v.passed else "red"
+            console.print(
+                f"[{colour}]{escape(summary_line(v, width))}[/]", highlight=False, soft_wrap=True
+            )
+        for v in verdicts:
+            for text in failing_row_text(v):
+                console.print(f"[red]{escape(text)}[/]", highlight=False, soft_wrap=True)
+    counts = count(verdicts)
+    colour = "red" if counts.failed else ("yellow" if counts.known else "green")
+    console.print(f"[bold {colour}]{counts}[/]")
+
+
+def _verdict_table(verdicts: list) -> Table:  # list[checks.Verdict]
+    """Every row of ``verdicts`` as a table; long sources and notes fold, never cut."""
+    from walkrepro.checks import FAIL, KNOWN, PASS
 
     label = {
         PASS: "[green]reproduced[/]",
@@ -656,10 +705,7 @@ def _print_verdicts(verdicts: list) -> None:  # list[checks.Verdict]
                 label[r.status],
                 escape(f"{r.source}{note}"),
             )
-    _console().print(table)
-    counts = count(verdicts)
-    colour = "red" if counts.failed else ("yellow" if counts.known else "green")
-    _console().print(f"[bold {colour}]{counts}[/]")
+    return table
 
 
 def main() -> None:  # pragma: no cover - console entry point alias
