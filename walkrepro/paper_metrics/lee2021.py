@@ -19,6 +19,7 @@ import math
 import mujoco
 import numpy as np
 
+from walkrepro import record
 from walkrepro.errors import UnknownNameError
 from walkrepro.metrics import (
     Footstep,
@@ -495,6 +496,56 @@ def _push_com_speed(d: LogData, arg: str) -> float:
     keep = (t >= max(t0, t1 - 1.0)) & (t <= t1)
     if not np.any(keep):
         raise NotMeasurable("no O_w logged in the last second of the push")
+    vel = _com_velocity_world(d, t[keep])
+    vx = np.cos(yaw[keep]) * vel[:, 0] + np.sin(yaw[keep]) * vel[:, 1]
+    return float(np.mean(np.abs(vx)))
+
+
+def _middle_second(d: LogData) -> tuple[float, float]:
+    """(start, end) [s] of the middle second of the spec's first disturbance window: where a
+    hand that engaged over its ramp holds at equilibrium (§VI-C: "the force from the human and
+    the generated CoM force are in equilibrium")."""
+    t0, t1 = _push_window(d)
+    if t1 - t0 < 1.0:
+        raise NotMeasurable(f"the push lasts {t1 - t0:.3f} s, less than the 1 s measured")
+    mid = 0.5 * (t0 + t1)
+    return mid - 0.5, mid + 0.5
+
+
+@metric(
+    "hold_force",
+    "mean force norm of the first disturbance over the middle second of its window (§VI-C's "
+    "≈ 75 N at equilibrium) [N]",
+)
+def _hold_force(d: LogData, arg: str) -> float:
+    """Window. Reads the logged applied wrenches (every physics step): for a hold
+    (``kind: hold``) the hand's force is an outcome of its impedance and the robot's motion,
+    so this measures the equilibrium the paper reports, not a set value."""
+    a, b = _middle_second(d)
+    body = d.spec.disturbances[0].body
+    dt = d.spec.sim.timestep
+    forces = [
+        float(np.linalg.norm(m["xfrc"].get(body, (0.0, 0.0, 0.0))[:3]))
+        for m in d.log.messages(record.TOPIC_INPUTS)
+        if a <= m["step"] * dt < b
+    ]
+    if not forces:
+        raise NotMeasurable("no applied wrench logged in the middle second of the push")
+    return float(np.mean(forces))
+
+
+@metric(
+    "hold_com_speed",
+    "mean |CoM x-velocity in O_w| over the middle second of the push or hold (Fig. 12d) [m/s]",
+)
+def _hold_com_speed(d: LogData, arg: str) -> float:
+    """Window. As ``push_com_speed``, over the middle second of the window: a hand that
+    engages and lets go over ramps holds the CoM between them."""
+    a, b = _middle_second(d)
+    t, yaw = d.require_signal("ow_yaw")
+    keep = (t >= a) & (t <= b)
+    if not np.any(keep):
+        raise NotMeasurable("no O_w logged in the middle second of the push")
     vel = _com_velocity_world(d, t[keep])
     vx = np.cos(yaw[keep]) * vel[:, 0] + np.sin(yaw[keep]) * vel[:, 1]
     return float(np.mean(np.abs(vx)))
