@@ -203,6 +203,7 @@ def run(
     disturbances = DisturbanceSchedule(spec.disturbances)
     contacts = ContactReader(model)
     body_ids = {d.body: model.body(d.body).id for d in spec.disturbances}
+    body_state = _body_state_reader(model, data, body_ids)
 
     fall = FallDetector(robot, model, spec)
 
@@ -277,7 +278,7 @@ def run(
                     writer.write(record.TOPIC_EVENTS, {"t": t, **_jsonable(event)}, t)
                 lap("logging")
             if disturbances.active_at(t):
-                wrenches, events = disturbances.wrenches(t, controller.frame)
+                wrenches, events = disturbances.wrenches(t, controller.frame, body_state)
                 for event in events:
                     writer.write(record.TOPIC_EVENTS, {"t": t, **event}, t)
                 data.xfrc_applied[:] = 0.0
@@ -347,6 +348,23 @@ def run(
         message=message or f"completed {sim_time:.3f} s",
         timing=clock.summary(controller.timing()),
     )
+
+
+def _body_state_reader(
+    model: mujoco.MjModel, data: mujoco.MjData, body_ids: dict[str, int]
+) -> Callable[[str], tuple[np.ndarray, np.ndarray]]:
+    """What a hand that holds a body feels: the body's centre of mass [m] and its linear
+    velocity [m/s] in the world, read after ``mj_step1`` (positions and velocities of this
+    step). Only the disturbance model reads it, never the controller."""
+    velocity = np.zeros(6)
+
+    def state(body: str) -> tuple[np.ndarray, np.ndarray]:
+        body_id = body_ids[body]
+        # [angular; linear] at the body's centre of mass, world orientation.
+        mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, body_id, velocity, 0)
+        return data.xipos[body_id].copy(), velocity[3:].copy()
+
+    return state
 
 
 def _set_home(robot: Robot, model: mujoco.MjModel, data: mujoco.MjData) -> None:
