@@ -1,4 +1,5 @@
-"""Ctrl-C at any moment leaves a useful run: exit 130, metrics.json and check.json, re-checkable."""
+"""Ctrl-C or SIGTERM at any moment, or a crash, leaves a useful run: run.json names the
+outcome, metrics.json and check.json are written, and check --run re-checks it."""
 
 from __future__ import annotations
 
@@ -28,9 +29,15 @@ expect:
 """
 
 
-def interrupt_run(args: list[str], out: Path, after_loop_start: float | None) -> tuple[int, str]:
-    """Start ``walkrepro run``, send SIGINT ``after_loop_start`` seconds after its log appears
-    (None: right away, before the loop), and return (exit code, output)."""
+def interrupt_run(
+    args: list[str],
+    out: Path,
+    after_loop_start: float | None,
+    signum: int = signal.SIGINT,
+) -> tuple[int, str]:
+    """Start ``walkrepro run``, send ``signum`` ``after_loop_start`` seconds after its log
+    appears (None: as soon as its run directory appears, before the simulation), and return
+    (exit code, output)."""
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     proc = subprocess.Popen(
         [sys.executable, "-m", "walkrepro", "run", *args, "--out", str(out), "--no-figures"],
@@ -39,7 +46,8 @@ def interrupt_run(args: list[str], out: Path, after_loop_start: float | None) ->
         env=env,
     )
     if after_loop_start is None:
-        # Wait for the run directory (the spec is resolved, set-up has begun), not the log.
+        # The run directory appears once the spec is valid, before the slow imports and the
+        # set-up: a signal then comes before the simulation starts.
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and not list(out.glob("*/.*.partial")):
             time.sleep(0.01)
@@ -48,7 +56,7 @@ def interrupt_run(args: list[str], out: Path, after_loop_start: float | None) ->
         while time.monotonic() < deadline and not list(out.glob("*/.*.partial/log.mcap")):
             time.sleep(0.05)
         time.sleep(after_loop_start)
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(signum)
     output, _ = proc.communicate(timeout=300)
     return proc.returncode, output.decode()
 
@@ -59,9 +67,11 @@ def only_run(out: Path) -> Path:
     return runs[0]
 
 
-def assert_useful(run: Path, code: int, text: str) -> dict:
-    """Exit 130, no traceback, metrics.json with a reason for each null, check.json written."""
-    assert code == 130, text
+def assert_useful(run: Path, code: int, text: str, exit_code: int = 130) -> dict:
+    """Exit 130 (143 after SIGTERM), no traceback, run.json says interrupted, metrics.json
+    with a reason for each null, check.json written."""
+    assert code == exit_code, text
+    assert json.loads((run / "run.json").read_text())["outcome"] == "interrupted"
     assert "Traceback" not in text, text
     saved = json.loads((run / "metrics.json").read_text())
     nulls = {k for k, v in saved["metrics"].items() if v is None}
@@ -89,6 +99,8 @@ def test_ctrl_c_at_any_moment_keeps_a_useful_run(tmp_path: Path, moment: float |
     run = only_run(out)
     saved = assert_useful(run, code, text)
     assert "fell" in saved["not_measurable"]  # unknown whether it would have fallen
+    if moment is None:  # stopped before the simulation: not one step simulated
+        assert json.loads((run / "run.json").read_text())["sim_time"] == 0.0
     code, text = recheck(run)
     assert code == 1 and "Traceback" not in text, text  # an interrupted run never passes
     assert "interrupted" in text
@@ -120,3 +132,103 @@ def test_flag_takes_the_first_ctrl_c_and_the_second_raises() -> None:
             os.kill(os.getpid(), signal.SIGINT)
             time.sleep(0.5)
     assert signal.getsignal(signal.SIGINT) is before
+
+
+@pytest.mark.parametrize("moment", [None, 1.0], ids=["before the loop", "in the loop"])
+def test_sigterm_is_handled_like_ctrl_c(tmp_path: Path, moment: float | None) -> None:
+    """SIGTERM (as schedulers and containers send) before or during the loop exits 143 with a finished, interrupted, re-checkable run directory."""
+    spec = tmp_path / "tiny_walk_stand.yaml"
+    spec.write_text(SPEC)
+    out = tmp_path / "runs"
+    code, text = interrupt_run([str(spec)], out, moment, signal.SIGTERM)
+    run = only_run(out)
+    assert not list(out.glob("*/.*.partial"))
+    assert_useful(run, code, text, exit_code=143)
+    record = json.loads((run / "run.json").read_text())
+    if moment is None:
+        assert record["sim_time"] == 0.0
+    else:
+        assert record["sim_time"] > 0.0 and (run / "log.mcap").is_file()
+    code, text = recheck(run)
+    assert code == 1 and "Traceback" not in text, text
+    assert "interrupted" in text
+
+
+#: Runs ``walkrepro run`` in a child process with one library function replaced by one that
+#: raises: a crash at a chosen stage, with no test hook in walkrepro itself.
+CRASH = """
+import sys
+import {module} as target
+
+def crash(*args, **kwargs):
+    raise RuntimeError("forced crash for a test")
+
+target.{name} = crash
+from walkrepro.cli import app
+app(sys.argv[1:])
+"""
+
+
+@pytest.mark.parametrize(
+    "target",
+    ["walkrepro.metrics.evaluate", "walkrepro.figures.plot_run", "walkrepro.runner._set_home"],
+    ids=["metrics", "figures", "set-up"],
+)
+def test_a_crash_leaves_an_error_run_directory(tmp_path: Path, target: str) -> None:
+    """A crash in set-up, or after the loop (metrics, figures), leaves a finished run directory whose run.json says error with the message; check --run works on it."""
+    module, name = target.rsplit(".", 1)
+    out = tmp_path / "runs"
+    args = ["run", "stand_coman", "--set", "sim.duration=0.05", "--out", str(out)]
+    if name != "plot_run":
+        args.append("--no-figures")
+    proc = subprocess.run(
+        [sys.executable, "-c", CRASH.format(module=module, name=name), *args],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert proc.returncode == 1, proc.stdout + proc.stderr
+    assert "forced crash for a test" in proc.stderr
+    assert not list(out.glob("*/.*.partial"))
+    run = only_run(out)
+    assert f"run directory: {run}" in proc.stderr  # named under the traceback
+    record = json.loads((run / "run.json").read_text())
+    assert record["outcome"] == "error", record
+    assert "RuntimeError: forced crash for a test" in record["message"]
+    assert "Traceback" in record["traceback"]
+    if name != "_set_home":
+        assert record["run_outcome"] == "complete"  # the simulation itself had finished
+    check = json.loads((run / "check.json").read_text())
+    assert check["passed"] is False or name == "plot_run"  # figures crash after the verdict
+    code, text = recheck(run)
+    assert code in (0, 1) and "Traceback" not in text, text
+
+
+def test_flag_takes_sigterm_like_ctrl_c_and_says_which() -> None:
+    """The first SIGTERM only sets the flag (exit code 143); a following SIGINT raises; both old handlers come back."""
+    before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    with InterruptFlag() as flag:
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(0.01)
+        assert flag.requested and flag.signum == signal.SIGTERM and flag.exit_code == 143
+        with pytest.raises(KeyboardInterrupt):
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.5)
+    assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
+
+
+def test_a_run_without_log_is_rechecked_from_its_record(tmp_path: Path) -> None:
+    """A run directory stopped before its log exists (run.json and spec.yaml only) re-checks as interrupted; one without spec.yaml is a one-paragraph error."""
+    from walkrepro import results
+    from walkrepro.spec import load_spec
+
+    spec = load_spec("stand_coman").spec
+    run = results.abandon(
+        results.new_run_dir(tmp_path, spec.name), spec.to_yaml(), spec.name, "interrupted", "x"
+    )
+    code, text = recheck(run)
+    assert code == 1 and "interrupted" in text and "Traceback" not in text, text
+    assert json.loads((run / "check.json").read_text())["outcome"] == "interrupted"
+    (run / "spec.yaml").unlink()
+    code, text = recheck(run)
+    assert code == 2 and "nothing to check" in text, text

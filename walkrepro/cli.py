@@ -614,7 +614,8 @@ def _run_one(name: str, overrides: list[str], out: Path, figures: bool, show_pro
             from walkrepro.experiment import execute
         except BaseException as exc:  # a second Ctrl-C during the import
             outcome = "interrupted" if isinstance(exc, KeyboardInterrupt) else "error"
-            results.abandon(run_dir, spec.name, outcome, f"{outcome} before the run started")
+            message = f"{outcome} before the run started"
+            results.abandon(run_dir, spec.to_yaml(), spec.name, outcome, message)
             raise
         if not show_progress:
             return execute(spec, out, None, figures, overrides, flag, run_dir)

@@ -27,7 +27,7 @@ class RunSummary:
     ``relative`` says whether the verdict compares with other experiments' runs (so a
     batch re-evaluates it once every run of the batch is done). ``interrupted`` is true
     when Ctrl-C stopped the run or the work after it (metrics and verdict are then still
-    written; figures are skipped).
+    written; figures are skipped); ``signum`` is the signal that stopped it.
     """
 
     run_dir: Path
@@ -36,6 +36,15 @@ class RunSummary:
     verdict: checks.Verdict
     relative: bool = False
     interrupted: bool = False
+    signum: int | None = None
+
+    @property
+    def exit_code(self) -> int:
+        """The exit code of a command stopped here: ``128 + signum`` (130 for Ctrl-C, 143
+        for SIGTERM); 0 when the run was not stopped."""
+        from walkrepro.interrupt import exit_code
+
+        return exit_code(self.signum) if self.interrupted else 0
 
 
 class References:
@@ -138,62 +147,163 @@ def execute(
     progress: ProgressCallback | None = None,
     figures: bool = True,
     overrides: Sequence[str] = (),
+    interrupt: InterruptFlag | None = None,
+    run_dir: results.RunDir | None = None,
 ) -> RunSummary:
     """Run ``spec`` (already resolved) and write the complete run directory.
 
-    Ctrl-C at any moment still leaves a complete run directory: the log (closed, marked
-    ``interrupted``), ``run.json``, ``metrics.json`` (what cannot be computed is null, with
-    its reason) and ``check.json``. ``overrides`` are the ``--set`` strings the spec was
-    resolved with; ``run.json`` records them so partner runs can be matched later.
+    Ctrl-C or SIGTERM at any moment still leaves a complete run directory: the log (closed,
+    marked ``interrupted``; none if the stop came before the run started), ``run.json``,
+    ``metrics.json`` (what cannot be computed is null, with its reason) and ``check.json``.
+    An exception anywhere (in the run, the metrics or the figures) is recorded in
+    ``run.json`` as outcome ``error`` with its message and traceback, and re-raised once the
+    directory has its final name: a run directory without ``run.json`` never appears.
+
+    Args:
+        spec: the resolved spec.
+        out_root: root of run directories.
+        progress: called a few times per second during the run.
+        figures: draw the paper's figures after the run.
+        overrides: the ``--set`` strings the spec was resolved with; ``run.json`` records
+            them so partner runs can be matched later.
+        interrupt: the caller's flag, installed before the caller's own slow set-up (so a
+            stop from the moment the command started counts); by default one is installed
+            here.
+        run_dir: a run directory the caller created (under ``out_root``); by default a new
+            one.
     """
-    # The flag is installed before the run directory exists: a Ctrl-C from the moment the
+    if interrupt is None:
+        with InterruptFlag() as own:
+            return execute(spec, out_root, progress, figures, overrides, own, run_dir)
+    flag = interrupt
+    # The flag is installed before the run directory exists: a stop from the moment the
     # directory appears is a request, and the directory is always finished.
-    with InterruptFlag() as flag:
-        run_dir = results.new_run_dir(out_root, spec.name)
-        log_path = run_dir.work / results.LOG_FILE
-        try:
-            (run_dir.work / results.SPEC_FILE).write_text(spec.to_yaml())
+    run_dir = run_dir or results.new_run_dir(out_root, spec.name)
+    log_path = run_dir.work / results.LOG_FILE
+    record: dict[str, object] = {
+        "experiment": spec.name,
+        "overrides": list(overrides),
+        "commit": provenance.git_commit(),
+        "versions": provenance.library_versions(),
+    }
+    result: RunResult | None = None
+    stage = "setting up the run"
+    try:
+        (run_dir.work / results.SPEC_FILE).write_text(spec.to_yaml())
+        if flag.requested:  # stopped while the command started: no simulation at all
+            result = RunResult(
+                spec.name, log_path, "interrupted", 0.0, 0.0, None, _stopped_before(flag)
+            )
+        else:
+            stage = "running the simulation"
             try:
                 result = run(spec, log_path, progress, flag)
             except KeyboardInterrupt:  # a second Ctrl-C in set-up, before the log was opened
                 result = RunResult(
                     spec.name, log_path, "interrupted", 0.0, 0.0, None, "interrupted in set-up"
                 )
-            results.write_json(
-                run_dir.work / results.RUN_FILE,
-                {
-                    "experiment": spec.name,
-                    "outcome": result.outcome,
-                    "message": result.message,
-                    "sim_time": result.sim_time,
-                    "wall_time": result.wall_time,
-                    "real_time_factor": result.real_time_factor,
-                    "overrides": list(overrides),
-                    "commit": provenance.git_commit(),
-                    "versions": provenance.library_versions(),
-                },
-            )
-            values, verdict = _evaluate_interruptible(
-                spec, log_path, run_dir.work, result, References(overrides=overrides)
-            )
-            if figures and result.outcome != "interrupted" and not flag.requested:
-                from walkrepro.figures import plot_run
+        _write_run_record(run_dir.work, record, result)
+        stage = "computing the metrics and the verdict"
+        values, verdict = _evaluate_interruptible(
+            spec, log_path, run_dir.work, result, References(overrides=overrides)
+        )
+        stage = "drawing the figures"
+        if figures and result.outcome != "interrupted" and not flag.requested:
+            from walkrepro.figures import plot_run
 
-                try:
-                    plot_run(log_path, run_dir.work / results.FIGURES_DIR)
-                except KeyboardInterrupt:  # figures are optional: the run is kept without
-                    flag.requested = True
-        finally:
-            final = run_dir.finish()
+            try:
+                plot_run(log_path, run_dir.work / results.FIGURES_DIR)
+            except KeyboardInterrupt:  # figures are optional: the run is kept without
+                flag.requested = True
+    except BaseException as exc:
+        _record_failure(spec, run_dir.work, record, result, stage, exc)
+        final = run_dir.finish()
+        if hasattr(exc, "add_note"):  # Python >= 3.11
+            exc.add_note(f"run directory: {final} (run.json records the failure)")
+        raise
+    final = run_dir.finish()
     relative = any(e.relative_to is not None for e in spec.expect)
+    stopped = flag.requested or result.outcome == "interrupted"
     return RunSummary(
         run_dir=final,
         result=_moved(result, final),
         metrics=values,
         verdict=verdict,
         relative=relative,
-        interrupted=flag.requested or result.outcome == "interrupted",
+        interrupted=stopped,
+        signum=flag.signum if stopped else None,
     )
+
+
+def _stopped_before(flag: InterruptFlag) -> str:
+    """The message of a run stopped before its simulation started."""
+    import signal
+
+    name = signal.Signals(flag.signum).name if flag.signum is not None else "a signal"
+    return f"interrupted ({name}) before the simulation started"
+
+
+def _write_run_record(work: Path, record: dict[str, object], result: RunResult) -> None:
+    """``run.json``: the run's outcome and timing, with the provenance in ``record``."""
+    results.write_json(
+        work / results.RUN_FILE,
+        {
+            "experiment": record["experiment"],
+            "outcome": result.outcome,
+            "message": result.message,
+            "sim_time": result.sim_time,
+            "wall_time": result.wall_time,
+            "real_time_factor": result.real_time_factor,
+            **{k: v for k, v in record.items() if k != "experiment"},
+        },
+    )
+
+
+def _record_failure(
+    spec: ExperimentSpec,
+    work: Path,
+    record: dict[str, object],
+    result: RunResult | None,
+    stage: str,
+    exc: BaseException,
+) -> None:
+    """Write ``run.json`` for a run that raised ``exc`` while at ``stage``: outcome ``error``
+    (``interrupted`` for a second Ctrl-C) with the message and traceback; and, where they
+    are missing, ``metrics.json`` (every metric null, with the reason) and ``check.json``.
+
+    Never raises: the original exception is what the caller re-raises.
+    """
+    import traceback
+
+    interrupted = isinstance(exc, KeyboardInterrupt)
+    what = "interrupted" if interrupted else f"{type(exc).__name__}: {exc}"
+    message = f"{what} (while {stage})"
+    try:
+        results.write_json(
+            work / results.RUN_FILE,
+            {
+                "experiment": record["experiment"],
+                "outcome": "interrupted" if interrupted else "error",
+                "message": message,
+                # How the simulation itself ended, when it did before the failure.
+                "run_outcome": result.outcome if result is not None else None,
+                "run_message": result.message if result is not None else None,
+                "sim_time": result.sim_time if result is not None else None,
+                "wall_time": result.wall_time if result is not None else None,
+                "traceback": "".join(traceback.format_exception(exc)),
+                **{k: v for k, v in record.items() if k != "experiment"},
+            },
+        )
+        if not (work / results.CHECK_FILE).is_file():
+            names = metric_names(spec)
+            values = {n: math.nan for n in names}
+            reasons = dict.fromkeys(names, f"the run failed: {message}")
+            outcome = "interrupted" if interrupted else "error"
+            verdict = checks.evaluate(spec, values, outcome, References(), reasons)
+            results.write_metrics(work / results.METRICS_FILE, values, reasons)
+            results.write_json(work / results.CHECK_FILE, verdict.to_json())
+    except Exception:  # noqa: BLE001, S110 - best effort: run.json is written first
+        pass
 
 
 def _evaluate_interruptible(
@@ -211,10 +321,22 @@ def _evaluate_interruptible(
         reason = "the run was interrupted before its log was opened"
     except KeyboardInterrupt:
         reason = "interrupted again while the metrics were computed"
+    return _unmeasured(spec, run_dir, result.outcome, reason, references)
+
+
+def _unmeasured(
+    spec: ExperimentSpec,
+    run_dir: Path,
+    outcome: str,
+    reason: str,
+    references: checks.ReferenceLookup,
+) -> tuple[dict[str, float], checks.Verdict]:
+    """Every metric null with ``reason``, and the verdict on that; both written to
+    ``run_dir``."""
     names = metric_names(spec)
     values = {n: math.nan for n in names}
     reasons = dict.fromkeys(names, reason)
-    verdict = checks.evaluate(spec, values, result.outcome, references, reasons)
+    verdict = checks.evaluate(spec, values, outcome, references, reasons)
     results.write_metrics(run_dir / results.METRICS_FILE, values, reasons)
     results.write_json(run_dir / results.CHECK_FILE, verdict.to_json())
     return values, verdict
@@ -226,8 +348,12 @@ def evaluate_log(
     """Compute metrics and the verdict from a log; write ``metrics.json`` and ``check.json``.
 
     ``references`` finds partner runs for relative expectations; by default the committed
-    references (the right partner for a run made without overrides).
+    references (the right partner for a run made without overrides). A run stopped before
+    its log was opened has no log: its ``run.json`` and ``spec.yaml`` give the verdict
+    (every metric null, with the reason).
     """
+    if not log_path.is_file() and (run_dir / results.RUN_FILE).is_file():
+        return _evaluate_unlogged(run_dir, references or References())
     data = metrics.LogData.from_path(log_path)
     found = metrics.evaluate(data, metric_names(data.spec))
     verdict = checks.evaluate(
@@ -236,6 +362,33 @@ def evaluate_log(
     results.write_metrics(run_dir / results.METRICS_FILE, found.values, found.reasons)
     results.write_json(run_dir / results.CHECK_FILE, verdict.to_json())
     return found.values, verdict
+
+
+def _evaluate_unlogged(
+    run_dir: Path, references: checks.ReferenceLookup
+) -> tuple[dict[str, float], checks.Verdict]:
+    """The verdict of a run directory without a log, from its ``run.json`` and
+    ``spec.yaml``.
+
+    Raises:
+        WalkreproError: ``run.json`` or ``spec.yaml`` is missing or unreadable.
+    """
+    from walkrepro.spec import spec_from_yaml_text
+
+    record_path, spec_path = run_dir / results.RUN_FILE, run_dir / results.SPEC_FILE
+    try:
+        record = json.loads(record_path.read_text())
+        outcome, message = str(record["outcome"]), str(record.get("message", ""))
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise WalkreproError(f"{record_path}: not a walkrepro run record ({exc}).") from None
+    if not spec_path.is_file():
+        raise WalkreproError(
+            f"{run_dir}: this run has no {results.LOG_FILE} and no {results.SPEC_FILE} "
+            f"({outcome}: {message}); there is nothing to check."
+        )
+    spec = spec_from_yaml_text(spec_path.read_text(), str(spec_path))
+    reason = f"the run has no log ({outcome}: {message})"
+    return _unmeasured(spec, run_dir, outcome, reason, references)
 
 
 def _moved(result: RunResult, final: Path) -> RunResult:

@@ -68,6 +68,21 @@ def new_run_dir(root: Path, experiment: str) -> RunDir:
     raise WalkreproError(f"could not find a free run directory name under {parent}")
 
 
+def abandon(run_dir: RunDir, spec_yaml: str, experiment: str, outcome: str, message: str) -> Path:
+    """Give a run that never started its ``spec.yaml``, its ``run.json`` (``outcome`` and
+    ``message``) and its final name; returns the final directory. Never leaves the
+    directory hidden."""
+    try:
+        (run_dir.work / SPEC_FILE).write_text(spec_yaml)
+        write_json(
+            run_dir.work / RUN_FILE,
+            {"experiment": experiment, "outcome": outcome, "message": message},
+        )
+    finally:
+        final = run_dir.finish()
+    return final
+
+
 def write_json(path: Path, data: object) -> None:
     """Write JSON with a trailing newline (NaN written as null)."""
     path.write_text(json.dumps(_nan_to_none(data), indent=2) + "\n")
@@ -117,12 +132,16 @@ def _nan_to_none(x: object) -> object:
 def resolve_run(path: Path) -> tuple[Path, Path]:
     """A run directory or a log file -> (run directory, log path).
 
+    A run stopped before its log was opened has a ``run.json`` and no log: its directory
+    and the log path it would have are returned (the log path does not exist).
+
     Raises:
-        WalkreproError: if neither a run directory with ``log.mcap`` nor a log file.
+        WalkreproError: if neither a run directory with ``log.mcap`` or ``run.json`` nor a
+            log file.
     """
     if path.is_dir():
         log = path / LOG_FILE
-        if not log.is_file():
+        if not log.is_file() and not (path / RUN_FILE).is_file():
             raise WalkreproError(f"{path}: not a run directory (no {LOG_FILE} inside).")
         return path, log
     if path.is_file():
