@@ -589,6 +589,33 @@ def bench(
         _console().print(f"wrote {json_out}")
 
 
+@app.command("docs")
+@friendly_errors
+def docs_cmd(
+    check_only: Annotated[
+        bool,
+        typer.Option("--check", help="Write nothing; exit 1 if a generated document is stale."),
+    ] = False,
+) -> None:
+    """Regenerate docs/ (spec reference, experiments, known deviations) and the README's
+    status table from the specs and the committed results."""
+    from walkrepro.docsgen import generated_files, stale_files, write_docs
+
+    files = generated_files()
+    if check_only:
+        stale = stale_files(files)
+        for path in stale:
+            _console().print(f"stale: {path} (run walkrepro docs)", highlight=False)
+        if stale:
+            raise typer.Exit(code=1)
+        _console().print(f"{len(files)} generated documents up to date")
+        return
+    written = write_docs(files)
+    for path in written:
+        _console().print(f"wrote {path}", highlight=False)
+    _console().print(f"{len(files) - len(written)} of {len(files)} already up to date")
+
+
 # --------------------------------------------------------------------------------------
 
 
