@@ -137,6 +137,9 @@ def run(
     summary = _run_one(experiment, set_ or [], out, figures, show_progress=True)
     _print_verdicts([summary.verdict])
     _console().print(f"run directory: [bold]{summary.run_dir}[/]")
+    for what, name in (("figures", results.FIGURES_DIR), ("video", "video.mp4")):
+        if (summary.run_dir / name).exists():
+            _console().print(f"{what}: {summary.run_dir / name}", highlight=False)
     if summary.interrupted:  # 130 after Ctrl-C, 143 after SIGTERM
         raise typer.Exit(code=summary.exit_code)
     if summary.result.outcome == "error":
@@ -336,8 +339,11 @@ def _ignore_sigint() -> None:
 
 def _update_references(summaries: list) -> None:
     """Snapshot strips (when a GL backend exists) and the committed references."""
+    import shutil
+
     from walkrepro.gl import RenderingUnavailable
     from walkrepro.render import render_strip
+    from walkrepro.video import VIDEO_FILE
 
     for s in summaries:
         # A snapshot strip over the run, like the papers' photo sequences.
@@ -353,6 +359,10 @@ def _update_references(summaries: list) -> None:
         except RenderingUnavailable as exc:
             _console(stderr=True).print(f"[yellow]no snapshot strip:[/] {exc}", highlight=False)
         target = results.save_reference(s.run_dir)
+        # A reference keeps a video where it has one (the headline experiments: a size budget).
+        video = s.run_dir / VIDEO_FILE
+        if video.is_file() and (target / VIDEO_FILE).is_file():
+            shutil.copy2(video, target / VIDEO_FILE)
         _console().print(f"reference updated: {target}")
 
 
@@ -416,17 +426,54 @@ def verify(
 @friendly_errors
 def render(
     run_path: Annotated[Path, typer.Argument(help="Run directory or log.")],
-    at: Annotated[str, typer.Option(help="Comma-separated times [s].")] = "0,1,2,3,4",
+    video: Annotated[
+        bool,
+        typer.Option(
+            "--video",
+            help="Write an MP4 (H.264) of the whole run at real time instead of a strip.",
+        ),
+    ] = False,
+    at: Annotated[str, typer.Option(help="Comma-separated times [s] (strip).")] = "0,1,2,3,4",
     out: Annotated[
-        Path | None, typer.Option(help="PNG path (default: RUN/figures/snapshots.png).")
+        Path | None,
+        typer.Option(
+            help="Output path (default: RUN/figures/snapshots.png, or RUN/video.mp4 with --video)."
+        ),
     ] = None,
-    width: Annotated[int, typer.Option(help="Width of each frame [px].")] = 480,
-    height: Annotated[int, typer.Option(help="Height of each frame [px].")] = 640,
+    width: Annotated[
+        int | None, typer.Option(help="Frame width [px] (default: 480 strip, 640 video).")
+    ] = None,
+    height: Annotated[
+        int | None, typer.Option(help="Frame height [px] (default: 640 strip, 360 video).")
+    ] = None,
+    fps: Annotated[int, typer.Option(help="Video frames per simulated second.")] = 30,
+    contact_forces: Annotated[
+        bool, typer.Option("--contact-forces", help="Draw contact forces in the video.")
+    ] = False,
 ) -> None:
-    """Render a snapshot strip of a run, headless (MUJOCO_GL=osmesa or egl)."""
+    """Render a snapshot strip of a run, or with --video an MP4 of it, headless.
+
+    The video follows the pelvis from the side, colours each link, draws disturbance forces
+    as red arrows and overlays the time and the controller's state.
+    """
+    directory, log = results.resolve_run(run_path)
+    if video:
+        from walkrepro.video import DEFAULT_HEIGHT, DEFAULT_WIDTH, VIDEO_FILE, render_video
+
+        info = render_video(
+            log,
+            out or directory / VIDEO_FILE,
+            fps=fps,
+            width=width or DEFAULT_WIDTH,
+            height=height or DEFAULT_HEIGHT,
+            contact_forces=contact_forces,
+        )
+        _console().print(
+            f"wrote {info.path} ({info.n_frames} frames, {info.duration:.2f} s at {info.fps} fps)"
+        )
+        return
     from walkrepro.render import render_strip
 
-    directory, log = results.resolve_run(run_path)
     try:
         times = [float(x) for x in at.split(",") if x.strip()]
     except ValueError:
@@ -434,7 +481,11 @@ def render(
             f"--at {at!r}: expected comma-separated times in seconds, e.g. 0,2,4."
         ) from None
     path = render_strip(
-        log, times, out or directory / results.FIGURES_DIR / "snapshots.png", width, height
+        log,
+        times,
+        out or directory / results.FIGURES_DIR / "snapshots.png",
+        width or 480,
+        height or 640,
     )
     _console().print(f"wrote {path}")
 

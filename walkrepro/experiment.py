@@ -215,6 +215,14 @@ def execute(
                 plot_run(log_path, run_dir.work / results.FIGURES_DIR)
             except KeyboardInterrupt:  # figures are optional: the run is kept without
                 flag.requested = True
+        stage = "rendering the video"
+        if figures and result.outcome != "interrupted" and not flag.requested:
+            from walkrepro.video import render_run_video
+
+            try:  # the run's video, when a GL backend exists (else a one-line note)
+                render_run_video(log_path, run_dir.work)
+            except KeyboardInterrupt:
+                flag.requested = True
     except BaseException as exc:
         _record_failure(spec, run_dir.work, record, result, stage, exc)
         final = run_dir.finish()

@@ -1,12 +1,14 @@
-"""Snapshot strips of a run, rendered headless from the log (like the papers' photo strips).
+"""Snapshot strips and videos of a run, rendered headless from the log.
 
-Rendering reads only the log: the scene XML and the logged states. It is also the quickest
-way to check by eye that a robot really walks. The OpenGL backend is chosen here, when a
-strip is rendered, never at import (:mod:`walkrepro.gl`).
+Rendering reads only the log: the scene XML, the logged states, the applied disturbance
+wrenches and the controller's events. It is also the quickest way to check by eye that a
+robot really walks. The OpenGL backend is chosen here, when something is rendered, never at
+import (:mod:`walkrepro.gl`). The video itself is written by :mod:`walkrepro.video`.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import matplotlib
@@ -40,7 +42,7 @@ def render_strip(log_path: Path, times: list[float], out: Path, width: int, heig
     camera.azimuth, camera.elevation, camera.distance = 90.0, -15.0, 3.2
     frames, shown = [], []
     pelvis = model.body("pelvis").id
-    with _Offscreen(model, width, height) as view:
+    with Offscreen(model, width, height) as view:
         for when in times:
             i = int(np.argmin(np.abs(t - when)))
             data.qpos[:] = states[i]["qpos"]
@@ -68,38 +70,68 @@ def render_strip(log_path: Path, times: list[float], out: Path, width: int, heig
     return out
 
 
-class _Offscreen:
+class Offscreen:
     """An offscreen MuJoCo render target on the backend :func:`walkrepro.gl.gl_context_class`
     chose (MuJoCo's public ``mjr_*`` API, so the backend need not be the one MuJoCo picked
     when it was imported)."""
 
-    def __init__(self, model: mujoco.MjModel, width: int, height: int) -> None:
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        width: int,
+        height: int,
+        font_scale: int = mujoco.mjtFontScale.mjFONTSCALE_150,
+        shadows: bool = True,
+    ) -> None:
+        """Args: ``shadows`` False also drops reflections (three times faster in software GL)."""
         self._model = model
         self._viewport = mujoco.MjrRect(0, 0, width, height)
         self._context = gl.gl_context_class()(width, height)
         self._context.make_current()
-        self._scene = mujoco.MjvScene(model, maxgeom=10000)
-        self._mjr = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150)
+        self.scene = mujoco.MjvScene(model, maxgeom=10000)
+        if not shadows:
+            self.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = 0
+            self.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = 0
+        self._mjr = mujoco.MjrContext(model, font_scale)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._mjr)
-        self._option, self._perturb = mujoco.MjvOption(), mujoco.MjvPerturb()
+        self.option, self._perturb = mujoco.MjvOption(), mujoco.MjvPerturb()
         self._pixels = np.empty((height, width, 3), dtype=np.uint8)
 
-    def render(self, data: mujoco.MjData, camera: mujoco.MjvCamera) -> np.ndarray:
-        """One RGB frame (height x width x 3, uint8, top row first)."""
+    def render(
+        self,
+        data: mujoco.MjData,
+        camera: mujoco.MjvCamera,
+        decorate: Callable[[mujoco.MjvScene], None] | None = None,
+        overlays: Sequence[tuple[int, str, str]] = (),
+    ) -> np.ndarray:
+        """One RGB frame (height x width x 3, uint8, top row first).
+
+        Args:
+            data: the state to draw (kinematics already computed).
+            camera: the camera.
+            decorate: adds geoms (e.g. arrows) to the scene after MuJoCo filled it.
+            overlays: text boxes ``(mjtGridPos, left column, right column)``.
+        """
         mujoco.mjv_updateScene(
             self._model,
             data,
-            self._option,
+            self.option,
             self._perturb,
             camera,
             mujoco.mjtCatBit.mjCAT_ALL,
-            self._scene,
+            self.scene,
         )
-        mujoco.mjr_render(self._viewport, self._scene, self._mjr)
+        if decorate is not None:
+            decorate(self.scene)
+        mujoco.mjr_render(self._viewport, self.scene, self._mjr)
+        for gridpos, left, right in overlays:
+            mujoco.mjr_overlay(
+                mujoco.mjtFont.mjFONT_NORMAL, gridpos, self._viewport, left, right, self._mjr
+            )
         mujoco.mjr_readPixels(self._pixels, None, self._viewport, self._mjr)
         return np.flipud(self._pixels).copy()
 
-    def __enter__(self) -> _Offscreen:
+    def __enter__(self) -> Offscreen:
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -1,0 +1,114 @@
+"""Videos of runs (``walkrepro render RUN --video``): frames, arrows, overlays, the MP4."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from walkrepro import gl, video
+from walkrepro.cli import app
+from walkrepro.errors import WalkreproError
+
+NO_GL = gl.INSTALL_HINT.format(tried="probed at collection")
+
+
+def test_frame_times_cover_the_run_at_the_frame_rate() -> None:
+    """Frames fall every 1/fps of simulated time, from 0 up to the last logged time."""
+    assert len(video.frame_times(1.0, 30)) == 31
+    assert len(video.frame_times(0.99, 30)) == 30
+    np.testing.assert_allclose(video.frame_times(0.1, 30), [0, 1 / 30, 2 / 30, 3 / 30])
+
+
+def test_each_robot_body_gets_its_own_colour_and_the_floor_keeps_its_own() -> None:
+    """Neighbouring links differ in colour; geoms outside the robot (the floor) are untouched."""
+    model = mujoco.MjModel.from_xml_string(
+        """<mujoco><worldbody><geom name="floor" type="plane" size="1 1 1" rgba="1 1 1 1"/>
+        <body name="pelvis"><freejoint/><geom type="sphere" size="0.1"/>
+          <body name="thigh"><joint type="hinge"/><geom type="capsule" size="0.05 0.2"/>
+          </body></body></worldbody></mujoco>"""
+    )
+    video.colour_bodies(model, model.body("pelvis").id)
+    pelvis, thigh = model.geom_rgba[1], model.geom_rgba[2]
+    assert not np.allclose(pelvis, thigh)
+    np.testing.assert_allclose(model.geom_rgba[0], [1, 1, 1, 1])
+    np.testing.assert_allclose(pelvis[:3], video.PALETTE[0])
+
+
+def test_a_disturbance_is_an_arrow_ending_at_the_pushed_body() -> None:
+    """A pushed body gets one arrow pointing along the force to its centre of mass; no force,
+    no arrow."""
+    model = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><body name="torso" pos="0 0 1"><freejoint/>'
+        '<geom type="box" size="0.1 0.1 0.1"/></body></worldbody></mujoco>'
+    )
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    scene = mujoco.MjvScene(model, maxgeom=10)
+    torso = model.body("torso").id
+    video._arrows(data, {torso: np.array([60.0, 0.0, 0.0])})(scene)
+    assert scene.ngeom == 1
+    arrow = scene.geoms[0]
+    assert arrow.type == mujoco.mjtGeom.mjGEOM_ARROW
+    # The arrow starts 0.6 m behind the body (60 N at 0.01 m/N) and points along +x.
+    np.testing.assert_allclose(arrow.pos, [-0.6, 0.0, 1.0], atol=1e-9)
+    np.testing.assert_allclose(arrow.mat[:, 2], [1.0, 0.0, 0.0], atol=1e-9)
+    empty = mujoco.MjvScene(model, maxgeom=10)
+    video._arrows(data, {torso: np.zeros(3)})(empty)
+    assert empty.ngeom == 0
+
+
+def test_the_overlay_names_the_controller_state_from_its_events() -> None:
+    """The E-FSM's state is its last transition; a fall is shown for EVENT_SHOWN seconds only."""
+    events = [
+        {"t": 0.1, "kind": "fsm", "from": "DS", "to": "SSD"},
+        {"t": 0.1, "kind": "support", "foot": "left", "step": 1},
+        {"t": 0.3, "kind": "fsm", "from": "SSD", "to": "SSA"},
+        {"t": 0.5, "kind": "fall", "reason": "pelvis low"},
+    ]
+    labels, values = video._state_text(events, 0.2)
+    assert labels.splitlines() == ["FSM state", "footstep"]
+    assert values.splitlines() == ["SSD", "step 1 (left support)"]
+    assert "fall pelvis low" in video._state_text(events, 0.6)[1]
+    assert "fall" not in video._state_text(events, 0.5 + video.EVENT_SHOWN + 0.1)[1]
+    assert video._state_text([], 1.0) == ("", "")
+
+
+def test_an_odd_video_size_is_refused_before_rendering(tmp_path: Path) -> None:
+    """H.264 in yuv420p needs even sizes: an odd one is a user error, not an encoder crash."""
+    with pytest.raises(WalkreproError, match="even width and height"):
+        video.render_video(tmp_path / "missing.mcap", tmp_path / "v.mp4", width=641)
+
+
+@pytest.mark.skipif(not gl.available(), reason=NO_GL)
+def test_render_video_writes_a_playable_mp4_of_the_whole_run(tmp_path: Path) -> None:
+    """`walkrepro render RUN --video` writes an H.264 MP4 whose reader reports one frame per
+    1/fps of simulated time and the matching duration; every frame decodes."""
+    import imageio_ffmpeg
+
+    from walkrepro.runner import run
+    from walkrepro.spec import load_spec, resolve_spec
+
+    spec = resolve_spec(load_spec("stand_dyros_red", ["sim.duration=0.5"])).spec
+    log = tmp_path / "log.mcap"
+    run(spec, log)
+    result = CliRunner().invoke(app, ["render", str(log), "--video", "--fps", "20"])
+    assert result.exit_code == 0, result.output
+    mp4 = tmp_path / video.VIDEO_FILE
+    expected = len(video.frame_times(0.5, 20))  # 11 frames: t = 0, 0.05, ..., 0.5 s
+    assert f"{expected} frames" in result.output
+    reader = imageio_ffmpeg.read_frames(str(mp4))
+    meta = next(reader)
+    assert meta["codec"].startswith("h264")
+    assert meta["size"] == (video.DEFAULT_WIDTH, video.DEFAULT_HEIGHT)
+    assert meta["fps"] == pytest.approx(20)
+    frames = [np.frombuffer(f, np.uint8) for f in reader]
+    assert len(frames) == expected
+    assert all(f.size == video.DEFAULT_WIDTH * video.DEFAULT_HEIGHT * 3 for f in frames)
+    assert np.ptp(frames[0]) > 50  # a picture, not a blank frame
+    n, seconds = imageio_ffmpeg.count_frames_and_secs(str(mp4))
+    assert n == expected
+    assert seconds == pytest.approx(expected / 20, abs=0.051)
