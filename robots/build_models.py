@@ -30,7 +30,7 @@ import math
 import sys
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import mujoco
@@ -252,6 +252,15 @@ class SeaModel:
     supply: float
 
 
+#: A drive value: one number for every joint, or one per joint kind (``hip_yaw`` … ``ankle_roll``).
+PerJoint = float | dict[str, float]
+
+
+def per_joint(value: PerJoint, base: str) -> float:
+    """``value`` itself, or its entry for the joint kind ``base`` (e.g. ``knee``)."""
+    return float(value) if isinstance(value, int | float) else float(value[base])
+
+
 @dataclass(frozen=True)
 class DriveModel:
     """DYROS RED's joint drive (Lee et al. §V-A): motor, 100:1 harmonic drive, current loop.
@@ -264,9 +273,9 @@ class DriveModel:
 
     Attributes:
         gear_ratio: N (paper §V-A: 100:1).
-        rotor_inertia: motor rotor inertia, motor side [kg m^2].
-        motor_damping: viscous friction of motor and gear, link side [Nms/rad].
-        friction: Coulomb friction of motor and gear, link side [Nm].
+        armature: rotor inertia reflected to the link, J_rotor N² [kg m^2], per joint kind.
+        motor_damping: viscous friction of motor and gear, link side [Nms/rad], per joint kind.
+        friction: Coulomb friction of motor and gear, link side [Nm], per joint kind.
         stiffness: harmonic-drive torsional stiffness [Nm/rad].
         gear_damping: damping of the torsional compliance [Nms/rad].
         torque_lag: time constant of the torque loop [s].
@@ -274,18 +283,13 @@ class DriveModel:
     """
 
     gear_ratio: float
-    rotor_inertia: float
-    motor_damping: float
-    friction: float
+    armature: PerJoint
+    motor_damping: PerJoint
+    friction: PerJoint
     stiffness: float
     gear_damping: float
     torque_lag: float
     spring_range: float
-
-    @property
-    def reflected_inertia(self) -> float:
-        """Rotor inertia seen at the link, J_rotor N^2 [kg m^2]."""
-        return self.rotor_inertia * self.gear_ratio**2
 
 
 def side_name(side: int) -> str:
@@ -312,9 +316,9 @@ def drive_joint(
             f"{name}_motor",
             AXIS[base],
             rng,
-            drive.motor_damping,
-            drive.reflected_inertia,
-            frictionloss=drive.friction,
+            per_joint(drive.motor_damping, base),
+            per_joint(drive.armature, base),
+            frictionloss=per_joint(drive.friction, base),
         ),
         Joint(
             name,
@@ -483,7 +487,20 @@ def dyros_leg(side: int, joints: dict[str, JointSpec], drive: DriveModel | None 
     return leg(side, DYROS_LEG, joint)
 
 
-def build_dyros(drive: DriveModel | None = None) -> RobotDesign:
+def build_dyros(
+    drive: DriveModel | None = None,
+    armature: PerJoint = 0.1,
+    name: str = "",
+    description: str = "",
+) -> RobotDesign:
+    """DYROS RED: rigid torque-driven joints, or with ``drive`` each joint's drive model.
+
+    Args:
+        drive: the joint drives (motor and gear DoFs); None for rigid joints.
+        armature: reflected rotor inertia of the rigid joints [kg m^2], per joint kind.
+        name: the robot's name (default ``dyros_red``, or ``dyros_red_actuated`` with a drive).
+        description: the robot's one-line description (default by the same rule).
+    """
     leg_mass = sum(DYROS_LEG_MASSES)
     upper = DYROS_TOTAL_MASS - 2 * leg_mass  # rigid pelvis + torso + head + arms [kg]
     straight_pelvis_z = DYROS_SOLE_DEPTH + DYROS_SHANK + DYROS_THIGH - DYROS_HIP_Z
@@ -521,10 +538,10 @@ def build_dyros(drive: DriveModel | None = None) -> RobotDesign:
     }
     for s in ("l", "r"):
         for j in LEG_JOINTS:
-            # notes: damping ≈ 2 Nms/rad and ±300 Nm in the lab's simulation model;
-            # armature 0.1 kg m^2 assumed (small reflected rotor inertia of a 100:1 drive).
+            # lab's model (robots/dyros_red/README.md): damping 2.0 Nms/rad, ±300 Nm;
+            # armature 0.1 kg m^2 assumed by default (the lab's model has none).
             joints[f"{s}_{j}"] = JointSpec(
-                leg_ranges[j], damping=2.0, armature=0.1, ctrl_limit=300.0
+                leg_ranges[j], damping=2.0, armature=per_joint(armature, j), ctrl_limit=300.0
             )
     pelvis = Body(
         "pelvis",
@@ -535,8 +552,9 @@ def build_dyros(drive: DriveModel | None = None) -> RobotDesign:
     )
     if drive is not None:
         return RobotDesign(
-            "dyros_red_actuated",
-            "DYROS RED with its joint drives: rotor, harmonic-drive compliance, torque loop",
+            name or "dyros_red_actuated",
+            description
+            or "DYROS RED with its joint drives: rotor, harmonic-drive compliance, torque loop",
             pelvis,
             joints,
             home_knee=0.4,
@@ -545,8 +563,8 @@ def build_dyros(drive: DriveModel | None = None) -> RobotDesign:
             drive=drive,
         )
     return RobotDesign(
-        "dyros_red",
-        "DYROS RED (12-DoF legs, rigid upper body)",
+        name or "dyros_red",
+        description or "DYROS RED (12-DoF legs, rigid upper body)",
         pelvis,
         joints,
         home_knee=0.4,
@@ -555,24 +573,67 @@ def build_dyros(drive: DriveModel | None = None) -> RobotDesign:
     )
 
 
+# The lab's published drive values (facts with citations; repositories, paths and commits in
+# robots/dyros_red_actuated/README.md). DYROS RED's legs are TOCABI's: the lab's TOCABI model
+# repeats RED's leg link masses, and names each leg joint's Harmonic Drive unit (100:1):
+# SHG-20-100 at hip yaw, hip roll, hip pitch, knee and ankle pitch, SHD-20-100 at the ankle roll.
+DYROS_SHG20 = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch")
+
+
+def shg20_shd20(shg20: float, shd20: float) -> dict[str, float]:
+    """One value per leg joint kind: ``shg20`` at the SHG-20-100 joints, ``shd20`` at the ankle roll."""
+    return {**dict.fromkeys(DYROS_SHG20, shg20), "ankle_roll": shd20}
+
+
+#: Reflected rotor inertia, link side [kg m^2]: the TOCABI Isaac Lab configuration's armature.
+DYROS_ARMATURE = {
+    "hip_yaw": 0.614,
+    "hip_roll": 0.862,
+    "hip_pitch": 1.09,
+    "knee": 1.09,
+    "ankle_pitch": 1.09,
+    "ankle_roll": 0.360,
+}
+
 #: DYROS RED's drives (Lee et al. §V-A; values and sources: robots/dyros_red_actuated/README.md).
 DYROS_DRIVE = DriveModel(
     gear_ratio=100.0,  # paper §V-A: 100:1 harmonic gear
-    rotor_inertia=1.0e-5,  # assumed (no Kollmorgen KBM value found): rotor, motor side [kg m^2]
-    motor_damping=2.0,  # notes: joint damping ≈ 2 Nms/rad of the lab's simulation model
-    friction=1.0,  # assumed (no gear-only value found): Coulomb friction, link side [Nm]
+    armature=DYROS_ARMATURE,  # TOCABI Isaac Lab armature (rotor through 100:1), link side
+    # TOCABI simulation scene, joint classes shg20_100_2so / shd20_100_2sh: damping [Nms/rad]
+    # and frictionloss [Nm] as the lab's model applies them, at the link-side joint.
+    motor_damping=shg20_shd20(0.0248, 0.0161),
+    friction=shg20_shd20(0.9, 22.0),
     # Harmonic Drive size 32, ratio > 50 (CHA-32A data sheet, Harmonic Drive AG 1018854):
     # K1 = 6.7e4 Nm/rad below T1 = 29 Nm (K2 = 1.1e5 to T2 = 108 Nm, K3 = 1.2e5 above);
     # one linear spring, the low-torque K1 [Nm/rad].
     stiffness=6.7e4,
-    gear_damping=7.0,  # assumed: light damping, ζ ≈ 0.055 of the rotor against a held link
+    gear_damping=7.0,  # assumed: light damping of the gear's compliance (README)
     torque_lag=0.5e-3,  # assumed: torque-loop time constant (≈ 320 Hz bandwidth) [s]
     spring_range=0.05,  # deflection limit [rad]: 3350 Nm at 6.7e4 Nm/rad, never reached
 )
 
+#: As DYROS_DRIVE with the SHG-20's friction of the other copies of the lab's scene (9.9 Nm).
+DYROS_DRIVE_FRICTION_9_9 = replace(DYROS_DRIVE, friction=shg20_shd20(9.9, 22.0))
+
 
 def build_dyros_actuated() -> RobotDesign:
     return build_dyros(DYROS_DRIVE)
+
+
+def build_dyros_actuated_9_9() -> RobotDesign:
+    return build_dyros(
+        DYROS_DRIVE_FRICTION_9_9,
+        name="dyros_red_actuated_9_9",
+        description="dyros_red_actuated with 9.9 Nm of Coulomb friction at the SHG-20 joints",
+    )
+
+
+def build_dyros_armature() -> RobotDesign:
+    return build_dyros(
+        armature=DYROS_ARMATURE,
+        name="dyros_red_armature",
+        description="dyros_red (ideal torques) with the lab's published reflected rotor inertia",
+    )
 
 
 # --------------------------------------------------------------------------------------
@@ -1226,6 +1287,8 @@ def generate(robot: RobotDesign) -> str:
 BUILDERS = {
     "dyros_red": build_dyros,
     "dyros_red_actuated": build_dyros_actuated,
+    "dyros_red_actuated_9_9": build_dyros_actuated_9_9,
+    "dyros_red_armature": build_dyros_armature,
     "coman": build_coman,
     "kist_humanoid": build_kist,
 }

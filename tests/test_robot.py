@@ -28,7 +28,14 @@ from walkrepro.robot import (
     with_servo_gains,
 )
 
-ROBOTS = ("coman", "dyros_red", "dyros_red_actuated", "kist_humanoid")
+ROBOTS = (
+    "coman",
+    "dyros_red",
+    "dyros_red_actuated",
+    "dyros_red_actuated_9_9",
+    "dyros_red_armature",
+    "kist_humanoid",
+)
 GRAVITY = 9.81
 FLOOR = '<geom name="floor" type="plane" size="0 0 1" contype="1" conaffinity="3"/>'
 LEG = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
@@ -36,10 +43,19 @@ ARM = ("shoulder_pitch", "shoulder_roll", "shoulder_yaw", "elbow")
 TRUNK = {
     "dyros_red": (),
     "dyros_red_actuated": (),
+    "dyros_red_actuated_9_9": (),
+    "dyros_red_armature": (),
     "coman": ("waist_yaw", "waist_roll", "waist_pitch"),
     "kist_humanoid": ("waist_yaw", "waist_pitch"),
 }
-HAS_ARMS = {"dyros_red": False, "dyros_red_actuated": False, "coman": True, "kist_humanoid": True}
+HAS_ARMS = {
+    "dyros_red": False,
+    "dyros_red_actuated": False,
+    "dyros_red_actuated_9_9": False,
+    "dyros_red_armature": False,
+    "coman": True,
+    "kist_humanoid": True,
+}
 
 
 # ---- helpers ----------------------------------------------------------------------------
@@ -182,6 +198,8 @@ def test_names_and_order_follow_the_conventions(name: str) -> None:
     imu_body = {
         "dyros_red": "pelvis",
         "dyros_red_actuated": "pelvis",
+        "dyros_red_actuated_9_9": "pelvis",
+        "dyros_red_armature": "pelvis",
         "coman": "pelvis",
         "kist_humanoid": "torso",
     }[name]
