@@ -102,9 +102,12 @@ def test_bad_grid_is_one_paragraph_exit_2_and_nothing_runs(
 
 
 @pytest.mark.slow
-def test_ctrl_c_keeps_finished_cells_and_resume_completes(tmp_path: Path) -> None:
-    """SIGINT during a sweep exits 130 with every finished cell kept, even in a process that
-    inherited SIGINT ignored; --resume runs the rest."""
+@pytest.mark.parametrize(("signum", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_ctrl_c_keeps_finished_cells_and_resume_completes(
+    tmp_path: Path, signum: int, code: int
+) -> None:
+    """SIGINT (or SIGTERM) during a sweep exits 130 (143) with every finished cell kept, even
+    in a process that inherited SIGINT ignored; --resume runs the rest."""
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
     # Cells of 2 s simulated: after the first row the other seven take seconds, so the
     # SIGINT below reaches the sweep mid-way even on a loaded machine (0.3 s cells did not).
@@ -127,9 +130,9 @@ def test_ctrl_c_keeps_finished_cells_and_resume_completes(tmp_path: Path) -> Non
             break
         time.sleep(0.05)
     assert proc.poll() is None, "the sweep ended before it could be interrupted"
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(signum)
     output = proc.communicate(timeout=60)[0].decode()
-    assert proc.returncode == 130, output
+    assert proc.returncode == code, output
     assert "interrupted" in output
     (directory,) = _sweep_dirs(tmp_path)
     kept = _rows(directory)
@@ -145,3 +148,66 @@ def test_ctrl_c_keeps_finished_cells_and_resume_completes(tmp_path: Path) -> Non
     rows = _rows(directory)
     assert sorted(int(r["cell"]) for r in rows) == list(range(8))
     assert rows[: len(kept)] == kept  # finished cells are never re-run or rewritten
+
+
+def test_a_killed_worker_fails_the_sweep_and_resume_runs_its_cell(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A cell whose worker is killed (SIGKILL) is recorded crashed and the sweep exits 1; --resume runs that cell again and completes the sweep."""
+    import walkrepro.experiment
+
+    execute = walkrepro.experiment.execute
+
+    def killed_on_the_second_cell(spec, *args, **kwargs):  # noqa: ANN001, ANN002, ANN003, ANN202
+        if spec.sim.duration == 0.15:  # the worker (forked from this process) dies here
+            os.kill(os.getpid(), signal.SIGKILL)
+        return execute(spec, *args, **kwargs)
+
+    monkeypatch.setattr(walkrepro.experiment, "execute", killed_on_the_second_cell)
+    args = ["sweep", "stand_dyros_red", "--grid", "sim.duration=0.1,0.15", "--jobs", "1"]
+    result = runner.invoke(app, [*args, "--out", str(tmp_path)])
+    assert result.exit_code == 1, result.output
+    assert "1 cell(s) crashed" in result.output and "--resume" in result.output
+    (directory,) = _sweep_dirs(tmp_path)
+    assert {r["cell"]: r["outcome"] for r in _rows(directory)} == {"0": "complete", "1": "crashed"}
+
+    monkeypatch.undo()
+    again = runner.invoke(app, ["sweep", "--resume", str(directory), "--jobs", "1"])
+    assert again.exit_code == 0, again.output
+    assert "2 cells, 1 to run" in again.output
+    rows = _rows(directory)
+    assert sorted((r["cell"], r["outcome"]) for r in rows) == [("0", "complete"), ("1", "complete")]
+
+
+@pytest.mark.parametrize(
+    ("edit", "words"),
+    [
+        (("sweep.yaml", "- 0.15", "- 0.2"), "sim.duration was [0.1, 0.15] and is now [0.1, 0.2]"),
+        (("sweep.yaml", "- 300", "- 350"), "controller.params.kp was [300, 400]"),
+        (("base.yaml", "description:", "description: edited"), "base.yaml was edited"),
+        (None, ""),
+    ],
+    ids=["duration values", "kp values", "base.yaml", "unchanged"],
+)
+def test_resume_refuses_a_sweep_whose_grid_was_edited(
+    tmp_path: Path, edit: tuple[str, str, str] | None, words: str
+) -> None:
+    """--resume of a sweep whose sweep.yaml values or base.yaml changed since it started is refused in one paragraph (exit 2); an unedited one resumes."""
+    from walkrepro.sweep.sweeper import plan_new
+
+    axes = ["sim.duration=0.1,0.15", "controller.params.kp=300,400"]
+    plan = plan_new("stand_dyros_red", axes, [], tmp_path)  # planned, nothing run
+    if edit is not None:
+        name, old, new = edit
+        path = plan.directory / name
+        assert old in path.read_text()
+        path.write_text(path.read_text().replace(old, new, 1))
+    result = runner.invoke(app, ["sweep", "--resume", str(plan.directory), "--jobs", "1"])
+    if edit is None:
+        assert result.exit_code == 0, result.output
+        assert "4 cells, 4 to run" in result.output
+        return
+    assert result.exit_code == 2, result.output
+    assert words in result.output and "no longer matches" in result.output, result.output
+    assert "Traceback" not in result.output and result.output.count("error:") == 1
+    assert _rows(plan.directory) == []

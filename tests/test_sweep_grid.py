@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+import yaml
 
 from walkrepro import EXPERIMENTS_DIR
 from walkrepro.errors import WalkreproError
@@ -88,15 +89,19 @@ def test_a_bad_cell_fails_before_anything_runs(item: str, words: str) -> None:
 
 def test_sweep_parameter_sets_several_fields_affinely(tmp_path: Path) -> None:
     """A declared sweep parameter sets each of its fields to scale·x + offset."""
-    spec = (EXPERIMENTS_DIR / "obstacle_4cm.yaml").read_text()
-    spec += (
-        "sweep_parameters:\n"
-        "  block_height:\n"
-        "    unit: m\n"
-        "    sets: {world.obstacles.0.size.2: 1, world.obstacles.0.position.2: {scale: 0.5, offset: 0.001}}\n"
-    )
+    spec = yaml.safe_load((EXPERIMENTS_DIR / "obstacle_4cm.yaml").read_text())
+    # Replaces the spec's own sweep parameters (a second `sweep_parameters:` key is an error).
+    spec["sweep_parameters"] = {
+        "block_height": {
+            "unit": "m",
+            "sets": {
+                "world.obstacles.0.size.2": 1,
+                "world.obstacles.0.position.2": {"scale": 0.5, "offset": 0.001},
+            },
+        }
+    }
     path = tmp_path / "obstacle_4cm.yaml"
-    path.write_text(spec)
+    path.write_text(yaml.safe_dump(spec, sort_keys=False))
     cells = plan_cells(path, [Axis("block_height", (0.02, 0.06))])
     boxes = [c.spec.world.obstacles[0] for c in cells]
     assert [b.size[2] for b in boxes] == [0.02, 0.06]

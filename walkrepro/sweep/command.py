@@ -8,7 +8,9 @@ from pathlib import Path
 from typing import Any
 
 from walkrepro.errors import WalkreproError
+from walkrepro.interrupt import exit_code
 from walkrepro.sweep import store
+from walkrepro.sweep.cells import CRASHED
 from walkrepro.sweep.engines import make_engine
 from walkrepro.sweep.sweeper import (
     MAPS_DIR_NAME,
@@ -18,7 +20,8 @@ from walkrepro.sweep.sweeper import (
     update_reference,
 )
 
-INTERRUPTED_EXIT = 130
+#: Exit code of a sweep with crashed cells (workers that died): ``--resume`` retries them.
+CRASHED_EXIT = 1
 
 
 def sweep_command(
@@ -36,7 +39,8 @@ def sweep_command(
     map_name: str | None,
     update_ref: bool,
 ) -> int:
-    """Plan (validating every cell), run and map a sweep; returns the exit code."""
+    """Plan (validating every cell), run and map a sweep; returns the exit code: 0, 1 when
+    cells crashed (their worker died), 130 or 143 when Ctrl-C or SIGTERM stopped it."""
     from walkrepro.sweep.maps import plot_sweep
 
     if resume is not None:
@@ -81,7 +85,12 @@ def sweep_command(
                 f"continue with: walkrepro sweep --resume {plan.directory}",
                 highlight=False,
             )
-            return INTERRUPTED_EXIT
+            return exit_code(report.signum)
+    crashed = [
+        row["cell"]
+        for row in store.read_cells(plan.directory / store.CELLS_FILE).rows
+        if row["outcome"] == CRASHED
+    ]
     if plan.info.get("claims"):
         from walkrepro.sweep.claims import evaluate_sweep
 
@@ -90,6 +99,14 @@ def sweep_command(
         rows = evaluate_sweep(table.rows, table.fields, spec, plan.info["n_cells"])
         for r in rows:
             console.print(f"{r.status}: {r.metric} — {r.note}", highlight=False)
+    if crashed:
+        console.print(
+            f"[red]{len(crashed)} cell(s) crashed[/] (their worker process died: cells "
+            f"{', '.join(map(str, crashed))}); the map is incomplete. Run them again with: "
+            f"walkrepro sweep --resume {plan.directory}",
+            highlight=False,
+        )
+        return CRASHED_EXIT
     if update_ref:
         target = update_reference(plan.directory, plan.info["map"])
         console.print(f"reference map updated: {target}", highlight=False)

@@ -4,16 +4,23 @@
   map's metric and claims (for a declared map), the cells.csv columns, provenance;
 - ``base.yaml``: the experiment's spec file as it was when the sweep started (``--resume``
   re-plans from it, so a later edit of the experiment cannot mix two specs in one sweep);
+- ``planned.json``: the grid, the ``--set`` overrides and the digest of ``base.yaml`` as the
+  sweep was planned; ``--resume`` refuses a ``sweep.yaml`` or ``base.yaml`` edited since, so
+  one sweep never mixes two grids;
 - ``cells.csv``: one row per finished cell, appended and flushed as cells finish (in finish
-  order; readers sort by ``cell``), so an interrupted sweep keeps every finished cell;
+  order; readers sort by ``cell``), so an interrupted sweep keeps every finished cell. A cell
+  whose worker died has a ``crashed`` row until ``--resume`` runs it again;
 - ``map.png`` / ``map.svg``; ``cells/<index>/`` with each cell's run under ``--keep-logs``.
 """
 
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
+import json
 import math
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,10 +30,11 @@ import yaml
 
 from walkrepro import yamlload
 from walkrepro.errors import WalkreproError
-from walkrepro.sweep.cells import CellResult
+from walkrepro.sweep.cells import CRASHED, CellResult
 from walkrepro.sweep.grid import Cell, value_text
 
 SWEEP_FILE, BASE_FILE, CELLS_FILE, CELLS_DIR = "sweep.yaml", "base.yaml", "cells.csv", "cells"
+PLANNED_FILE = "planned.json"
 #: Columns after the grid fields and before the metrics, and after the metrics.
 HEAD = ("outcome", "message", "fall_time")
 TAIL = ("passed", "known_deviations", "failed", "wall_time", "run_wall_time", "engine_time")
@@ -68,6 +76,82 @@ def read_info(directory: Path) -> dict[str, Any]:
             "<out>/sweeps/<experiment>/."
         )
     return yamlload.load(path.read_text())
+
+
+def planned(info: dict[str, Any], directory: Path) -> dict[str, Any]:
+    """What fixes a sweep's cells: its grid (fields and values), its ``--set`` overrides
+    and the SHA-256 of its ``base.yaml``."""
+    return {
+        "grid": [{"field": g["field"], "values": list(g["values"])} for g in info["grid"]],
+        "set": list(info["set"]),
+        "base_sha256": hashlib.sha256((directory / BASE_FILE).read_bytes()).hexdigest(),
+    }
+
+
+def write_planned(directory: Path, info: dict[str, Any]) -> None:
+    """Record :func:`planned` in ``planned.json`` (once, when the sweep is created)."""
+    text = json.dumps(planned(info, directory), indent=2) + "\n"
+    (directory / PLANNED_FILE).write_text(text)
+
+
+def check_planned(directory: Path, info: dict[str, Any]) -> None:
+    """Refuse a sweep whose ``sweep.yaml`` grid, ``--set`` or ``base.yaml`` changed since it
+    was planned (a sweep made before ``planned.json`` existed is checked row by row only).
+
+    Raises:
+        WalkreproError: what changed, and how to go on.
+    """
+    path = directory / PLANNED_FILE
+    if not path.is_file():
+        return
+    try:
+        recorded = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise WalkreproError(f"{path}: unreadable ({exc}); this sweep cannot be resumed.") from None
+    now = planned(info, directory)
+    changes = []
+    was = {g["field"]: g["values"] for g in recorded.get("grid", [])}
+    is_ = {g["field"]: g["values"] for g in now["grid"]}
+    if list(was) != list(is_):
+        changes.append(f"the grid fields were {', '.join(was)} and are now {', '.join(is_)}")
+    else:
+        changes += [
+            f"{name} was {_listed(was[name])} and is now {_listed(is_[name])}"
+            for name in was
+            if [value_text(v) for v in was[name]] != [value_text(v) for v in is_[name]]
+        ]
+    if recorded.get("set") != now["set"]:
+        changes.append(f"set was {recorded.get('set')} and is now {now['set']}")
+    if recorded.get("base_sha256") != now["base_sha256"]:
+        changes.append(f"{BASE_FILE} was edited")
+    if changes:
+        raise WalkreproError(
+            f"{directory / SWEEP_FILE}: this sweep no longer matches the grid it was started "
+            f"with ({'; '.join(changes)}); resuming would mix two grids in one sweep. Put "
+            f"{SWEEP_FILE} back as it was, or start a new sweep with the new grid."
+        )
+
+
+def _listed(values: Sequence[Any]) -> str:
+    return "[" + ", ".join(value_text(v) for v in values) + "]"
+
+
+def drop_rows(path: Path, outcome: str) -> list[int]:
+    """Remove the rows of ``cells.csv`` with ``outcome`` (atomically); returns their cells."""
+    text = path.read_text() if path.is_file() else ""
+    lines = list(csv.reader(io.StringIO(text)))
+    if not lines:
+        return []
+    header, body = lines[0], lines[1:]
+    column = header.index("outcome")
+    dropped = [int(r[0]) for r in body if len(r) == len(header) and r[column] == outcome]
+    if dropped:
+        kept = [r for r in body if not (len(r) == len(header) and r[column] == outcome)]
+        tmp = path.with_name(f".{path.name}.tmp")
+        with tmp.open("w", newline="") as f:
+            csv.writer(f, lineterminator="\n").writerows([header, *kept])
+        os.replace(tmp, path)
+    return dropped
 
 
 class CellsWriter:
@@ -171,8 +255,10 @@ def read_cells(path: Path, repair: bool = False) -> CellsTable:
             else:
                 row[name] = float(text_value) if text_value else math.nan
         rows.append(row)
-    # One row per cell: a resumed cell that was somehow written twice counts once (the first).
+    # One row per cell: a resumed cell that was somehow written twice counts once (the first),
+    # except that a crashed row gives way to a later row of the same cell.
     unique: dict[int, dict[str, Any]] = {}
     for row in rows:
-        unique.setdefault(row["cell"], row)
+        if unique.get(row["cell"], {}).get("outcome", CRASHED) == CRASHED:
+            unique[row["cell"]] = row
     return CellsTable(fields, tuple(unique[k] for k in sorted(unique)))

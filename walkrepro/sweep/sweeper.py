@@ -1,8 +1,9 @@
 """``walkrepro sweep``: plan a sweep (every cell validated), run it on an engine, resume it.
 
-Cells are appended to ``cells.csv`` as they finish. A Ctrl-C stops the engine, keeps every
-finished cell and reports the sweep as interrupted; ``--resume`` runs only the cells that
-have no row yet.
+Cells are appended to ``cells.csv`` as they finish. A Ctrl-C or SIGTERM stops the engine,
+keeps every finished cell and reports the sweep as interrupted; ``--resume`` runs the cells
+that have no row yet and those whose worker crashed, and refuses a sweep whose grid was
+edited since it started.
 """
 
 from __future__ import annotations
@@ -15,9 +16,9 @@ from pathlib import Path
 from typing import Any
 
 from walkrepro.errors import SpecError, UnknownNameError, WalkreproError
-from walkrepro.interrupt import sigint_raises
+from walkrepro.interrupt import stop_signals_raise
 from walkrepro.sweep import store
-from walkrepro.sweep.cells import CellTask
+from walkrepro.sweep.cells import CRASHED, CellTask
 from walkrepro.sweep.engines import Engine
 from walkrepro.sweep.grid import Axis, Cell, parse_grid_item, parse_values, plan_cells, value_text
 from walkrepro.sweep.model import SweepSpec
@@ -60,8 +61,10 @@ class SweepReport:
         n_cells: cells in the grid.
         ran: cells run by this call.
         failures: cells of this call that errored or crashed.
-        interrupted: stopped by Ctrl-C (finished cells are kept).
+        interrupted: stopped by Ctrl-C or SIGTERM, or cells are missing (finished cells
+            are kept).
         wall_time: this call's wall time [s].
+        signum: the signal that stopped it (None if none).
     """
 
     directory: Path
@@ -70,6 +73,7 @@ class SweepReport:
     failures: int
     interrupted: bool
     wall_time: float
+    signum: int | None = None
 
 
 def declared_sweep(spec: Any, name: str | None) -> SweepSpec:
@@ -151,6 +155,7 @@ def plan_new(
         "provenance": _provenance(),
     }
     store.write_info(directory, info)
+    store.write_planned(directory, info)
     store.CellsWriter(directory / store.CELLS_FILE, info["columns"]).close()
     computed = [*metrics, map_metric, *([success.metric] if success else []), *claimed]
     return SweepPlan(directory, info, cells, set(), tuple(dict.fromkeys(computed)))
@@ -159,13 +164,21 @@ def plan_new(
 def plan_resume(directory: Path) -> SweepPlan:
     """Re-plan a sweep from its directory; ``done`` holds the cells already in cells.csv.
 
+    The rows of crashed cells (their worker died: not a result of the cell) are removed, so
+    those cells run again.
+
     Raises:
-        WalkreproError: not a sweep directory, or cells.csv does not match the grid.
+        WalkreproError: not a sweep directory, its ``sweep.yaml`` grid, ``--set`` or
+            ``base.yaml`` changed since it started, or cells.csv does not match the grid.
     """
     info = store.read_info(directory)
+    store.check_planned(directory, info)
     axes = [Axis(g["field"], parse_values(g["values"], str(directory))) for g in info["grid"]]
     cells = plan_cells(directory / store.BASE_FILE, axes, info["set"])
     table = store.read_cells(directory / store.CELLS_FILE, repair=True)
+    if any(row["outcome"] == CRASHED for row in table.rows):
+        store.drop_rows(directory / store.CELLS_FILE, CRASHED)
+        table = store.read_cells(directory / store.CELLS_FILE)
     by_index = {c.index: c for c in cells}
     for row in table.rows:
         cell = by_index.get(row["cell"])
@@ -183,8 +196,8 @@ def plan_resume(directory: Path) -> SweepPlan:
 def run_plan(
     plan: SweepPlan, engine: Engine, keep_logs: bool = False, console: Any = None
 ) -> SweepReport:
-    """Run the plan's missing cells on ``engine`` with a progress bar; Ctrl-C keeps the
-    finished cells and returns an interrupted report."""
+    """Run the plan's missing cells on ``engine`` with a progress bar; Ctrl-C or SIGTERM
+    keeps the finished cells and returns an interrupted report."""
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
@@ -211,6 +224,7 @@ def run_plan(
     writer = store.CellsWriter(plan.directory / store.CELLS_FILE, plan.info["columns"])
     failures = ran = 0
     interrupted = False
+    received = None
     t0 = time.perf_counter()
     start = getattr(engine, "start", None)
     if start is not None:
@@ -228,7 +242,7 @@ def run_plan(
         transient=False,
     )
     try:
-        with sigint_raises(), progress:
+        with stop_signals_raise() as received, progress:
             bar = progress.add_task(
                 "cells", total=len(plan.cells), completed=len(plan.done), failures=0
             )
@@ -262,6 +276,7 @@ def run_plan(
         failures,
         interrupted or len(plan.done) < len(plan.cells),
         time.perf_counter() - t0,
+        received.signum if received is not None else None,
     )
 
 
