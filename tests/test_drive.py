@@ -6,6 +6,7 @@ import math
 
 import mujoco
 import numpy as np
+import pytest
 
 from walkrepro.robot import MOTOR_SUFFIX, load_robot
 
@@ -100,3 +101,76 @@ def test_encoders_read_the_motor_side() -> None:
     link = actuated.link_joint_pos(qpos)
     i = actuated.joint_names.index(JOINT)
     assert abs((link[i] - enc[i]) - (0.01 + actuated.home_qpos[spring.qposadr[0]])) < 1e-12
+
+
+# ---- the lab's published drive values, per joint kind (issue 29) -----------------------
+
+#: Reflected rotor inertia [kg m²] of the lab's TOCABI Isaac Lab configuration.
+ARMATURE = {
+    "hip_yaw": 0.614,
+    "hip_roll": 0.862,
+    "hip_pitch": 1.09,
+    "knee": 1.09,
+    "ankle_pitch": 1.09,
+    "ankle_roll": 0.360,
+}
+#: (damping [Nms/rad], friction [Nm]) of the lab's TOCABI joint classes: SHG-20, SHD-20.
+SHG20, SHD20 = (0.0248, 0.9), (0.0161, 22.0)
+
+
+def _motor_dof(model: mujoco.MjModel, joint: str) -> int:
+    return int(model.joint(joint + MOTOR_SUFFIX).dofadr[0])
+
+
+def test_each_joint_kind_carries_the_labs_published_drive_values() -> None:
+    """Every motor DoF has its joint kind's armature, damping and friction (SHD-20 at the ankle roll)."""
+    model = load_robot("dyros_red_actuated").mj_model
+    for side in "lr":
+        for kind, armature in ARMATURE.items():
+            damping, friction = SHD20 if kind == "ankle_roll" else SHG20
+            dof = _motor_dof(model, f"{side}_{kind}")
+            assert model.dof_armature[dof] == armature
+            assert model.dof_damping[dof] == damping
+            assert model.dof_frictionloss[dof] == friction
+
+
+def test_variants_differ_from_the_drive_model_only_where_they_say() -> None:
+    """dyros_red_actuated_9_9 changes only the SHG-20 friction; dyros_red_armature only dyros_red's armature."""
+    base = load_robot("dyros_red_actuated").mj_model
+    f99 = load_robot("dyros_red_actuated_9_9").mj_model
+    changed = np.flatnonzero(base.dof_frictionloss != f99.dof_frictionloss)
+    expected = sorted(
+        _motor_dof(base, f"{s}_{k}") for s in "lr" for k in ARMATURE if k != "ankle_roll"
+    )
+    assert changed.tolist() == expected
+    assert np.all(f99.dof_frictionloss[changed] == 9.9)
+    assert np.array_equal(base.dof_armature, f99.dof_armature)
+    assert np.array_equal(base.dof_damping, f99.dof_damping)
+    rigid, armature = load_robot("dyros_red"), load_robot("dyros_red_armature")
+    assert np.array_equal(rigid.mj_model.dof_damping, armature.mj_model.dof_damping)
+    for side in "lr":
+        for kind, value in ARMATURE.items():
+            dof = int(armature.mj_model.joint(f"{side}_{kind}").dofadr[0])
+            assert armature.mj_model.dof_armature[dof] == value
+            # The controller's Pinocchio model carries the same rotor inertia.
+            idx_v = armature.pin_model.joints[armature.pin_model.getJointId(f"{side}_{kind}")].idx_v
+            assert armature.pin_model.armature[idx_v] == value
+
+
+def test_per_joint_value_needs_every_joint_kind() -> None:
+    """A per-joint drive value is read per joint kind; a kind it does not name is an error."""
+    import importlib.util
+    import sys
+
+    from walkrepro import ROBOTS_DIR
+
+    spec = importlib.util.spec_from_file_location("build_models", ROBOTS_DIR / "build_models.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses resolve annotations through sys.modules
+    spec.loader.exec_module(module)
+    assert module.per_joint(0.5, "knee") == 0.5
+    assert module.per_joint(module.shg20_shd20(0.9, 22.0), "ankle_roll") == 22.0
+    assert module.per_joint(module.shg20_shd20(0.9, 22.0), "hip_yaw") == 0.9
+    with pytest.raises(KeyError):
+        module.per_joint({"knee": 1.0}, "ankle_roll")
