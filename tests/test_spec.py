@@ -106,7 +106,7 @@ def test_backlash_names_actuators_and_is_non_negative(tmp_path: Path) -> None:
     msg = error_of(tmp_path, GOOD, ('sensors.joint_backlash={"*kneee": 0.01}',))
     assert "'*kneee'" in msg and "Valid actuators:" in msg
     msg = error_of(tmp_path, GOOD, ('sensors.joint_backlash={"*knee*": -0.01}',))
-    assert "backlash must be >= 0" in msg
+    assert "backlash must be in [0, 1]" in msg
 
 
 def test_torque_lag_needs_filtered_actuators(tmp_path: Path) -> None:

@@ -13,13 +13,16 @@ two stages so every error can name the file, the line and the field:
 from __future__ import annotations
 
 import fnmatch
+import math
+import sys
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import yaml
 from pydantic import (
     BaseModel,
+    BeforeValidator,
     ConfigDict,
     Field,
     ValidationError,
@@ -33,7 +36,46 @@ from walkrepro.deviation import KnownDeviation
 from walkrepro.errors import SpecError, UnknownNameError
 from walkrepro.sweep.model import SweepParameter, SweepSpec
 
-Vec3 = tuple[float, float, float]
+
+def _not_bool(value: Any) -> Any:
+    """Refuse ``true``/``false`` where a number is expected (pydantic would read 1 and 0)."""
+    if isinstance(value, bool):
+        raise ValueError("expected a number, not a boolean")
+    return value
+
+
+#: A real number that is not a boolean; every spec model also refuses NaN and ±inf.
+Real = Annotated[float, BeforeValidator(_not_bool)]
+#: An integer that is not a boolean.
+Count = Annotated[int, BeforeValidator(_not_bool)]
+Vec3 = tuple[Real, Real, Real]
+
+# Physical ranges of spec values. A value outside is a typo or a unit slip, never an
+# experiment: each bound is far beyond anything the papers' robots could meet.
+#: Longest run: one simulated hour [s].
+MAX_DURATION = 3600.0
+#: Physics timestep range [s]: below 1 µs a run would take days; above 10 ms MuJoCo's
+#: contacts of a walking robot are unstable.
+MIN_TIMESTEP, MAX_TIMESTEP = 1e-6, 0.01
+#: Longest control period [s] (10 Hz).
+MAX_CONTROL_PERIOD = 0.1
+#: Memory a run may preallocate [bytes]: the runner's stage clock keeps one int64 per
+#: control tick (``walkrepro.runner.StageClock``), checked before anything is allocated.
+MAX_RUN_MEMORY = 2**30
+BYTES_PER_TICK = 8
+#: Largest disturbance force [N] and torque [Nm] (norms): ten times a 100 kg robot's weight.
+MAX_FORCE, MAX_TORQUE = 1e4, 1e3
+#: Largest Coulomb friction coefficient (floor and obstacles).
+MAX_FRICTION = 10.0
+#: Largest sensing delay [s].
+MAX_DELAY = 1.0
+#: Largest servo stiffness [Nm/rad] and joint friction loss [Nm].
+MAX_POSITION_GAIN, MAX_FRICTION_LOSS = 1e6, 1e3
+#: Obstacles: largest extent [m], distance of the centre from the origin [m], tilt [deg],
+#: mass [kg].
+MAX_OBSTACLE_SIZE, MAX_OBSTACLE_DISTANCE, MAX_TILT_DEG, MAX_OBSTACLE_MASS = 100.0, 1e3, 90.0, 1e5
+#: Nesting depth and value count of a spec's YAML beyond which it is refused unread.
+MAX_NESTING, MAX_VALUES = 32, 100_000
 
 #: Papers walkrepro reproduces (key -> citation); ``walkrepro`` marks our own sanity experiments.
 PAPERS: dict[str, str] = {
@@ -47,7 +89,7 @@ PAPERS: dict[str, str] = {
 class _Strict(BaseModel):
     """Unknown fields are errors: a typo must never be silently ignored."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class PaperRef(_Strict):
@@ -75,7 +117,7 @@ class ControllerSpec(_Strict):
 class FallSpec(_Strict):
     """When a run counts as a fall (TARGETS.md: pelvis below 60 % of nominal, or ground contact)."""
 
-    pelvis_height_ratio: float = Field(0.6, gt=0.0, lt=1.0)
+    pelvis_height_ratio: Real = Field(0.6, gt=0.0, lt=1.0)
     non_foot_ground_contact: bool = True
 
 
@@ -83,13 +125,15 @@ class SimSpec(_Strict):
     """Physics and control timing.
 
     ``timestep`` and ``control_period`` in [s]; the control period must be a whole multiple
-    of the timestep (zero-order hold between control ticks).
+    of the timestep (zero-order hold between control ticks). ``duration`` is at most
+    :data:`MAX_DURATION` (one simulated hour), and the memory the run preallocates per
+    control tick must fit in :data:`MAX_RUN_MEMORY`.
     """
 
-    timestep: float = Field(0.0005, gt=0.0)
-    control_period: float = Field(0.0005, gt=0.0)
-    duration: float = Field(gt=0.0)
-    seed: int = Field(0, ge=0)
+    timestep: Real = Field(0.0005, ge=MIN_TIMESTEP, le=MAX_TIMESTEP, description="[s]")
+    control_period: Real = Field(0.0005, gt=0.0, le=MAX_CONTROL_PERIOD, description="[s]")
+    duration: Real = Field(gt=0.0, le=MAX_DURATION, description="[s], at most one hour")
+    seed: Count = Field(0, ge=0, le=2**32 - 1)
     fall: FallSpec = Field(default_factory=FallSpec)
 
     @field_validator("control_period")
@@ -105,6 +149,19 @@ class SimSpec(_Strict):
                 f"{max(1, round(ratio)) * timestep:g} s"
             )
         return period
+
+    @model_validator(mode="after")
+    def _memory_fits(self) -> SimSpec:
+        ticks = self.duration / self.control_period
+        need = (ticks + 1) * BYTES_PER_TICK  # [bytes]
+        if need > MAX_RUN_MEMORY:
+            raise ValueError(
+                f"{ticks:.3g} control ticks (duration / control_period) would need "
+                f"{need / 2**30:.3g} GiB for the run's per-tick clock, more than "
+                f"{MAX_RUN_MEMORY / 2**30:g} GiB; shorten sim.duration or lengthen "
+                "sim.control_period"
+            )
+        return self
 
     @property
     def substeps(self) -> int:
@@ -123,17 +180,25 @@ class ObstacleSpec(_Strict):
     height and tilt are set independently: the top face stays centred at ``position``)."""
 
     name: str = Field(pattern=r"^obstacle\w*$", description="geom name, must start with 'obstacle'")
-    size: Vec3
-    position: Vec3
+    size: Vec3 = Field(description=f"full extent [m], each in (0, {MAX_OBSTACLE_SIZE:g}]")
+    position: Vec3 = Field(description=f"[m], each within ±{MAX_OBSTACLE_DISTANCE:g}")
     anchor: Literal["center", "top"] = Field(
         "center", description="what `position` places and the tilt turns about"
     )
-    tilt_x_deg: float = 0.0
-    tilt_y_deg: float = 0.0
+    tilt_x_deg: Real = Field(0.0, ge=-MAX_TILT_DEG, le=MAX_TILT_DEG, description="[deg]")
+    tilt_y_deg: Real = Field(0.0, ge=-MAX_TILT_DEG, le=MAX_TILT_DEG, description="[deg]")
     fixed: bool = True
-    mass: float | None = Field(None, gt=0.0, description="[kg], required when not fixed")
-    friction: float | None = Field(None, gt=0.0)
-    solref: tuple[float, float] | None = Field(
+    mass: Real | None = Field(
+        None, gt=0.0, le=MAX_OBSTACLE_MASS, description="[kg], required when not fixed"
+    )
+    friction: Real | None = Field(None, gt=0.0, le=MAX_FRICTION)
+    allow_overlap: bool = Field(
+        False,
+        description="let the box overlap the robot's collision geoms at the home pose (a "
+        "warning is printed); otherwise such an obstacle is an error, since MuJoCo would "
+        "push the robot out of it at the first step",
+    )
+    solref: tuple[Real, Real] | None = Field(
         None,
         description="MuJoCo contact solref (time constant [s], damping ratio) of the obstacle's"
         " contacts; default MuJoCo's (0.02, 1)",
@@ -144,7 +209,26 @@ class ObstacleSpec(_Strict):
     def _positive_size(cls, size: Vec3) -> Vec3:
         if min(size) <= 0:
             raise ValueError("every size component must be > 0 [m]")
+        if max(size) > MAX_OBSTACLE_SIZE:
+            raise ValueError(f"every size component must be <= {MAX_OBSTACLE_SIZE:g} [m]")
         return size
+
+    @field_validator("position")
+    @classmethod
+    def _near_origin(cls, position: Vec3) -> Vec3:
+        if max(abs(p) for p in position) > MAX_OBSTACLE_DISTANCE:
+            raise ValueError(
+                f"every position component must be within ±{MAX_OBSTACLE_DISTANCE:g} [m]"
+            )
+        return position
+
+    @field_validator("solref")
+    @classmethod
+    def _sane_solref(cls, solref: tuple[float, float] | None) -> tuple[float, float] | None:
+        # Positive: (time constant [s], damping ratio); negative: -(stiffness, damping).
+        if solref is not None and not all(0 < abs(s) <= 1e6 for s in solref):
+            raise ValueError("solref components must be non-zero and within ±1e6")
+        return solref
 
     @model_validator(mode="after")
     def _free_needs_mass(self) -> ObstacleSpec:
@@ -156,7 +240,7 @@ class ObstacleSpec(_Strict):
 class WorldSpec(_Strict):
     """Ground and obstacles."""
 
-    floor_friction: float = Field(1.0, gt=0.0)
+    floor_friction: Real = Field(1.0, gt=0.0, le=MAX_FRICTION)
     obstacles: list[ObstacleSpec] = Field(default_factory=list)
 
     @field_validator("obstacles")
@@ -182,12 +266,20 @@ class DisturbanceSpec(_Strict):
     name: str
     body: str
     frame: str = "world"
-    force: Vec3 = (0.0, 0.0, 0.0)
-    torque: Vec3 = (0.0, 0.0, 0.0)
-    start: float = Field(ge=0.0)
-    duration: float = Field(gt=0.0)
+    force: Vec3 = Field((0.0, 0.0, 0.0), description=f"[N], norm at most {MAX_FORCE:g}")
+    torque: Vec3 = Field((0.0, 0.0, 0.0), description=f"[Nm], norm at most {MAX_TORQUE:g}")
+    start: Real = Field(ge=0.0, le=MAX_DURATION, description="[s]")
+    duration: Real = Field(gt=0.0, le=MAX_DURATION, description="[s]")
     profile: Literal["constant", "ramp"] = "constant"
-    ramp_time: float = Field(0.0, ge=0.0)
+    ramp_time: Real = Field(0.0, ge=0.0, le=MAX_DURATION)
+
+    @field_validator("force", "torque")
+    @classmethod
+    def _bounded_wrench(cls, value: Vec3, info: ValidationInfo) -> Vec3:
+        limit, unit = (MAX_FORCE, "N") if info.field_name == "force" else (MAX_TORQUE, "Nm")
+        if math.hypot(*value) > limit:
+            raise ValueError(f"the {info.field_name}'s norm must be <= {limit:g} [{unit}]")
+        return value
 
     @model_validator(mode="after")
     def _profile_fits(self) -> DisturbanceSpec:
@@ -199,21 +291,27 @@ class DisturbanceSpec(_Strict):
 class SensorsSpec(_Strict):
     """Sensor imperfections (standard deviations of white noise, quantization step, delay)."""
 
-    joint_position_noise: float = Field(0.0, ge=0.0, description="[rad]")
-    joint_position_quantization: float = Field(0.0, ge=0.0, description="encoder step [rad]")
-    joint_velocity_noise: float = Field(0.0, ge=0.0, description="[rad/s]")
-    imu_gyro_noise: float = Field(0.0, ge=0.0, description="[rad/s]")
-    imu_acc_noise: float = Field(0.0, ge=0.0, description="[m/s^2]")
-    ft_force_noise: float = Field(0.0, ge=0.0, description="[N]")
-    ft_torque_noise: float = Field(0.0, ge=0.0, description="[Nm]")
-    delay: float = Field(0.0, ge=0.0, description="sensor-to-controller delay [s]")
-    joint_position_offset: float = Field(
+    joint_position_noise: Real = Field(0.0, ge=0.0, le=1.0, description="[rad]")
+    joint_position_quantization: Real = Field(0.0, ge=0.0, le=1.0, description="encoder step [rad]")
+    joint_velocity_noise: Real = Field(0.0, ge=0.0, le=100.0, description="[rad/s]")
+    imu_gyro_noise: Real = Field(0.0, ge=0.0, le=100.0, description="[rad/s]")
+    imu_acc_noise: Real = Field(0.0, ge=0.0, le=1000.0, description="[m/s^2]")
+    ft_force_noise: Real = Field(0.0, ge=0.0, le=MAX_FORCE, description="[N]")
+    ft_torque_noise: Real = Field(0.0, ge=0.0, le=MAX_TORQUE, description="[Nm]")
+    delay: Real = Field(
         0.0,
         ge=0.0,
+        le=MAX_DELAY,
+        description="sensor-to-controller delay [s], a whole number of control periods",
+    )
+    joint_position_offset: Real = Field(
+        0.0,
+        ge=0.0,
+        le=1.0,
         description="σ of each link encoder's fixed calibration offset, drawn once per seed "
         "(a systematic error: the same in every reading of the run) [rad]",
     )
-    joint_backlash: dict[str, float] = Field(
+    joint_backlash: dict[str, Real] = Field(
         default_factory=dict,
         description="total play between a link and its encoder by actuator name or glob "
         "(``*knee*``): the encoder follows the link only once the link has crossed the play "
@@ -226,9 +324,9 @@ class SensorsSpec(_Strict):
     @field_validator("joint_backlash")
     @classmethod
     def _non_negative(cls, play: dict[str, float]) -> dict[str, float]:
-        bad = [k for k, v in play.items() if v < 0]
+        bad = [k for k, v in play.items() if not 0 <= v <= 1.0]
         if bad:
-            raise ValueError(f"backlash must be >= 0 [rad]; not so for {', '.join(bad)}")
+            raise ValueError(f"backlash must be in [0, 1] [rad]; not so for {', '.join(bad)}")
         return play
 
 
@@ -240,17 +338,19 @@ class ActuatorsSpec(_Strict):
     COMAN servo to 500 V/rad / β. Later entries win where globs overlap.
     """
 
-    position_gain: dict[str, float] = Field(default_factory=dict)
-    friction_loss: float | None = Field(
+    position_gain: dict[str, Real] = Field(default_factory=dict)
+    friction_loss: Real | None = Field(
         None,
         ge=0,
+        le=MAX_FRICTION_LOSS,
         description="Coulomb friction [Nm] (MuJoCo frictionloss) on the DoF each actuator "
         "drives: the motor DoF of a drive or series-elastic joint, else the joint; None keeps "
         "the robot's value (dyros_red_actuated: 1 Nm, assumed)",
     )
-    torque_lag: float | None = Field(
+    torque_lag: Real | None = Field(
         None,
         gt=0,
+        le=1.0,
         description="time constant [s] of the first-order torque loop of robots whose "
         "actuators have one (MuJoCo dyntype filterexact; dyros_red_actuated: 0.5 ms, "
         "assumed); None keeps the robot's value",
@@ -259,9 +359,11 @@ class ActuatorsSpec(_Strict):
     @field_validator("position_gain")
     @classmethod
     def _positive(cls, gains: dict[str, float]) -> dict[str, float]:
-        bad = [k for k, v in gains.items() if v <= 0]
+        bad = [k for k, v in gains.items() if not 0 < v <= MAX_POSITION_GAIN]
         if bad:
-            raise ValueError(f"gains must be > 0 [Nm/rad]; not so for {', '.join(bad)}")
+            raise ValueError(
+                f"gains must be in (0, {MAX_POSITION_GAIN:g}] [Nm/rad]; not so for {', '.join(bad)}"
+            )
         return gains
 
 
@@ -277,7 +379,7 @@ class RelativeTo(_Strict):
 
     experiment: str
     metric: str | None = Field(None, description="defaults to the expectation's own metric")
-    scale: float = 1.0
+    scale: Real = 1.0
 
 
 class Expectation(_Strict):
@@ -290,7 +392,7 @@ class Expectation(_Strict):
 
     metric: str
     op: Op
-    value: float | tuple[float, float] | None = None
+    value: Real | tuple[Real, Real] | None = None
     relative_to: RelativeTo | None = None
     source: str
     note: str = ""
@@ -400,24 +502,36 @@ def load_spec(name_or_path: str | Path, overrides: Iterable[str] = ()) -> Loaded
     path = find_spec_file(str(name_or_path))
     source = _display_path(path)
     try:
-        text = path.read_text()
+        raw = path.read_bytes()
     except OSError as exc:
         raise SpecError(f"{source}: cannot read the spec ({exc.strerror}).") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise SpecError(
+            f"{source}, line {line}: not UTF-8 text (byte {raw[exc.start]:#04x} at offset "
+            f"{exc.start}); save the spec as UTF-8."
+        ) from None
     data, lines = _parse_yaml(text, source)
     overridden: set[tuple[Any, ...]] = set()
     for item in overrides:
         key_path = _apply_override(data, item)
         overridden.add(key_path)
+    _check_plain_data(data, source, lines, overridden)
     try:
         spec = ExperimentSpec.model_validate(data)
     except ValidationError as exc:
         raise SpecError(_format_validation(exc, source, lines, overridden)) from None
-    return LoadedSpec(spec=spec, source=source, lines=lines, overridden=frozenset(overridden))
+    loaded = LoadedSpec(spec=spec, source=source, lines=lines, overridden=frozenset(overridden))
+    _check_across_sections(loaded)
+    return loaded
 
 
 def spec_from_yaml_text(text: str, source: str = "<spec>") -> ExperimentSpec:
     """Validate a spec given as YAML text (e.g. the ``spec.yaml`` attachment of a log)."""
     data, lines = _parse_yaml(text, source)
+    _check_plain_data(data, source, lines, set())
     try:
         return ExperimentSpec.model_validate(data)
     except ValidationError as exc:
@@ -435,8 +549,18 @@ def _display_path(path: Path) -> str:
 def _parse_yaml(text: str, source: str) -> tuple[Any, dict[tuple[Any, ...], int]]:
     """YAML to plain data plus the 1-based line of every mapping key and list item."""
     try:
-        node = yaml.compose(text, Loader=yamlload.Loader)
-        data = yamlload.load(text)
+        data, node = yamlload.load_with_node(text)
+    except RecursionError:
+        raise SpecError(
+            f"{source}: the YAML is nested too deeply to read (a spec nests a few levels; "
+            f"at most {MAX_NESTING})."
+        ) from None
+    except yamlload.DuplicateKeyError as exc:
+        mark = exc.problem_mark
+        raise SpecError(
+            f"{source}, line {mark.line + 1}, column {mark.column + 1}: {exc.problem}. "
+            "Remove one of the two."
+        ) from None
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line = f", line {mark.line + 1}, column {mark.column + 1}" if mark else ""
@@ -449,21 +573,85 @@ def _parse_yaml(text: str, source: str) -> tuple[Any, dict[tuple[Any, ...], int]
     if not isinstance(data, dict):
         raise SpecError(f"{source}: a spec must be a YAML mapping of fields (name, robot, ...).")
     lines: dict[tuple[Any, ...], int] = {}
-    _collect_lines(node, (), lines)
+    assert node is not None  # data is a mapping
+    _collect_lines(node, lines)
     return data, lines
 
 
-def _collect_lines(node: yaml.Node, path: tuple[Any, ...], out: dict[tuple[Any, ...], int]) -> None:
-    out[path] = node.start_mark.line + 1
-    if isinstance(node, yaml.MappingNode):
-        for key_node, value_node in node.value:
-            key = key_node.value
-            out[(*path, key)] = key_node.start_mark.line + 1
-            _collect_lines(value_node, (*path, key), out)
-            out[(*path, key)] = key_node.start_mark.line + 1
-    elif isinstance(node, yaml.SequenceNode):
-        for i, item in enumerate(node.value):
-            _collect_lines(item, (*path, i), out)
+def _collect_lines(node: yaml.Node, out: dict[tuple[Any, ...], int]) -> None:
+    """The 1-based line of every key and item under ``node`` (iterative: any depth)."""
+    stack: list[tuple[yaml.Node, tuple[Any, ...]]] = [(node, ())]
+    seen: set[int] = set()
+    while stack:
+        node, path = stack.pop()
+        out.setdefault(path, node.start_mark.line + 1)  # a mapping value keeps its key's line
+        if id(node) in seen:
+            continue  # an alias (``*name``): its lines are those of the anchor, read once
+        seen.add(id(node))
+        if isinstance(node, yaml.MappingNode):
+            for key_node, value_node in node.value:
+                key = key_node.value
+                out[(*path, key)] = key_node.start_mark.line + 1
+                stack.append((value_node, (*path, key)))
+        elif isinstance(node, yaml.SequenceNode):
+            stack.extend((item, (*path, i)) for i, item in enumerate(node.value))
+
+
+def _check_plain_data(
+    data: Any,
+    source: str,
+    lines: Mapping[tuple[Any, ...], int],
+    overridden: Iterable[tuple[Any, ...]],
+    prefix: tuple[Any, ...] = (),
+) -> None:
+    """Refuse NaN and ±inf anywhere, and data nested or aliased beyond any spec's size.
+
+    Runs before the schema, so fields the schema leaves open (``controller.params``,
+    sweep grids, known deviations) are covered too.
+
+    Raises:
+        SpecError: naming file, line and field of the first offending value.
+    """
+    stack: list[tuple[tuple[Any, ...], Any]] = [(prefix, data)]
+    seen: set[int] = set()
+    count = 0
+    while stack:
+        path, value = stack.pop()
+        count += 1
+        if count > MAX_VALUES:
+            raise SpecError(
+                f"{source}: more than {MAX_VALUES} values (YAML aliases expanded); a spec "
+                "has a few hundred."
+            )
+        if isinstance(value, float) and not math.isfinite(value):
+            raise SpecError(
+                f"{_where(source, lines, path, overridden)}: must be a finite number "
+                f"(got {value!r})."
+            )
+        if isinstance(value, dict | list):
+            if len(path) - len(prefix) >= MAX_NESTING:
+                raise SpecError(
+                    f"{_where(source, lines, path, overridden)}: nested more than "
+                    f"{MAX_NESTING} levels deep; a spec nests a few."
+                )
+            if id(value) in seen:
+                continue  # an alias of data already checked
+            seen.add(id(value))
+            items = value.items() if isinstance(value, dict) else enumerate(value)
+            stack.extend(((*path, k), v) for k, v in reversed(list(items)))
+
+
+def _check_across_sections(loaded: LoadedSpec) -> None:
+    """Checks that need two sections of the spec: the sensing delay is a whole number of
+    control periods (the sensors hold back whole readings)."""
+    sim, delay = loaded.spec.sim, loaded.spec.sensors.delay
+    ticks = delay / sim.control_period
+    if abs(ticks - round(ticks)) > 1e-6:
+        raise SpecError(
+            f"{loaded.where(('sensors', 'delay'))}: must be a whole number of control periods "
+            f"({sim.control_period:g} s), e.g. {round(ticks) * sim.control_period:g} s "
+            f"(got {delay:g})."
+        )
 
 
 def _where(
@@ -525,6 +713,10 @@ def _apply_override(data: dict[str, Any], item: str) -> tuple[Any, ...]:
         raise SpecError(f"--set {item!r}: empty field name in {key!r}.")
     try:
         value = yamlload.load(raw) if raw.strip() else ""
+    except RecursionError:
+        raise SpecError(f"--set {item!r}: the value is nested too deeply.") from None
+    except yamlload.DuplicateKeyError as exc:
+        raise SpecError(f"--set {item!r}: {exc.problem}.") from None
     except yaml.YAMLError:
         value = raw
     node: Any = data
@@ -534,6 +726,12 @@ def _apply_override(data: dict[str, Any], item: str) -> tuple[Any, ...]:
             if not isinstance(part, int) or part >= len(node):
                 raise SpecError(f"--set {item!r}: {key} has no list item {part}.")
             node = node[part]
+        elif not isinstance(node, dict):
+            inner = ".".join(str(p) for p in parts[:i])
+            raise SpecError(
+                f"--set {item!r}: {inner} is a single value ({node!r}), not a mapping with "
+                f"a field {part!r}."
+            )
         else:
             if part not in node or node[part] is None:
                 node[part] = [] if isinstance(nxt, int) else {}
@@ -580,14 +778,24 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
             loaded.where(("controller", "type")),
         )
     cls = controller_class(spec.controller.type)
+    params_where = ("controller", "params")
+    for name, value in spec.controller.params.items():
+        field = cls.Params.model_fields.get(name)
+        if isinstance(value, bool) and field is not None and field.annotation in (float, int):
+            raise SpecError(
+                f"{loaded.where((*params_where, name))}: expected a number, not a boolean "
+                f"(got {value!r})."
+            )
     try:
         params = cls.Params.model_validate(spec.controller.params)
     except ValidationError as exc:
         raise SpecError(
-            _format_validation(
-                exc, loaded.source, loaded.lines, loaded.overridden, ("controller", "params")
-            )
+            _format_validation(exc, loaded.source, loaded.lines, loaded.overridden, params_where)
         ) from None
+    # The controller's model may turn a string such as "nan" into a float.
+    _check_plain_data(
+        params.model_dump(), loaded.source, loaded.lines, loaded.overridden, params_where
+    )
 
     robot = load_robot(spec.robot)
     bodies = robot.body_names()
@@ -688,6 +896,7 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
                 f"{loaded.where(('disturbances', i, 'start'))}: starts after the run ends "
                 f"(duration {spec.sim.duration} s)."
             )
+    _check_obstacle_overlap(loaded, robot)
     normalised = spec.model_copy(
         update={
             "controller": ControllerSpec(
@@ -696,3 +905,35 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
         }
     )
     return loaded.model_copy(update={"spec": normalised})
+
+
+def _check_obstacle_overlap(loaded: LoadedSpec, robot: Any) -> None:
+    """Refuse an obstacle that overlaps the robot's collision geoms at the home pose.
+
+    MuJoCo would resolve the overlap at the first step by launching the robot out of the
+    box. An obstacle with ``allow_overlap: true`` is let through with a warning on stderr.
+
+    Raises:
+        SpecError: naming the obstacle's file, line and field, and the robot geoms it hits.
+    """
+    if not loaded.spec.world.obstacles:
+        return
+    from walkrepro.world import home_overlaps  # imports mujoco
+
+    overlaps = home_overlaps(robot, loaded.spec)
+    for i, obstacle in enumerate(loaded.spec.world.obstacles):
+        hits = overlaps.get(obstacle.name)
+        if not hits:
+            continue
+        depth = max(hits.values())
+        message = (
+            f"{loaded.where(('world', 'obstacles', i))}: obstacle {obstacle.name!r} overlaps "
+            f"the robot at its home pose ({', '.join(sorted(hits))}; up to {depth * 1000:.1f} "
+            "mm deep), so MuJoCo would launch the robot out of it at the first step"
+        )
+        if not obstacle.allow_overlap:
+            raise SpecError(
+                f"{message}. Move or shrink the obstacle, or set allow_overlap: true on it "
+                "if the overlap is intended."
+            )
+        print(f"warning: {message} (allowed by allow_overlap: true).", file=sys.stderr)

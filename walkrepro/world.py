@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from walkrepro.errors import SpecError
 from walkrepro.robot import Robot
 from walkrepro.spec import ExperimentSpec, ObstacleSpec
 
@@ -25,6 +26,11 @@ FLOOR_NAME = "floor"
 #: Contact priority of the floor: above the robots' geoms (0), so that the floor's friction
 #: acts on the soles; obstacles get one more.
 FLOOR_PRIORITY = 1
+#: Penetration [m] of a robot geom into an obstacle at the home pose beyond which the
+#: obstacle overlaps the robot (a touch, e.g. a sole resting on a step, stays below it).
+OVERLAP_TOLERANCE = 1e-3
+#: The robot's root body (robot.py's conventions); its subtree is the robot.
+ROBOT_ROOT = "pelvis"
 
 
 @dataclass(frozen=True)
@@ -73,9 +79,44 @@ def build_scene(robot: Robot, spec: ExperimentSpec) -> Scene:
     return Scene(xml=xml, model=mujoco.MjModel.from_xml_string(xml))
 
 
+def home_overlaps(robot: Robot, spec: ExperimentSpec) -> dict[str, dict[str, float]]:
+    """Robot collision geoms each obstacle penetrates when the robot stands at ``home``.
+
+    The scene is built as a run builds it, the robot set to its home keyframe and MuJoCo's
+    collision detection run (``mj_forward``); a contact between an obstacle and a robot geom
+    deeper than :data:`OVERLAP_TOLERANCE` is an overlap.
+
+    Returns:
+        obstacle name -> {robot geom (``body/geom``) -> penetration depth [m]}; obstacles
+        that overlap nothing are absent.
+    """
+    model = build_scene(robot, spec).model
+    data = mujoco.MjData(model)
+    data.qpos[: robot.home_qpos.size] = robot.home_qpos  # as the runner starts a run
+    mujoco.mj_forward(model, data)
+    obstacles = {o.name for o in spec.world.obstacles}
+    robot_root = model.body_rootid[model.body(ROBOT_ROOT).id]
+    out: dict[str, dict[str, float]] = {}
+    for contact in data.contact[: data.ncon]:
+        names = [model.geom(int(g)).name for g in contact.geom]
+        for mine, other in ((0, 1), (1, 0)):
+            other_body = int(model.geom_bodyid[contact.geom[other]])
+            is_robot = model.body_rootid[other_body] == robot_root
+            if names[mine] in obstacles and is_robot and -contact.dist > OVERLAP_TOLERANCE:
+                label = f"{model.body(other_body).name}/{names[other] or int(contact.geom[other])}"
+                hits = out.setdefault(names[mine], {})
+                hits[label] = max(hits.get(label, 0.0), -float(contact.dist))
+    return out
+
+
 def _add_obstacle(mjspec: mujoco.MjSpec, obstacle: ObstacleSpec, floor_friction: float) -> None:
     """A box with its centre (or, ``anchor: top``, its top face's centre) at ``position``,
     tilted about that point, about x then y (degrees)."""
+    numbers = (*obstacle.size, *obstacle.position, obstacle.tilt_x_deg, obstacle.tilt_y_deg)
+    if not all(math.isfinite(x) for x in numbers):
+        # The spec's validation refuses these; a spec built in code must not reach MuJoCo,
+        # which would place a NaN box at the origin or fail with an opaque error.
+        raise SpecError(f"obstacle {obstacle.name!r}: size, position and tilt must be finite.")
     body = mjspec.worldbody.add_body()
     body.name = obstacle.name
     body.pos = list(obstacle.position)
