@@ -76,3 +76,111 @@ def test_spec_rejects_a_ramp_longer_than_its_window_and_unknown_profiles() -> No
         )
     with pytest.raises(ValidationError):
         DisturbanceSpec(name="h", body="pelvis", start=0, duration=1.0, profile="hold")
+
+
+# ---- the human's hand that holds (kind: hold, Lee et al. §VI-C) ----------------------------
+
+def _hold(**update: object) -> DisturbanceSpec:
+    fields: dict[str, object] = dict(
+        name="hand", body="pelvis", kind="hold", frame="O_w", axes=["x"], stiffness=2000.0,
+        damping=500.0, max_force=200.0, start=1.0, duration=2.0, profile="ramp", ramp_time=0.5,
+    )  # fmt: skip
+    fields.update(update)
+    return DisturbanceSpec(**fields)
+
+
+class _Body:
+    """A body whose CoM position and velocity the test sets (world frame)."""
+
+    def __init__(self) -> None:
+        self.pos = np.array([0.1, 0.2, 0.9])
+        self.vel = np.zeros(3)
+
+    def __call__(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        return self.pos.copy(), self.vel.copy()
+
+
+def test_hold_grabs_where_the_body_is_and_pulls_it_back() -> None:
+    """At the grab the hand holds the body where it is (no force while it stays); moved 2 cm
+    along x of the frame, the engaged hand pulls back with k · 0.02 = 40 N."""
+    body = _Body()
+    schedule = DisturbanceSchedule([_hold()])
+    wrenches, events = schedule.wrenches(1.001, lambda n: np.eye(3), body)  # the grab
+    assert events[0]["kind"] == "disturbance_on" and wrenches == {}
+    body.pos = body.pos + [0.02, 0.0, 0.0]
+    wrenches, _ = schedule.wrenches(2.0, lambda n: np.eye(3), body)
+    assert np.allclose(wrenches["pelvis"], [-40.0, 0, 0, 0, 0, 0])
+
+
+def test_hold_engages_and_releases_over_its_ramps() -> None:
+    """The same displacement gives half the force mid-ramp, the full force held, half again
+    mid-release, and nothing once the hand has let go."""
+    body = _Body()
+    schedule = DisturbanceSchedule([_hold()])
+    schedule.wrenches(1.001, lambda n: np.eye(3), body)  # the grab
+    body.pos = body.pos + [0.02, 0.0, 0.0]
+    forces = []
+    for t in (1.25, 2.0, 2.75):
+        w, _ = schedule.wrenches(t, lambda n: np.eye(3), body)
+        forces.append(w["pelvis"][0])
+    assert np.allclose(forces, [-20.0, -40.0, -20.0])
+    w, events = schedule.wrenches(3.0, lambda n: np.eye(3), body)
+    assert w == {} and events[0]["kind"] == "disturbance_off"
+
+
+def test_hold_acts_only_on_its_axes_in_its_frozen_frame() -> None:
+    """A hand holding x of a frame turned 90° about z resists motion along world y only, with
+    damping on the velocity; motion along the frame's free axes gets no force."""
+    rot90 = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    body = _Body()
+    schedule = DisturbanceSchedule([_hold()])
+    schedule.wrenches(1.001, lambda n: rot90, body)
+    body.pos = body.pos + [0.05, 0.0, 0.3]  # world x and z: the frame's −y and z, not held
+    w, _ = schedule.wrenches(2.0, lambda n: np.eye(3), body)
+    assert w == {}
+    body.vel = np.array([0.0, 0.1, 0.0])  # world y: the frame's x
+    w, _ = schedule.wrenches(2.0, lambda n: np.eye(3), body)
+    assert np.allclose(w["pelvis"][:3], [0.0, -50.0, 0.0])
+
+
+def test_hold_force_is_capped_in_norm() -> None:
+    """A hand cannot exceed its cap: 0.5 m away along x and y, |f| = 200 N, in the spring's
+    direction."""
+    body = _Body()
+    schedule = DisturbanceSchedule([_hold(axes=["x", "y"])])
+    schedule.wrenches(1.001, lambda n: np.eye(3), body)
+    body.pos = body.pos + [0.5, 0.5, 0.0]
+    w, _ = schedule.wrenches(2.0, lambda n: np.eye(3), body)
+    f = w["pelvis"][:3]
+    assert np.linalg.norm(f) == pytest.approx(200.0)
+    assert np.allclose(f / np.linalg.norm(f), [-(0.5**0.5), -(0.5**0.5), 0.0])
+
+
+def test_hold_needs_the_body_state() -> None:
+    """A hold without the body's state cannot grab: a clear error, not a silent zero."""
+    with pytest.raises(RuntimeError, match="needs the body's state"):
+        DisturbanceSchedule([_hold()]).wrenches(1.001, lambda n: np.eye(3))
+
+
+@pytest.mark.parametrize(
+    "update, message",
+    [
+        ({"force": (10.0, 0.0, 0.0)}, "outcome of its stiffness"),
+        ({"stiffness": 0.0}, "stiffness > 0"),
+        ({"max_force": 0.0}, "max_force > 0"),
+        ({"axes": []}, "at least one axis"),
+        ({"axes": ["x", "x"]}, "must not repeat"),
+        ({"profile": "constant", "ramp_time": 0.0}, "needs profile: ramp"),
+    ],
+)
+def test_spec_rejects_a_hold_without_a_hand(update: dict, message: str) -> None:
+    """A hold must be a hand: stiffness, a cap, axes, a ramp, and no set force."""
+    with pytest.raises(ValidationError, match=message):
+        _hold(**update)
+
+
+def test_spec_rejects_hold_fields_on_a_push() -> None:
+    """Stiffness on a push would be silently ignored: it is refused."""
+    with pytest.raises(ValidationError, match="belong to a hold"):
+        DisturbanceSpec(name="p", body="pelvis", force=(1, 0, 0), stiffness=100.0, start=0,
+                        duration=1)  # fmt: skip

@@ -561,3 +561,58 @@ def test_no_push_in_the_spec(tmp_path: Path) -> None:
         "push_com_speed",
     ):
         assert "no push" in unmeasurable_reason(d, name)
+
+
+# ---- the hand's hold (§VI-C: the force at equilibrium and the still CoM) -----------------
+
+HOLD = {**PUSH, "start": 0.5, "duration": 2.0}
+
+
+def _hold_log(tmp_path: Path, force: object, com_speed: object = 0.0) -> LogData:
+    """A 3 s log with a 0.5–2.5 s window; ``force(t)`` [N] along −x and ``com_speed(t)``
+    [m/s] along x (numbers or functions of time)."""
+    ticks = []
+    for k in range(300):
+        t = round(k * DT, 6)
+        events = []
+        if t == 0.5:
+            events.append({"kind": "disturbance_on", "name": "push"})
+        if t == 2.5:
+            events.append({"kind": "disturbance_off", "name": "push"})
+        f = force(t) if callable(force) else force
+        v = com_speed(t) if callable(com_speed) else com_speed
+        qvel = np.zeros(_nv())
+        qvel[0] = v
+        xfrc = {"pelvis": [-f, 0.0, 0.0, 0.0, 0.0, 0.0]} if 0.5 <= t < 2.5 and f else {}
+        ticks.append(Tick(t, qvel=qvel, signals={"ow_yaw": 0.0}, events=events, xfrc=xfrc))
+    return write_log(tmp_path / "hold.mcap", ticks, _spec(disturbances=[HOLD]))
+
+
+def test_hold_force_is_the_equilibrium_not_the_peak(tmp_path: Path) -> None:
+    """A hand that overshoots to 120 N while engaging and settles at 75 N measures 75 N over
+    the middle second (1.0–2.0 s): within §VI-C's 60–90 N, where the peak is not."""
+    d = _hold_log(tmp_path, lambda t: 120.0 if t < 0.9 else 75.0)
+    assert measured(d, "hold_force") == pytest.approx(75.0)
+    assert measured(d, "peak_external_force") == pytest.approx(120.0)
+
+
+def test_hold_force_too_weak(tmp_path: Path) -> None:
+    """A hand that settles at 40 N fails the 60 N bound, whatever it did while engaging."""
+    d = _hold_log(tmp_path, lambda t: 120.0 if t < 0.9 else 40.0)
+    assert measured(d, "hold_force") == pytest.approx(40.0)
+
+
+def test_hold_com_speed_over_the_middle_second(tmp_path: Path) -> None:
+    """A CoM that moves fast while the hand engages and releases but is still in the middle
+    second passes; one still swinging at 0.1 m/s in the middle second fails."""
+    still = _hold_log(tmp_path, 75.0, lambda t: 0.3 if t < 0.9 or t > 2.1 else 0.01)
+    assert measured(still, "hold_com_speed") == pytest.approx(0.01)
+    swinging = _hold_log(tmp_path, 75.0, lambda t: 0.1 if int(t * 10) % 2 else -0.1)
+    assert measured(swinging, "hold_com_speed") == pytest.approx(0.1)
+
+
+def test_hold_metrics_need_a_second(tmp_path: Path) -> None:
+    """A 0.5 s push has no middle second: not measurable, and it says why."""
+    d = _push(tmp_path, [1.3])
+    assert "less than the 1 s" in unmeasurable_reason(d, "hold_force")
+    assert "less than the 1 s" in unmeasurable_reason(d, "hold_com_speed")
