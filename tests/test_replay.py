@@ -8,7 +8,9 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
+from walkrepro.cli import app
 from walkrepro.errors import WalkreproError
 from walkrepro.record import (
     TOPIC_EVENTS,
@@ -166,15 +168,18 @@ def test_xfrc_is_replayed(tmp_path: Path) -> None:
     assert report.worst_step > PUSH_STEPS[0]
 
 
-def test_truncated_log_verifies_its_prefix(tmp_path: Path) -> None:
-    """A log cut mid-file (writer killed) replays as far as it goes and still verifies."""
+def test_truncated_log_replays_its_prefix_and_fails(tmp_path: Path) -> None:
+    """A log cut mid-file (writer killed) replays as far as it goes, faithfully, but does not verify: the report says it is truncated and the number of logged steps is unknown."""
     path = tmp_path / "run.mcap"
     simulate(path, chunk_size=8 << 10)
+    whole = verify_log(path)
+    assert whole.ok and whole.damage == "" and whole.n_logged == whole.n_steps == STEPS
     data = path.read_bytes()
     path.write_bytes(data[: len(data) // 2])
     report = verify_log(path)
-    assert report.ok
-    assert 0 < report.n_states_compared < STEPS
+    assert not report.ok and report.damage.startswith("truncated")
+    assert report.max_deviation == 0.0 and 0 < report.n_states_compared < STEPS
+    assert report.n_logged is None and 0 < report.n_steps < STEPS
 
 
 def test_missing_initial_state_is_an_error(tmp_path: Path) -> None:
@@ -191,3 +196,86 @@ def test_gap_in_inputs_is_an_error(tmp_path: Path) -> None:
     simulate(path, log_inputs=lambda step, msg: None if 40 <= step < 43 else msg)
     with pytest.raises(WalkreproError, match="40-42"):
         verify_log(path)
+
+
+# --- verify on a real run's log, cut or with flipped bytes ------------------------------
+
+
+@pytest.fixture(scope="module")
+def short_run_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The log of a 0.5 s stand_coman run (1000 physics steps, several chunks), made once."""
+    out = tmp_path_factory.mktemp("runs")
+    result = CliRunner().invoke(
+        app,
+        ["run", "stand_coman", "--set", "sim.duration=0.5", "--out", str(out), "--no-figures"],
+    )
+    assert result.exit_code == 0, result.output
+    (log,) = out.glob("stand_coman/*/log.mcap")
+    return log
+
+
+def _verify(path: Path) -> tuple[int, str]:
+    result = CliRunner().invoke(app, ["verify", str(path)])
+    return result.exit_code, " ".join(result.output.split())  # unwrap the console's lines
+
+
+def test_whole_log_verifies_all_its_steps(short_run_log: Path) -> None:
+    """The whole log verifies: exit 0, every logged step replayed."""
+    code, text = _verify(short_run_log)
+    assert code == 0 and text.startswith("OK: replayed 1000 of 1000 logged steps"), text
+
+
+@pytest.mark.parametrize("fraction", [0.1, 0.5, 0.9])
+def test_cut_log_is_reported_truncated(
+    short_run_log: Path, tmp_path: Path, fraction: float
+) -> None:
+    """A log cut at 10, 50 or 90 % exits 1, says it is truncated, what was read, and that N of an unknown number of steps were replayed."""
+    data = short_run_log.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: int(len(data) * fraction)])
+    code, text = _verify(cut)
+    assert code == 1, text
+    assert text.startswith("DAMAGED:") and "is truncated: it ends at byte" in text, text
+    report = verify_log(cut)
+    assert not report.ok and report.n_logged is None
+    assert f"replayed {report.n_steps} of ? logged steps" in text, text
+    assert f"Read {report.n_states_read} states" in text and "unknown" in text
+    assert report.n_steps < 1000 and report.max_deviation == 0.0
+    if fraction > 0.1:  # past the first chunk: a prefix was read and replays faithfully
+        assert report.n_steps > 0 and report.n_states_compared > 0
+
+
+def test_cut_in_the_attachments_is_an_error_that_says_truncated(
+    short_run_log: Path, tmp_path: Path
+) -> None:
+    """A log cut before its scene attachment ends is a one-paragraph error (exit 2) that says it is truncated."""
+    data = short_run_log.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[:1000])
+    code, text = _verify(cut)
+    assert code == 2 and "is truncated" in text and "attachment" in text, text
+    assert "Traceback" not in text
+
+
+@pytest.mark.parametrize("where", ["middle", "summary"])
+def test_flipped_bytes_are_reported_damaged(
+    short_run_log: Path, tmp_path: Path, where: str
+) -> None:
+    """Bytes flipped mid-file (in a chunk) or in the summary: exit 1, says damaged, and gives the logged step count when the summary survives."""
+    data = bytearray(short_run_log.read_bytes())
+    at = len(data) // 2 if where == "middle" else len(data) - 100
+    for i in range(at, at + 4):
+        data[i] ^= 0xFF
+    damaged = tmp_path / "flipped.mcap"
+    damaged.write_bytes(bytes(data))
+    code, text = _verify(damaged)
+    assert code == 1, text
+    assert text.startswith("DAMAGED:") and "is damaged" in text, text
+    report = verify_log(damaged)
+    assert not report.ok and report.max_deviation == 0.0
+    if where == "middle":  # the summary still counts the steps; those after the damage are lost
+        assert report.n_logged == 1000 and 0 < report.n_steps < 1000
+        assert f"replayed {report.n_steps} of 1000 logged steps" in text, text
+    else:  # every chunk is whole; the summary that counts them is not
+        assert report.n_logged is None and report.n_steps == 1000
+        assert "replayed 1000 of ? logged steps" in text, text

@@ -407,17 +407,43 @@ def verify(
     log: Annotated[Path, typer.Argument(help="A log.mcap (or its run directory).")],
     tolerance: Annotated[float, typer.Option(help="Largest allowed deviation.")] = 1e-9,
 ) -> None:
-    """Re-simulate a log from its scene, initial state and inputs; compare with its states."""
+    """Re-simulate a log from its scene, initial state and inputs; compare with its states.
+
+    Exit 1 when the replay deviates beyond the tolerance, or when the log is truncated or
+    damaged (what could be read is still replayed and reported).
+    """
     from walkrepro.replay import verify_log
 
-    _, log_path = results.resolve_run(log)
+    directory, log_path = results.resolve_run(log)
+    if not log_path.is_file():
+        raise WalkreproError(
+            f"{directory}: this run has no {results.LOG_FILE} (it stopped before its log was "
+            f"opened; see its {results.RUN_FILE}); there is nothing to verify."
+        )
     report = verify_log(log_path, tolerance)
+    logged = "?" if report.n_logged is None else str(report.n_logged)
+    replayed = f"replayed {report.n_steps} of {logged} logged steps"
+    compared = f"compared {report.n_states_compared} states"
+    if report.n_states_compared:
+        compared += (
+            f"; largest deviation {report.max_deviation:.3g} (step {report.worst_step}, "
+            f"{report.worst_field}); tolerance {report.tolerance:g}"
+        )
+    if report.damage:
+        upto = f" (up to t = {report.last_time:.4g} s)" if report.n_states_read else ""
+        unknown = ""
+        if report.n_logged is None:
+            lost = "cut off" if report.damage.startswith("truncated") else "damaged"
+            unknown = f" (? = unknown: the summary that counts them is {lost})"
+        _console().print(
+            f"[red]DAMAGED[/]: {escape(str(log_path))} is {escape(report.damage)}. Read "
+            f"{report.n_states_read} states{upto} and the inputs of {report.n_steps} steps; "
+            f"{replayed}{unknown}; {compared}.",
+            highlight=False,
+        )
+        raise typer.Exit(code=1)
     status = "[green]OK[/]" if report.ok else "[red]FAILED[/]"
-    _console().print(
-        f"{status}: replayed {report.n_steps} steps, compared {report.n_states_compared} states; "
-        f"largest deviation {report.max_deviation:.3g} (step {report.worst_step}, {report.worst_field}); "
-        f"tolerance {report.tolerance:g}"
-    )
+    _console().print(f"{status}: {replayed}, {compared}", highlight=False)
     if not report.ok:
         raise typer.Exit(code=1)
 
@@ -488,6 +514,37 @@ def render(
         height or 640,
     )
     _console().print(f"wrote {path}")
+
+
+@app.command()
+@friendly_errors
+def report(
+    source: Annotated[
+        Path,
+        typer.Option(
+            "--from",
+            help="results/ (the committed references) or a walkrepro check --out directory.",
+        ),
+    ] = results.RESULTS_DIR,
+    out: Annotated[
+        Path | None,
+        typer.Option(help="Site directory, replaced as a whole (default: next to --from, report/)."),
+    ] = None,
+) -> None:
+    """Build the static HTML report: per paper, each claim with the paper's value, the
+    measured value and the verdict, next to the figures, the video and the maps."""
+    from walkrepro.report import build_report
+
+    site = build_report(source, out)
+    for note in site.notes:
+        _console(stderr=True).print(f"[yellow]skipped:[/] {escape(note)}", highlight=False)
+    for key, t in site.tallies.items():
+        _console().print(
+            f"{key}: {t.reproduced} reproduced, {t.calibrated} calibrated, {t.known} known "
+            f"deviations, {t.failed} failed",
+            highlight=False,
+        )
+    _console().print(f"wrote {site.index.as_uri()}", highlight=False)
 
 
 @app.command()

@@ -358,6 +358,9 @@ class McapContents:
         attachments: every attachment record.
         metadata: every metadata record.
         closed: whether the footer was reached (the writer finished the file).
+        stopped_at: byte offset of the record where reading stopped because the file ends
+            or is damaged there (None when the footer was reached).
+        size: the file's size [bytes].
     """
 
     schemas: dict[int, Schema] = field(default_factory=dict)
@@ -366,6 +369,8 @@ class McapContents:
     attachments: list[Attachment] = field(default_factory=list)
     metadata: list[Metadata] = field(default_factory=list)
     closed: bool = False
+    stopped_at: int | None = None
+    size: int = 0
 
 
 class _Damaged(Exception):
@@ -383,18 +388,93 @@ def read_mcap(data: bytes) -> McapContents:
     """
     if not data.startswith(MAGIC):
         raise ValueError("not an MCAP file (it lacks the MCAP magic bytes)")
-    out = McapContents()
+    out = McapContents(size=len(data))
     pos, end = len(MAGIC), len(data)
+    start = pos
     try:
         while pos < end and not out.closed:
+            start = pos
             opcode, body, pos = _record_at(data, pos, end)
             if opcode == Opcode.CHUNK:
                 _read_chunk(data[body:pos], out)
             else:
                 _read_other(opcode, data[body:pos], out)
     except _Damaged:
-        pass
+        out.stopped_at = start
+        return out
+    if not out.closed:
+        out.stopped_at = pos
     return out
+
+
+@dataclass(frozen=True)
+class McapSummary:
+    """The summary section of a finished file, read from its end.
+
+    Attributes:
+        channels: channel id → channel, as the summary lists them.
+        message_counts: channel id → messages the file holds on that channel (None when
+            the summary has no statistics record).
+        chunk_count: chunks in the file (None when the summary has no statistics record).
+    """
+
+    channels: dict[int, Channel]
+    message_counts: dict[int, int] | None
+    chunk_count: int | None
+
+    def count(self, topic: str) -> int | None:
+        """Messages on ``topic`` (summed over its channels); None if unknown."""
+        ids = [i for i, c in self.channels.items() if c.topic == topic]
+        if not ids or self.message_counts is None:
+            return None
+        return sum(self.message_counts.get(i, 0) for i in ids)
+
+
+_FOOTER = struct.Struct("<BQQQI")  # opcode, length (20), summary start, offsets start, CRC
+
+
+def read_summary(data: bytes) -> McapSummary | None:
+    """The summary of an MCAP file, found from its footer at the end of ``data``.
+
+    The footer's CRC covers the whole summary section, so a summary that is returned is
+    whole. It survives damage to the data section before it (a flipped byte in a chunk),
+    so it still says what the file held.
+
+    Returns:
+        The summary (empty when the footer says there is none); None when ``data`` does not
+        end with a footer and the closing magic (a truncated file), or the summary fails
+        its CRC or does not parse.
+    """
+    footer_at = len(data) - len(MAGIC) - _FOOTER.size
+    if footer_at < len(MAGIC) or not data.endswith(MAGIC):
+        return None
+    opcode, length, summary_start, offsets_start, crc = _FOOTER.unpack_from(data, footer_at)
+    if opcode != Opcode.FOOTER or length != _FOOTER.size - _RECORD_HEAD.size:
+        return None
+    if summary_start == 0:  # MCAP: a file written without a summary section
+        return McapSummary({}, None, None)
+    if not len(MAGIC) <= summary_start < footer_at:
+        return None
+    covered = memoryview(data)[summary_start : footer_at + _FOOTER.size - 4]
+    if crc != 0 and zlib.crc32(covered) != crc:
+        return None
+    end = offsets_start if summary_start < offsets_start <= footer_at else footer_at
+    channels: dict[int, Channel] = {}
+    stats: Statistics | None = None
+    pos = summary_start
+    try:
+        while pos < end:
+            opcode, body, pos = _record_at(data, pos, end)
+            if opcode == Opcode.CHANNEL:
+                channel = Channel.read(ReadDataStream(io.BytesIO(data[body:pos])))
+                channels[channel.id] = channel
+            elif opcode == Opcode.STATISTICS:
+                stats = Statistics.read(ReadDataStream(io.BytesIO(data[body:pos])))
+    except Exception:  # noqa: BLE001 - a summary that does not parse is no summary
+        return None
+    if stats is None:
+        return McapSummary(channels, None, None)
+    return McapSummary(channels, dict(stats.channel_message_counts), stats.chunk_count)
 
 
 def _record_at(data: bytes, pos: int, end: int) -> tuple[int, int, int]:

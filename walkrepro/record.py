@@ -57,7 +57,7 @@ import numpy as np
 import walkrepro
 from walkrepro import foxglove, protolog
 from walkrepro.errors import UnknownNameError, WalkreproError
-from walkrepro.mcapfile import ChannelWriter, McapFile, read_mcap
+from walkrepro.mcapfile import ChannelWriter, McapFile, McapSummary, read_mcap, read_summary
 from walkrepro.signals import SignalLayout, Signals, dict_layout
 
 try:
@@ -925,6 +925,11 @@ class Log:
         metadata: the ``walkrepro`` metadata record; for a log whose writer never closed it,
             only ``{"outcome": OUTCOME_NOT_CLOSED}``.
         truncated: whether the file ended (or was damaged) before its MCAP footer.
+        damage: why the log is not whole, one sentence (``""`` when it is): cut short
+            (``truncated`` and no summary), or damaged (a record that fails its checksum or
+            does not parse, before the footer or in the summary).
+        summary: the MCAP summary from the end of the file, when whole (it survives damage
+            before it, and says how many messages the file held).
     """
 
     path: Path
@@ -932,6 +937,8 @@ class Log:
     spec_yaml: str
     metadata: dict[str, str]
     truncated: bool = False
+    damage: str = ""
+    summary: McapSummary | None = None
     _raw: Mapping[str, _Segments] = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -993,6 +1000,11 @@ class Log:
     def count(self, topic: str) -> int:
         """Number of messages of ``topic`` (0 if none)."""
         return sum(len(raw) for _, raw in self._raw.get(topic, ()))
+
+    def logged_count(self, topic: str) -> int | None:
+        """Messages of ``topic`` that the file's summary says were written; None when the
+        summary is gone (a truncated file) or lists no such topic."""
+        return self.summary.count(topic) if self.summary is not None else None
 
     def topics(self) -> list[str]:
         """Topics with at least one message, in channel order."""
@@ -1060,11 +1072,15 @@ def read_log(path: Path) -> Log:
     attachments = {a.name: a.data.decode() for a in contents.attachments}
     metadata = next((dict(m.metadata) for m in contents.metadata if m.name == METADATA_NAME), None)
     closed = contents.closed
+    summary = read_summary(data)
+    damage = _damage(contents, summary)
     missing = [name for name in (SCENE_ATTACHMENT, SPEC_ATTACHMENT) if name not in attachments]
     if missing:
         raise WalkreproError(
-            f"{path} is not a walkrepro log or is damaged near its start: no "
-            f"{' or '.join(missing)} attachment"
+            f"{path} is {damage}, before its {' and '.join(missing)} attachment; nothing "
+            "can be read from it"
+            if damage
+            else f"{path} is not a walkrepro log: it has no {' or '.join(missing)} attachment"
         )
     return Log(
         path=path,
@@ -1072,5 +1088,25 @@ def read_log(path: Path) -> Log:
         spec_yaml=attachments[SPEC_ATTACHMENT],
         metadata=metadata if metadata is not None else {"outcome": OUTCOME_NOT_CLOSED},
         truncated=not closed,
+        damage=damage,
+        summary=summary,
         _raw=raw,
+    )
+
+
+def _damage(contents: Any, summary: McapSummary | None) -> str:
+    """Why a read MCAP file is not whole (``""`` if it is); see :attr:`Log.damage`."""
+    size, stopped = contents.size, contents.stopped_at
+    if contents.closed:
+        if summary is None:
+            return "damaged: its summary section or footer fails its CRC or does not parse"
+        return ""
+    if summary is None:
+        return (
+            f"truncated: it ends at byte {size} without its summary and footer (whole "
+            f"records up to byte {stopped})"
+        )
+    return (
+        f"damaged at byte {stopped} of {size}: the record there fails its checksum or does "
+        "not parse, and nothing after it could be read"
     )

@@ -3,7 +3,9 @@
 This is what ``walkrepro verify <log>`` runs. It proves that a log is complete: the MJCF
 (``scene.xml``), the state before step 0 and the inputs of every physics step (``ctrl`` and
 ``xfrc_applied``) reproduce every logged state. MuJoCo is deterministic on one machine and
-build, so a faithful log replays with deviation exactly 0.
+build, so a faithful log replays with deviation exactly 0. A truncated or damaged log
+replays as far as it can be read and never verifies: the report says what is wrong, and how
+many of the steps the file held were replayed.
 """
 
 from __future__ import annotations
@@ -34,8 +36,15 @@ class VerifyReport:
         max_deviation: largest |replayed - logged| over qpos, qvel and act.
         worst_step: step index of the state with ``max_deviation`` (-1 if none compared).
         worst_field: entry with ``max_deviation``, e.g. ``"qvel[3]"`` (``""`` if none).
-        ok: at least one state was compared and ``max_deviation <= tolerance``.
+        ok: the log is whole, at least one state was compared and
+            ``max_deviation <= tolerance``.
         tolerance: the tolerance used.
+        n_logged: physics steps the log says it holds (``/sim/inputs`` messages in its
+            summary); None when the summary is gone (a truncated file).
+        damage: why the log is not whole, one sentence (``""`` when it is), see
+            :attr:`walkrepro.record.Log.damage`.
+        n_states_read: ``/sim/state`` messages that could be read.
+        last_time: time of the last state that could be read [s] (NaN if none).
     """
 
     n_steps: int
@@ -45,6 +54,10 @@ class VerifyReport:
     worst_field: str
     ok: bool
     tolerance: float
+    n_logged: int | None = None
+    damage: str = ""
+    n_states_read: int = 0
+    last_time: float = math.nan
 
 
 class ReplayInputs(NamedTuple):
@@ -159,20 +172,28 @@ def verify_log(path: Path, tolerance: float = DEFAULT_TOLERANCE) -> VerifyReport
     ``mj_step``; the result is compared with the logged state of step k + 1, if any.
 
     Args:
-        path: the MCAP log (a truncated log replays as far as it goes).
+        path: the MCAP log (a truncated or damaged log replays as far as it can be read,
+            and is reported as such).
         tolerance: largest acceptable max abs deviation.
 
     Returns:
-        The report; ``ok`` says whether the log reproduces itself.
+        The report; ``ok`` says whether the log is whole and reproduces itself.
 
     Raises:
-        WalkreproError: unreadable log, no step-0 state, gaps in the inputs, or vectors that
-            do not fit the logged scene.
+        WalkreproError: unreadable log, no step-0 state in a whole log, gaps in the
+            inputs, or vectors that do not fit the logged scene.
     """
     log = read_log(path)
     model = mujoco.MjModel.from_xml_string(log.scene_xml)
     data = mujoco.MjData(model)
     inputs = replay_inputs(log, model)
+    read = logged_states(log)
+    n_logged = log.logged_count(TOPIC_INPUTS)
+    last_time = float(read.t[-1]) if read.t.size else math.nan
+    if log.damage and 0 not in read.rows:  # cut or damaged before the first state
+        return VerifyReport(
+            0, 0, 0.0, -1, "", False, tolerance, n_logged, log.damage, len(read.rows), last_time
+        )
     states = set_initial_state(log, data)
 
     max_deviation = 0.0
@@ -213,8 +234,12 @@ def verify_log(path: Path, tolerance: float = DEFAULT_TOLERANCE) -> VerifyReport
         max_deviation=max_deviation,
         worst_step=worst_step,
         worst_field=worst_field,
-        ok=n_compared > 0 and max_deviation <= tolerance,
+        ok=not log.damage and n_compared > 0 and max_deviation <= tolerance,
         tolerance=tolerance,
+        n_logged=n_logged,
+        damage=log.damage,
+        n_states_read=len(read.rows),
+        last_time=last_time,
     )
 
 
