@@ -1,0 +1,297 @@
+"""The static HTML report (``walkrepro report``): its content, and a headless-Chromium check
+that every page loads from ``file://`` with no console error and no broken image, link or
+video."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+from html import escape
+from html.parser import HTMLParser
+from pathlib import Path
+from urllib.parse import unquote, urlparse
+
+import pytest
+from typer.testing import CliRunner
+
+from walkrepro import RESULTS_DIR
+from walkrepro.cli import app
+from walkrepro.errors import WalkreproError
+from walkrepro.report import build_report
+from walkrepro.report.claims import Tally, claim_from_row, tally
+from walkrepro.spec import PAPERS, load_spec
+
+CHROMIUM, CHROMEDRIVER = Path("/usr/bin/chromium"), Path("/usr/bin/chromedriver")
+PAPER_KEYS = ("lee2021", "faraji", "jo_oh")
+
+
+def _row(status: str, note: str = "", measured: float | None = 1.0) -> dict:
+    return {
+        "metric": "walk_speed",
+        "op": "between",
+        "paper": [0.088, 0.132],
+        "measured": measured,
+        "status": status,
+        "source": "§VI-A: approximately 0.11 m/s",
+        "note": note,
+        "observed": [0.07, 0.086] if status == "known deviation" else None,
+        "band": "[0.088, 0.132]",
+    }
+
+
+def _fake_results(root: Path, rows: list[dict], outcome: str = "complete") -> Path:
+    """A results tree with forward_walk's reference: check.json, one figure and a video."""
+    exp = root / "forward_walk"
+    (exp / "figures").mkdir(parents=True)
+    (exp / "check.json").write_text(json.dumps({"outcome": outcome, "rows": rows}))
+    shutil.copy(next((RESULTS_DIR / "forward_walk" / "figures").glob("*.png")), exp / "figures")
+    (exp / "video.mp4").write_bytes(b"\x00\x00\x00\x18ftypmp42")
+    (root / "maps").mkdir()  # no reference maps: each declared map is a failed claim
+    return root
+
+
+def test_a_known_deviation_row_splits_into_definition_and_reason() -> None:
+    """The note's "Known deviation: ..." tail is the reason; the head is how it is measured."""
+    claim = claim_from_row(_row("known deviation", "pelvis x speed. Known deviation: 0.078 m/s"))
+    assert claim.definition == "pelvis x speed."
+    assert claim.reason == "0.078 m/s"
+    assert claim.observed == "[0.07, 0.086]"
+    assert claim.label == "known deviation"
+    failed = claim_from_row(_row("fail", "not measurable: fell", measured=None))
+    assert (failed.reason, failed.measured) == ("not measurable: fell", "not measurable")
+
+
+def test_tally_counts_each_verdict_and_unknown_statuses_as_failed() -> None:
+    """Reproduced, calibrated, known and failed are counted apart; a status the report does
+    not know is a failure, never silently dropped."""
+    claims = [
+        claim_from_row(_row(s))
+        for s in ("pass", "pass", "calibrated", "known deviation", "fail", "??")
+    ]
+    t = tally(claims)
+    assert (t.reproduced, t.calibrated, t.known, t.failed) == (2, 1, 1, 2)
+
+
+def test_report_from_a_results_tree_links_only_relative_copied_files(tmp_path: Path) -> None:
+    """A paper page shows the claim, the paper's value, the measured value, the verdict and
+    the reason, with its figure and video copied into the site and linked relatively."""
+    source = _fake_results(
+        tmp_path / "results", [_row("pass"), _row("known deviation", "x. Known deviation: slow")]
+    )
+    site = build_report(source, tmp_path / "site")
+    n_maps = len(load_spec("forward_walk").spec.sweeps)
+    assert n_maps > 0
+    assert site.tallies["lee2021"] == Tally(reproduced=1, known=1, failed=n_maps)
+    page = (tmp_path / "site" / "lee2021.html").read_text()
+    for text in ("walk_speed", "§VI-A: approximately 0.11 m/s", "[0.088, 0.132]", "slow", "VI-A"):
+        assert text in page
+    assert 'src="assets/forward_walk/video.mp4"' in page
+    links = re.findall(r'(?:href|src)="([^"]+)"', page)
+    assert links and all(not urlparse(x).scheme and not x.startswith("/") for x in links)
+    for link in links:
+        assert (tmp_path / "site" / unquote(link.split("#")[0])).exists() or link.startswith("#")
+    assert str(tmp_path) not in page  # nothing points back into the source tree
+
+
+def test_a_broken_run_counts_as_a_failed_claim(tmp_path: Path) -> None:
+    """A reference whose run ended in an error shows a failed row, as `walkrepro check` counts it."""
+    source = _fake_results(tmp_path / "results", [_row("pass")], outcome="error")
+    site = build_report(source, tmp_path / "site")
+    assert site.tallies["lee2021"].failed == 1 + len(load_spec("forward_walk").spec.sweeps)
+    assert "run error" in (tmp_path / "site" / "lee2021.html").read_text()
+
+
+def test_report_refuses_an_empty_source_and_overwriting_its_source(tmp_path: Path) -> None:
+    """No results is a one-paragraph error (exit 2); so is an --out that holds the source."""
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(WalkreproError, match="no experiment results"):
+        build_report(tmp_path / "empty", tmp_path / "site")
+    source = _fake_results(tmp_path / "results", [_row("pass")])
+    with pytest.raises(WalkreproError, match="overwrite"):
+        build_report(source, tmp_path)
+    result = CliRunner().invoke(app, ["report", "--from", str(tmp_path / "empty")])
+    assert result.exit_code == 2
+    assert "Traceback" not in result.output
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The report built once from the committed references."""
+    out = tmp_path_factory.mktemp("report") / "site"
+    result = CliRunner().invoke(app, ["report", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def test_the_committed_references_give_one_row_per_paper_with_checks_counts(site: Path) -> None:
+    """The index has a row per paper, and each paper's counts equal the sum of its
+    experiments' check.json counts plus its maps' claims as `walkrepro check` evaluates them."""
+    from walkrepro.sweep.command import map_verdicts
+
+    index = (site / "index.html").read_text()
+    for key in PAPER_KEYS:
+        assert f'href="{key}.html"' in index and escape(PAPERS[key]) in index
+        reproduced = known = failed = 0
+        names = []
+        for check in sorted(RESULTS_DIR.glob("*/check.json")):
+            if load_spec(check.parent.name).spec.paper.key != key:
+                continue
+            counts = json.loads(check.read_text())["counts"]
+            reproduced, known, failed = (
+                reproduced + counts["reproduced"],
+                known + counts["known"],
+                failed + counts["failed"],
+            )
+            names.append(check.parent.name)
+        for v in map_verdicts(names, False, site, 1):
+            reproduced += sum(r.status == "pass" for r in v.rows)
+            known += sum(r.status == "known deviation" for r in v.rows)
+            failed += sum(r.status == "fail" for r in v.rows)
+        row = re.search(rf'href="{key}\.html".*?</tr>', index).group(0)
+        cells = [int(x) for x in re.findall(r'<td class="num">(\d+)</td>', row)]
+        assert cells[1:] == [reproduced, 0, known, failed]
+
+
+def test_no_page_cites_an_internal_issue_number_of_its_own(site: Path) -> None:
+    """Generated pages cite papers; the report's own text never says "issue N"."""
+    from walkrepro.report import html as report_html
+    from walkrepro.report import site as report_site
+
+    for module in (report_html, report_site):
+        assert not re.search(r"issue \d+", Path(module.__file__).read_text())
+
+
+# --------------------------------------------------------------------------------------
+# Headless Chromium
+
+
+def _chromium_missing() -> str:
+    """Why the browser test cannot run here ('' if it can)."""
+    if not CHROMIUM.is_file() or not CHROMEDRIVER.is_file():
+        return "Chromium is absent (apt-get install chromium chromium-driver; .ci/run does)"
+    try:
+        import selenium  # noqa: F401
+    except ImportError:
+        return "selenium is absent (pip install -e '.[test]')"
+    return ""
+
+
+class _Links(HTMLParser):
+    """Every href and src of a page."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.targets: list[str] = []
+        self.ids: set[str] = set()
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        for name, value in attrs:
+            if name in ("href", "src") and value:
+                self.targets.append(value)
+            if name == "id" and value:
+                self.ids.add(value)
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory: pytest.TempPathFactory):  # noqa: ANN201 - a selenium driver
+    """Headless Chromium driven by chromedriver, with the closed network's flags."""
+    why = _chromium_missing()
+    if why:
+        pytest.skip(why)
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = str(CHROMIUM)
+    for flag in (
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        "--allow-file-access-from-files",
+        f"--user-data-dir={tmp_path_factory.mktemp('chromium-profile')}",
+        "--window-size=1400,1800",
+    ):
+        options.add_argument(flag)
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    driver = webdriver.Chrome(options=options, service=Service(str(CHROMEDRIVER)))
+    driver.set_page_load_timeout(120)
+    yield driver
+    driver.quit()
+
+
+_LOAD_EVERY_IMAGE = """
+const done = arguments[arguments.length - 1];
+const images = Array.from(document.images);
+images.forEach(img => { img.loading = "eager"; });
+Promise.all(images.map(img => img.complete ? Promise.resolve() :
+    new Promise(ok => { img.onload = ok; img.onerror = ok; })))
+  .then(() => done(images.filter(img => img.naturalWidth === 0).map(img => img.src)));
+"""
+
+_VIDEO_STATES = """
+const done = arguments[arguments.length - 1];
+const videos = Array.from(document.querySelectorAll("video"));
+Promise.all(videos.map(v => (v.readyState >= 1 || v.error) ? Promise.resolve() :
+    new Promise(ok => { v.addEventListener("loadedmetadata", ok); v.addEventListener("error", ok, true);
+                        v.querySelector("source")?.addEventListener("error", ok);
+                        v.load(); setTimeout(ok, 20000); })))
+  .then(() => done(videos.map(v => ({src: v.currentSrc || v.querySelector("source").src,
+                                     ready: v.readyState, error: v.error ? v.error.code : 0,
+                                     duration: v.duration}))));
+"""
+
+
+def test_every_page_loads_in_chromium_without_errors_or_broken_media(
+    site: Path, browser, tmp_path: Path
+) -> None:  # noqa: ANN001 - selenium driver
+    """Each page opens from file:// with no console error; every image has pixels; every link
+    resolves to a file (and an anchor to an element); every video loads its metadata, or, where
+    this Chromium lacks an H.264 decoder, is an MP4 that the Python reader decodes. A screenshot
+    of each paper's page is saved."""
+    import imageio_ffmpeg
+
+    browser.set_script_timeout(180)
+    pages = sorted(site.rglob("*.html"))
+    assert {f"{k}.html" for k in PAPER_KEYS} <= {p.name for p in pages}
+    ids = {}
+    for page in pages:
+        parser = _Links()
+        parser.feed(page.read_text())
+        ids[page.resolve()] = parser.ids
+    no_decoder = []
+    for page in pages:
+        browser.get(page.as_uri())
+        broken = browser.execute_async_script(_LOAD_EVERY_IMAGE)
+        assert broken == [], f"{page.name}: broken images {broken}"
+        for v in browser.execute_async_script(_VIDEO_STATES):
+            path = Path(unquote(urlparse(v["src"]).path))
+            assert path.is_file(), f"{page.name}: video {v['src']} missing"
+            if v["error"] == 4:  # MEDIA_ERR_SRC_NOT_SUPPORTED: no H.264 decoder in this build
+                n_frames, seconds = imageio_ffmpeg.count_frames_and_secs(str(path))
+                assert n_frames > 0 and seconds > 0, f"{path} is not a playable MP4"
+                no_decoder.append(path.name)
+            else:
+                assert v["error"] == 0 and v["ready"] >= 1, f"{page.name}: video {v}"
+                assert v["duration"] > 0
+        errors = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
+        assert errors == [], f"{page.name}: console errors {errors}"
+        parser = _Links()
+        parser.feed(page.read_text())
+        for target in parser.targets:
+            url = urlparse(target)
+            assert not url.scheme and not url.netloc, f"{page.name}: {target} is not relative"
+            path = (page.parent / unquote(url.path)).resolve() if url.path else page.resolve()
+            assert path.is_file(), f"{page.name}: broken link {target}"
+            if url.fragment and path.suffix == ".html":
+                assert url.fragment in ids[path], f"{page.name}: no #{url.fragment} in {path.name}"
+        if page.stem in PAPER_KEYS:
+            browser.save_screenshot(str(tmp_path / f"{page.stem}.png"))
+            assert (tmp_path / f"{page.stem}.png").stat().st_size > 10_000
+    if no_decoder:
+        print(f"this Chromium has no H.264 decoder; checked with imageio-ffmpeg: {no_decoder}")
