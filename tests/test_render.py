@@ -112,3 +112,34 @@ def test_render_video_writes_a_playable_mp4_of_the_whole_run(tmp_path: Path) -> 
     n, seconds = imageio_ffmpeg.count_frames_and_secs(str(mp4))
     assert n == expected
     assert seconds == pytest.approx(expected / 20, abs=0.051)
+
+
+@pytest.mark.skipif(not gl.available(), reason=NO_GL)
+def test_walkrepro_run_writes_the_video_and_says_where_it_is(tmp_path: Path) -> None:
+    """`walkrepro run` leaves video.mp4 in the run directory next to figures/ and prints both."""
+    args = ["run", "stand_dyros_red", "--set", "sim.duration=0.2", "--out", str(tmp_path)]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    (run_dir,) = (tmp_path / "stand_dyros_red").iterdir()
+    assert (run_dir / video.VIDEO_FILE).stat().st_size > 1000
+    assert f"video: {run_dir / video.VIDEO_FILE}" in result.output
+    assert f"figures: {run_dir / 'figures'}" in result.output
+
+
+def test_without_gl_a_run_keeps_everything_but_the_video(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """With no OpenGL backend the run still succeeds, with its figures, and a one-line note
+    says why there is no video."""
+
+    def unavailable() -> type:
+        raise gl.RenderingUnavailable(gl.INSTALL_HINT.format(tried="none (test)"))
+
+    monkeypatch.setattr(gl, "gl_context_class", unavailable)
+    args = ["run", "stand_dyros_red", "--set", "sim.duration=0.2", "--out", str(tmp_path)]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    (run_dir,) = (tmp_path / "stand_dyros_red").iterdir()
+    assert not (run_dir / video.VIDEO_FILE).exists()
+    assert (run_dir / "figures").is_dir()
+    assert "no video: Rendering needs an OpenGL backend" in result.output
