@@ -34,8 +34,8 @@ SEED = 32
 PER_SPEC = 8
 #: Random ``--set`` cases on top of the hand-written ones.
 RANDOM_SETS = 40
-#: At most this many valid mutations are run (the rest are only validated).
-MAX_RUNS = 12
+#: At most this many valid cases of each test are run (the rest are only validated).
+MAX_RUNS = 20
 #: Simulated time of a fuzz run [s]: a few control ticks.
 RUN_DURATION = 0.01
 
@@ -193,10 +193,21 @@ def _malformed(text: str, name: str) -> list[FuzzCase]:
         FuzzCase("scalar", "malformed", b"42\n", name),
         FuzzCase("binary", "malformed", bytes(range(256)), name),
         FuzzCase("tabs", "malformed", text.replace("  ", "\t", 3).encode(), name),
+        FuzzCase("alias_bomb", "malformed", (text + _alias_bomb()).encode(), name),
         FuzzCase(
-            "anchor_bomb", "malformed", b"a: &a [1, 2]\nb: &b [*a, *a, *a]\nc: [*b, *b, *b]\n", name
+            "alias_loop",
+            "deep",
+            text.replace("params:", "params: &p [*p]\n  old:", 1).encode(),
+            name,
         ),
     ]
+
+
+def _alias_bomb() -> str:
+    """YAML whose aliases expand to 9**9 values (a "billion laughs")."""
+    levels = ["bomb0: &b0 [1, 1, 1, 1, 1, 1, 1, 1, 1]"]
+    levels += [f"bomb{i}: &b{i} [{', '.join([f'*b{i - 1}'] * 9)}]" for i in range(1, 9)]
+    return "\n" + "\n".join(levels) + "\n"
 
 
 def spec_cases() -> list[FuzzCase]:
@@ -364,7 +375,8 @@ def _check_cases(cases: list[FuzzCase], tmp_path: Path) -> None:
             assert outcome == "error", f"{case.name}: accepted, must be refused"
         if outcome == "ok":
             valid.append(case)
-    for case in valid[:MAX_RUNS]:
+    # Evenly spread over the experiments, so every robot and controller gets runs.
+    for case in valid[:: max(1, len(valid) // MAX_RUNS)][:MAX_RUNS]:
         _run_cli(case, tmp_path / case.name)
 
 

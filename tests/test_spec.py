@@ -266,3 +266,215 @@ def test_sources_cite_the_paper_not_internal_documents(name: str) -> None:
     assert not internal.search(spec.paper.section), spec.paper.section
     for e in spec.expect:
         assert not internal.search(e.source), (e.metric, e.source)
+
+
+# --------------------------------------------------------------------------------------
+# Every number checked (issue 32)
+
+OBSTACLE = """\
+world:
+  obstacles:
+    - {name: obstacle_box, size: [0.2, 0.2, 0.04], position: [0.5, 0.0, 0.02]}
+"""
+
+
+@pytest.mark.parametrize(
+    ("override", "needle"),
+    [
+        ("sim.duration=.inf", "sim.duration"),
+        ("sim.control_period=.inf", "sim.control_period"),
+        ("sim.duration=.nan", "sim.duration"),
+        ("controller.params.kp=.nan", "controller.params.kp"),
+        ("controller.params.kp=nan", "controller.params.kp"),  # a string the model reads
+        ("disturbances.0.force.0=.nan", "disturbances.0.force.0"),
+        ("disturbances.0.torque=[0, -.inf, 0]", "disturbances.0.torque.1"),
+        ("sensors.imu_gyro_noise=.inf", "sensors.imu_gyro_noise"),
+        ("expect.0.value=.nan", "expect.0.value"),
+        ("actuators.position_gain={'*': .nan}", "actuators.position_gain.*"),
+        ("world.obstacles.0.size=[.inf, .inf, .inf]", "world.obstacles.0.size.0"),
+        ("world.obstacles.0.position.0=.nan", "world.obstacles.0.position.0"),
+        ("world.obstacles.0.tilt_x_deg=.nan", "world.obstacles.0.tilt_x_deg"),
+    ],
+)
+def test_non_finite_numbers_are_refused(tmp_path: Path, override: str, needle: str) -> None:
+    """NaN and ±inf are refused anywhere in a spec, naming the field; the spec without them loads."""
+    resolve_spec(load_spec(str(write(tmp_path, GOOD + OBSTACLE))))
+    msg = error_of(tmp_path, GOOD + OBSTACLE, (override,))
+    assert needle in msg and "--set" in msg, msg
+    assert "finite" in msg, msg
+
+
+def test_non_finite_number_in_the_file_names_its_line(tmp_path: Path) -> None:
+    """A NaN written in the file is reported with its line."""
+    msg = error_of(tmp_path, GOOD.replace("duration: 0.5", "duration: .nan"))
+    assert "line 11, field sim.duration" in msg and "finite" in msg
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "needle"),
+    [
+        ("duration: 0.5", "duration: true", "not a boolean"),
+        ("params: {kp: 200}", "params: {kp: true}", "not a boolean"),
+        ("force: [10, 0, 0]", "force: [false, 0, 0]", "not a boolean"),
+    ],
+)
+def test_booleans_are_not_numbers(tmp_path: Path, old: str, new: str, needle: str) -> None:
+    """``true``/``false`` where a number is expected is an error, not 1 or 0."""
+    msg = error_of(tmp_path, GOOD.replace(old, new))
+    assert needle in msg, msg
+
+
+@pytest.mark.parametrize(
+    ("override", "needle"),
+    [
+        ("sim.duration=3600.5", "less than or equal to 3600"),
+        ("sim.duration=1e12", "less than or equal to 3600"),
+        ("sim.timestep=1e-12", "sim.timestep"),
+        ("sim.seed=1e30", "sim.seed"),
+        ("world.floor_friction=1e12", "world.floor_friction"),
+        ("sensors.delay=1e12", "sensors.delay"),
+        ("sensors.delay=0.0013", "whole number of control periods"),
+        ("sensors.joint_backlash={'*knee*': 2}", "backlash"),
+        ("disturbances.0.force=[1e9, 0, 0]", "norm must be <= 10000 [N]"),
+        ("disturbances.0.force=[8000, 8000, 0]", "norm must be <= 10000 [N]"),
+        ("disturbances.0.torque=[0, 0, 1e9]", "norm must be <= 1000 [Nm]"),
+        ("disturbances.0.start=1e12", "disturbances.0.start"),
+        ("actuators.friction_loss=1e9", "actuators.friction_loss"),
+        ("world.obstacles.0.size=[1e9, 1, 1]", "size component must be <= 100"),
+        ("world.obstacles.0.position=[1e9, 0, 0]", "position component must be within"),
+        ("world.obstacles.0.tilt_y_deg=400", "world.obstacles.0.tilt_y_deg"),
+        ("world.obstacles.0.solref=[0, 1]", "solref"),
+    ],
+)
+def test_numbers_out_of_physical_range_are_refused(
+    tmp_path: Path, override: str, needle: str
+) -> None:
+    """Durations, forces, frictions, noise, delays, gains and obstacle geometry have documented ranges."""
+    msg = error_of(tmp_path, GOOD + OBSTACLE, (override,))
+    assert needle in msg, msg
+
+
+def test_values_inside_the_ranges_load(tmp_path: Path) -> None:
+    """Values at the ends of the documented ranges load: an hour at 1 kHz, a 0.02 s delay, 10 kN."""
+    path = str(write(tmp_path, GOOD + OBSTACLE))
+    spec = load_spec(
+        path,
+        [
+            "sim.duration=3600",
+            "sensors.delay=0.02",
+            "disturbances.0.force=[10000, 0, 0]",
+            "world.floor_friction=10",
+            "world.obstacles.0.tilt_x_deg=-90",
+        ],
+    ).spec
+    assert spec.sim.duration == 3600.0 and spec.sensors.delay == 0.02
+
+
+def test_run_memory_is_checked_before_allocation(tmp_path: Path) -> None:
+    """A run whose per-tick clock would not fit in memory is refused, naming the fields to change."""
+    msg = error_of(
+        tmp_path, GOOD, ("sim.timestep=1e-6", "sim.control_period=1e-6", "sim.duration=3600")
+    )
+    assert "line 8, field sim:" in msg and "GiB" in msg and "sim.control_period" in msg, msg
+    load_spec(str(write(tmp_path, GOOD)), ["sim.timestep=1e-5", "sim.control_period=1e-5"])
+
+
+def test_duplicate_yaml_keys_are_errors(tmp_path: Path) -> None:
+    """A key given twice is an error naming both lines, not a silent last-one-wins."""
+    msg = error_of(tmp_path, GOOD.replace("robot: dyros_red\n", "robot: dyros_red\nrobot: coman\n"))
+    assert "line 5" in msg and "duplicate key 'robot'" in msg and "line 4" in msg, msg
+    msg = error_of(tmp_path, GOOD.replace("duration: 0.5", "duration: 0.5\n  timestep: 0.001"))
+    assert "duplicate key 'timestep'" in msg, msg
+    with pytest.raises(SpecError, match="duplicate key 'a'"):
+        load_spec(str(write(tmp_path, GOOD)), ["controller.params={a: 1, a: 2}"])
+
+
+def test_non_utf8_file_names_the_line(tmp_path: Path) -> None:
+    """A file that is not UTF-8 is refused with the line of the first bad byte."""
+    path = tmp_path / "latin1.yaml"
+    path.write_bytes(GOOD.replace("a small valid spec", "caf\xe9").encode("latin-1"))
+    with pytest.raises(SpecError, match=r"latin1.yaml, line 2: not UTF-8 text \(byte 0xe9"):
+        load_spec(str(path))
+
+
+@pytest.mark.parametrize("depth", [40, 5000])
+def test_deep_nesting_is_refused(tmp_path: Path, depth: int) -> None:
+    """Nesting far beyond any spec's is refused in one paragraph, not a RecursionError."""
+    text = GOOD.replace("params: {kp: 200}", f"params: {{kp: {'[' * depth}{']' * depth}}}")
+    msg = error_of(tmp_path, text)
+    assert "nested" in msg, msg
+    with pytest.raises(SpecError, match="nested"):
+        load_spec(str(write(tmp_path, GOOD)), [f"sim.duration={'[' * depth}{']' * depth}"])
+
+
+def test_alias_bomb_is_refused_quickly(tmp_path: Path) -> None:
+    """YAML aliases that expand to millions of values are refused, not expanded."""
+    levels = ["a0: &a0 [1, 1, 1, 1, 1, 1, 1, 1, 1]"]
+    levels += [f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]" for i in range(1, 9)]
+    msg = error_of(tmp_path, GOOD + "\n".join(levels) + "\n")
+    assert "more than 100000 values" in msg, msg
+
+
+@pytest.mark.parametrize(
+    "override", ["sim.duration.a.b=1", "sim.duration.0=1", "name.x=1", "description.a.b.c=2"]
+)
+def test_set_into_a_single_value_is_an_error(tmp_path: Path, override: str) -> None:
+    """--set a.b=... where a is a number or text names the value, not a TypeError."""
+    with pytest.raises(SpecError, match="single value"):
+        load_spec(str(write(tmp_path, GOOD)), [override])
+
+
+def test_obstacle_overlapping_the_robot_is_an_error(tmp_path: Path) -> None:
+    """A box around the feet at the home pose is refused, naming the obstacle and the robot's geoms."""
+    text = GOOD + OBSTACLE.replace("position: [0.5, 0.0, 0.02]", "position: [0.0, 0.0, 0.02]")
+    msg = error_of(tmp_path, text)
+    assert "line 22, field world.obstacles.0" in msg and "obstacle_box" in msg, msg
+    assert "overlaps the robot" in msg and "foot" in msg and "allow_overlap" in msg, msg
+
+
+def test_obstacle_overlap_allowed_explicitly_warns(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``allow_overlap: true`` lets an overlapping obstacle load, with a warning on stderr."""
+    text = GOOD + OBSTACLE.replace(
+        "position: [0.5, 0.0, 0.02]}", "position: [0.0, 0.0, 0.02], allow_overlap: true}"
+    )
+    loaded = resolve_spec(load_spec(str(write(tmp_path, text))))
+    assert loaded.spec.world.obstacles[0].allow_overlap
+    err = capsys.readouterr().err
+    assert "warning:" in err and "obstacle_box" in err and "allow_overlap: true" in err
+    assert "allow_overlap: true" in loaded.spec.to_yaml()
+
+
+def test_obstacle_clear_of_the_robot_loads_silently(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """An obstacle ahead of the feet loads with no warning, and its YAML has no allow_overlap."""
+    loaded = resolve_spec(load_spec(str(write(tmp_path, GOOD + OBSTACLE))))
+    assert "warning" not in capsys.readouterr().err
+    assert "allow_overlap" not in loaded.spec.to_yaml()
+
+
+def test_scene_refuses_a_non_finite_obstacle() -> None:
+    """A spec built in code with a NaN obstacle never reaches MuJoCo (world.py's own guard)."""
+    from walkrepro.robot import load_robot
+    from walkrepro.spec import ObstacleSpec
+    from walkrepro.world import build_scene
+
+    spec = load_spec("stand_dyros_red").spec
+    bad = ObstacleSpec.model_construct(
+        name="obstacle_nan",
+        size=(0.1, 0.1, 0.1),
+        position=(float("nan"), 0.0, 0.0),
+        anchor="center",
+        tilt_x_deg=0.0,
+        tilt_y_deg=0.0,
+        fixed=True,
+        mass=None,
+        friction=None,
+        allow_overlap=False,
+        solref=None,
+    )
+    world = spec.world.model_copy(update={"obstacles": [bad]})
+    with pytest.raises(SpecError, match="obstacle_nan.*finite"):
+        build_scene(load_robot(spec.robot), spec.model_copy(update={"world": world}))

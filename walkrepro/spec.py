@@ -443,11 +443,15 @@ class ExperimentSpec(_Strict):
 
     def to_yaml(self) -> str:
         """The resolved spec as YAML (every default filled in; empty sweep sections left out,
-        so a spec without sweeps writes the same YAML as before they existed)."""
+        so a spec without sweeps writes the same YAML as before they existed; likewise an
+        obstacle's ``allow_overlap`` unless set)."""
         data = self.model_dump(mode="json")
         for key in ("sweep_parameters", "sweeps"):
             if not data[key]:
                 del data[key]
+        for obstacle in data["world"]["obstacles"]:
+            if not obstacle["allow_overlap"]:
+                del obstacle["allow_overlap"]
         return yaml.safe_dump(data, sort_keys=False)
 
 
@@ -585,8 +589,10 @@ def _collect_lines(node: yaml.Node, out: dict[tuple[Any, ...], int]) -> None:
     while stack:
         node, path = stack.pop()
         out.setdefault(path, node.start_mark.line + 1)  # a mapping value keeps its key's line
-        if id(node) in seen:
-            continue  # an alias (``*name``): its lines are those of the anchor, read once
+        if id(node) in seen or len(path) > MAX_NESTING:
+            # An alias (``*name``) has its anchor's lines, read once; deeper than any spec
+            # nests, _check_plain_data reports the data at the level where it got too deep.
+            continue
         seen.add(id(node))
         if isinstance(node, yaml.MappingNode):
             for key_node, value_node in node.value:
@@ -613,8 +619,7 @@ def _check_plain_data(
         SpecError: naming file, line and field of the first offending value.
     """
     stack: list[tuple[tuple[Any, ...], Any]] = [(prefix, data)]
-    seen: set[int] = set()
-    count = 0
+    count = 0  # aliases count each time they are used: pydantic would expand them too
     while stack:
         path, value = stack.pop()
         count += 1
@@ -634,9 +639,6 @@ def _check_plain_data(
                     f"{_where(source, lines, path, overridden)}: nested more than "
                     f"{MAX_NESTING} levels deep; a spec nests a few."
                 )
-            if id(value) in seen:
-                continue  # an alias of data already checked
-            seen.add(id(value))
             items = value.items() if isinstance(value, dict) else enumerate(value)
             stack.extend(((*path, k), v) for k, v in reversed(list(items)))
 
@@ -744,7 +746,11 @@ def _apply_override(data: dict[str, Any], item: str) -> tuple[Any, ...]:
     elif isinstance(node, dict):
         node[last] = value
     else:
-        raise SpecError(f"--set {item!r}: {key} does not name a field inside a mapping.")
+        inner = ".".join(str(p) for p in parts[:-1])
+        raise SpecError(
+            f"--set {item!r}: {inner} is a single value ({node!r}), not a mapping with a "
+            f"field {last!r}."
+        )
     return tuple(parts)
 
 
