@@ -202,7 +202,9 @@ class FallDetector:
     """TARGETS.md: pelvis below a fraction of nominal height, or a non-foot body on the floor."""
 
     def __init__(self, robot: Robot, model: mujoco.MjModel, spec: ExperimentSpec) -> None:
-        self._min_z = spec.sim.fall.pelvis_height_ratio * float(robot.home_qpos[2])
+        self._ratio = spec.sim.fall.pelvis_height_ratio
+        self._nominal_z = float(robot.home_qpos[2])  # standing pelvis height [m]
+        self._min_z = self._ratio * self._nominal_z
         self._check_contact = spec.sim.fall.non_foot_ground_contact
         self._pelvis = model.body("pelvis").id
         self._floor = floor = model.geom(FLOOR_NAME).id
@@ -225,7 +227,10 @@ class FallDetector:
         """Reason for a fall, or an empty string."""
         z = data.xpos[self._pelvis, 2]
         if z < self._min_z:
-            return f"pelvis height {z:.3f} m below {self._min_z:.3f} m"
+            return (
+                f"the pelvis dropped to {z:.2f} m, under {self._ratio:.0%} of its standing "
+                f"height of {self._nominal_z:.2f} m"
+            )
         n = data.ncon
         if not (self._check_contact and n):
             return ""

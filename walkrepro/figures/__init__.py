@@ -15,7 +15,10 @@ import matplotlib
 
 matplotlib.use("Agg")  # headless: figures are files, never windows
 
+from walkrepro.figures import style  # noqa: E402
 from walkrepro.metrics import LogData  # noqa: E402
+
+style.use()  # one style for every paper's figures
 
 #: A figure function draws from one log and returns the written files.
 FigureFn = Callable[[LogData, Path], list[Path]]

@@ -11,7 +11,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from walkrepro.figures import CompareFn, FigureFn
+from walkrepro.figures import CompareFn, FigureFn, style
 from walkrepro.figures.style import save
 from walkrepro.metrics import LogData, NotMeasurable
 from walkrepro.paper_metrics.faraji import (
@@ -35,7 +35,7 @@ def _mark_disturbances(ax: plt.Axes, d: LogData) -> None:
         ax.axvspan(
             dist.start,
             dist.start + dist.duration,
-            color="tab:red",
+            color=style.PALETTE[3],
             alpha=0.15,
             label=f"{dist.name} ({dist.force[0]:+.0f} N)",
         )
@@ -61,14 +61,13 @@ def fig13_gains(d: LogData, out_dir: Path) -> list[Path]:
         ax[0].plot(tp.phases[:n], tp.torque_gains[:n, 0, j], label=name)
         ax[1].plot(tp.phases, tp.footstep_gains[:, 0, j], label=name)
         ax[2].plot(tp.phases, ctrl.rel_gains[:, 0, j], label=name)
-    ax[0].set_title("A: hip torque gains K_tp (constant term, x) [Nm/m]")
-    ax[1].set_title("B: footstep gains Δf(T) (stance frame) [m/m]")
-    ax[2].set_title("used: Δ(f − p)(T) gains (attack angle) [m/m]")
+    ax[0].set_title("A: hip torque gains K_tp\n(constant term, x) [Nm/m]")
+    ax[1].set_title("B: footstep gains Δf(T)\n(stance frame) [m/m]")
+    ax[2].set_title("used: Δ(f − p)(T) gains\n(attack angle) [m/m]")
     for a in ax:
         a.set_xlabel("phase time t [s]")
-        a.grid(alpha=0.3)
-        a.legend(fontsize="small")
-    fig.suptitle(f"{d.spec.name}: time-projection look-up tables (Paper II Fig. 13)")
+    style.legend(ax[2])
+    style.title(fig, d.spec.paper.key, "Fig. 13", "time-projection look-up tables", d.spec.name)
     return save(fig, out_dir / "fig13_gains")
 
 
@@ -79,22 +78,27 @@ def fig14_feet(d: LogData, out_dir: Path) -> list[Path]:
         return []
     rel = _feet_relative(d, phases)
     fig, ax = plt.subplots(1, 1, figsize=(5, 5))
-    for j, (name, c) in enumerate((("left", "tab:blue"), ("right", "tab:orange"))):
+    for j, (name, c) in enumerate((("left", style.PALETTE[0]), ("right", style.PALETTE[1]))):
         ax.plot(rel[:, j, 1], rel[:, j, 0], "o", color=c, alpha=0.6, label=f"{name} foot")
     ax.plot(0, 0, "k+", markersize=12, label="pelvis")
     ax.set_ylim(-0.2, 0.2)
     ax.set_xlabel("y (lateral) [m]")
     ax.set_ylabel("x (forward) [m]")
     ax.set_aspect("equal")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize="small")
-    ax.set_title(f"{d.spec.name}: feet at phase changes (Fig. 14)")
+    style.legend(ax)
+    style.title(
+        fig,
+        d.spec.paper.key,
+        "Fig. 14",
+        "feet relative to the pelvis\nat phase changes",
+        d.spec.name,
+    )
     return save(fig, out_dir / "fig14_feet")
 
 
 def _footstep_plot(d: LogData, ax: plt.Axes) -> None:
     ax.plot(d.t, d.qpos[:, 0], "k", label="pelvis x")
-    for foot, c in (("left_foot", "tab:blue"), ("right_foot", "tab:orange")):
+    for foot, c in (("left_foot", style.PALETTE[0]), ("right_foot", style.PALETTE[1])):
         steps = [s for s in d.footsteps if s.foot == foot]
         ax.plot(
             [s.t for s in steps],
@@ -105,8 +109,7 @@ def _footstep_plot(d: LogData, ax: plt.Axes) -> None:
         )
     _mark_disturbances(ax, d)
     ax.set_ylabel("x [m]")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize="small", loc="best")
+    style.legend(ax)
 
 
 def fig16_push(d: LogData, out_dir: Path) -> list[Path]:
@@ -120,12 +123,15 @@ def fig16_push(d: LogData, out_dir: Path) -> list[Path]:
     ax[1].plot(t_raw, v_raw, color="gray", alpha=0.6, label="commanded adjustment (raw)")
     ax[1].plot(t, v, label="commanded adjustment (truncated at 15 cm)")
     _mark_corrective(ax[1], d)
-    ax[1].set_ylabel("[m]")
-    ax[1].grid(alpha=0.3)
-    ax[1].legend(fontsize="small")
+    ax[1].set_ylabel("footstep adjustment [m]")
+    style.legend(ax[1])
     _errors(ax[2], d)
+    for a, tag, what in zip(
+        ax, "abc", ("pelvis and footsteps", "footstep adjustment", "errors"), strict=True
+    ):
+        style.panel(a, tag, what)
     ax[-1].set_xlabel("time [s]")
-    fig.suptitle(f"{d.spec.name}: push recovery (Paper II Figs. 16-17)")
+    style.title(fig, d.spec.paper.key, "Figs. 16–17", "push recovery", d.spec.name)
     return save(fig, out_dir / "fig16_push")
 
 
@@ -152,7 +158,7 @@ def _mark_corrective(ax: plt.Axes, d: LogData) -> None:
         band = corrective_band(steps.adjustment, steps.start, t_push)
     except NotMeasurable:
         return
-    ax.axhspan(*band, color="tab:green", alpha=0.12, label="undisturbed band μ ∓ 3σ")
+    ax.axhspan(*band, color=style.PALETTE[2], alpha=0.12, label="undisturbed band μ ∓ 3σ")
     try:
         chosen = corrective_steps(steps.adjustment, steps.start, t_push, band)
         label = f"corrective steps ({len(chosen)})"
@@ -160,7 +166,9 @@ def _mark_corrective(ax: plt.Axes, d: LogData) -> None:
         chosen, label = [], f"corrective steps: {exc}"
     if d.outcome != "complete":
         chosen, label = [], f"corrective steps: not counted ({d.outcome})"
-    ax.plot(steps.end[chosen], steps.adjustment[chosen], "o", color="tab:red", ms=7, label=label)
+    ax.plot(
+        steps.end[chosen], steps.adjustment[chosen], "o", color=style.PALETTE[3], ms=7, label=label
+    )
 
 
 def _errors(ax: plt.Axes, d: LogData) -> None:
@@ -172,8 +180,7 @@ def _errors(ax: plt.Axes, d: LogData) -> None:
         ax.plot(t, raw[:, j], label=f"{ERROR_NAMES[j]} filtered")
         ax.plot(t, dz[:, j], "--", label=f"{ERROR_NAMES[j]} dead-zoned")
     ax.set_ylabel("error [m]")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize="small")
+    style.legend(ax)
 
 
 def fig18_drag(d: LogData, out_dir: Path) -> list[Path]:
@@ -189,9 +196,8 @@ def fig18_drag(d: LogData, out_dir: Path) -> list[Path]:
     _mark_disturbances(ax[1], d)
     ax[1].set_ylabel("speed [m/s]")
     ax[1].set_xlabel("time [s]")
-    ax[1].grid(alpha=0.3)
-    ax[1].legend(fontsize="small")
-    fig.suptitle(f"{d.spec.name}: emergent walking under a drag (Paper II Fig. 18)")
+    style.legend(ax[1])
+    style.title(fig, d.spec.paper.key, "Fig. 18", "emergent walking under a drag", d.spec.name)
     return save(fig, out_dir / "fig18_drag")
 
 
@@ -210,9 +216,9 @@ def fig19_walk(d: LogData, out_dir: Path) -> list[Path]:
     ax[1].axhline(speed, color="gray", linestyle=":", label="command")
     ax[1].set_ylabel("speed [m/s]")
     ax[1].set_xlabel("time [s]")
-    ax[1].grid(alpha=0.3)
-    ax[1].legend(fontsize="small")
-    fig.suptitle(f"{d.spec.name}: walking at {speed} m/s (Paper II Fig. 19)")
+    style.legend(ax[0])
+    style.legend(ax[1])
+    style.title(fig, d.spec.paper.key, "Fig. 19", f"walking at {speed} m/s", d.spec.name)
     return save(fig, out_dir / "fig19_walk")
 
 
@@ -226,15 +232,14 @@ def fig20_ankle(d: LogData, out_dir: Path) -> list[Path]:
     t_in = np.arange(len(xfrc)) * d.spec.sim.timestep
     force = np.array([sum(w[0] for w in x.values()) for x in xfrc])
     fig, ax = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-    ax[0].plot(t_in, force, color="tab:red", label="pull at the neck, x")
+    ax[0].plot(t_in, force, color=style.PALETTE[3], label="pull at the neck, x")
     ax[0].set_ylabel("force [N]")
     ax[1].plot(d.t, d.qpos[:, 0] - d.qpos[0, 0], label="pelvis x displacement")
     ax[1].set_ylabel("[m]")
     ax[1].set_xlabel("time [s]")
     for a in ax:
-        a.grid(alpha=0.3)
-        a.legend(fontsize="small")
-    fig.suptitle(f"{d.spec.name}: standing pull test (Paper II Fig. 20)")
+        style.legend(a)
+    style.title(fig, d.spec.paper.key, "Fig. 20", "standing pull test", d.spec.name)
     return save(fig, out_dir / "fig20_ankle")
 
 
@@ -247,14 +252,18 @@ def signals(d: LogData, out_dir: Path) -> list[Path]:
     for name in ("attack_angle", "theta_hat", "pelvis_pitch"):
         t, v = d.signal(name)
         ax[1].plot(t, v, label=f"{name} [rad]")
-    ax[1].grid(alpha=0.3)
-    ax[1].legend(fontsize="small")
+    style.legend(ax[1])
     t, v = d.signal("adaptive_lift")
     ax[2].plot(t, v, label="adaptive lift (Eq. 29) [m]")
-    ax[2].grid(alpha=0.3)
-    ax[2].legend(fontsize="small")
+    style.legend(ax[2])
     ax[-1].set_xlabel("time [s]")
-    fig.suptitle(f"{d.spec.name}: time-projection controller signals")
+    style.title(
+        fig,
+        d.spec.paper.key,
+        "",
+        "time-projection controller signals (no paper figure)",
+        d.spec.name,
+    )
     return save(fig, out_dir / "signals")
 
 
@@ -270,10 +279,15 @@ def compare_feet(a: LogData, b: LogData, out_dir: Path) -> list[Path]:
         ax.plot(rel[:, 1, 1], rel[:, 1, 0], "o", alpha=0.6, label="right")
         ax.set_title(d.spec.name)
         ax.set_xlabel("y [m]")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize="small")
+    style.legend(axes[1])
     axes[0].set_ylabel("x [m]")
-    fig.suptitle("feet relative to the pelvis at phase changes (Paper II Fig. 14)")
+    style.title(
+        fig,
+        a.spec.paper.key,
+        "Fig. 14",
+        "feet relative to the pelvis at phase changes",
+        f"{a.spec.name} vs {b.spec.name}",
+    )
     return save(fig, out_dir / f"fig14_compare_{a.spec.name}_vs_{b.spec.name}")
 
 

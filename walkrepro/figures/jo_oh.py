@@ -12,7 +12,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from walkrepro.figures import CompareFn, FigureFn
+from walkrepro.figures import CompareFn, FigureFn, style
 from walkrepro.figures.style import save
 from walkrepro.metrics import GRAVITY, LogData
 from walkrepro.paper_metrics.jo_oh import CONTACT_FORCE, OBSTACLE_GLOB
@@ -56,7 +56,7 @@ def _shade_stance(ax: plt.Axes, d: LogData, lo: float, hi: float) -> None:
         return
     stance = swing != RIGHT_SWING
     double = swing < 0
-    ax.fill_between(t, 0, 1, where=stance, color="0.85", transform=ax.get_xaxis_transform(), lw=0)
+    ax.fill_between(t, 0, 1, where=stance, color="0.9", transform=ax.get_xaxis_transform(), lw=0)
     edges = np.flatnonzero(np.diff(double.astype(int)) == 1)
     for e in edges:
         if lo <= t[e] <= hi:
@@ -74,15 +74,21 @@ def _fig4(runs: list[tuple[LogData, str, str]], out: Path) -> list[Path]:
     lo, hi = _window(first, t0)
     fig, ax = plt.subplots(figsize=(8, 4))
     _shade_stance(ax, first, lo, hi)
-    for d, label, style in runs:
-        ax.plot(d.contact_t, _force(d), style, label=label)
+    for d, label, fmt in runs:
+        ax.plot(d.contact_t, _force(d), fmt, label=label)
     weight = first.robot_mass * GRAVITY
-    ax.axhline(weight, color="tab:green", linestyle=":", label=f"robot weight {weight:.0f} N")
+    ax.axhline(weight, color=style.PALETTE[2], linestyle=":", label=f"robot weight {weight:.0f} N")
     ax.set_xlim(lo, hi)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("right foot contact force z [N]")
-    ax.legend(loc="upper left", fontsize=8)
-    ax.set_title("Fig. 4: contact force (shaded: right stance, DP: double support)")
+    style.legend(ax)
+    style.title(
+        fig,
+        first.spec.paper.key,
+        "Fig. 4",
+        "contact force (shaded: right stance, DP: double support)",
+        " vs ".join(d.spec.name for d, _, _ in runs),
+    )
     return save(fig, out)
 
 
@@ -98,22 +104,29 @@ def _fig_axis(
     units = (unit, f"{unit}/s", f"{unit}/s²")
     titles = ("position" if axis == "z" else "orientation", "velocity", "acceleration")
     for k, ax in enumerate(axes):
-        for d, label, style in runs:
+        for d, label, fmt in runs:
             t, v = d.signal(f"{FOOT}_{CURRENT[axis][k]}")
-            ax.plot(t, v, style, label=f"current {label}")
+            ax.plot(t, v, fmt, label=f"current {label}")
         # References of the first run (the impedance run when comparing).
         t, v = first.signal(f"{FOOT}_{sig}{derivs[k]}_d")
-        ax.plot(t, v, "g--", label="desired")
+        ax.plot(t, v, "--", color=style.PALETTE[2], label="desired")
         t, v = first.signal(f"{FOOT}_{sig}{derivs[k]}_m")
-        ax.plot(t, v, "r:", label="modified desired")
+        ax.plot(t, v, ":", color=style.PALETTE[3], label="modified desired")
         ax.set_ylabel(f"{name} {titles[k]} [{units[k]}]")
-        ax.legend(loc="best", fontsize=7)
+        style.legend(ax)
+        style.panel(ax, "abc"[k], titles[k])
         _shade_stance(ax, first, lo, hi)
     for ax in axes:
         _fit_y(ax, lo, hi)
     axes[-1].set_xlim(lo, hi)
     axes[-1].set_xlabel("time [s]")
-    fig.suptitle(f"{fig_name}: right foot {name}")
+    style.title(
+        fig,
+        first.spec.paper.key,
+        fig_name,
+        f"right foot {name}",
+        " vs ".join(d.spec.name for d, _, _ in runs),
+    )
     return save(fig, out)
 
 
@@ -145,7 +158,7 @@ def _tilt_axis(d: LogData) -> str:
 
 def fig4_contact_force(d: LogData, out_dir: Path) -> list[Path]:
     """Fig. 4 of one run: right-foot contact force, robot weight, stance phases."""
-    return _fig4([(d, d.spec.name, "b-")], out_dir / "fig4_contact_force")
+    return _fig4([(d, d.spec.name, "C0-")], out_dir / "fig4_contact_force")
 
 
 def fig5_to_7_foot_motion(d: LogData, out_dir: Path) -> list[Path]:
@@ -153,14 +166,14 @@ def fig5_to_7_foot_motion(d: LogData, out_dir: Path) -> list[Path]:
     axis = _tilt_axis(d)
     name = {"z": "Fig. 5", "roll": "Fig. 6", "pitch": "Fig. 7"}[axis]
     paths = _fig_axis(
-        [(d, d.spec.name, "b-")],
+        [(d, d.spec.name, "C0-")],
         axis,
         name,
         out_dir / f"{name.lower().replace('. ', '')}_foot_{axis}",
     )
     if axis != "z":
         paths += _fig_axis(
-            [(d, d.spec.name, "b-")], "z", "Fig. 5 (z of this run)", out_dir / "fig5_foot_z"
+            [(d, d.spec.name, "C0-")], "z", "Fig. 5 (z of this run)", out_dir / "fig5_foot_z"
         )
     return paths
 
@@ -168,7 +181,7 @@ def fig5_to_7_foot_motion(d: LogData, out_dir: Path) -> list[Path]:
 def compare_fig4(a: LogData, b: LogData, out_dir: Path) -> list[Path]:
     """Fig. 4: contact force with (a) and without (b) impedance on one plot."""
     return _fig4(
-        [(a, a.spec.name, "b-"), (b, b.spec.name, "C1--")],
+        [(a, a.spec.name, "C0-"), (b, b.spec.name, "C1--")],
         out_dir / f"fig4_contact_force_{a.spec.name}_vs_{b.spec.name}",
     )
 
@@ -178,7 +191,7 @@ def compare_fig5(a: LogData, b: LogData, out_dir: Path) -> list[Path]:
     axis = _tilt_axis(a)
     name = {"z": "Fig. 5", "roll": "Fig. 6", "pitch": "Fig. 7"}[axis]
     return _fig_axis(
-        [(a, a.spec.name, "b-"), (b, b.spec.name, "C1-")],
+        [(a, a.spec.name, "C0-"), (b, b.spec.name, "C1-")],
         axis,
         name,
         out_dir / f"{name.lower().replace('. ', '')}_foot_{axis}_{a.spec.name}_vs_{b.spec.name}",

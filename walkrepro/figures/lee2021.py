@@ -13,7 +13,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from walkrepro.figures import CompareFn, FigureFn
+from walkrepro.figures import CompareFn, FigureFn, style
 from walkrepro.figures.style import save
 from walkrepro.metrics import LogData
 from walkrepro.paper_metrics.lee2021 import switch_torque_jumps
@@ -22,8 +22,20 @@ from walkrepro.robot import leg_actuators
 #: Fig. 14 shows the first steps: the paper's robot falls after t ≈ 1 s without ε [s].
 FIG14_SPAN = 2.5
 #: Colours of the E-FSM switches marked in Fig. 14, by (from, to) phase (efsm_phase codes).
-SWITCH_COLOURS = {(2.0, 0.0): "tab:blue", (0.0, 1.0): "tab:green", (1.0, 2.0): "tab:red"}
-PHASE_NAMES = {0.0: "SSD", 1.0: "SSA", 2.0: "DS"}
+SWITCH_COLOURS = {
+    (2.0, 0.0): style.PALETTE[0],
+    (0.0, 1.0): style.PALETTE[2],
+    (1.0, 2.0): style.PALETTE[3],
+}
+PHASE_NAMES = style.EFSM_STATES
+#: Colours of the quantities Figs. 7 and 12 share, the same in every panel.
+COLOURS = {
+    "CoM": style.PALETTE[0],
+    "swing foot": style.PALETTE[1],
+    "supporting foot": style.PALETTE[2],
+    "swing foot reference": style.PALETTE[7],
+    "reference CoP": style.PALETTE[4],
+}
 
 
 def _sig(d: LogData, name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -44,7 +56,7 @@ def _push_span(ax: plt.Axes, d: LogData) -> None:
     off = [e["t"] for e in d.events if e.get("kind") == "disturbance_off"]
     for i, t0 in enumerate(on):
         t1 = off[i] if i < len(off) else d.t[-1]
-        ax.axvspan(t0, t1, color="0.85", label="push" if i == 0 else None)
+        ax.axvspan(t0, t1, color="0.88", label="push" if i == 0 else None)
 
 
 def fig7_com_and_feet(d: LogData, out_dir: Path) -> list[Path]:
@@ -56,38 +68,61 @@ def fig7_com_and_feet(d: LogData, out_dir: Path) -> list[Path]:
     _, ref = _sig(d, "swing_ref_world")
     _, sup = _sig(d, "support_pos_world")
     _, xp = _sig(d, "xp_des_world")
+    c = COLOURS
     fig, axes = plt.subplots(3, 1, figsize=(9, 9), sharex=True)
     for ax, i, axis in ((axes[0], 0, "x"), (axes[1], 1, "y")):
-        ax.plot(t, com[:, i], label="CoM")
-        ax.plot(t, _swing_only(d, sw[:, i]), label="swing foot")
-        ax.plot(t, sup[:, i], label="supporting foot", linewidth=0.8)
-        ax.plot(t, _swing_only(d, ref[:, i]), "--", label="swing foot reference")
+        ax.plot(t, com[:, i], color=c["CoM"], label="CoM")
+        ax.plot(t, _swing_only(d, sw[:, i]), color=c["swing foot"], label="swing foot")
+        ax.plot(t, sup[:, i], color=c["supporting foot"], label="supporting foot", linewidth=0.8)
+        ax.plot(
+            t,
+            _swing_only(d, ref[:, i]),
+            "--",
+            color=c["swing foot reference"],
+            label="swing foot reference",
+        )
         ax.set_ylabel(f"{axis}_g [m]")
-    axes[1].plot(t, xp[:, 1], ":", label="reference CoP")
-    axes[2].plot(t, _swing_only(d, sw[:, 2]), label="swing foot")
-    axes[2].plot(t, _swing_only(d, ref[:, 2]), "--", label="swing foot reference")
+    axes[1].plot(t, xp[:, 1], ":", color=c["reference CoP"], label="reference CoP")
+    axes[2].plot(t, _swing_only(d, sw[:, 2]), color=c["swing foot"], label="swing foot")
+    axes[2].plot(
+        t,
+        _swing_only(d, ref[:, 2]),
+        "--",
+        color=c["swing foot reference"],
+        label="swing foot reference",
+    )
     axes[2].set_ylabel("z_g [m]")
-    for ax, tag in zip(axes, "abc", strict=True):
-        ax.set_title(f"({tag})", loc="left", fontsize="small")
-        ax.legend(loc="best", fontsize="small")
-        ax.grid(alpha=0.3)
+    for ax, tag, what in zip(axes, "abc", ("x in O_g", "y in O_g", "swing height"), strict=True):
+        style.panel(ax, tag, what)
+        style.legend(ax)
     axes[-1].set_xlabel("time [s]")
-    fig.suptitle(f"{d.spec.name}: Fig. 7 — CoM and foot motion in O_g")
+    style.title(fig, d.spec.paper.key, "Fig. 7", "CoM and foot motion in O_g", d.spec.name)
     return save(fig, out_dir / "fig7_com_feet")
 
 
-def fig8_states(d: LogData, out_dir: Path) -> list[Path]:
-    """Fig. 8: E-FSM walking state (−1 right support, 0 DS, 1 left support)."""
+def _states(ax: plt.Axes, d: LogData) -> None:
+    """The E-FSM state by name (DS, SSD, SSA; ``efsm_phase``) over the support side
+    (``fsm_state``), or the support side alone for a log without ``efsm_phase``."""
     t, state = _sig(d, "fsm_state")
+    t_phase, phase = _sig(d, "efsm_phase")
+    style.support_sides(ax, t, state)
+    if t_phase.size:
+        style.efsm_states(ax, t_phase, phase)
+    else:  # a log written before efsm_phase: the walking state as logged
+        ax.step(t, state, where="post", label="walking state")
+        ax.set_yticks([-1, 0, 1], ["right support", "DS", "left support"])
+
+
+def fig8_states(d: LogData, out_dir: Path) -> list[Path]:
+    """Fig. 8: E-FSM states by name (DS, SSD, SSA), the support side shaded."""
+    t, _ = _sig(d, "fsm_state")
     if not t.size:
         return []
     fig, ax = plt.subplots(1, 1, figsize=(9, 3))
-    ax.step(t, state, where="post")
-    ax.set_yticks([-1, 0, 1])
-    ax.set_ylabel("walking state")
+    _states(ax, d)
+    style.legend(ax)
     ax.set_xlabel("time [s]")
-    ax.grid(alpha=0.3)
-    fig.suptitle(f"{d.spec.name}: Fig. 8 — E-FSM states")
+    style.title(fig, d.spec.paper.key, "Fig. 8", "E-FSM states", d.spec.name)
     return save(fig, out_dir / "fig8_states")
 
 
@@ -108,9 +143,8 @@ def fig10_right_foot(d: LogData, out_dir: Path) -> list[Path]:
         ax.axhline(o.position[0] - o.size[0] / 2, color="k", linewidth=0.8, label=f"{o.name} face")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("x_g [m]")
-    ax.legend(loc="best", fontsize="small")
-    ax.grid(alpha=0.3)
-    fig.suptitle(f"{d.spec.name}: Fig. 10 — right foot against the obstacle")
+    style.legend(ax)
+    style.title(fig, d.spec.paper.key, "Fig. 10", "right foot against the obstacle", d.spec.name)
     return save(fig, out_dir / "fig10_right_foot")
 
 
@@ -118,7 +152,7 @@ def fig12_push(d: LogData, out_dir: Path) -> list[Path]:
     """Fig. 12: states (a), CP and x_s − r in O_w (b), y motion in O_g (c), ẋ_m in O_w (d)."""
     if not d.spec.disturbances:
         return []
-    t, state = _sig(d, "fsm_state")
+    t, _ = _sig(d, "fsm_state")
     _, cp = _sig(d, "cp_w")
     _, cp_ref = _sig(d, "cp_ref_w")
     _, com = _sig(d, "com_world")
@@ -126,27 +160,34 @@ def fig12_push(d: LogData, out_dir: Path) -> list[Path]:
     _, sup = _sig(d, "support_pos_world")
     _, ref = _sig(d, "swing_ref_world")
     _, vel = _sig(d, "com_vel_w")
+    c = COLOURS
     fig, axes = plt.subplots(4, 1, figsize=(9, 11), sharex=True)
-    axes[0].step(t, state, where="post")
-    axes[0].set_yticks([-1, 0, 1])
-    axes[0].set_ylabel("walking state")
+    _states(axes[0], d)
     axes[1].plot(t, cp, label="CP x_CP")
     axes[1].plot(t, cp_ref, "--", label="reference x_s − r")
     axes[1].set_ylabel("x_w [m]")
-    axes[2].plot(t, com[:, 1], label="CoM")
-    axes[2].plot(t, _swing_only(d, sw[:, 1]), label="swing foot")
-    axes[2].plot(t, sup[:, 1], label="supporting foot", linewidth=0.8)
-    axes[2].plot(t, _swing_only(d, ref[:, 1]), "--", label="swing foot reference")
+    axes[2].plot(t, com[:, 1], color=c["CoM"], label="CoM")
+    axes[2].plot(t, _swing_only(d, sw[:, 1]), color=c["swing foot"], label="swing foot")
+    axes[2].plot(t, sup[:, 1], color=c["supporting foot"], label="supporting foot", linewidth=0.8)
+    axes[2].plot(
+        t,
+        _swing_only(d, ref[:, 1]),
+        "--",
+        color=c["swing foot reference"],
+        label="swing foot reference",
+    )
     axes[2].set_ylabel("y_g [m]")
-    axes[3].plot(t, vel[:, 0], label="CoM velocity")
+    axes[3].plot(t, vel[:, 0], color=c["CoM"], label="CoM velocity")
     axes[3].set_ylabel("ẋ_w [m/s]")
-    for ax, tag in zip(axes, "abcd", strict=True):
+    whats = ("E-FSM states", "capture point in O_w", "y motion in O_g", "CoM velocity in O_w")
+    for ax, tag, what in zip(axes, "abcd", whats, strict=True):
         _push_span(ax, d)
-        ax.set_title(f"({tag})", loc="left", fontsize="small")
-        ax.legend(loc="best", fontsize="small")
-        ax.grid(alpha=0.3)
+        style.panel(ax, tag, what)
+        style.legend(ax)
     axes[-1].set_xlabel("time [s]")
-    fig.suptitle(f"{d.spec.name}: Fig. 12 — a push on the upper body during walking")
+    style.title(
+        fig, d.spec.paper.key, "Fig. 12", "a push on the upper body during walking", d.spec.name
+    )
     return save(fig, out_dir / "fig12_push")
 
 
@@ -194,8 +235,7 @@ def _torques(ax: plt.Axes, d: LogData, t_max: float) -> None:
                 bbox={"boxstyle": "round", "facecolor": "white", "alpha": 0.8, "linewidth": 0},
             )
     ax.set_ylabel("reference torque [Nm]")
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="x-small")
-    ax.grid(alpha=0.3)
+    style.legend(ax, fontsize="x-small")
 
 
 def _epsilon(ax: plt.Axes, d: LogData, t_max: float) -> None:
@@ -209,8 +249,7 @@ def _epsilon(ax: plt.Axes, d: LogData, t_max: float) -> None:
     _switches(ax, d, t_max)
     ax.set_ylabel("ε")
     ax.set_ylim(-0.05, 1.05)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="x-small")
-    ax.grid(alpha=0.3)
+    style.legend(ax, fontsize="x-small")
 
 
 def fig14_torques(d: LogData, out_dir: Path) -> list[Path]:
@@ -222,8 +261,16 @@ def fig14_torques(d: LogData, out_dir: Path) -> list[Path]:
     fig, axes = plt.subplots(2, 1, figsize=(12, 6.5), sharex=True)
     _torques(axes[0], d, t_max)
     _epsilon(axes[1], d, t_max)
+    style.panel(axes[0], "", "reference torques of the left leg")
+    style.panel(axes[1], "", "state-transition parameter ε")
     axes[1].set_xlabel("time [s]")
-    fig.suptitle(f"{d.spec.name}: Fig. 14 — left-leg reference torques and ε (dotted: switches)")
+    style.title(
+        fig,
+        d.spec.paper.key,
+        "Fig. 14",
+        "left-leg reference torques and ε (dotted: E-FSM switches)",
+        d.spec.name,
+    )
     return save(fig, out_dir / "fig14_torques")
 
 
@@ -242,9 +289,15 @@ def fig14_compare(a: LogData, b: LogData, out_dir: Path) -> list[Path]:
         f"(c) {b.spec.name}: state-transition parameter ε",
     )
     for ax, title in zip(axes, titles, strict=True):
-        ax.set_title(title, loc="left", fontsize="small")
+        ax.set_title(title, loc="left")
     axes[-1].set_xlabel("time [s]")
-    fig.suptitle("Fig. 14 — left-leg reference torques without and with ε (dotted: E-FSM switches)")
+    style.title(
+        fig,
+        a.spec.paper.key,
+        "Fig. 14",
+        "left-leg reference torques without and with ε (dotted: E-FSM switches)",
+        f"{a.spec.name} vs {b.spec.name}",
+    )
     return save(fig, out_dir / f"fig14_{a.spec.name}_vs_{b.spec.name}")
 
 
@@ -264,11 +317,11 @@ def fig15_cop(d: LogData, out_dir: Path) -> list[Path]:
     axes[2].plot(t, np.linalg.norm(exp - meas, axis=1), label="|error|")
     axes[2].set_ylabel("error [m]")
     axes[2].set_ylim(0.0, 0.1)
-    for ax in axes:
-        ax.legend(loc="best", fontsize="small")
-        ax.grid(alpha=0.3)
+    for ax, tag, what in zip(axes, "abc", ("x in O_g", "y in O_g", "distance"), strict=True):
+        style.panel(ax, tag, what)
+        style.legend(ax)
     axes[-1].set_xlabel("time [s]")
-    fig.suptitle(f"{d.spec.name}: Fig. 15 — expected and measured CoP")
+    style.title(fig, d.spec.paper.key, "Fig. 15", "expected and measured CoP", d.spec.name)
     return save(fig, out_dir / "fig15_cop")
 
 

@@ -10,6 +10,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
+from walkrepro.figures import style
 from walkrepro.figures.style import save
 from walkrepro.metrics import FOOT_BODIES, GRAVITY, LogData
 
@@ -21,7 +22,13 @@ def overview(d: LogData, out_dir: Path) -> list[Path]:
     _feet(axes[1], d)
     _external(axes[2], d)
     axes[-1].set_xlabel("time [s]")
-    fig.suptitle(f"{d.spec.name}: run overview (outcome: {d.outcome}) — not a paper figure")
+    style.title(
+        fig,
+        "walkrepro",
+        "",
+        f"run overview, not a paper figure (outcome: {d.outcome})",
+        d.spec.name,
+    )
     return save(fig, out_dir / "overview")
 
 
@@ -31,7 +38,13 @@ def compare(a: LogData, b: LogData, out_dir: Path) -> list[Path]:
     _pelvis(ax, a, f"{a.spec.name} ")
     _pelvis(ax, b, f"{b.spec.name} ", linestyle="--")
     ax.set_xlabel("time [s]")
-    fig.suptitle(f"{a.spec.name} vs {b.spec.name}: pelvis position — not a paper figure")
+    style.title(
+        fig,
+        "walkrepro",
+        "",
+        "pelvis position, not a paper figure",
+        f"{a.spec.name} vs {b.spec.name}",
+    )
     return save(fig, out_dir / f"compare_{a.spec.name}_vs_{b.spec.name}")
 
 
@@ -40,8 +53,7 @@ def _pelvis(ax: plt.Axes, d: LogData, prefix: str, linestyle: str = "-") -> None
         ax.plot(d.t, d.qpos[:, i], linestyle=linestyle, label=f"{prefix}pelvis {axis}")
     _mark_fall(ax, d)
     ax.set_ylabel("position [m]")
-    ax.legend(loc="best", fontsize="small")
-    ax.grid(alpha=0.3)
+    style.legend(ax)
 
 
 def _feet(ax: plt.Axes, d: LogData) -> None:
@@ -52,8 +64,7 @@ def _feet(ax: plt.Axes, d: LogData) -> None:
         ax.plot([s.t for s in steps], np.zeros(len(steps)), "kv", label="touchdown")
     ax.axhline(d.robot_mass * GRAVITY, color="gray", linestyle=":", label="robot weight")
     ax.set_ylabel("force [N]")
-    ax.legend(loc="best", fontsize="small")
-    ax.grid(alpha=0.3)
+    style.legend(ax)
 
 
 def _external(ax: plt.Axes, d: LogData) -> None:
@@ -61,13 +72,12 @@ def _external(ax: plt.Axes, d: LogData) -> None:
     dt = d.spec.sim.timestep
     t = np.arange(len(xfrc)) * dt
     mag = np.array([sum(float(np.linalg.norm(w[:3])) for w in x.values()) for x in xfrc])
-    ax.plot(t, mag, color="tab:red", label="|external force|")
+    ax.plot(t, mag, color=style.PALETTE[3], label="|external force|")
     ax.set_ylabel("force [N]")
-    ax.legend(loc="best", fontsize="small")
-    ax.grid(alpha=0.3)
+    style.legend(ax)
 
 
 def _mark_fall(ax: plt.Axes, d: LogData) -> None:
     for e in d.events:
         if e.get("kind") == "fall":
-            ax.axvline(e["t"], color="red", linestyle="--", label="fall")
+            ax.axvline(e["t"], color=style.PALETTE[3], linestyle="--", label="fall")

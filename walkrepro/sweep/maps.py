@@ -34,6 +34,10 @@ def plot_sweep(directory: Path, out: Path | None = None) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from walkrepro.figures import style
+
+    style.use()
+
     info = store.read_info(directory)
     table = store.read_cells(directory / store.CELLS_FILE)
     out = out or directory
@@ -50,6 +54,8 @@ def plot_sweep(directory: Path, out: Path | None = None) -> list[Path]:
     done = len(table.rows)
     what = "metric" if len(fields) == 1 else "colour"
     subtitle = f"{what}: {metric} · {done} of {info['n_cells']} cells"
+    if len(fields) > 1 and _yes_no(metric, [r.get(metric, math.nan) for r in table.rows]):
+        subtitle = f"{what}: {metric} (yes/no) · {done} of {info['n_cells']} cells"
     fig.suptitle("\n".join(textwrap.wrap(info["title"], 90)) + f"\n{subtitle}", fontsize=10)
     written = []
     for ext in ("png", "svg"):
@@ -128,7 +134,7 @@ def _line(plt: Any, field: str, xs: list[Any], units: dict[str, str], rows: dict
     ax.scatter([], [], marker="o", color="tab:green", label="no fall")
     ax.scatter([], [], marker="X", color="tab:red", label="fell")
     ax.scatter([], [], marker="s", color="0.5", label="error / crashed")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="best")
     if not numeric:
         ax.set_xticks(pos, [value_text(x) for x in xs])
     ax.set_xlabel(_label(field, units))
@@ -146,7 +152,8 @@ def _heat_panels(
     metric: str,
     success: dict | None = None,
 ):
-    from matplotlib.colors import Normalize
+    from matplotlib.colors import BoundaryNorm, ListedColormap, Normalize
+    from matplotlib.patches import Patch
 
     fx, fy, extra = fields[0], fields[1], list(fields[2:])
     combos = list(itertools.product(*(values[f] for f in extra))) or [()]
@@ -170,18 +177,27 @@ def _heat_panels(
                 m[j, i] = row.get(metric, math.nan)
         grids.append((m, cells))
     finite = np.concatenate([g[0][np.isfinite(g[0])] for g in grids]) if grids else np.zeros(0)
+    # A yes/no metric (``fell``, ``stepped_on_off``) gets two colours and a legend; any
+    # other a continuous colour map and bar.
+    binary = _yes_no(metric, list(finite))
+    no_yes = _yes_no_colours(metric)
+    cmap: Any = ListedColormap(list(no_yes)) if binary else "viridis"
     norm = Normalize(*(finite.min(), finite.max()) if finite.size else (0, 1))
     if finite.size and norm.vmin == norm.vmax:
         norm = Normalize(norm.vmin - 0.5, norm.vmax + 0.5)
+    if binary:
+        norm = BoundaryNorm([-0.5, 0.5, 1.5], 2)
     mesh = None
     for k, (combo, (m, cells)) in enumerate(zip(combos, grids, strict=True)):
         ax = axes[k // ncol][k % ncol]
         ax.set_facecolor("0.85")
         mesh = ax.pcolormesh(
-            np.arange(len(xs) + 1) - 0.5, np.arange(len(ys) + 1) - 0.5, m, cmap="viridis", norm=norm
+            np.arange(len(xs) + 1) - 0.5, np.arange(len(ys) + 1) - 0.5, m, cmap=cmap, norm=norm
         )
+        ax.grid(False)
         for (i, j), row in cells.items():
-            _annotate(ax, i, j, row, m[j, i], norm)
+            words = _yes_no_words(metric) if binary else None
+            _annotate(ax, i, j, row, m[j, i], norm, (no_yes, words) if words else None)
         _boundary(ax, cells, len(xs), len(ys), success)
         ax.set_xticks(range(len(xs)), [_tick(x) for x in xs])
         ax.set_yticks(range(len(ys)), [_tick(y) for y in ys])
@@ -197,18 +213,67 @@ def _heat_panels(
             )
     for k in range(len(combos), nrow * ncol):
         axes[k // ncol][k % ncol].axis("off")
-    if mesh is not None:
+    if mesh is not None and not binary:
         bar = fig.colorbar(mesh, ax=axes.ravel().tolist(), shrink=0.9)
         bar.set_label(_metric_label(metric))
     from matplotlib.lines import Line2D
 
-    handles = [
+    handles = []
+    if binary:
+        no_label, yes_label = _yes_no_labels(metric)
+        handles += [
+            Patch(facecolor=no_yes[1], label=yes_label),
+            Patch(facecolor=no_yes[0], label=no_label),
+        ]
+    handles += [
         Line2D([], [], color="crimson", lw=3, label=_boundary_label(success)),
         Line2D([], [], color="crimson", marker="x", lw=0, markersize=9, mew=2.5, label="fell"),
         Line2D([], [], color="0.85", marker="s", lw=0, markersize=9, label="no value"),
     ]
-    fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=8, frameon=False)
+    fig.legend(
+        handles=handles, loc="outside lower center", ncol=len(handles), fontsize=8, frameon=False
+    )
     return fig
+
+
+def _yes_no(metric: str, values: Sequence[float]) -> bool:
+    """Whether a map's metric is a yes/no outcome: its registered description reads "1 if
+    …, else 0" and every measured value is 0 or 1."""
+    from walkrepro.metrics import metric_doc, split_metric
+
+    try:
+        doc = metric_doc(split_metric(metric)[0])
+    except KeyError:
+        return False
+    finite = [float(v) for v in values if not math.isnan(float(v))]
+    return doc.startswith("1 if") and all(v in (0.0, 1.0) for v in finite)
+
+
+def _yes_no_colours(metric: str) -> tuple[str, str]:
+    """The (no, yes) colours of a yes/no map: a fall in vermillion, no fall in green."""
+    from walkrepro.figures import style
+
+    return style.FALL_COLOURS if metric == "fell" else style.YES_NO_COLOURS
+
+
+def _yes_no_words(metric: str) -> tuple[str, str]:
+    """What a yes/no map writes in a (no, yes) cell (a fall is also marked, with its time)."""
+    return ("stood", "") if metric == "fell" else ("no", "yes")
+
+
+def _yes_no_labels(metric: str) -> tuple[str, str]:
+    """The legend's (no, yes) labels of a yes/no map."""
+    if metric == "fell":
+        return "no fall (fell = 0)", "fell (fell = 1)"
+    return f"no ({metric} = 0)", f"yes ({metric} = 1)"
+
+
+def _dark(colour: str) -> bool:
+    """Whether white text reads better than black on ``colour`` (its luminance)."""
+    from matplotlib.colors import to_rgb
+
+    r, g, b = to_rgb(colour)
+    return 0.2126 * r + 0.7152 * g + 0.0722 * b < 0.5
 
 
 def _tick(v: Any) -> str:
@@ -219,8 +284,17 @@ def _tick(v: Any) -> str:
     return str(v)
 
 
-def _annotate(ax: Any, i: int, j: int, row: dict | None, value: float, norm: Any) -> None:
-    """The cell's value, and its outcome when it fell or failed."""
+def _annotate(
+    ax: Any,
+    i: int,
+    j: int,
+    row: dict | None,
+    value: float,
+    norm: Any,
+    yes_no: tuple[tuple[str, str], tuple[str, str]] | None = None,
+) -> None:
+    """The cell's value (on a yes/no map, ``yes_no`` = ((no, yes) colours, (no, yes)
+    words): its word), and its outcome when it fell or failed."""
     if row is None:
         ax.text(i, j, "not run", ha="center", va="center", fontsize=8, color="0.3")
         return
@@ -229,16 +303,21 @@ def _annotate(ax: Any, i: int, j: int, row: dict | None, value: float, norm: Any
             i, j, row["outcome"], ha="center", va="center", fontsize=8, color="black", weight="bold"
         )
         return
-    dark = not math.isnan(value) and norm(value) < 0.55
+    if yes_no is not None:
+        (colours, words), k = yes_no, 0 if math.isnan(value) else int(value)
+        dark = not math.isnan(value) and _dark(colours[k])
+        text = "–" if math.isnan(value) else words[k]
+    else:
+        dark = not math.isnan(value) and norm(value) < 0.55
+        text = "–" if math.isnan(value) else f"{value:.4g}"
     colour = "white" if dark else "black"
-    text = "–" if math.isnan(value) else f"{value:.4g}"
     if _stood(row) is False:
         # In the cell's corner, so the value stays readable.
         ax.scatter(
             [i + 0.34], [j + 0.3], marker="x", s=90, color="crimson", linewidths=2.5, zorder=3
         )
         t = row.get("fall_time", math.nan)
-        text += "" if math.isnan(t) else f"\nfell {t:.2f} s"
+        text = (text + ("" if math.isnan(t) else f"\nfell {t:.2f} s")).strip()
     ax.text(i, j, text, ha="center", va="center", fontsize=8, color=colour, zorder=4)
 
 
