@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Callable
 from pathlib import Path
 
@@ -279,3 +280,73 @@ def test_flipped_bytes_are_reported_damaged(
     else:  # every chunk is whole; the summary that counts them is not
         assert report.n_logged is None and report.n_steps == 1000
         assert "replayed 1000 of ? logged steps" in text, text
+
+
+def _records(data: bytes) -> list[tuple[int, int, int]]:
+    """(offset, opcode, length of the body) of each top-level record of an MCAP file."""
+    out, pos = [], 8  # after the opening magic
+    while pos < len(data) - 8:
+        opcode, length = struct.unpack_from("<BQ", data, pos)
+        out.append((pos, opcode, length))
+        pos += 9 + length
+    return out
+
+
+@pytest.mark.parametrize(
+    ("opcode", "code", "words"),
+    [
+        (0x09, 2, "is damaged at byte"),  # an attachment: its CRC fails
+        (0x03, 1, "differ from the copies in its summary"),  # a schema
+        (0x07, 1, "is damaged at byte"),  # a message index: not what its chunk holds
+    ],
+    ids=["attachment", "schema", "message index"],
+)
+def test_a_flipped_byte_in_records_without_chunk_checksums_is_found(
+    short_run_log: Path, tmp_path: Path, opcode: int, code: int, words: str
+) -> None:
+    """A byte flipped in an attachment, a schema or a message index (records outside the chunks' checksums) is reported as damage, never OK."""
+    data = bytearray(short_run_log.read_bytes())
+    offset, _, length = next(r for r in _records(bytes(data)) if r[1] == opcode)
+    data[offset + 9 + length // 2] ^= 0x10  # the middle of the record's body
+    damaged = tmp_path / "flipped.mcap"
+    damaged.write_bytes(bytes(data))
+    got, text = _verify(damaged)
+    assert got == code and words in text and "Traceback" not in text, text
+    if opcode == 0x03:  # decoded with the summary's copy: everything replays, still not OK
+        assert text.startswith("DAMAGED:") and "replayed 1000 of 1000 logged steps" in text
+
+
+def test_a_log_from_the_mcap_library_writer_verifies(tmp_path: Path) -> None:
+    """A log written by the mcap library's own writer (its message indexes and summary, format 1 JSON topics) verifies OK: the damage checks accept any valid MCAP."""
+    import json
+
+    from mcap.writer import Writer
+
+    from walkrepro.record import METADATA_NAME, SCENE_ATTACHMENT, SPEC_ATTACHMENT
+
+    model = mujoco.MjModel.from_xml_string(SCENE_XML)
+    data = mujoco.MjData(model)
+    path = tmp_path / "format1.mcap"
+    with path.open("wb") as f:
+        writer = Writer(f, chunk_size=4 << 10)
+        writer.start()
+        writer.add_attachment(0, 0, SCENE_ATTACHMENT, "application/xml", SCENE_XML.encode())
+        writer.add_attachment(0, 0, SPEC_ATTACHMENT, "application/yaml", b"name: tiny\n")
+        schema = writer.register_schema("json", "jsonschema", b"{}")
+        state, inputs = (
+            writer.register_channel(t, "json", schema) for t in ("/sim/state", "/sim/inputs")
+        )
+
+        def put(channel: int, message: dict, step: int) -> None:
+            writer.add_message(channel, step, json.dumps(message).encode(), step)
+
+        for step in range(STEPS):
+            put(state, {"step": step, "t": data.time, "qpos": data.qpos.tolist(),
+                        "qvel": data.qvel.tolist(), "act": data.act.tolist()}, step)  # fmt: skip
+            data.ctrl[:] = [0.5 * np.sin(20 * data.time), 0.3 * np.cos(15 * data.time)]
+            put(inputs, {"step": step, "ctrl": data.ctrl.tolist(), "xfrc": {}}, step)
+            mujoco.mj_step(model, data)
+        writer.add_metadata(METADATA_NAME, {**METADATA, "outcome": "complete"})
+        writer.finish()
+    report = verify_log(path)
+    assert report.ok and report.damage == "" and report.n_logged == report.n_steps == STEPS

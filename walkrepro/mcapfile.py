@@ -62,6 +62,8 @@ _MESSAGE_HEADS = np.dtype(
 )  # fmt: skip
 _RECORD_HEAD = struct.Struct("<BQ")  # opcode, length of what follows
 _CHANNEL_ID = struct.Struct("<H")
+_LOG_TIME = struct.Struct("<Q")
+_LOG_TIME_AT = 6  # a message record's body: channel id (2 bytes), sequence (4), log time (8)
 # Chunk record up to its records: opcode, length, start and end time, uncompressed size and
 # CRC, compression (a 4-byte string: "zstd"), length of the records.
 _CHUNK_HEAD = struct.Struct("<BQQQQII4sQ")
@@ -377,11 +379,18 @@ class _Damaged(Exception):
     """The file ends or is damaged here; what was read before stands."""
 
 
-def read_mcap(data: bytes) -> McapContents:
+def read_mcap(data: bytes, check_indexes: bool = False) -> McapContents:
     """Reads an MCAP file's records, stopping quietly at the first damaged or missing byte.
 
     Only the opening magic must be whole: a file cut short (no summary, footer or closing
-    magic) keeps every record, and every chunk that passes its CRC, before the cut.
+    magic) keeps every record, and every chunk that passes its CRC, before the cut. A chunk
+    is checked by its CRC or its zstd frame's checksum, an attachment by its CRC.
+
+    Args:
+        data: the file's bytes.
+        check_indexes: also check that the message index records after each chunk are
+            exactly what the chunk's messages give (they carry no checksum of their own;
+            walkrepro's reader does not use them, other MCAP readers do).
 
     Raises:
         ValueError: ``data`` does not start with the MCAP magic.
@@ -391,12 +400,25 @@ def read_mcap(data: bytes) -> McapContents:
     out = McapContents(size=len(data))
     pos, end = len(MAGIC), len(data)
     start = pos
+    # The message index records still expected after the last chunk, by channel, and
+    # whether any came (MCAP allows a file without them: then none comes).
+    expected: dict[int, bytes] | None = None
+    indexed = False
     try:
         while pos < end and not out.closed:
             start = pos
             opcode, body, pos = _record_at(data, pos, end)
+            if opcode == Opcode.MESSAGE_INDEX and expected is not None:
+                (channel_id,) = _CHANNEL_ID.unpack_from(data, body)
+                if expected.pop(channel_id, None) != data[body:pos]:
+                    raise _Damaged
+                indexed = True
+                continue
+            if expected and indexed:  # an index of the last chunk is missing
+                raise _Damaged
+            expected, indexed = None, False
             if opcode == Opcode.CHUNK:
-                _read_chunk(data[body:pos], out)
+                expected = _read_chunk(data[body:pos], out, check_indexes)
             else:
                 _read_other(opcode, data[body:pos], out)
     except _Damaged:
@@ -412,12 +434,14 @@ class McapSummary:
     """The summary section of a finished file, read from its end.
 
     Attributes:
+        schemas: schema id → schema, as the summary lists them.
         channels: channel id → channel, as the summary lists them.
         message_counts: channel id → messages the file holds on that channel (None when
             the summary has no statistics record).
         chunk_count: chunks in the file (None when the summary has no statistics record).
     """
 
+    schemas: dict[int, Schema]
     channels: dict[int, Channel]
     message_counts: dict[int, int] | None
     chunk_count: int | None
@@ -452,13 +476,14 @@ def read_summary(data: bytes) -> McapSummary | None:
     if opcode != Opcode.FOOTER or length != _FOOTER.size - _RECORD_HEAD.size:
         return None
     if summary_start == 0:  # MCAP: a file written without a summary section
-        return McapSummary({}, None, None)
+        return McapSummary({}, {}, None, None)
     if not len(MAGIC) <= summary_start < footer_at:
         return None
     covered = memoryview(data)[summary_start : footer_at + _FOOTER.size - 4]
     if crc != 0 and zlib.crc32(covered) != crc:
         return None
     end = offsets_start if summary_start < offsets_start <= footer_at else footer_at
+    schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
     stats: Statistics | None = None
     pos = summary_start
@@ -468,13 +493,16 @@ def read_summary(data: bytes) -> McapSummary | None:
             if opcode == Opcode.CHANNEL:
                 channel = Channel.read(ReadDataStream(io.BytesIO(data[body:pos])))
                 channels[channel.id] = channel
+            elif opcode == Opcode.SCHEMA:
+                schema = Schema.read(ReadDataStream(io.BytesIO(data[body:pos])))
+                schemas[schema.id] = schema
             elif opcode == Opcode.STATISTICS:
                 stats = Statistics.read(ReadDataStream(io.BytesIO(data[body:pos])))
     except Exception:  # noqa: BLE001 - a summary that does not parse is no summary
         return None
     if stats is None:
-        return McapSummary(channels, None, None)
-    return McapSummary(channels, dict(stats.channel_message_counts), stats.chunk_count)
+        return McapSummary(schemas, channels, None, None)
+    return McapSummary(schemas, channels, dict(stats.channel_message_counts), stats.chunk_count)
 
 
 def _record_at(data: bytes, pos: int, end: int) -> tuple[int, int, int]:
@@ -500,6 +528,10 @@ def _read_other(opcode: int, body: bytes, out: McapContents) -> None:
         out.closed = True
     if reader is None:
         return
+    if opcode == Opcode.ATTACHMENT and len(body) >= 4:
+        (crc,) = struct.unpack_from("<I", body, len(body) - 4)
+        if crc != 0 and zlib.crc32(memoryview(body)[:-4]) != crc:
+            raise _Damaged
     try:
         record = reader(ReadDataStream(io.BytesIO(body)))
     except Exception as exc:  # noqa: BLE001 - a malformed record ends the read
@@ -514,8 +546,14 @@ def _read_other(opcode: int, body: bytes, out: McapContents) -> None:
         out.metadata.append(record)
 
 
-def _read_chunk(body: bytes, out: McapContents) -> None:
-    """The messages (and any schema/channel records) of one chunk, if its CRC holds."""
+def _read_chunk(body: bytes, out: McapContents, index: bool = False) -> dict[int, bytes] | None:
+    """The messages (and any schema/channel records) of one chunk, if its CRC holds.
+
+    Returns:
+        With ``index``, the body of the message index record that each channel with
+        messages in the chunk must have (MCAP: log time and offset of each message in the
+        uncompressed records); else None.
+    """
     try:
         chunk = Chunk.read(ReadDataStream(io.BytesIO(body)))
         if chunk.compression == "zstd":
@@ -536,11 +574,22 @@ def _read_chunk(body: bytes, out: McapContents) -> None:
     ):
         raise _Damaged
     messages = out.messages
+    flats: dict[int, list[int]] | None = defaultdict(list) if index else None
     pos, end = 0, len(raw)
     while pos < end:
+        record = pos
         opcode, start, pos = _record_at(raw, pos, end)
         if opcode == Opcode.MESSAGE:
             (channel_id,) = _CHANNEL_ID.unpack_from(raw, start)
             messages[channel_id].append(raw[start + _MESSAGE_FIXED : pos])
+            if flats is not None:
+                (log_time,) = _LOG_TIME.unpack_from(raw, start + _LOG_TIME_AT)
+                flats[channel_id] += (log_time, record)
         elif opcode in (Opcode.CHANNEL, Opcode.SCHEMA):
             _read_other(opcode, raw[start:pos], out)
+    if flats is None:
+        return None
+    return {
+        channel_id: struct.pack(f"<HI{len(flat)}Q", channel_id, 8 * len(flat), *flat)
+        for channel_id, flat in flats.items()
+    }

@@ -1030,11 +1030,17 @@ def _stack(
     return out
 
 
-def read_log(path: Path) -> Log:
+def read_log(path: Path, check_indexes: bool = False) -> Log:
     """Reads a log (format 2 or 1), including one truncated by a killed writer.
+
+    Whatever keeps the file from being whole is in :attr:`Log.damage`: a cut, a chunk or an
+    attachment that fails its checksum, a summary that fails its CRC, schema or channel
+    records that differ from their copies in the summary (the summary's are then used).
 
     Args:
         path: the MCAP file.
+        check_indexes: also check the message index records (see
+            :func:`walkrepro.mcapfile.read_mcap`); ``walkrepro verify`` does.
 
     Returns:
         The log; every complete chunk before any damage is kept.
@@ -1048,19 +1054,42 @@ def read_log(path: Path) -> Log:
     except OSError as exc:
         raise WalkreproError(f"cannot read log {path}: {exc.strerror}") from exc
     try:
-        contents = read_mcap(data)
+        contents = read_mcap(data, check_indexes)
     except ValueError:
         raise WalkreproError(f"{path} is not an MCAP log (it lacks the MCAP magic bytes)") from None
+    summary = read_summary(data)
+    damage = _damage(contents, summary)
+    schemas, channels = contents.schemas, contents.channels
+    if summary is not None and summary.channels:
+        # The summary's copies are under its CRC; those at the start of the file are not.
+        differ = [
+            f"schema {i}" for i, x in summary.schemas.items() if schemas.get(i) not in (None, x)
+        ] + [
+            f"channel {x.topic}"
+            for i, x in summary.channels.items()
+            if channels.get(i) not in (None, x)
+        ]
+        if differ and not damage:
+            damage = (
+                f"damaged: its {', '.join(differ)} record(s) differ from the copies in its summary"
+            )
+        schemas, channels = {**schemas, **summary.schemas}, {**channels, **summary.channels}
     raw: dict[str, _Segments] = {}
     decoders: dict[int, Callable[[bytes], Any]] = {}
-    for channel_id, channel in sorted(contents.channels.items()):
+    for channel_id, channel in sorted(channels.items()):
         messages = contents.messages.get(channel_id, [])
-        schema = contents.schemas.get(channel.schema_id)
+        schema = schemas.get(channel.schema_id)
         if channel.message_encoding == "json":
             decode = _decode_json
         elif channel.message_encoding == "protobuf" and schema is not None:
             if schema.id not in decoders:
-                decoders[schema.id] = protolog.dict_decoder(schema.data, schema.name)
+                try:
+                    decoders[schema.id] = protolog.dict_decoder(schema.data, schema.name)
+                except Exception as exc:  # noqa: BLE001 - protobuf raises several kinds
+                    raise WalkreproError(
+                        f"{path} is {damage or 'damaged'}: the schema {schema.name!r} of "
+                        f"channel {channel.topic} does not parse ({type(exc).__name__})"
+                    ) from None
             decode = decoders[schema.id]
         else:
             raise WalkreproError(
@@ -1069,16 +1098,19 @@ def read_log(path: Path) -> Log:
                 "walkrepro reads json and protobuf"
             )
         raw.setdefault(channel.topic, []).append((decode, messages))
-    attachments = {a.name: a.data.decode() for a in contents.attachments}
+    try:
+        attachments = {a.name: a.data.decode() for a in contents.attachments}
+    except UnicodeDecodeError:
+        raise WalkreproError(
+            f"{path} is {damage or 'damaged'}: an attachment is not UTF-8 text"
+        ) from None
     metadata = next((dict(m.metadata) for m in contents.metadata if m.name == METADATA_NAME), None)
     closed = contents.closed
-    summary = read_summary(data)
-    damage = _damage(contents, summary)
     missing = [name for name in (SCENE_ATTACHMENT, SPEC_ATTACHMENT) if name not in attachments]
     if missing:
         raise WalkreproError(
-            f"{path} is {damage}, before its {' and '.join(missing)} attachment; nothing "
-            "can be read from it"
+            f"{path} is {damage}; without its {' and '.join(missing)} attachment(s), "
+            "nothing in it can be replayed or measured"
             if damage
             else f"{path} is not a walkrepro log: it has no {' or '.join(missing)} attachment"
         )

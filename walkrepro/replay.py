@@ -183,7 +183,7 @@ def verify_log(path: Path, tolerance: float = DEFAULT_TOLERANCE) -> VerifyReport
         WalkreproError: unreadable log, no step-0 state in a whole log, gaps in the
             inputs, or vectors that do not fit the logged scene.
     """
-    log = read_log(path)
+    log = read_log(path, check_indexes=True)
     model = mujoco.MjModel.from_xml_string(log.scene_xml)
     data = mujoco.MjData(model)
     inputs = replay_inputs(log, model)
