@@ -180,15 +180,11 @@ def execute(
     # directory appears is a request, and the directory is always finished.
     run_dir = run_dir or results.new_run_dir(out_root, spec.name)
     log_path = run_dir.work / results.LOG_FILE
-    record: dict[str, object] = {
-        "experiment": spec.name,
-        "overrides": list(overrides),
-        "commit": provenance.git_commit(),
-        "versions": provenance.library_versions(),
-    }
+    record: dict[str, object] = {"experiment": spec.name, "overrides": list(overrides)}
     result: RunResult | None = None
     stage = "setting up the run"
     try:
+        record.update(commit=provenance.git_commit(), versions=provenance.library_versions())
         (run_dir.work / results.SPEC_FILE).write_text(spec.to_yaml())
         if flag.requested:  # stopped while the command started: no simulation at all
             result = RunResult(
