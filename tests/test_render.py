@@ -61,6 +61,36 @@ def test_a_disturbance_is_an_arrow_ending_at_the_pushed_body() -> None:
     assert empty.ngeom == 0
 
 
+@pytest.mark.skipif(not gl.available(), reason=NO_GL)
+def test_a_drawn_arrow_ends_at_the_pushed_body() -> None:
+    """In the rendered image, the red arrow spans from its tail to the body's centre of mass
+    (seen from the side, 1 m of force arrow over the image's x axis)."""
+    from walkrepro.render import Offscreen
+
+    model = mujoco.MjModel.from_xml_string(
+        '<mujoco><visual><global offwidth="640" offheight="360"/></visual><statistic extent="2"/>'
+        '<worldbody><light pos="0 -2 3" dir="0 1 -1"/><body name="b" pos="0.3 0 1"><freejoint/>'
+        '<geom type="sphere" size="0.001" rgba="0 0 0 0"/></body></worldbody></mujoco>'
+    )
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    camera = mujoco.MjvCamera()
+    camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+    camera.azimuth, camera.elevation, camera.distance = 90.0, 0.0, 3.0
+    camera.lookat[:] = [0.0, 0.0, 1.0]
+    body = model.body("b").id
+    with Offscreen(model, 640, 360, shadows=False) as view:
+        image = view.render(data, camera, video._arrows(data, {body: np.array([60.0, 0, 0])}))
+    r, g, b = (image[:, :, i].astype(int) for i in range(3))
+    red = np.argwhere((r > 40) & (r > 2 * g) & (r > 2 * b))
+    assert len(red)
+    # Pinhole projection of x at depth 3 m with MuJoCo's 45° vertical field of view.
+    px_per_m = 360 / (2 * 3.0 * np.tan(np.radians(22.5)))
+    tail_px, tip_px = 320 + (0.3 - 0.6) * px_per_m, 320 + 0.3 * px_per_m
+    assert red[:, 1].min() == pytest.approx(tail_px, abs=4)
+    assert red[:, 1].max() == pytest.approx(tip_px, abs=4)
+
+
 def test_the_overlay_names_the_controller_state_from_its_events() -> None:
     """The E-FSM's state is its last transition; a fall is shown for EVENT_SHOWN seconds only."""
     events = [

@@ -46,10 +46,16 @@ PALETTE: tuple[tuple[float, float, float], ...] = (
 ARROW_SCALE, ARROW_MIN, ARROW_MAX = 0.01, 0.15, 0.6
 #: Arrow shaft width [m] and colour (RGBA).
 ARROW_WIDTH, ARROW_RGBA = 0.025, (0.85, 0.1, 0.1, 1.0)
-#: Camera: distance to the pelvis per metre of the pelvis's initial height, and at least
-#: [m] (so a 0.9 m and a 1.4 m robot fill the frame alike); elevation [deg]; the look-at
-#: height as a fraction of the pelvis's initial height (fixed, so a fall is seen as a drop).
-CAMERA_DISTANCE, CAMERA_MIN_DISTANCE, CAMERA_ELEVATION, LOOKAT_HEIGHT = 3.0, 1.5, -10.0, 0.6
+#: MuJoCo's renderer draws an arrow geom over half of the length ``mjv_connector`` gives it
+#: (measured with MuJoCo 4.0; cylinders and capsules span their connector exactly), so the
+#: length is doubled to make the arrow end at the pushed body (tests/test_render.py checks it
+#: in pixels).
+ARROW_DRAWN_FRACTION = 0.5
+#: Camera: distance per metre of the robot's initial height (its highest geom), so a 0.9 m
+#: and a 1.4 m robot fill the frame alike (MuJoCo's 45° field of view then spans about 1.5
+#: heights); elevation [deg]; the look-at height as a fraction of the robot's height (fixed,
+#: so a fall is seen as a drop).
+CAMERA_DISTANCE, CAMERA_ELEVATION, LOOKAT_HEIGHT = 1.8, -8.0, 0.5
 #: How long an event without a lasting state (a fall, impedance switched on) stays shown [s].
 EVENT_SHOWN = 1.0
 
@@ -92,6 +98,18 @@ def colour_bodies(model: mujoco.MjModel, root_body: int) -> None:
         if body in colour:
             model.geom_matid[g] = -1  # a material's colour would override the geom's
             model.geom_rgba[g, :3] = colour[body]
+
+
+def robot_height(model: mujoco.MjModel, data: mujoco.MjData, root_body: int) -> float:
+    """Height [m] of the robot's highest visible geom (bounding sphere) above z = 0, for a
+    state whose kinematics are computed."""
+    root = model.body_rootid[root_body]
+    tops = [
+        data.geom_xpos[g, 2] + model.geom_rbound[g]
+        for g in range(model.ngeom)
+        if model.body_rootid[model.geom_bodyid[g]] == root and model.geom_rgba[g, 3] > 0
+    ]
+    return float(max(tops)) if tops else float(data.xpos[root_body, 2])
 
 
 @dataclass(frozen=True)
@@ -187,6 +205,7 @@ def _arrows(
                 np.array(ARROW_RGBA, dtype=np.float32),
             )
             mujoco.mjv_connector(geom, mujoco.mjtGeom.mjGEOM_ARROW, ARROW_WIDTH, tail, tip)
+            geom.size[2] = length / ARROW_DRAWN_FRACTION
             scene.ngeom += 1
 
     return decorate
@@ -222,9 +241,9 @@ def _frames(
     camera = mujoco.MjvCamera()
     camera.type = mujoco.mjtCamera.mjCAMERA_FREE
     camera.azimuth, camera.elevation = heading + 90.0, CAMERA_ELEVATION
-    pelvis_z = float(data.xpos[pelvis, 2])  # [m]
-    camera.distance = max(CAMERA_DISTANCE * pelvis_z, CAMERA_MIN_DISTANCE)
-    lookat_z = LOOKAT_HEIGHT * pelvis_z
+    tall = robot_height(model, data, pelvis)  # [m]
+    camera.distance = CAMERA_DISTANCE * tall
+    lookat_z = LOOKAT_HEIGHT * tall
 
     with Offscreen(
         model, width, height, mujoco.mjtFontScale.mjFONTSCALE_100, shadows=False
