@@ -291,3 +291,28 @@ def test_unknown_completion_shell_is_refused(monkeypatch: pytest.MonkeyPatch) ->
     result = CliRunner().invoke(app, ["--show-completion", "cmd.exe"], prog_name="walkrepro")
     assert result.exit_code != 0
     assert "_WALKREPRO_COMPLETE" not in result.output
+
+
+#: The walkrepro command as the shell's completion calls it (the console script's name).
+COMPLETE = [sys.executable, "-c", "from walkrepro.cli import app; app(prog_name='walkrepro')"]
+
+
+def test_completion_offers_commands_and_experiment_names() -> None:
+    """Tab completion (the script --install-completion installs) completes command names and `check`'s experiments."""
+    env = {**os.environ, "_WALKREPRO_COMPLETE": "complete_bash", "COMP_CWORD": "2"}
+    done = subprocess.run(
+        COMPLETE,
+        env={**env, "COMP_WORDS": "walkrepro check stand_"},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.stdout.split() == ["stand_coman", "stand_dyros_red", "stand_kist_humanoid"], done
+    done = subprocess.run(
+        COMPLETE,
+        env={**env, "COMP_WORDS": "walkrepro ch", "COMP_CWORD": "1"},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.stdout.split() == ["check"], done

@@ -147,11 +147,19 @@ def run(
         raise typer.Exit(code=1)
 
 
+def _complete_experiment(incomplete: str) -> list[str]:
+    """Shell completion: the shipped experiments whose names start with ``incomplete``."""
+    from walkrepro.spec import experiment_names
+
+    return [n for n in experiment_names() if n.startswith(incomplete)]
+
+
 @app.command()
 @friendly_errors
 def check(
     experiments: Annotated[
-        list[str] | None, typer.Argument(help="Experiments to run and check.")
+        list[str] | None,
+        typer.Argument(help="Experiments to run and check.", autocompletion=_complete_experiment),
     ] = None,
     run_dir: Annotated[
         list[Path] | None, typer.Option("--run", help="Re-check an existing run directory or log.")
