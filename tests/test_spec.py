@@ -478,3 +478,10 @@ def test_scene_refuses_a_non_finite_obstacle() -> None:
     world = spec.world.model_copy(update={"obstacles": [bad]})
     with pytest.raises(SpecError, match="obstacle_nan.*finite"):
         build_scene(load_robot(spec.robot), spec.model_copy(update={"world": world}))
+
+
+def test_experiment_name_fits_a_folder_name(tmp_path: Path) -> None:
+    """An experiment name names the run's folder: 100 characters load, 300 are refused before running."""
+    load_spec(str(write(tmp_path, GOOD)), ["name=" + "x" * 100])
+    msg = error_of(tmp_path, GOOD, ("name=" + "x" * 300,))
+    assert "field name (set with --set)" in msg and "at most 100" in msg, msg

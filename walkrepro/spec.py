@@ -425,7 +425,11 @@ class Expectation(_Strict):
 class ExperimentSpec(_Strict):
     """A whole experiment."""
 
-    name: str = Field(pattern=r"^[A-Za-z0-9_\-]+$")
+    name: str = Field(
+        pattern=r"^[A-Za-z0-9_\-]+$",
+        max_length=100,
+        description="names the run's folder: letters, digits, _ and -, at most 100",
+    )
     description: str
     paper: PaperRef
     robot: str
