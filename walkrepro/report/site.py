@@ -245,6 +245,15 @@ def _index(
         f'<td class="num">{len(by_paper[k])}</td>{html.tally_cells(tallies[k])}</tr>'
         for k in keys
     ]
+    total = sum((tallies[k] for k in keys), Tally())
+    rows.append(
+        f'<tr><th>all</th><td class="num">{sum(len(by_paper[k]) for k in keys)}</td>'
+        f"{html.tally_cells(total)}</tr>"
+    )
+    robots = sorted({r.spec.robot for k in keys for r in by_paper[k]})
+    robot_links = ", ".join(
+        f'<a href="robots/{escape(robot)}.html">{escape(robot)}</a>' for robot in robots
+    )
     commits = sorted({str(r.run.get("commit", ""))[:10] for k in keys for r in by_paper[k]} - {""})
     made = f" Runs made at commit(s) {escape(', '.join(commits))}." if commits else ""
     skipped = (
@@ -261,6 +270,7 @@ def _index(
         f"<table>\n<tr><th>paper</th><th>experiments</th>{html.TALLY_HEAD}</tr>\n"
         + "\n".join(rows)
         + "\n</table>\n"
+        f"<p>Robot models, with the source of every number: {robot_links}.</p>\n"
         f'<p class="muted">Built from {escape(str(source))} (nothing re-run).{made}</p>\n' + skipped
     )
     return html.page("walkrepro: reproduction report", body)
