@@ -251,12 +251,22 @@ def check(
     interrupted = any(s.interrupted for s in summaries)
     if update_reference and not interrupted:
         _update_references(summaries)
+        _update_docs()
     if junit is not None:
         checks.write_junit(verdicts, junit)
     if interrupted:
         raise typer.Exit(code=130)
     if not all(v.passed for v in verdicts):
         raise typer.Exit(code=1)
+
+
+def _update_docs() -> None:
+    """Regenerate the documents made from the references (``walkrepro docs``): new
+    references change the README's status table and the deviations' measured values."""
+    from walkrepro.docsgen import generated_files, write_docs
+
+    for path in write_docs(generated_files()):
+        _console().print(f"docs updated: {path}", highlight=False)
 
 
 def _recorded_overrides(run_dir: Path) -> list[str]:
