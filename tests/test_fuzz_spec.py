@@ -7,7 +7,8 @@ ticks through the CLI, which must finish without a traceback. Cases are a pure f
 
 Input classes: wrong types (string, boolean, list, mapping, null), NaN, ±inf, huge and
 negative numbers, missing fields, unknown fields, duplicate YAML keys, bad names, and a few
-malformed files (invalid UTF-8, deep nesting, empty, not a mapping).
+malformed files (invalid UTF-8, binary, deep nesting, alias bombs and loops, tabs, empty,
+not a mapping).
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ from walkrepro.spec import load_spec, resolve_spec
 
 #: Seed of every mutation; change it to explore other cases.
 SEED = 32
-#: Mutations per shipped spec (41 specs → 328 cases, plus the malformed files).
+#: Mutations per shipped spec (43 specs: 344 cases, plus the malformed files).
 PER_SPEC = 8
 #: Random ``--set`` cases on top of the hand-written ones.
 RANDOM_SETS = 40
@@ -368,6 +369,8 @@ def _run_cli(case: FuzzCase, tmp_path: Path) -> None:
 
 
 def _check_cases(cases: list[FuzzCase], tmp_path: Path) -> None:
+    """Validate every case (refused or valid, never another exception; a non-finite number,
+    duplicate key or deep nesting always refused), then run up to :data:`MAX_RUNS` valid ones."""
     valid = []
     for case in cases:
         outcome = validate(case, tmp_path / case.name)
@@ -375,6 +378,7 @@ def _check_cases(cases: list[FuzzCase], tmp_path: Path) -> None:
             assert outcome == "error", f"{case.name}: accepted, must be refused"
         if outcome == "ok":
             valid.append(case)
+    assert valid, "no case validated: the run phase would test nothing"
     # Evenly spread over the experiments, so every robot and controller gets runs.
     for case in valid[:: max(1, len(valid) // MAX_RUNS)][:MAX_RUNS]:
         _run_cli(case, tmp_path / case.name)
