@@ -236,13 +236,17 @@ Promise.all(images.map(img => img.complete ? Promise.resolve() :
 _VIDEO_STATES = """
 const done = arguments[arguments.length - 1];
 const videos = Array.from(document.querySelectorAll("video"));
-Promise.all(videos.map(v => (v.readyState >= 1 || v.error) ? Promise.resolve() :
-    new Promise(ok => { v.addEventListener("loadedmetadata", ok); v.addEventListener("error", ok, true);
-                        v.querySelector("source")?.addEventListener("error", ok);
-                        v.load(); setTimeout(ok, 20000); })))
+// preload=auto: wait for the first decoded frame (readyState 2), not only the container.
+Promise.all(videos.map(v => new Promise(ok => {
+    v.preload = "auto";
+    v.addEventListener("loadeddata", ok);
+    v.addEventListener("error", ok, true);
+    v.querySelector("source")?.addEventListener("error", ok);
+    v.load();
+    setTimeout(ok, 20000); })))
   .then(() => done(videos.map(v => ({src: v.currentSrc || v.querySelector("source").src,
                                      ready: v.readyState, error: v.error ? v.error.code : 0,
-                                     duration: v.duration}))));
+                                     duration: v.duration, width: v.videoWidth}))));
 """
 
 
@@ -277,8 +281,8 @@ def test_every_page_loads_in_chromium_without_errors_or_broken_media(
                 assert n_frames > 0 and seconds > 0, f"{path} is not a playable MP4"
                 no_decoder.append(path.name)
             else:
-                assert v["error"] == 0 and v["ready"] >= 1, f"{page.name}: video {v}"
-                assert v["duration"] > 0
+                assert v["error"] == 0 and v["ready"] >= 2, f"{page.name}: video {v}"
+                assert v["duration"] > 0 and v["width"] > 0
         errors = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
         assert errors == [], f"{page.name}: console errors {errors}"
         parser = _Links()
