@@ -95,6 +95,29 @@ def test_report_from_a_results_tree_links_only_relative_copied_files(tmp_path: P
     assert str(tmp_path) not in page  # nothing points back into the source tree
 
 
+def test_report_from_a_check_output_directory_uses_each_experiments_latest_run(
+    tmp_path: Path,
+) -> None:
+    """In a `walkrepro check --out DIR` tree the latest run of each experiment is shown, with
+    the spec that run was made with (its spec.yaml), and its video."""
+    spec = load_spec("forward_walk").spec
+    for run, status in (("20260101T000000Z-aaaaaa", "fail"), ("20260102T000000Z-bbbbbb", "pass")):
+        directory = tmp_path / "runs" / "forward_walk" / run
+        directory.mkdir(parents=True)
+        (directory / "check.json").write_text(
+            json.dumps({"outcome": "complete", "rows": [_row(status)]})
+        )
+        (directory / "spec.yaml").write_text(
+            spec.model_copy(update={"description": f"run {run}", "sweeps": []}).to_yaml()
+        )
+        (directory / "video.mp4").write_bytes(b"\x00")
+    site = build_report(tmp_path / "runs", tmp_path / "site")
+    assert site.tallies["lee2021"] == Tally(reproduced=1)
+    page = (tmp_path / "site" / "lee2021.html").read_text()
+    assert "run 20260102T000000Z-bbbbbb" in page and "20260101" not in page
+    assert 'src="assets/forward_walk/video.mp4"' in page
+
+
 def test_a_broken_run_counts_as_a_failed_claim(tmp_path: Path) -> None:
     """A reference whose run ended in an error shows a failed row, as `walkrepro check` counts it."""
     source = _fake_results(tmp_path / "results", [_row("pass")], outcome="error")
