@@ -616,3 +616,52 @@ def test_hold_metrics_need_a_second(tmp_path: Path) -> None:
     d = _push(tmp_path, [1.3])
     assert "less than the 1 s" in unmeasurable_reason(d, "hold_force")
     assert "less than the 1 s" in unmeasurable_reason(d, "hold_com_speed")
+
+
+# ---- footsteps as the E-FSM walks them (§VI-A, Table II, Fig. 8) ---------------------------
+
+
+def _two_swings(poser: Poser, first_height: float, second_height: float) -> list[Tick]:
+    """The left foot swings 10 cm forward in 0.2–0.6 s (raised ``first_height``; 0: slid),
+    then the right foot 20 cm in 0.8–1.2 s (raised ``second_height``), 1.5 s in all."""
+    (lx, ly, _), (rx, ry, _) = home_sole(ROBOT, "left_foot"), home_sole(ROBOT, "right_foot")
+    ticks = []
+    for k in range(150):
+        t = k * DT
+        s1 = min(max((t - 0.2) / 0.4, 0.0), 1.0)
+        s2 = min(max((t - 0.8) / 0.4, 0.0), 1.0)
+        left = (lx + 0.1 * s1, ly, first_height * math.sin(math.pi * s1))
+        right = (rx + 0.2 * s2, ry, second_height * math.sin(math.pi * s2))
+        loaded = [f for f, (a, b) in {"left_foot": (0.2, 0.6), "right_foot": (0.8, 1.2)}.items()
+                  if not a <= t < b]  # fmt: skip
+        ticks.append(
+            Tick(
+                t,
+                qpos=poser((0.05 * s1 + 0.1 * s2, 0, 0), left_foot=left, right_foot=right),
+                pairs=standing_pairs(ROBOT, loaded),
+            )
+        )
+    return ticks
+
+
+def test_first_swing_slid_counts_as_the_efsm_footstep(poser: Poser, tmp_path: Path) -> None:
+    """A first swing that slides 10 cm forward (no raise target: its SSD omitted) is counted
+    by efsm_footsteps with the later lifted step, and is still reported by slid_steps."""
+    d = write_log(tmp_path / "a.mcap", _two_swings(poser, 0.0, 0.04), _spec())
+    assert measured(d, "advancing_steps") == 1
+    assert measured(d, "efsm_footsteps") == 2
+    assert measured(d, "slid_steps") == 1 and measured(d, "later_slides") == 0
+
+
+def test_a_later_slide_is_no_footstep(poser: Poser, tmp_path: Path) -> None:
+    """A first swing that lifts, then a later swing that slides: the slide is no footstep and
+    later_slides reports it (every swing after the first must lift)."""
+    d = write_log(tmp_path / "a.mcap", _two_swings(poser, 0.04, 0.0), _spec())
+    assert measured(d, "efsm_footsteps") == 1
+    assert measured(d, "later_slides") == 1
+
+
+def test_all_swings_lifted(poser: Poser, tmp_path: Path) -> None:
+    """Two lifted swings are two footsteps, none slid."""
+    d = write_log(tmp_path / "a.mcap", _two_swings(poser, 0.04, 0.04), _spec())
+    assert measured(d, "efsm_footsteps") == 2 and measured(d, "later_slides") == 0

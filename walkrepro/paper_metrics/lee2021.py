@@ -24,6 +24,7 @@ from walkrepro.errors import UnknownNameError
 from walkrepro.metrics import (
     Footstep,
     LogData,
+    SLIDE_DISTANCE,
     NotMeasurable,
     any_argument,
     choice_check,
@@ -94,6 +95,60 @@ def _advancing_steps(d: LogData, arg: str) -> float:
     """Pre-fall count of :func:`advancing_steps` (§VI-A: "11 steps of 0.1 m")."""
     _need_walk(d)
     return float(len(advancing_steps(d)))
+
+
+def first_swing_slide(d: LogData) -> tuple[str, float] | None:
+    """The walk's first swing, when it slid instead of lifting: (foot body, advance [m]).
+
+    Table II raises the swing foot only in SSD, and Fig. 8 shows the paper's own first SSD
+    omitted (the CoM is still after the first DS, so ẋ_m ≈ 0 ends SSD at once): the first
+    swing gets no raise target and may move along the floor. It is that swing when a foot's
+    sole centre moved ≥ ``ADVANCE`` forward (world x, along the floor) before any foot lifted
+    (the first touchdown's lift-off), ending ≥ ``ADVANCE`` ahead of the other foot. None
+    when no foot did (the first swing lifted, or nothing moved).
+    """
+    if not d.footsteps:
+        return None
+    t_lift = min(s.liftoff_t for s in d.footsteps)
+    i0, i1 = (int(i) for i in d.state_index(np.array([d.t[0], t_lift])))
+    tracks = _sole_tracks(d)
+    for side in FEET:
+        other = tracks["right" if side == "left" else "left"]
+        moved = tracks[side][i1, 0] - tracks[side][i0, 0]
+        ahead = tracks[side][i1, 0] - other[i1, 0]
+        if moved >= ADVANCE and ahead >= ADVANCE:
+            return f"{side}_foot", float(moved)
+    return None
+
+
+@metric(
+    "efsm_footsteps",
+    "footsteps as the paper's E-FSM walks them: the lifted advancing steps, and the first "
+    "swing if it advanced along the floor (its SSD omitted, Fig. 8)",
+)
+def _efsm_footsteps(d: LogData, arg: str) -> float:
+    """Pre-fall: ``advancing_steps`` plus :func:`first_swing_slide` (§VI-A, Fig. 6: "11
+    steps"; Table II and Fig. 8: the first swing has no raise target). Any later swing must
+    lift (≥ 1 cm for ≥ 50 ms) to count; ``later_slides`` reports the ones that did not."""
+    _need_walk(d)
+    return float(len(advancing_steps(d)) + (first_swing_slide(d) is not None))
+
+
+@metric(
+    "later_slides",
+    "slides (as slid_steps) other than the walk's first swing (see efsm_footsteps)",
+)
+def _later_slides(d: LogData, arg: str) -> float:
+    """Pre-fall: ``slid_steps`` less the first swing's slide, which the E-FSM's omitted first
+    SSD explains (:func:`first_swing_slide`); every later swing must lift."""
+    _need_walk(d)
+    slides = sum(
+        1
+        for found in d.step_detection.values()
+        for _, _, shift in found.ground_phases
+        if shift >= SLIDE_DISTANCE
+    )
+    return float(slides - (first_swing_slide(d) is not None))
 
 
 def swing_apex(d: LogData, step: Footstep) -> float:
