@@ -139,6 +139,9 @@ def _worker(conn: Connection, fn: CellFn) -> None:
     # Own process group: the terminal's Ctrl-C goes to the parent, which stops the workers.
     os.setpgrp()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # The parent's terminate() between cells ends the worker at once (a handler inherited
+    # through fork would hold it); during a cell, the run's own flag takes it as a stop.
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     while True:
         try:
             task = conn.recv()

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from walkrepro.errors import SpecError, UnknownNameError, WalkreproError
-from walkrepro.interrupt import stop_signals_raise
+from walkrepro.interrupt import Received, stop_signals_raise
 from walkrepro.sweep import store
 from walkrepro.sweep.cells import CRASHED, CellTask
 from walkrepro.sweep.engines import Engine
@@ -224,7 +224,7 @@ def run_plan(
     writer = store.CellsWriter(plan.directory / store.CELLS_FILE, plan.info["columns"])
     failures = ran = 0
     interrupted = False
-    received = None
+    received = Received()
     t0 = time.perf_counter()
     start = getattr(engine, "start", None)
     if start is not None:
@@ -242,7 +242,7 @@ def run_plan(
         transient=False,
     )
     try:
-        with stop_signals_raise() as received, progress:
+        with stop_signals_raise(received), progress:
             bar = progress.add_task(
                 "cells", total=len(plan.cells), completed=len(plan.done), failures=0
             )
@@ -276,7 +276,7 @@ def run_plan(
         failures,
         interrupted or len(plan.done) < len(plan.cells),
         time.perf_counter() - t0,
-        received.signum if received is not None else None,
+        received.signum,
     )
 
 
