@@ -254,17 +254,28 @@ class WorldSpec(_Strict):
 
 
 class DisturbanceSpec(_Strict):
-    """A time-windowed external wrench on a named body.
+    """An external wrench on a named body over a time window: a push, or a human's hold.
 
     ``frame`` is ``world`` or a controller frame name (e.g. ``O_w``); a controller frame is
     frozen at the disturbance onset. ``ramp`` rises linearly over ``ramp_time`` and falls
     linearly over the last ``ramp_time`` of the window (a human's push that builds up, is
-    held and is let go). Every profile is a function of time only: a disturbance never
-    reads the robot's state, so it models a force the paper applied, not a fixture.
+    held and is let go).
+
+    ``kind: push`` (the default) is a force of time only: the profile times ``force`` and
+    ``torque``; it never reads the robot's state, so it models a force the paper applied.
+
+    ``kind: hold`` is a human's hand that grabs the body and holds it where it was at the
+    onset (Lee et al. §VI-C: a human "pushes ... to block its motion"): a spring-damper
+    between the body's centre of mass and its position at the grab (the human stands
+    still), acting only along ``axes`` of ``frame``, engaged over the ramp and let go by
+    ramping it down ("reduces the pushing force"), its force capped at ``max_force``. The
+    force is an outcome of the hand's impedance and the robot's motion; it is logged every
+    physics step like any disturbance, so a log replays exactly.
     """
 
     name: str
     body: str
+    kind: Literal["push", "hold"] = "push"
     frame: str = "world"
     force: Vec3 = Field((0.0, 0.0, 0.0), description=f"[N], norm at most {MAX_FORCE:g}")
     torque: Vec3 = Field((0.0, 0.0, 0.0), description=f"[Nm], norm at most {MAX_TORQUE:g}")
@@ -272,6 +283,14 @@ class DisturbanceSpec(_Strict):
     duration: Real = Field(gt=0.0, le=MAX_DURATION, description="[s]")
     profile: Literal["constant", "ramp"] = "constant"
     ramp_time: Real = Field(0.0, ge=0.0, le=MAX_DURATION)
+    stiffness: Real = Field(0.0, ge=0.0, le=1e6, description="hold: the hand's stiffness [N/m]")
+    damping: Real = Field(0.0, ge=0.0, le=1e5, description="hold: the hand's damping [N s/m]")
+    max_force: Real = Field(
+        0.0, ge=0.0, le=MAX_FORCE, description="hold: the largest force the hand exerts [N]"
+    )
+    axes: list[Literal["x", "y", "z"]] = Field(
+        default_factory=list, description="hold: the axes of ``frame`` the hand holds"
+    )
 
     @field_validator("force", "torque")
     @classmethod
@@ -285,6 +304,29 @@ class DisturbanceSpec(_Strict):
     def _profile_fits(self) -> DisturbanceSpec:
         if self.profile == "ramp" and not 0 < 2 * self.ramp_time <= self.duration:
             raise ValueError("a ramp needs 0 < 2 * ramp_time <= duration")
+        return self
+
+    @model_validator(mode="after")
+    def _kind_fits(self) -> DisturbanceSpec:
+        hold_fields = {
+            "stiffness": self.stiffness,
+            "damping": self.damping,
+            "max_force": self.max_force,
+            "axes": self.axes,
+        }
+        if self.kind == "push":
+            given = [k for k, v in hold_fields.items() if v]
+            if given:
+                raise ValueError(f"{', '.join(given)} belong to a hold (kind: hold), not a push")
+            return self
+        if any(self.force) or any(self.torque):
+            raise ValueError("a hold's force is an outcome of its stiffness; give no force/torque")
+        if self.stiffness <= 0 or self.max_force <= 0 or not self.axes:
+            raise ValueError("a hold needs stiffness > 0, max_force > 0 and at least one axis")
+        if len(set(self.axes)) != len(self.axes):
+            raise ValueError("a hold's axes must not repeat")
+        if self.profile != "ramp":
+            raise ValueError("a hand grabs and lets go over a ramp: a hold needs profile: ramp")
         return self
 
 
