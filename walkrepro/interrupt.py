@@ -125,14 +125,6 @@ def stop_signals_raise(received: Received | None = None) -> Iterator[Received]:
             signal.signal(signum, handler)
 
 
-@contextmanager
-def sigint_raises() -> Iterator[None]:
-    """Inside, SIGINT and SIGTERM raise ``KeyboardInterrupt`` (see
-    :func:`stop_signals_raise`, which also says which signal came)."""
-    with stop_signals_raise():
-        yield
-
-
 @dataclass
 class _Held:
     """The start-up hold: whether it is on, the handlers it replaced, the signal it holds."""
