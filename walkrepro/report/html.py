@@ -38,9 +38,10 @@ td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: now
 table.claims { table-layout: fixed; }
 table.claims col.c-claim { width: 15%; } table.claims col.c-source { width: 17%; }
 table.claims col.c-value { width: 9%; } table.claims col.c-measured { width: 11%; }
-table.claims col.c-verdict { width: 10%; } table.claims col.c-reason { width: 38%; }
+table.claims col.c-verdict { width: 12%; } table.claims col.c-reason { width: 36%; }
 table.claims td { overflow-wrap: anywhere; }
 table.claims td.num, table.claims .verdict { white-space: normal; }
+table.claims .verdict { overflow-wrap: normal; }
 .experiment { display: grid; grid-template-columns: minmax(0, 2fr) minmax(0, 1fr);
               gap: 1.2rem; align-items: start; }
 @media (max-width: 1100px) { .experiment { grid-template-columns: 1fr; } }
