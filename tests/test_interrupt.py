@@ -218,7 +218,7 @@ def test_flag_takes_sigterm_like_ctrl_c_and_says_which() -> None:
 
 
 def test_a_run_without_log_is_rechecked_from_its_record(tmp_path: Path) -> None:
-    """A run directory stopped before its log exists (run.json and spec.yaml only) re-checks as interrupted; one without spec.yaml is a one-paragraph error."""
+    """A run directory stopped before its log exists (run.json and spec.yaml only) re-checks as interrupted and verify says there is no log; one without spec.yaml is a one-paragraph error."""
     from walkrepro import results
     from walkrepro.spec import load_spec
 
@@ -229,6 +229,10 @@ def test_a_run_without_log_is_rechecked_from_its_record(tmp_path: Path) -> None:
     code, text = recheck(run)
     assert code == 1 and "interrupted" in text and "Traceback" not in text, text
     assert json.loads((run / "check.json").read_text())["outcome"] == "interrupted"
+    from typer.testing import CliRunner
+
+    verified = CliRunner().invoke(app, ["verify", str(run)])
+    assert verified.exit_code == 2 and "nothing to verify" in verified.output, verified.output
     (run / "spec.yaml").unlink()
     code, text = recheck(run)
     assert code == 2 and "nothing to check" in text, text
