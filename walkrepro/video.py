@@ -224,6 +224,9 @@ def _frames(
     model = mujoco.MjModel.from_xml_string(log.scene_xml)
     model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
     model.vis.global_.offheight = max(model.vis.global_.offheight, height)
+    # No multisampling: 2.4x faster in software GL (20 ms a frame at 640x360), and H.264 at
+    # this size smooths the edges anyway.
+    model.vis.quality.offsamples = 0
     pelvis = _pelvis(model)
     colour_bodies(model, pelvis)
     data = mujoco.MjData(model)
