@@ -173,3 +173,24 @@ def test_without_gl_a_run_keeps_everything_but_the_video(
     assert not (run_dir / video.VIDEO_FILE).exists()
     assert (run_dir / "figures").is_dir()
     assert "no video: Rendering needs an OpenGL backend" in result.output
+
+
+@pytest.mark.skipif(not gl.available(), reason=NO_GL)
+def test_contact_forces_can_be_drawn(tmp_path: Path) -> None:
+    """With contact forces on, the feet's contact arrows change the picture of a standing robot."""
+    from walkrepro.runner import run
+    from walkrepro.spec import load_spec, resolve_spec
+
+    spec = resolve_spec(load_spec("stand_dyros_red", ["sim.duration=0.1"])).spec
+    log = tmp_path / "log.mcap"
+    run(spec, log)
+    plain = video.render_video(log, tmp_path / "plain.mp4", fps=10)
+    forces = video.render_video(log, tmp_path / "forces.mp4", fps=10, contact_forces=True)
+    assert plain.n_frames == forces.n_frames == 2
+    import imageio_ffmpeg
+
+    def last_frame(path: Path) -> np.ndarray:
+        return np.frombuffer(list(imageio_ffmpeg.read_frames(str(path)))[-1], np.uint8)
+
+    difference = np.abs(last_frame(plain.path).astype(int) - last_frame(forces.path))
+    assert (difference > 60).sum() > 50
