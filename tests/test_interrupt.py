@@ -297,19 +297,7 @@ def test_only_the_command_holds_signals() -> None:
     assert not started_as_command(["/usr/bin/pytest"], ["python", "/usr/bin/pytest"])
 
 
-def _hooked() -> bool:
-    import walkrepro
-
-    return "hold_stop_signals_if_command" in Path(walkrepro.__file__).read_text()
-
-
 @pytest.mark.skipif(not Path("/proc/self/maps").is_file(), reason="needs Linux /proc")
-@pytest.mark.xfail(
-    not _hooked(),
-    strict=True,
-    reason="needs walkrepro/__init__.py to call hold_stop_signals_if_command() before its "
-    "imports (issue 32)",
-)
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_a_stop_during_the_imports_leaves_an_interrupted_run(tmp_path: Path, signum: int) -> None:
     """SIGINT or SIGTERM while `walkrepro run` is still importing MuJoCo (no run directory yet) leaves a run directory with outcome interrupted and no step simulated."""

@@ -3,6 +3,13 @@
 import os
 from pathlib import Path
 
+# A stop signal (Ctrl-C, SIGTERM) during the second of start-up below (MuJoCo, numba) is
+# held, when this process is the walkrepro command, and handed to the run or the sweep, so
+# even a stop that early leaves an interrupted run directory (interrupt.py; stdlib only).
+from walkrepro.interrupt import hold_stop_signals_if_command
+
+hold_stop_signals_if_command()
+
 # No OpenGL backend is chosen at import: only rendering needs one, and walkrepro.gl picks it
 # when something renders (the user's MUJOCO_GL if set, else EGL, else OSMesa). MuJoCo binds
 # a backend on its first import and fails to import at all if that backend's library is
