@@ -134,7 +134,7 @@ def run(
     figures: Annotated[bool, typer.Option(help="Draw the paper's figures after the run.")] = True,
 ) -> None:
     """Run one experiment headless: log, metrics, verdict and figures in a new run directory."""
-    summary = _run_one(experiment, set_ or [], out, figures, show_progress=True)
+    summary = _run_one(experiment, set_ or [], out, (figures, figures), show_progress=True)
     _print_verdicts([summary.verdict])
     _console().print(f"run directory: [bold]{summary.run_dir}[/]")
     for what, name in (("figures", results.FIGURES_DIR), ("video", "video.mp4")):
@@ -227,7 +227,11 @@ def check(
     specs = {name: _resolved(name, overrides) for name in names}  # validate all before running
     partners, unpaired = _paired_partners(specs, overrides)
     batch_names = names + partners
-    summaries = _run_batch(batch_names, overrides, out, figures, jobs) if batch_names else []
+    # Videos only where a reference keeps one: a video per run would cost a check minutes.
+    video = update_reference
+    summaries = (
+        _run_batch(batch_names, overrides, out, (figures, video), jobs) if batch_names else []
+    )
     if summaries:
         # Comparisons between experiments use this batch's runs, now that all are done.
         batch = References(
@@ -303,8 +307,12 @@ def _paired_partners(
     return partners, unpaired
 
 
-def _run_batch(names: list[str], overrides: list[str], out: Path, figures: bool, jobs: int) -> list:
+def _run_batch(
+    names: list[str], overrides: list[str], out: Path, outputs: tuple[bool, bool], jobs: int
+) -> list:
     """Run ``names`` over ``jobs`` processes, printing a line as each finishes.
+
+    ``outputs`` is (figures, video): what each run draws after its simulation.
 
     Ctrl-C stops the runs under way (each keeps a complete, interrupted run directory) and
     starts no more.
@@ -333,13 +341,13 @@ def _run_batch(names: list[str], overrides: list[str], out: Path, figures: bool,
 
     if workers == 1:
         for name in names:
-            summary = _run_one(name, overrides, out, figures, False)
+            summary = _run_one(name, overrides, out, outputs, False)
             report(summary)
             if summary.interrupted:
                 break
         return done
     with InterruptFlag() as flag, ProcessPoolExecutor(workers, initializer=_ignore_sigint) as pool:
-        futures = {pool.submit(_run_one, n, overrides, out, figures, False): n for n in names}
+        futures = {pool.submit(_run_one, n, overrides, out, outputs, False): n for n in names}
         for future in as_completed(futures):
             report(future.result())
             if flag.requested:
@@ -751,8 +759,12 @@ def _resolved(name: str, overrides: list[str]):  # noqa: ANN202 - returns Experi
     return resolve_spec(load_spec(name, overrides)).spec
 
 
-def _run_one(name: str, overrides: list[str], out: Path, figures: bool, show_progress: bool):  # noqa: ANN202
+def _run_one(  # noqa: ANN202
+    name: str, overrides: list[str], out: Path, outputs: tuple[bool, bool], show_progress: bool
+):
     """Resolve and execute one experiment (module-level so a process pool can pickle it).
+
+    ``outputs`` is (figures, video): draw the paper's figures, render the run's video.
 
     The stop signals (Ctrl-C, SIGTERM) are taken as requests from here on, and the run
     directory is created as soon as the spec is valid, before the slow imports and set-up:
@@ -771,7 +783,7 @@ def _run_one(name: str, overrides: list[str], out: Path, figures: bool, show_pro
             results.abandon(run_dir, spec.to_yaml(), spec.name, outcome, message)
             raise
         if not show_progress:
-            return execute(spec, out, None, figures, overrides, flag, run_dir)
+            return execute(spec, out, None, outputs, overrides, flag, run_dir)
         with Progress(
             TextColumn(f"[bold]{spec.name}[/]"),
             BarColumn(),
@@ -788,7 +800,7 @@ def _run_one(name: str, overrides: list[str], out: Path, figures: bool, show_pro
                     task, completed=t, sim=f"{t:6.2f}/{duration:.2f} s", rtf=f"{rtf:5.2f}x"
                 )
 
-            return execute(spec, out, progress, figures, overrides, flag, run_dir)
+            return execute(spec, out, progress, outputs, overrides, flag, run_dir)
 
 
 def _plot_comparisons(summaries: list) -> None:  # list[RunSummary]

@@ -145,7 +145,7 @@ def execute(
     spec: ExperimentSpec,
     out_root: Path = results.DEFAULT_ROOT,
     progress: ProgressCallback | None = None,
-    figures: bool = True,
+    outputs: bool | tuple[bool, bool] = True,
     overrides: Sequence[str] = (),
     interrupt: InterruptFlag | None = None,
     run_dir: results.RunDir | None = None,
@@ -163,7 +163,8 @@ def execute(
         spec: the resolved spec.
         out_root: root of run directories.
         progress: called a few times per second during the run.
-        figures: draw the paper's figures after the run.
+        outputs: what to draw after the run: the paper's figures (a bool), or (figures,
+            video) to also render the run's video (when a GL backend exists).
         overrides: the ``--set`` strings the spec was resolved with; ``run.json`` records
             them so partner runs can be matched later.
         interrupt: the caller's flag, installed before the caller's own slow set-up (so a
@@ -174,7 +175,7 @@ def execute(
     """
     if interrupt is None:
         with InterruptFlag() as own:
-            return execute(spec, out_root, progress, figures, overrides, own, run_dir)
+            return execute(spec, out_root, progress, outputs, overrides, own, run_dir)
     flag = interrupt
     # The flag is installed before the run directory exists: a stop from the moment the
     # directory appears is a request, and the directory is always finished.
@@ -203,6 +204,7 @@ def execute(
         values, verdict = _evaluate_interruptible(
             spec, log_path, run_dir.work, result, References(overrides=overrides)
         )
+        figures, video = outputs if isinstance(outputs, tuple) else (outputs, False)
         stage = "drawing the figures"
         if figures and result.outcome != "interrupted" and not flag.requested:
             from walkrepro.figures import plot_run
@@ -212,7 +214,7 @@ def execute(
             except KeyboardInterrupt:  # figures are optional: the run is kept without
                 flag.requested = True
         stage = "rendering the video"
-        if figures and result.outcome != "interrupted" and not flag.requested:
+        if video and result.outcome != "interrupted" and not flag.requested:
             from walkrepro.video import render_run_video
 
             try:  # the run's video, when a GL backend exists (else a one-line note)
