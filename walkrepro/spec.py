@@ -596,6 +596,10 @@ def _display_path(path: Path) -> str:
         return str(path)
 
 
+#: PyYAML's own error for nesting past its limit (6.0.4 and later).
+_TOO_DEEP = "maximum nesting depth"
+
+
 def _parse_yaml(text: str, source: str) -> tuple[Any, dict[tuple[Any, ...], int]]:
     """YAML to plain data plus the 1-based line of every mapping key and list item."""
     try:
@@ -614,6 +618,11 @@ def _parse_yaml(text: str, source: str) -> tuple[Any, dict[tuple[Any, ...], int]
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line = f", line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        if _TOO_DEEP in str(exc.problem):  # PyYAML >= 6.0.4 stops deep nesting itself
+            raise SpecError(
+                f"{source}{line}: the YAML is nested too deeply to read (a spec nests a few "
+                f"levels; at most {MAX_NESTING})."
+            ) from None
         raise SpecError(
             f"{source}{line}: YAML syntax error: {exc.problem or exc}. "
             "Check indentation, colons and quotes there."
@@ -765,7 +774,9 @@ def _apply_override(data: dict[str, Any], item: str) -> tuple[Any, ...]:
         raise SpecError(f"--set {item!r}: the value is nested too deeply.") from None
     except yamlload.DuplicateKeyError as exc:
         raise SpecError(f"--set {item!r}: {exc.problem}.") from None
-    except yaml.YAMLError:
+    except yaml.YAMLError as exc:
+        if _TOO_DEEP in str(exc):
+            raise SpecError(f"--set {item!r}: the value is nested too deeply.") from None
         value = raw
     node: Any = data
     for i, part in enumerate(parts[:-1]):
