@@ -463,22 +463,33 @@ def test_moving_foot_is_not_blocked(poser: Poser, tmp_path: Path) -> None:
 
 
 def _push(
-    tmp_path: Path, ds_at: list[float], outcome: str = "complete", com_speed: float = 0.0
+    tmp_path: Path,
+    ds_at: list[float],
+    outcome: str = "complete",
+    com_speed: object = 0.0,
+    force: object = 0.0,
+    end: float = 1.0,
 ) -> LogData:
+    """A 3 s log with a push window from 0.5 s to ``end`` [s]: E-FSM entries into DS at
+    ``ds_at``, the CoM moving at ``com_speed`` [m/s] along x and the push's force ``force``
+    [N] along −x (numbers or functions of time)."""
     ticks = []
     for k in range(300):
         t = round(k * DT, 6)
         events = []
         if t == 0.5:
             events.append({"kind": "disturbance_on", "name": "push"})
-        if t == 1.0:
+        if t == end:
             events.append({"kind": "disturbance_off", "name": "push"})
         if any(abs(t - x) < 1e-9 for x in ds_at):
             events.append({"kind": "fsm", "from": "SSA", "to": "DS"})
+        f = force(t) if callable(force) else force
         qvel = np.zeros(_nv())
-        qvel[0] = com_speed
-        ticks.append(Tick(t, qvel=qvel, signals={"ow_yaw": 0.0}, events=events))
-    return write_log(tmp_path / "push.mcap", ticks, _spec(disturbances=[PUSH]), outcome)
+        qvel[0] = com_speed(t) if callable(com_speed) else com_speed
+        xfrc = {"pelvis": [-f, 0.0, 0.0, 0.0, 0.0, 0.0]} if 0.5 <= t < end and f else {}
+        ticks.append(Tick(t, qvel=qvel, signals={"ow_yaw": 0.0}, events=events, xfrc=xfrc))
+    spec = _spec(disturbances=[{**PUSH, "duration": end - 0.5}])
+    return write_log(tmp_path / "push.mcap", ticks, spec, outcome)
 
 
 def _nv() -> int:
@@ -565,27 +576,9 @@ def test_no_push_in_the_spec(tmp_path: Path) -> None:
 
 # ---- the hand's hold (§VI-C: the force at equilibrium and the still CoM) -----------------
 
-HOLD = {**PUSH, "start": 0.5, "duration": 2.0}
-
-
 def _hold_log(tmp_path: Path, force: object, com_speed: object = 0.0) -> LogData:
-    """A 3 s log with a 0.5–2.5 s window; ``force(t)`` [N] along −x and ``com_speed(t)``
-    [m/s] along x (numbers or functions of time)."""
-    ticks = []
-    for k in range(300):
-        t = round(k * DT, 6)
-        events = []
-        if t == 0.5:
-            events.append({"kind": "disturbance_on", "name": "push"})
-        if t == 2.5:
-            events.append({"kind": "disturbance_off", "name": "push"})
-        f = force(t) if callable(force) else force
-        v = com_speed(t) if callable(com_speed) else com_speed
-        qvel = np.zeros(_nv())
-        qvel[0] = v
-        xfrc = {"pelvis": [-f, 0.0, 0.0, 0.0, 0.0, 0.0]} if 0.5 <= t < 2.5 and f else {}
-        ticks.append(Tick(t, qvel=qvel, signals={"ow_yaw": 0.0}, events=events, xfrc=xfrc))
-    return write_log(tmp_path / "hold.mcap", ticks, _spec(disturbances=[HOLD]))
+    """A 3 s log with a 0.5–2.5 s hold (:func:`_push`)."""
+    return _push(tmp_path, [], com_speed=com_speed, force=force, end=2.5)
 
 
 def test_hold_force_is_the_equilibrium_not_the_peak(tmp_path: Path) -> None:
