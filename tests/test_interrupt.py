@@ -134,7 +134,9 @@ def test_flag_takes_the_first_ctrl_c_and_the_second_raises() -> None:
     assert signal.getsignal(signal.SIGINT) is before
 
 
-@pytest.mark.parametrize("moment", [None, 1.0], ids=["before the loop", "in the loop"])
+@pytest.mark.parametrize(
+    "moment", [None, 0.5, 3.0], ids=["before the loop", "0.5 s in the loop", "3 s in the loop"]
+)
 def test_sigterm_is_handled_like_ctrl_c(tmp_path: Path, moment: float | None) -> None:
     """SIGTERM (as schedulers and containers send) before or during the loop exits 143 with a finished, interrupted, re-checkable run directory."""
     spec = tmp_path / "tiny_walk_stand.yaml"
