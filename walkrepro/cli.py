@@ -227,8 +227,8 @@ def check(
     specs = {name: _resolved(name, overrides) for name in names}  # validate all before running
     partners, unpaired = _paired_partners(specs, overrides)
     batch_names = names + partners
-    # Videos only where a reference keeps one: a video per run would cost a check minutes.
-    video = update_reference
+    # Videos only where a reference keeps one (a video per run would cost a check minutes).
+    video = _with_reference_video(batch_names) if update_reference else frozenset()
     summaries = (
         _run_batch(batch_names, overrides, out, (figures, video), jobs) if batch_names else []
     )
@@ -308,11 +308,15 @@ def _paired_partners(
 
 
 def _run_batch(
-    names: list[str], overrides: list[str], out: Path, outputs: tuple[bool, bool], jobs: int
+    names: list[str],
+    overrides: list[str],
+    out: Path,
+    outputs: tuple[bool, frozenset[str]],
+    jobs: int,
 ) -> list:
     """Run ``names`` over ``jobs`` processes, printing a line as each finishes.
 
-    ``outputs`` is (figures, video): what each run draws after its simulation.
+    ``outputs`` is (figures, the experiments whose runs render a video).
 
     Ctrl-C stops the runs under way (each keeps a complete, interrupted run directory) and
     starts no more.
@@ -341,13 +345,16 @@ def _run_batch(
 
     if workers == 1:
         for name in names:
-            summary = _run_one(name, overrides, out, outputs, False)
+            summary = _run_one(name, overrides, out, _outputs_of(name, outputs), False)
             report(summary)
             if summary.interrupted:
                 break
         return done
     with InterruptFlag() as flag, ProcessPoolExecutor(workers, initializer=_ignore_sigint) as pool:
-        futures = {pool.submit(_run_one, n, overrides, out, outputs, False): n for n in names}
+        futures = {
+            pool.submit(_run_one, n, overrides, out, _outputs_of(n, outputs), False): n
+            for n in names
+        }
         for future in as_completed(futures):
             report(future.result())
             if flag.requested:
@@ -757,6 +764,20 @@ def _resolved(name: str, overrides: list[str]):  # noqa: ANN202 - returns Experi
     from walkrepro.spec import load_spec, resolve_spec
 
     return resolve_spec(load_spec(name, overrides)).spec
+
+
+def _with_reference_video(names: list[str]) -> frozenset[str]:
+    """The experiments among ``names`` whose committed reference keeps a video."""
+    from walkrepro import RESULTS_DIR
+    from walkrepro.video import VIDEO_FILE
+
+    return frozenset(n for n in names if (RESULTS_DIR / n / VIDEO_FILE).is_file())
+
+
+def _outputs_of(name: str, outputs: tuple[bool, frozenset[str]]) -> tuple[bool, bool]:
+    """(figures, video) for one experiment of a batch."""
+    figures, video = outputs
+    return figures, name in video
 
 
 def _run_one(  # noqa: ANN202
