@@ -745,7 +745,7 @@ def _format_validation(
         if msg.startswith("Value error, "):
             msg = msg[len("Value error, ") :]
         if err["type"] == "extra_forbidden":
-            msg = "unknown field (check the spelling; see the README's spec reference)"
+            msg = "unknown field (check the spelling; see docs/spec-reference.md)"
         elif err["type"] == "missing":
             msg = "required field is missing"
         got = err.get("input")

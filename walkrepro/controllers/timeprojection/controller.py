@@ -133,8 +133,8 @@ class TimeProjectionParams(ControllerParams):
         "and ankle pitch springs' static deflection under the body weight at the sole point "
         "of the commanded posture, and the home pre-load on the other leg joints; "
         "'posture_series' divides those torques by the running servo in series with the "
-        "spring, 1/(1/k + 1/kp), the servo's own yield included (README, Known deviations → "
-        "Paper II, why the in-place gait drifts forward; not adopted)",
+        "spring, 1/(1/k + 1/kp), the servo's own yield included (docs/analysis/faraji.md, "
+        "why the in-place gait drifts forward; not adopted)",
     )
     footstep_scale: float = Field(
         1.0,
