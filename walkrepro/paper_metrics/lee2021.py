@@ -22,9 +22,9 @@ import numpy as np
 from walkrepro import record
 from walkrepro.errors import UnknownNameError
 from walkrepro.metrics import (
+    SLIDE_DISTANCE,
     Footstep,
     LogData,
-    SLIDE_DISTANCE,
     NotMeasurable,
     any_argument,
     choice_check,
