@@ -387,7 +387,8 @@ class ActuatorsSpec(_Strict):
         le=MAX_FRICTION_LOSS,
         description="Coulomb friction [Nm] (MuJoCo frictionloss) on the DoF each actuator "
         "drives: the motor DoF of a drive or series-elastic joint, else the joint; None keeps "
-        "the robot's value (dyros_red_actuated: 1 Nm, assumed)",
+        "the robot's value (dyros_red_actuated: the lab's published 0.9 Nm, 22 Nm at the ankle "
+        "roll; robots/dyros_red_actuated/README.md)",
     )
     torque_lag: Real | None = Field(
         None,
