@@ -655,11 +655,31 @@ def _dead_zone_spread(d: LogData, arg: str) -> float:
     """Paper II, Fig. 9 and Eq. 27: "We simply fit a Gaussian model on these measurements and
     estimate the typical standard deviation which is later used to determine the threshold
     for a dead-zone function" (the filtered state errors of open-loop in-place walking).
-    Reads the controller's filtered errors before the dead-zone (``e_raw``): the claim is
-    about them. The threshold is the run's (its spec's controller parameters, defaults
-    included). Window ``@t0-t1`` (default: the whole pre-fall run)."""
+    :func:`_error_spread` divided by the run's threshold (its spec's controller parameters,
+    defaults included)."""
     from walkrepro.controllers import controller_class
 
+    spread = _error_spread(d, arg)
+    params = controller_class(d.spec.controller.type).Params.model_validate(
+        d.spec.controller.params
+    )
+    thresholds = getattr(params, "dead_zone_thresholds", None)
+    if thresholds is None:
+        raise NotMeasurable(f"controller {d.spec.controller.type!r} has no dead-zones")
+    return spread / thresholds[ERROR_NAMES.index(arg.partition("@")[0])]
+
+
+@metric(
+    "error_spread",
+    "standard deviation of a filtered sagittal state error (arg e1x, e2x [m], de1x or de2x "
+    "[m/s], optionally '@t0-t1') over the run: Fig. 9's statistic, which sets the dead-zone "
+    "threshold a",
+    arg=_dead_zone_spread_arg,
+)
+def _error_spread(d: LogData, arg: str) -> float:
+    """Paper II, Fig. 9: the standard deviation of the controller's filtered error before the
+    dead-zone (``e_raw``), the claim being about them. Window ``@t0-t1`` (default: the whole
+    pre-fall run)."""
     _dead_zone_spread_arg(arg)
     name, _, window = arg.partition("@")
     t, e = d.require_signal("e_raw")
@@ -671,11 +691,4 @@ def _dead_zone_spread(d: LogData, arg: str) -> float:
         raise NotMeasurable(
             f"fewer than two filtered errors in the window {window or 'of the run'}"
         )
-    params = controller_class(d.spec.controller.type).Params.model_validate(
-        d.spec.controller.params
-    )
-    thresholds = getattr(params, "dead_zone_thresholds", None)
-    if thresholds is None:
-        raise NotMeasurable(f"controller {d.spec.controller.type!r} has no dead-zones")
-    i = ERROR_NAMES.index(name)
-    return float(np.std(e[:, i]) / thresholds[i])
+    return float(np.std(e[:, ERROR_NAMES.index(name)]))

@@ -136,6 +136,13 @@ class TimeProjectionParams(ControllerParams):
         "spring, 1/(1/k + 1/kp), the servo's own yield included (docs/analysis/faraji.md, "
         "why the in-place gait drifts forward; not adopted)",
     )
+    stance_ankle_bias: float = Field(
+        0.0,
+        description="a load-scaled offset added to the stance ankle pitch targets on top of "
+        "the spring compensation, load·b [rad]: the stance bias of Eq. 21's compensation "
+        "that no source gives; pinned by declared calibration (experiments/calibration/"
+        "faraji.yaml: the open-loop in-place gait makes no progression)",
+    )
     footstep_scale: float = Field(
         1.0,
         ge=0,
@@ -474,6 +481,10 @@ class TimeProjectionController(Controller):
         offset = self._offset_full
         for i in range(12):
             ctrl_legs[i] += load[i // 6] * offset[i]
+        bias = self._p.stance_ankle_bias
+        if bias:
+            ctrl_legs[ANKLE_PITCH] += load[0] * bias
+            ctrl_legs[6 + ANKLE_PITCH] += load[1] * bias
         if self._posture_springs:
             # Eq. 21 with μ from the commanded posture instead of home: the sagittal springs'
             # static deflection under the body weight at the sole point (the 3LP CoP).
