@@ -3,6 +3,12 @@
 An expectation passes (``reproduced``) when ``measured op value`` holds. A missing
 measurement (NaN, or a metric that is not measurable, with its reason) fails.
 
+An expectation marked ``calibrated: <parameter>`` is a claim the reproduction used as the
+criterion of a declared calibration (``experiments/calibration/<paper>.yaml``; see
+docs/calibration.md). It is evaluated like any row, and when it holds its status is
+``calibrated``, counted apart from ``reproduced``: the model was tuned to meet it, so meeting
+it is no prediction.
+
 An expectation marked ``known_deviation`` carries the band the reproduction measures today
 (``observed``). Its row is a ``known deviation`` while the measurement stays inside that
 band, and fails when it leaves it in either direction: worse is a regression, better means
@@ -21,6 +27,8 @@ from walkrepro.deviation import NOT_MEASURABLE
 from walkrepro.spec import Expectation, ExperimentSpec
 
 PASS, FAIL, KNOWN = "pass", "fail", "known deviation"
+#: A row that holds and whose claim served as a calibration criterion (not a prediction).
+CALIBRATED = "calibrated"
 
 
 @dataclass(frozen=True)
@@ -32,7 +40,7 @@ class CheckRow:
         op: comparison operator.
         paper: the expected value or band, as written in the spec.
         measured: the run's value (NaN if unavailable).
-        status: ``pass``, ``fail`` or ``known deviation``.
+        status: ``pass``, ``calibrated``, ``fail`` or ``known deviation``.
         source: where in the paper the expectation comes from.
         note: free text from the spec, plus the deviation reason (and, when a known
             deviation left its band, which way), or why the metric is not measurable.
@@ -67,15 +75,31 @@ class CheckRow:
 
 @dataclass(frozen=True)
 class Counts:
-    """Rows by status over one or more verdicts (a bad run outcome counts as a failed row)."""
+    """Rows by status over one or more verdicts (a bad run outcome counts as a failed row).
+
+    Attributes:
+        reproduced: rows that hold (predictions met).
+        calibrated: rows that hold and served as a calibration criterion.
+        known: known deviations inside their observed band.
+        failed: failing rows, plus runs that did not end ``complete`` or ``fell``.
+    """
 
     reproduced: int
+    calibrated: int
     known: int
     failed: int
 
+    @property
+    def total(self) -> int:
+        """Every row (and every broken run), as the JUnit report counts test cases."""
+        return self.reproduced + self.calibrated + self.known + self.failed
+
     def __str__(self) -> str:
         known = "known deviation" if self.known == 1 else "known deviations"
-        return f"{self.reproduced} reproduced, {self.known} {known}, {self.failed} failed"
+        return (
+            f"{self.reproduced} reproduced, {self.calibrated} calibrated, {self.known} {known}, "
+            f"{self.failed} failed"
+        )
 
 
 def count(verdicts: list[Verdict]) -> Counts:
@@ -83,6 +107,7 @@ def count(verdicts: list[Verdict]) -> Counts:
     rows = [r for v in verdicts for r in v.rows]
     return Counts(
         reproduced=sum(r.status == PASS for r in rows),
+        calibrated=sum(r.status == CALIBRATED for r in rows),
         known=sum(r.status == KNOWN for r in rows),
         failed=sum(r.status == FAIL for r in rows) + sum(not v.run_ok for v in verdicts),
     )
@@ -127,7 +152,7 @@ class Verdict:
 def summary_line(verdict: Verdict, name_width: int = 0) -> str:
     """One line for one experiment (or map): verdict, name, run outcome and row counts.
 
-    E.g. ``FAIL  human_push                fell      3 reproduced, 2 known deviations, 1 failed``.
+    E.g. ``FAIL  human_push   fell    3 reproduced, 0 calibrated, 2 known deviations, 1 failed``.
     The counts keep :class:`Counts`' wording, so the batch summary line that follows parses
     the same way.
 
@@ -233,6 +258,13 @@ def _row(
     dev = e.known_deviation
     if dev is None:
         status = PASS if holds(e.op, measured, value) else FAIL
+        if e.calibrated is not None:
+            # The spec's loader refuses a row both calibrated and a known deviation.
+            notes.append(
+                f"Calibration criterion of {e.calibrated!r} (experiments/calibration/): the "
+                "model was calibrated to meet it, so it counts apart, not as reproduced."
+            )
+            status = CALIBRATED if status == PASS else FAIL
         return CheckRow(e.metric, e.op, value, measured, status, source, " ".join(notes))
     if dev.observed is None:  # the spec of a log written before observed bands existed
         notes.append(f"Known deviation without an observed band (an older spec): {dev.reason}")
@@ -273,14 +305,21 @@ def _row(
 
 
 def write_junit(verdicts: list[Verdict], path: Path) -> None:
-    """JUnit XML: one test suite per experiment, one test case per expectation."""
+    """JUnit XML: one test suite per experiment, one test case per expectation.
+
+    A known deviation is a skipped case; a calibrated row is a passing case with the
+    property ``verdict = calibrated``, and every suite (and the whole report) counts them
+    apart in a ``calibrated`` attribute, beside JUnit's own ``tests``, ``failures`` and
+    ``skipped``.
+    """
     total = count(verdicts)
     root = ET.Element(
         "testsuites",
         name="walkrepro check",
-        tests=str(total.reproduced + total.known + total.failed),
+        tests=str(total.total),
         failures=str(total.failed),
         skipped=str(total.known),
+        calibrated=str(total.calibrated),
     )
     for v in verdicts:
         c = count([v])
@@ -288,9 +327,10 @@ def write_junit(verdicts: list[Verdict], path: Path) -> None:
             root,
             "testsuite",
             name=v.experiment,
-            tests=str(c.reproduced + c.known + c.failed),
+            tests=str(c.total),
             failures=str(c.failed),
             skipped=str(c.known),
+            calibrated=str(c.calibrated),
         )
         if not v.run_ok:  # a broken or interrupted run is one failed case, as in the counts
             run_case = ET.SubElement(suite, "testcase", classname=v.experiment, name="run")
@@ -305,5 +345,8 @@ def write_junit(verdicts: list[Verdict], path: Path) -> None:
                 ET.SubElement(case, "failure", message=text)
             elif r.status == KNOWN:
                 ET.SubElement(case, "skipped", message=text)
+            elif r.status == CALIBRATED:
+                props = ET.SubElement(case, "properties")
+                ET.SubElement(props, "property", name="verdict", value=CALIBRATED)
     path.parent.mkdir(parents=True, exist_ok=True)
     ET.ElementTree(root).write(path, encoding="unicode", xml_declaration=True)

@@ -1,4 +1,4 @@
-"""The ``walkrepro`` command line: list, run, check, plot, verify, render.
+"""The ``walkrepro`` command line: list, run, check, plot, verify, render, calibrate.
 
 Thin by design: parse arguments, call the library, print. A user error (bad spec, unknown
 name, unwritable directory) prints one paragraph and exits with code 2, no traceback.
@@ -730,6 +730,135 @@ def bench(
         _console().print(f"wrote {json_out}")
 
 
+@app.command()
+@friendly_errors
+def calibrate(
+    paper: Annotated[
+        str | None, typer.Argument(help="Paper key (e.g. faraji); none lists the calibrations.")
+    ] = None,
+    jobs: Annotated[int, typer.Option(help="Parallel runs.")] = os.cpu_count() or 1,
+    engine: Annotated[str, typer.Option(help="process or ray (as walkrepro sweep).")] = "process",
+    address: Annotated[
+        str | None, typer.Option(help="An existing Ray cluster (with --engine ray).")
+    ] = None,
+    update: Annotated[
+        bool, typer.Option("--update", help="Write the results into the calibration file.")
+    ] = False,
+    only: Annotated[
+        str | None,
+        typer.Option("--only", help="Calibrate this parameter alone (the others keep theirs)."),
+    ] = None,
+) -> None:
+    """Run a paper's declared calibration (experiments/calibration/<paper>.yaml) and compare
+    it with the committed results, or write them with --update. Exit 1 when a calibration
+    misses its target or differs from the committed one."""
+    from walkrepro.calibration.model import (
+        calibration_papers,
+        find_calibration,
+        load_calibration,
+        with_results,
+        write_calibration,
+    )
+    from walkrepro.calibration.rules import check_consistency
+    from walkrepro.calibration.run import CalibrateOptions, calibrate, compare
+    from walkrepro.interrupt import Received, stop_signals_raise
+
+    if paper is None:
+        _print_calibrations([load_calibration(find_calibration(p)) for p in calibration_papers()])
+        return
+    loaded = load_calibration(find_calibration(paper))
+    check_consistency(loaded)
+    options = CalibrateOptions(jobs=jobs, engine=engine, address=address, only=only)
+    console = _console()
+    console.print(
+        f"calibrating {paper} ({loaded.source}): "
+        f"{only or ', '.join(p.name for p in loaded.model.parameters)} "
+        f"({engine} engine, {jobs} job(s))…",
+        highlight=False,
+    )
+
+    def done(run: Any) -> None:
+        console.print(
+            f"{run.parameter.name}: {_value_text(run.result.value)} in {run.runs} run(s), "
+            f"{run.wall_time:.0f} s",
+            highlight=False,
+        )
+
+    received = Received()
+    try:
+        with stop_signals_raise(received):
+            runs = calibrate(loaded, options, on_done=done)
+    except KeyboardInterrupt:
+        _console(stderr=True).print(f"interrupted: {loaded.source} is untouched", highlight=False)
+        raise typer.Exit(code=received.exit_code) from None
+    console.print(_calibration_table(loaded, runs))
+    if update:
+        new = with_results(loaded.model, {r.parameter.name: r.result for r in runs})
+        write_calibration(loaded.path, new)
+        console.print(f"wrote {loaded.source}", highlight=False)
+        return
+    differences = compare(loaded, runs)
+    if not differences:
+        console.print("[green]reproduces the committed calibration exactly[/]")
+        return
+    for d in differences:
+        console.print(f"[red]differs:[/] {d.name}: {escape(d.what)}", highlight=False)
+    console.print(f"(write the new results with: walkrepro calibrate {paper} --update)")
+    raise typer.Exit(code=1)
+
+
+def _value_text(value: Any) -> str:
+    """A calibrated value as the file holds it (``repr``: every digit), or ``—``."""
+    if value is None:
+        return "—"
+    if isinstance(value, tuple | list):
+        return "(" + ", ".join(repr(float(v)) for v in value) + ")"
+    return repr(float(value))
+
+
+def _calibration_table(loaded: Any, runs: list) -> Table:
+    """One row per parameter calibrated now: criterion, target, committed and new values."""
+    table = Table(title=f"calibration of {loaded.model.paper}")
+    columns = ("parameter", "criterion", "target", "committed", "reproduced", "measured")
+    for col in (*columns, "runs", "time [s]"):
+        table.add_column(col, overflow="fold")
+    for run in runs:
+        p = run.parameter
+        target = (
+            f"{p.target.value:g} ± {p.target.tolerance:g}" if p.target is not None else "measure"
+        )
+        committed = p.result.value if p.result is not None else None
+        table.add_row(
+            f"{p.name} [{p.unit}]",
+            escape(f"{p.experiment} · {', '.join(p.criterion_metrics)} ({p.criterion.kind})"),
+            target,
+            _value_text(committed),
+            _value_text(run.result.value),
+            _value_text(run.result.measured),
+            str(run.runs),
+            f"{run.wall_time:.0f}",
+        )
+    return table
+
+
+def _print_calibrations(files: list) -> None:
+    """The calibration files: one row per parameter with its criterion and committed value."""
+    table = Table(title="walkrepro calibrations (walkrepro calibrate PAPER)")
+    for col in ("paper", "parameter", "set", "criterion", "search", "committed value"):
+        table.add_column(col, overflow="fold")
+    for f in files:
+        for p in f.model.parameters:
+            table.add_row(
+                f.model.paper,
+                f"{p.name} [{p.unit}]",
+                p.set,
+                escape(f"{p.experiment} · {', '.join(p.criterion_metrics)}"),
+                p.search.method,
+                _value_text(p.result.value if p.result is not None else None),
+            )
+    _console().print(table)
+
+
 @app.command("docs")
 @friendly_errors
 def docs_cmd(
@@ -840,7 +969,8 @@ def _plot_comparisons(summaries: list) -> None:  # list[RunSummary]
 
 
 def _print_verdicts(verdicts: list, details: bool = True) -> None:  # list[checks.Verdict]
-    """Print a batch's verdicts and the count line ``N reproduced, M known deviations, K failed``.
+    """Print a batch's verdicts and the count line ``N reproduced, C calibrated, M known
+    deviations, K failed``.
 
     With ``details``, the table of every row (paper value, measured value and a known
     deviation's observed band side by side). Without, one line per experiment, then the
@@ -868,10 +998,11 @@ def _print_verdicts(verdicts: list, details: bool = True) -> None:  # list[check
 
 def _verdict_table(verdicts: list) -> Table:  # list[checks.Verdict]
     """Every row of ``verdicts`` as a table; long sources and notes fold, never cut."""
-    from walkrepro.checks import FAIL, KNOWN, PASS
+    from walkrepro.checks import CALIBRATED, FAIL, KNOWN, PASS
 
     label = {
         PASS: "[green]reproduced[/]",
+        CALIBRATED: "[blue]calibrated[/]",
         FAIL: "[red]fail[/]",
         KNOWN: "[yellow]known deviation[/]",
     }

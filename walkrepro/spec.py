@@ -13,6 +13,7 @@ two stages so every error can name the file, the line and the field:
 from __future__ import annotations
 
 import fnmatch
+import functools
 import math
 import sys
 from collections.abc import Iterable, Mapping, Sequence
@@ -440,6 +441,21 @@ class Expectation(_Strict):
     source: str
     note: str = ""
     known_deviation: KnownDeviation | None = None
+    calibrated: str | None = Field(
+        None,
+        description="the calibration parameter (experiments/calibration/<paper>.yaml) whose "
+        "criterion this claim is: its row reads `calibrated` when it holds, counted apart "
+        "from reproduced (docs/calibration.md)",
+    )
+
+    @model_validator(mode="after")
+    def _calibrated_is_no_deviation(self) -> Expectation:
+        if self.calibrated is not None and self.known_deviation is not None:
+            raise ValueError(
+                "a row cannot be both calibrated and a known deviation: a calibration "
+                "criterion is met by construction; drop one of the two"
+            )
+        return self
 
     @model_validator(mode="after")
     def _value_matches_op(self) -> Expectation:
@@ -540,12 +556,24 @@ def find_spec_file(name_or_path: str) -> Path:
     return path
 
 
-def load_spec(name_or_path: str | Path, overrides: Iterable[str] = ()) -> LoadedSpec:
+def load_spec(
+    name_or_path: str | Path,
+    overrides: Iterable[str] = (),
+    calibrated: Mapping[str, Any] | None = None,
+) -> LoadedSpec:
     """Parse, override and schema-validate a spec.
+
+    A mapping ``{calibrated: NAME}`` anywhere in the spec is replaced, after the overrides,
+    by the committed result of parameter NAME in the paper's calibration file
+    (``calibration/<paper.key>.yaml`` beside the spec, else the shipped one); an
+    expectation marked ``calibrated: NAME`` must be a criterion of NAME there
+    (:mod:`walkrepro.calibration.references`).
 
     Args:
         name_or_path: experiment name or spec file path.
         overrides: ``dotted.path=value`` strings (the value is parsed as YAML).
+        calibrated: values that take the place of committed calibration results (what
+            ``walkrepro calibrate`` is calibrating now), by parameter name.
 
     Raises:
         SpecError: naming file, line and field for any problem.
@@ -569,6 +597,13 @@ def load_spec(name_or_path: str | Path, overrides: Iterable[str] = ()) -> Loaded
     for item in overrides:
         key_path = _apply_override(data, item)
         overridden.add(key_path)
+    # Imported only for a spec that uses calibration (it reads the calibration file).
+    uses_calibration = _mentions_calibration(data)
+    if uses_calibration:
+        from walkrepro.calibration.references import resolve_references
+
+        where = functools.partial(_where, source, lines, overridden=overridden)
+        resolve_references(data, path, where, calibrated or {})
     _check_plain_data(data, source, lines, overridden)
     try:
         spec = ExperimentSpec.model_validate(data)
@@ -576,7 +611,28 @@ def load_spec(name_or_path: str | Path, overrides: Iterable[str] = ()) -> Loaded
         raise SpecError(_format_validation(exc, source, lines, overridden)) from None
     loaded = LoadedSpec(spec=spec, source=source, lines=lines, overridden=frozenset(overridden))
     _check_across_sections(loaded)
+    if uses_calibration:
+        from walkrepro.calibration.references import check_marks
+
+        check_marks(loaded, path)
     return loaded
+
+
+def _mentions_calibration(data: Any) -> bool:
+    """Whether ``data`` holds a ``calibrated`` key anywhere (a reference or a marked row)."""
+    stack, seen = [data], set()
+    while stack:
+        node = stack.pop()
+        if id(node) in seen:  # a YAML alias: read once (it may even contain itself)
+            continue
+        seen.add(id(node))
+        if isinstance(node, dict):
+            if "calibrated" in node:
+                return True
+            stack.extend(node.values())
+        elif isinstance(node, list):
+            stack.extend(node)
+    return False
 
 
 def spec_from_yaml_text(text: str, source: str = "<spec>") -> ExperimentSpec:

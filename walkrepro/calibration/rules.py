@@ -1,0 +1,163 @@
+"""The rules a calibration file and the specs must keep between them (docs/calibration.md).
+
+Checked by ``walkrepro calibrate`` before anything runs, and by the tests over the shipped
+files. The rules the spec loader can check on one spec (a row marked ``calibrated: NAME``
+is a criterion of NAME; a row is not both calibrated and a known deviation) live with it
+(:mod:`walkrepro.calibration.references`, :class:`walkrepro.spec.Expectation`).
+
+For each parameter of the file, in order:
+
+1. its experiment exists;
+2. every criterion metric is an expectation of that experiment marked ``calibrated: NAME``:
+   a claim used as a criterion is not also checked as a reproduction (an unmarked row is a
+   checked claim and is refused), and a criterion must be visible as a row;
+3. its ``set`` path exists (a field of the controller's parameter model for
+   ``controller.params.X``; a field of the spec's models otherwise);
+4. a root search's experiment uses the calibrated value: ``{calibrated: NAME}`` at ``set``;
+5. its experiment refers to no parameter calibrated after it (nor, for a ``measure``, to
+   the one it measures): its result would depend on a later one and could not be reproduced.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel
+
+from walkrepro.calibration.model import LoadedCalibration, MeasureSearch, Parameter, RootSearch
+from walkrepro.calibration.references import references
+from walkrepro.errors import SpecError, UnknownNameError
+
+
+def check_consistency(loaded: LoadedCalibration) -> None:
+    """Check rules 1-5 for every parameter of ``loaded``.
+
+    Raises:
+        SpecError / UnknownNameError: naming the calibration file's (or the spec's) file,
+            line and field.
+    """
+    for i, parameter in enumerate(loaded.model.parameters):
+        spec_path, data, where = _spec_of(loaded, i, parameter)
+        _check_rows(loaded, i, parameter, data, where)
+        _check_set_path(loaded, i, parameter, data)
+        _check_references(loaded, i, parameter, data, where)
+
+
+def _spec_of(loaded: LoadedCalibration, i: int, parameter: Parameter) -> tuple[Path, Any, Any]:
+    """The criterion experiment's file, its raw data, and its ``where(path)``."""
+    from walkrepro.spec import _parse_yaml, _where
+
+    directory = loaded.experiments_dir
+    path = directory / f"{parameter.experiment}.yaml"
+    if not path.is_file():
+        names = sorted(p.stem for p in directory.glob("*.yaml"))
+        raise UnknownNameError(
+            "experiment", parameter.experiment, names, loaded.where(("parameters", i, "experiment"))
+        )
+    from walkrepro.spec import _display_path
+
+    source = _display_path(path)
+    data, lines = _parse_yaml(path.read_text(encoding="utf-8"), source)
+
+    def where(field_path: tuple[Any, ...]) -> str:
+        return _where(source, lines, field_path)
+
+    return path, data, where
+
+
+def _check_rows(
+    loaded: LoadedCalibration, i: int, parameter: Parameter, data: Any, where: Any
+) -> None:
+    """Rule 2: each criterion metric is a row of the experiment marked calibrated: NAME."""
+    rows = data.get("expect") or []
+    key = "metric" if parameter.metric is not None else "metrics"
+    for j, metric in enumerate(parameter.criterion_metrics):
+        at = loaded.where(("parameters", i, key) if key == "metric" else ("parameters", i, key, j))
+        matches = [
+            (k, row)
+            for k, row in enumerate(rows)
+            if isinstance(row, dict) and row.get("metric") == metric
+        ]
+        if not matches:
+            raise SpecError(
+                f"{at}: the criterion {parameter.experiment} · {metric} is no expectation of "
+                f"{parameter.experiment}; a criterion must be visible as a row marked "
+                f"calibrated: {parameter.name} (docs/calibration.md)."
+            )
+        for k, row in matches:
+            mark = row.get("calibrated")
+            if mark is None:
+                raise SpecError(
+                    f"{at}: the criterion names a checked claim: {where(('expect', k))} "
+                    f"({parameter.experiment} · {metric}) is a row without calibrated: "
+                    f"{parameter.name}. A claim used as a criterion is not also checked as a "
+                    f"reproduction: mark the row calibrated: {parameter.name}, or choose "
+                    "another criterion."
+                )
+            if mark != parameter.name:
+                raise SpecError(
+                    f"{where(('expect', k, 'calibrated'))}: the row is marked calibrated: "
+                    f"{mark}, but it is the criterion of {parameter.name!r} "
+                    f"({loaded.where(('parameters', i, 'name'))})."
+                )
+
+
+def _check_set_path(loaded: LoadedCalibration, i: int, parameter: Parameter, data: Any) -> None:
+    """Rule 3: the ``set`` path names a field of the spec (or of the controller's params)."""
+    from walkrepro.spec import ExperimentSpec
+
+    at = loaded.where(("parameters", i, "set"))
+    parts = parameter.set.split(".")
+    if parts[:2] == ["controller", "params"]:
+        from walkrepro.controllers import controller_class, controller_names
+
+        controller = (data.get("controller") or {}).get("type")
+        if controller not in controller_names():
+            raise UnknownNameError("controller", str(controller), controller_names(), at)
+        fields = controller_class(controller).Params.model_fields
+        if len(parts) != 3 or parts[2] not in fields:
+            raise UnknownNameError(
+                f"parameter of controller {controller!r}", ".".join(parts[2:]), fields, at
+            )
+        return
+    model: Any = ExperimentSpec
+    for part in parts:
+        if not (isinstance(model, type) and issubclass(model, BaseModel)):
+            return  # a dict, list or tuple field: its items are the spec's own to check
+        if part not in model.model_fields:
+            raise UnknownNameError("spec field", part, model.model_fields, at)
+        model = model.model_fields[part].annotation
+
+
+def _check_references(
+    loaded: LoadedCalibration, i: int, parameter: Parameter, data: Any, where: Any
+) -> None:
+    """Rules 4 and 5: the experiment uses the value being found, and no later one."""
+    names = [p.name for p in loaded.model.parameters]
+    later = set(names[i + 1 :])
+    if isinstance(parameter.search, MeasureSearch):
+        later.add(parameter.name)
+    for path, name in references(data):
+        if name in later:
+            what = (
+                "the value it measures"
+                if name == parameter.name
+                else f"{name!r}, calibrated after {parameter.name!r}"
+            )
+            raise SpecError(
+                f"{where(path)}: the criterion experiment of {parameter.name!r} refers to "
+                f"{what}: its result would depend on that value and could not be reproduced; "
+                "reorder the calibration file's parameters or give the value here."
+            )
+    if isinstance(parameter.search, RootSearch):
+        node: Any = data
+        for part in parameter.set.split("."):
+            node = node.get(part) if isinstance(node, dict) else None
+        if node != {"calibrated": parameter.name}:
+            raise SpecError(
+                f"{loaded.where(('parameters', i, 'set'))}: the criterion experiment "
+                f"{parameter.experiment} does not use the calibrated value: give "
+                f"{parameter.set}: {{calibrated: {parameter.name}}} in its spec (it has "
+                f"{node!r}), so that its rows check the value the calibration found."
+            )
