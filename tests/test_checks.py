@@ -120,8 +120,8 @@ def test_counts_line_and_junit_agree(tmp_path: Path) -> None:
     a = evaluate(make_spec(ok, known(2, 4)), {"fell": 0.0, "footsteps": 3.0}, "complete")
     b = evaluate(make_spec(ok, bad), {"fell": 0.0, "footsteps": 3.0}, "interrupted")
     counts = count([a, b])
-    assert (counts.reproduced, counts.known, counts.failed) == (2, 1, 2)
-    assert str(counts) == "2 reproduced, 1 known deviation, 2 failed"
+    assert (counts.reproduced, counts.calibrated, counts.known, counts.failed) == (2, 0, 1, 2)
+    assert str(counts) == "2 reproduced, 0 calibrated, 1 known deviation, 2 failed"
     write_junit([a, b], tmp_path / "j.xml")
     root = ET.parse(tmp_path / "j.xml").getroot()
     assert (root.get("tests"), root.get("failures"), root.get("skipped")) == ("5", "2", "1")
@@ -191,7 +191,7 @@ def test_summary_line_names_the_experiment_its_outcome_and_counts() -> None:
     bad = Expectation(metric="footsteps", op=">=", value=11, source="s")
     good = evaluate(make_spec(ok), {"fell": 0.0}, "complete")
     line = summary_line(good, 10)
-    assert line == "ok    t           complete    1 reproduced, 0 known deviations, 0 failed"
+    assert line == "ok    t           complete    1 reproduced, 0 calibrated, 0 known deviations, 0 failed"
     failed = evaluate(make_spec(ok, bad), {"fell": 0.0, "footsteps": 3.0}, "fell")
     assert summary_line(failed).startswith("FAIL") and "fell" in summary_line(failed)
     (text,) = failing_row_text(failed)

@@ -50,7 +50,7 @@ def test_every_experiment_meets_its_expectations(checked: tuple[Path, int, str])
     """`walkrepro check` over all experiments exits 0: every paper expectation holds or is a declared deviation."""
     _, code, output = checked
     assert code == 0, output
-    summary = re.findall(r"\d+ reproduced, \d+ known deviations?, \d+ failed", output)[-1]
+    summary = re.findall(r"\d+ reproduced, \d+ calibrated, \d+ known deviations?, \d+ failed", output)[-1]
     assert summary.endswith(" 0 failed"), output
     assert "all expectations hold" not in output
 
@@ -60,11 +60,14 @@ def test_junit_counts_match_the_summary(checked: tuple[Path, int, str]) -> None:
     """The JUnit file counts the same known deviations (skipped) and failures as the summary line."""
     out, _, output = checked
     # The last count line is the batch's summary (each experiment's progress line has one too).
-    summary = re.findall(r"(\d+) reproduced, (\d+) known deviations?, (\d+) failed", output)[-1]
-    reproduced, known, failed = map(int, summary)
+    summary = re.findall(
+        r"(\d+) reproduced, (\d+) calibrated, (\d+) known deviations?, (\d+) failed", output
+    )[-1]
+    reproduced, calibrated, known, failed = map(int, summary)
     root = ET.parse(out / "junit.xml").getroot()
-    assert int(root.get("tests")) == reproduced + known + failed
+    assert int(root.get("tests")) == reproduced + calibrated + known + failed
     assert (int(root.get("skipped")), int(root.get("failures"))) == (known, failed)
+    assert int(root.get("calibrated")) == calibrated
 
 
 @pytest.mark.repro

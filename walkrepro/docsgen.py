@@ -9,6 +9,9 @@ What can be generated is never written by hand, so it cannot drift:
 - ``docs/deviations/<paper>.md``: every known deviation of a paper's experiments and maps,
   with the paper's claim, its source, the measured value, the observed band and the spec's
   reason (the spec is the one place the reason is written);
+- ``docs/calibration/<paper>.md``: a paper's declared calibration
+  (``experiments/calibration/<paper>.yaml``): each parameter, its quoted criterion, search
+  and committed result, the specs that use it and the rows counted ``calibrated``;
 - the status table of ``README.md``, between :data:`STATUS_BEGIN` and :data:`STATUS_END`.
 
 Each generated file starts with :data:`GENERATED_HEADER`. ``walkrepro docs --check`` (and
@@ -39,8 +42,6 @@ PAPER_LABELS = {
     "jo_oh": "Paper III — Jo & Oh, impedance control on uneven terrain (`kist_humanoid`)",
     "walkrepro": "walkrepro's own sanity checks (standing still)",
 }
-#: A check row status that marks a claim used as a calibration criterion (counted apart).
-CALIBRATED = "calibrated"
 
 
 @dataclass
@@ -66,7 +67,7 @@ class Tally:
     def add_rows(self, statuses: list[str]) -> None:
         """Count one verdict's row statuses (``pass``, ``calibrated``, ``known deviation``,
         ``fail``)."""
-        from walkrepro.checks import FAIL, KNOWN, PASS
+        from walkrepro.checks import CALIBRATED, FAIL, KNOWN, PASS
 
         for s in statuses:
             if s == PASS:
@@ -287,8 +288,8 @@ def experiments_page(experiments: list[Experiment]) -> str:
             f"## {PAPER_LABELS.get(key, key)}",
             "",
             "| experiment | section, figure | robot | controller | reference run "
-            "| reproduced | known deviations | failed | maps |",
-            "|---|---|---|---|---|---:|---:|---:|---|",
+            "| reproduced | calibrated | known deviations | failed | maps |",
+            "|---|---|---|---|---|---:|---:|---:|---:|---|",
         ]
         chosen = [e for e in experiments if e.paper == key]
         for e in chosen:
@@ -296,7 +297,8 @@ def experiments_page(experiments: list[Experiment]) -> str:
             where = ", ".join(x for x in parts if x)
             out.append(
                 f"| `{e.name}` | {_cell(where) or '—'} | `{e.robot}` | `{e.controller}` "
-                f"| {e.outcome} | {e.counts.reproduced} | {e.counts.known} | {e.counts.failed} "
+                f"| {e.outcome} | {e.counts.reproduced} | {e.counts.calibrated} | {e.counts.known} "
+                f"| {e.counts.failed} "
                 f"| {', '.join(f'`{m}`' for m in e.maps) or '—'} |"
             )
         out.append("")
@@ -337,6 +339,94 @@ def deviations_page(paper: str, deviations: list[Deviation], experiments: list[E
         ]
     if not mine:
         out += ["None: every claim of this paper's experiments is reproduced.", ""]
+    return "\n".join(out)
+
+
+def _value(value: Any) -> str:
+    """A calibrated value with every digit (``repr``), a tuple in parentheses."""
+    if isinstance(value, list | tuple):
+        return "(" + ", ".join(repr(float(v)) for v in value) + ")"
+    return repr(float(value))
+
+
+def calibration_page(loaded: Any, experiments_dir: Path) -> str:
+    """``docs/calibration/<paper>.md``: the paper's declared calibration, from its file.
+
+    Args:
+        loaded: the paper's :class:`~walkrepro.calibration.model.LoadedCalibration`.
+        experiments_dir: the specs, searched for references and calibrated rows.
+    """
+    from walkrepro.calibration.references import references
+    from walkrepro.spec import _parse_yaml
+
+    model = loaded.model
+    uses: dict[str, list[str]] = {p.name: [] for p in model.parameters}
+    rows: dict[str, list[str]] = {p.name: [] for p in model.parameters}
+    for path in sorted(experiments_dir.glob("*.yaml")):
+        data, _ = _parse_yaml(path.read_text(), path.name)
+        if (data.get("paper") or {}).get("key") != model.paper:
+            continue
+        for field_path, name in references(data):
+            where = ".".join(str(x) for x in field_path)
+            uses.setdefault(str(name), []).append(f"`{path.stem}` ({where})")
+        for row in data.get("expect") or []:
+            if isinstance(row, dict) and row.get("calibrated") is not None:
+                rows.setdefault(str(row["calibrated"]), []).append(
+                    f"`{path.stem}` · `{row.get('metric')}`"
+                )
+    out = [
+        GENERATED_HEADER,
+        f"# Calibration: {PAPER_LABELS.get(model.paper, model.paper)}",
+        "",
+        f"The declared calibration of `experiments/calibration/{model.paper}.yaml`: the model",
+        "parameters no source gives, each pinned by a statement of the paper about its set-up",
+        "or by an identification procedure it describes, never by a result it reports. The rows",
+        "used as criteria count `calibrated`, apart from `reproduced`. The rules and the file",
+        f"format: [calibration.md](../calibration.md). `walkrepro calibrate {model.paper}`",
+        "reproduces these values.",
+        "",
+        _cell(model.description),
+        "",
+    ]
+    for k, p in enumerate(model.parameters, 1):
+        if p.target is not None:
+            target = (
+                f"`{', '.join(p.criterion_metrics)}` = {p.target.value:g} ± {p.target.tolerance:g}"
+            )
+        else:
+            target = f"`{', '.join(p.criterion_metrics)}` (the value is the measurement)"
+        search = p.search.method
+        if p.search.method == "root":
+            lo, hi = p.search.bracket
+            search += (
+                f" over [{lo:g}, {hi:g}], xtol {p.search.xtol:g}, {p.search.points} point(s) "
+                "per round"
+            )
+        out += [
+            f"## {k}. `{p.name}` [{_cell(p.unit)}]",
+            "",
+            f"- **Sets:** `{p.set}`"
+            + (f" within [{p.range[0]:g}, {p.range[1]:g}]" if p.range else ""),
+            f"- **Criterion ({p.criterion.kind.replace('_', ' ')}):** "
+            f'"{_cell(p.criterion.quote)}" ({_cell(p.criterion.section)})',
+            f"- **Measured by:** `{p.experiment}`, {target}",
+            f"- **Search:** {search}",
+        ]
+        if p.result is None:
+            out.append("- **Result:** none committed yet")
+        else:
+            r = p.result
+            runs = f", {len(r.evaluations)} runs" if r.evaluations else ""
+            out += [
+                f"- **Result:** {_value(r.value)} (measured {_value(r.measured)}{runs}; "
+                f"commit {r.provenance.commit[:12]}, {r.provenance.date}, MuJoCo "
+                f"{r.provenance.mujoco}, Pinocchio {r.provenance.pinocchio})",
+            ]
+        out += [
+            f"- **Used by:** {', '.join(uses.get(p.name, [])) or 'no spec yet'}",
+            f"- **Rows counted calibrated:** {', '.join(rows.get(p.name, [])) or 'none yet'}",
+            "",
+        ]
     return "\n".join(out)
 
 
@@ -542,6 +632,12 @@ def generated_files(root: Path = PROJECT_ROOT, results_dir: Path | None = None) 
             files[docs / "deviations" / f"{paper}.md"] = deviations_page(
                 paper, deviations, experiments
             )
+    from walkrepro.calibration.model import calibration_papers, load_calibration
+
+    calibrations = root / "experiments" / "calibration"
+    for paper in calibration_papers(calibrations):
+        loaded = load_calibration(calibrations / f"{paper}.yaml")
+        files[docs / "calibration" / f"{paper}.md"] = calibration_page(loaded, root / "experiments")
     readme = root / "README.md"
     if readme.is_file():
         files[readme] = replace_status(readme.read_text(), status_table(tallies))

@@ -285,7 +285,10 @@ def load_calibration(path: Path) -> LoadedCalibration:
     try:
         model = CalibrationFile.model_validate(data)
     except ValidationError as exc:
-        raise SpecError(_format_validation(exc, source, lines, ())) from None
+        text = _format_validation(exc, source, lines, ())
+        for tag in ("root", "measure"):  # the search's discriminator is no field
+            text = text.replace(f".search.{tag}", ".search")
+        raise SpecError(text) from None
     loaded = LoadedCalibration(model=model, path=path, source=source, lines=lines)
     if model.paper != path.stem:
         raise SpecError(

@@ -117,7 +117,7 @@ def committed_value(calibration: LoadedCalibration, name: str, at: str) -> Any:
     names = [p.name for p in calibration.model.parameters]
     if name not in names:
         raise UnknownNameError(
-            f"calibrated parameter (of {calibration.source})", name, names, at
+            "calibrated parameter", name, names, f"{at} (looked up in {calibration.source})"
         ) from None
     parameter = calibration.model.parameters[names.index(name)]
     if parameter.result is None:
@@ -179,7 +179,10 @@ def check_marks(loaded: LoadedSpec, spec_path: Path) -> None:
         names = [p.name for p in calibration.model.parameters]
         if e.calibrated not in names:
             raise UnknownNameError(
-                f"calibration parameter (of {calibration.source})", str(e.calibrated), names, at
+                "calibrated parameter",
+                str(e.calibrated),
+                names,
+                f"{at} (looked up in {calibration.source})",
             )
         parameter = calibration.model.parameters[names.index(str(e.calibrated))]
         if parameter.experiment != spec.name or e.metric not in parameter.criterion_metrics:

@@ -38,6 +38,7 @@ from walkrepro.calibration.search import (
     measure,
 )
 from walkrepro.errors import UnknownNameError
+from walkrepro.sweep.engines import Engine
 
 #: Makes the evaluator of one parameter: ``(parameter, calibrated values) -> Evaluator``.
 EvaluatorFactory = Callable[[Parameter, Mapping[str, Any]], Evaluator]
@@ -228,13 +229,16 @@ class EngineEvaluators:
     Args:
         loaded: the calibration file (its experiments are specs beside its folder).
         options: engine, jobs, Ray address.
+        engine: an engine to use instead (the tests give one whose cells are fake).
     """
 
-    def __init__(self, loaded: LoadedCalibration, options: CalibrateOptions) -> None:
+    def __init__(
+        self, loaded: LoadedCalibration, options: CalibrateOptions, engine: Engine | None = None
+    ) -> None:
         from walkrepro.sweep.engines import make_engine
 
         self.loaded = loaded
-        self.engine = make_engine(options.engine, options.jobs, options.address)
+        self.engine = engine or make_engine(options.engine, options.jobs, options.address)
         self.batches = 0
 
     def make(self, parameter: Parameter, context: Mapping[str, Any]) -> Evaluator:
