@@ -159,7 +159,10 @@ def test_a_criterion_that_names_a_checked_claim_is_refused(tmp_path: Path) -> No
 
 def test_a_criterion_without_a_row_is_refused(tmp_path: Path) -> None:
     """A criterion must be visible as a calibrated row of its experiment."""
-    write_tree(tmp_path, calibration=CALIBRATION.replace('"mean_forward_speed:0.1-0.3"', "mean_forward_speed:0-0.3"))
+    write_tree(
+        tmp_path,
+        calibration=CALIBRATION.replace('"mean_forward_speed:0.1-0.3"', "mean_forward_speed:0-0.3"),
+    )
     with pytest.raises(SpecError, match="a row marked calibrated"):
         check_consistency(load_calibration(tmp_path / "calibration" / "walkrepro.yaml"))
 
@@ -182,7 +185,10 @@ def test_a_consistent_tree_passes(tmp_path: Path) -> None:
 def test_a_bad_calibration_file_names_file_line_and_field(tmp_path: Path) -> None:
     """A schema error in the calibration file cites its line and field, no traceback."""
     write_tree(tmp_path, calibration=CALIBRATION.replace("xtol: 1.0", "xtol: -1.0"))
-    with pytest.raises(SpecError, match=r"walkrepro.yaml, line 12, field parameters.0.search.xtol: .*greater than 0"):
+    with pytest.raises(
+        SpecError,
+        match=r"walkrepro.yaml, line 12, field parameters.0.search.xtol: .*greater than 0",
+    ):
         load_calibration(tmp_path / "calibration" / "walkrepro.yaml")
 
 
@@ -365,3 +371,28 @@ def test_update_keeps_every_authored_field(tmp_path: Path) -> None:
     assert dumped == loaded.model.model_dump(exclude={"parameters": {0: {"result"}}})
     assert "points" not in dump_calibration(new)  # a default the author left out stays out
     assert compare(committed, []) == []
+
+
+def test_a_withheld_reference_takes_the_default(tmp_path: Path) -> None:
+    """A value withheld from a criterion run (a later parameter's) is left out: the default."""
+    from walkrepro.calibration.references import Withheld
+
+    path = write_tree(tmp_path)
+    loaded = load_spec(path, calibrated={"gain": Withheld("calibrated later")})
+    assert "kp" not in loaded.spec.controller.params  # the controller's default applies
+
+
+def test_rows_name_the_calibrated_rows_apart_from_the_searched_metrics(tmp_path: Path) -> None:
+    """With `rows`, the marked rows are those rows; a row marked for the metric is refused."""
+    rows = CALIBRATION.replace("  search:", "  rows: [fell]\n  search:")
+    spec = SPEC.replace(", calibrated: gain}", "}").replace(
+        "source: test}", "source: test, calibrated: gain}"
+    )
+    write_tree(tmp_path, spec=spec, calibration=rows)
+    calibration = load_calibration(tmp_path / "calibration" / "walkrepro.yaml")
+    assert calibration.model.parameters[0].criterion_rows == ("fell",)
+    check_consistency(calibration)
+    assert load_spec(tmp_path / "tiny.yaml").spec.expect[0].calibrated == "gain"
+    write_tree(tmp_path, calibration=rows)  # the speed row marked, not the fell row
+    with pytest.raises(SpecError, match="not a criterion"):
+        load_spec(tmp_path / "tiny.yaml")

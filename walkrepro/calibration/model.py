@@ -152,6 +152,12 @@ class Parameter(_Strict):
     experiment: str = Field(description="the experiment whose run measures the criterion")
     metric: str | None = Field(None, description="the criterion metric (one of metric, metrics)")
     metrics: list[str] | None = Field(None, description="several criterion metrics (measure)")
+    rows: list[str] | None = Field(
+        None,
+        description="the metrics of the experiment's rows that state the criterion, marked "
+        "calibrated: NAME (default: metric or metrics); e.g. a measured value's rows compare "
+        "the measurement with the calibrated value",
+    )
     target: Target | None = Field(None, description="required by a root search")
     search: Search
     result: Result | None = Field(None, description="written by walkrepro calibrate --update")
@@ -164,6 +170,8 @@ class Parameter(_Strict):
             not self.metrics or len(set(self.metrics)) != len(self.metrics)
         ):
             raise ValueError("metrics needs at least one metric, none repeated")
+        if self.rows is not None and (not self.rows or len(set(self.rows)) != len(self.rows)):
+            raise ValueError("rows needs at least one metric, none repeated")
         if self.range is not None and not self.range[0] <= self.range[1]:
             raise ValueError("range needs [low, high] with low <= high")
         if isinstance(self.search, RootSearch):
@@ -182,6 +190,11 @@ class Parameter(_Strict):
     def criterion_metrics(self) -> tuple[str, ...]:
         """The metric or metrics that measure the criterion."""
         return (self.metric,) if self.metric is not None else tuple(self.metrics or ())
+
+    @property
+    def criterion_rows(self) -> tuple[str, ...]:
+        """The metrics of the rows counted ``calibrated`` for this parameter."""
+        return tuple(self.rows) if self.rows is not None else self.criterion_metrics
 
 
 class CalibrationFile(_Strict):

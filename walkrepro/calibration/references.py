@@ -39,10 +39,12 @@ Where = Callable[[tuple[Any, ...]], str]
 
 
 @dataclass(frozen=True)
-class Unavailable:
-    """A calibration value a spec may not use now, and why (``walkrepro calibrate`` marks
-    the parameters calibrated after the one it runs: a criterion run that used one of them
-    would depend on a later result and could not be reproduced)."""
+class Withheld:
+    """A calibrated value a run may not see, and why. ``walkrepro calibrate`` withholds the
+    parameters calibrated after the one it runs, and a ``measure``'s own value from the run
+    that measures it: a result that depended on them could not be reproduced. A withheld
+    reference that is a mapping's entry is left out, so the field takes its model's default
+    (the code's, the same on every run); elsewhere (a list item) it is an error."""
 
     reason: str
 
@@ -99,8 +101,12 @@ def resolve_references(
             raise SpecError(f"{at}: {{calibrated: NAME}} needs a parameter name (got {name!r}).")
         if name in context:
             value = context[name]
-            if isinstance(value, Unavailable):
-                raise SpecError(f"{at}: calibrated value {name!r}: {value.reason}")
+            if isinstance(value, Withheld):
+                parent = _get(data, field_path[:-1])
+                if not isinstance(parent, dict):
+                    raise SpecError(f"{at}: calibrated value {name!r} is {value.reason}")
+                del parent[field_path[-1]]
+                continue
         else:
             if calibration is None:
                 calibration = _calibration_of(data, spec_path, at)
@@ -149,16 +155,21 @@ def _calibration_of(data: dict[str, Any], spec_path: Path, at: str) -> LoadedCal
     return load_calibration(path)
 
 
-def _set(data: Any, path: tuple[Any, ...], value: Any) -> None:
+def _get(data: Any, path: tuple[Any, ...]) -> Any:
     node = data
-    for part in path[:-1]:
+    for part in path:
         node = node[part]
-    node[path[-1]] = value
+    return node
+
+
+def _set(data: Any, path: tuple[Any, ...], value: Any) -> None:
+    _get(data, path[:-1])[path[-1]] = value
 
 
 def check_marks(loaded: LoadedSpec, spec_path: Path) -> None:
-    """Each expectation marked ``calibrated: NAME`` must be a criterion of parameter NAME:
-    NAME's experiment is this spec and its metric (or one of its metrics) is the row's.
+    """Each expectation marked ``calibrated: NAME`` must be a criterion row of parameter
+    NAME: NAME's experiment is this spec and the row's metric is one of NAME's ``rows``
+    (by default its metric or metrics).
 
     Raises:
         SpecError / UnknownNameError: at the row's ``calibrated`` field.
@@ -185,10 +196,8 @@ def check_marks(loaded: LoadedSpec, spec_path: Path) -> None:
                 f"{at} (looked up in {calibration.source})",
             )
         parameter = calibration.model.parameters[names.index(str(e.calibrated))]
-        if parameter.experiment != spec.name or e.metric not in parameter.criterion_metrics:
-            criteria = ", ".join(
-                f"{parameter.experiment} · {m}" for m in parameter.criterion_metrics
-            )
+        if parameter.experiment != spec.name or e.metric not in parameter.criterion_rows:
+            criteria = ", ".join(f"{parameter.experiment} · {m}" for m in parameter.criterion_rows)
             raise SpecError(
                 f"{at}: the row {spec.name} · {e.metric} is marked calibrated: {e.calibrated}, "
                 f"but it is not a criterion of {e.calibrated!r} in {calibration.source} "

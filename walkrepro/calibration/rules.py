@@ -8,14 +8,17 @@ is a criterion of NAME; a row is not both calibrated and a known deviation) live
 For each parameter of the file, in order:
 
 1. its experiment exists;
-2. every criterion metric is an expectation of that experiment marked ``calibrated: NAME``:
+2. every criterion row (``rows``, by default the metric or metrics) is an expectation of
+   that experiment marked ``calibrated: NAME``:
    a claim used as a criterion is not also checked as a reproduction (an unmarked row is a
    checked claim and is refused), and a criterion must be visible as a row;
 3. its ``set`` path exists (a field of the controller's parameter model for
    ``controller.params.X``; a field of the spec's models otherwise);
-4. a root search's experiment uses the calibrated value: ``{calibrated: NAME}`` at ``set``;
-5. its experiment refers to no parameter calibrated after it (nor, for a ``measure``, to
-   the one it measures): its result would depend on a later one and could not be reproduced.
+4. a root search's experiment uses the calibrated value: ``{calibrated: NAME}`` at ``set``.
+
+A criterion run never sees a parameter calibrated after it, nor a ``measure`` the value it
+measures: ``walkrepro calibrate`` leaves those references out, so the fields take their
+defaults (:class:`~walkrepro.calibration.references.Withheld`).
 """
 
 from __future__ import annotations
@@ -25,13 +28,12 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from walkrepro.calibration.model import LoadedCalibration, MeasureSearch, Parameter, RootSearch
-from walkrepro.calibration.references import references
+from walkrepro.calibration.model import LoadedCalibration, Parameter, RootSearch
 from walkrepro.errors import SpecError, UnknownNameError
 
 
 def check_consistency(loaded: LoadedCalibration) -> None:
-    """Check rules 1-5 for every parameter of ``loaded``.
+    """Check rules 1-4 for every parameter of ``loaded``.
 
     Raises:
         SpecError / UnknownNameError: naming the calibration file's (or the spec's) file,
@@ -41,7 +43,7 @@ def check_consistency(loaded: LoadedCalibration) -> None:
         spec_path, data, where = _spec_of(loaded, i, parameter)
         _check_rows(loaded, i, parameter, data, where)
         _check_set_path(loaded, i, parameter, data)
-        _check_references(loaded, i, parameter, data, where)
+        _check_reference(loaded, i, parameter, data)
 
 
 def _spec_of(loaded: LoadedCalibration, i: int, parameter: Parameter) -> tuple[Path, Any, Any]:
@@ -71,8 +73,8 @@ def _check_rows(
 ) -> None:
     """Rule 2: each criterion metric is a row of the experiment marked calibrated: NAME."""
     rows = data.get("expect") or []
-    key = "metric" if parameter.metric is not None else "metrics"
-    for j, metric in enumerate(parameter.criterion_metrics):
+    key = "rows" if parameter.rows is not None else "metric" if parameter.metric else "metrics"
+    for j, metric in enumerate(parameter.criterion_rows):
         at = loaded.where(("parameters", i, key) if key == "metric" else ("parameters", i, key, j))
         matches = [
             (k, row)
@@ -130,26 +132,8 @@ def _check_set_path(loaded: LoadedCalibration, i: int, parameter: Parameter, dat
         model = model.model_fields[part].annotation
 
 
-def _check_references(
-    loaded: LoadedCalibration, i: int, parameter: Parameter, data: Any, where: Any
-) -> None:
-    """Rules 4 and 5: the experiment uses the value being found, and no later one."""
-    names = [p.name for p in loaded.model.parameters]
-    later = set(names[i + 1 :])
-    if isinstance(parameter.search, MeasureSearch):
-        later.add(parameter.name)
-    for path, name in references(data):
-        if name in later:
-            what = (
-                "the value it measures"
-                if name == parameter.name
-                else f"{name!r}, calibrated after {parameter.name!r}"
-            )
-            raise SpecError(
-                f"{where(path)}: the criterion experiment of {parameter.name!r} refers to "
-                f"{what}: its result would depend on that value and could not be reproduced; "
-                "reorder the calibration file's parameters or give the value here."
-            )
+def _check_reference(loaded: LoadedCalibration, i: int, parameter: Parameter, data: Any) -> None:
+    """Rule 4: a root search's experiment uses the value being found."""
     if isinstance(parameter.search, RootSearch):
         node: Any = data
         for part in parameter.set.split("."):

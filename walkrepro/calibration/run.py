@@ -4,13 +4,15 @@ Parameters are calibrated in the file's order. Each candidate is one run of the 
 experiment with the candidate set through ``--set``'s path (``parameter.set``), so the
 spec's own ``{calibrated: NAME}`` there is replaced; the parameters calibrated before it in
 this call take their new values, not the committed ones; those after it may not be used
-(:class:`~walkrepro.calibration.references.Unavailable`). A batch of candidates is a batch
+(:class:`~walkrepro.calibration.references.Withheld`: their references are left out, so
+those fields take their defaults). A batch of candidates is a batch
 of sweep cells (:mod:`walkrepro.sweep.engines`): the engine and ``jobs`` only schedule, so
 the result is the same on any engine and with any number of jobs.
 """
 
 from __future__ import annotations
 
+import math
 import shutil
 import tempfile
 import time
@@ -28,7 +30,7 @@ from walkrepro.calibration.model import (
     RootSearch,
     same_value,
 )
-from walkrepro.calibration.references import Unavailable
+from walkrepro.calibration.references import Withheld
 from walkrepro.calibration.search import (
     CalibrationFailed,
     Evaluator,
@@ -114,13 +116,13 @@ def calibrate(
             continue
         context: dict[str, Any] = {**values}
         for later in names[i + 1 :]:
-            context[later] = Unavailable(
-                f"calibrated after {parameter.name!r}, whose criterion run may not use it "
-                "(its result would depend on a later one and could not be reproduced)."
+            context[later] = Withheld(
+                f"calibrated after {parameter.name!r}, whose criterion runs may not use it "
+                "(a result that depended on a later one could not be reproduced)"
             )
         if isinstance(parameter.search, MeasureSearch):
-            context[parameter.name] = Unavailable(
-                "the experiment that measures it cannot use it (the value would depend on itself)."
+            context[parameter.name] = Withheld(
+                "measured by this run, which may not use it (it would depend on itself)"
             )
         t0 = time.perf_counter()
         found = search(parameter, make(parameter, context))
@@ -289,5 +291,18 @@ class EngineEvaluators:
                     f"{parameter.name}: the run of {parameter.experiment}{at} ended "
                     f"{r.outcome}: {r.message}"
                 )
+            missing = [m for m in parameter.criterion_metrics if not _finite(r.metrics.get(m))]
+            if missing:
+                at = "" if x is None else f" at {x!r}"
+                fall = f" at {r.fall_time:.2f} s" if math.isfinite(r.fall_time) else ""
+                raise CalibrationFailed(
+                    f"{parameter.name}: the run of {parameter.experiment}{at} ended "
+                    f"{r.outcome}{fall} and gives no value of {', '.join(missing)}; the search "
+                    "needs a measurable criterion over the whole bracket."
+                )
             out.append(r.metrics)
         return out
+
+
+def _finite(value: float | None) -> bool:
+    return value is not None and math.isfinite(value)
