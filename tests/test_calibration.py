@@ -192,10 +192,8 @@ def test_a_bad_calibration_file_names_file_line_and_field(tmp_path: Path) -> Non
         load_calibration(tmp_path / "calibration" / "walkrepro.yaml")
 
 
-# TODO(issue 30): drop the xfail once Paper II's specs mark the criterion rows
 # (in_place_open_loop: calibrated: stance_ankle_bias / dead_zone_thresholds) and refer to
 # {calibrated: stance_ankle_bias}.
-@pytest.mark.xfail(strict=False, reason="Paper II's criterion rows are not marked yet")
 @pytest.mark.parametrize("paper", calibration_papers())
 def test_shipped_calibrations_are_consistent(paper: str) -> None:
     """Every shipped calibration file keeps the rules with the shipped specs."""

@@ -115,9 +115,9 @@ class TimeProjectionParams(ControllerParams):
     dead_zone_thresholds: tuple[float, float, float, float] = Field(
         (0.0275, 0.0271, 0.275, 0.052),
         description="a of Eq. 27 for e1x, e2x [m], de1x, de2x [m/s]: the standard deviation "
-        "of the filtered errors of the open-loop in-place gait (Fig. 9 procedure: "
-        "in_place_open_loop, 2-10.5 s, seed 0, on the coman model of 2026-12-02); "
-        "in_place_open_loop's dead_zone_spread rows fail when the model moves them",
+        "of the filtered errors of the open-loop in-place gait (Fig. 9 procedure). The specs "
+        "take the declared calibration's value (experiments/calibration/faraji.yaml, "
+        "in_place_open_loop 2-10.5 s); this default is the first model's, before calibration",
     )
     footstep_limit: float = Field(0.15, gt=0, description="truncation [m] (Fig. 13: 15 cm)")
     knee_deflection: float | None = Field(
@@ -126,15 +126,16 @@ class TimeProjectionParams(ControllerParams):
         "pre-load (deflection at full body weight)",
     )
     spring_compensation: Literal["posture", "posture_series", "knees"] = Field(
-        "posture",
+        "posture_series",
         description="Eq. 21: 'knees' is the paper's, a load-scaled offset −μ·|F|/(m g) on the "
         "knee targets only (μ: knee_deflection, identified from the open-loop in-place gait's "
-        "stance knee compressions, Fig. 7); 'posture' (walkrepro's) adds the hip pitch, knee "
-        "and ankle pitch springs' static deflection under the body weight at the sole point "
-        "of the commanded posture, and the home pre-load on the other leg joints; "
-        "'posture_series' divides those torques by the running servo in series with the "
-        "spring, 1/(1/k + 1/kp), the servo's own yield included (docs/analysis/faraji.md, "
-        "why the in-place gait drifts forward; not adopted)",
+        "stance knee compressions, Fig. 7); 'posture_series' (walkrepro's, the default) adds "
+        "the hip pitch, knee and ankle pitch joints' static deflection under the body weight "
+        "at the sole point of the commanded posture, each torque divided by the running servo "
+        "in series with the spring, 1/(1/k + 1/kp) (the compliance the stance leg has), and "
+        "the home pre-load on the other leg joints; 'posture' divides by the spring alone, "
+        "which leaves the servo's own yield uncompensated (docs/analysis/faraji.md, why the "
+        "in-place gait drifted forward)",
     )
     stance_ankle_bias: float = Field(
         0.0,
