@@ -394,3 +394,15 @@ def test_rows_name_the_calibrated_rows_apart_from_the_searched_metrics(tmp_path:
     write_tree(tmp_path, calibration=rows)  # the speed row marked, not the fell row
     with pytest.raises(SpecError, match="not a criterion"):
         load_spec(tmp_path / "tiny.yaml")
+
+
+@pytest.mark.repro
+@pytest.mark.slow
+def test_the_shipped_paper_ii_calibration_reproduces_exactly() -> None:
+    """``walkrepro calibrate faraji`` re-runs the committed calibration bit for bit (issue 30,
+    acceptance 1): the stance bias's root search and the Fig. 9 thresholds, on 2 processes."""
+    from walkrepro.cli import app
+
+    result = CliRunner().invoke(app, ["calibrate", "faraji", "--jobs", "2"])
+    assert result.exit_code == 0, result.output
+    assert "reproduces the committed calibration exactly" in result.output
