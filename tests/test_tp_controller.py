@@ -85,7 +85,7 @@ def test_posture_spring_compensation_matches_home_preload() -> None:
 
     robot = load_robot("coman")
     controller = TimeProjectionController()
-    controller.reset(robot, controller.Params(), 0.002)
+    controller.reset(robot, controller.Params(spring_compensation="posture"), 0.002)
     half_weight = 0.5 * controller._spring_deflection(robot.home_joint_pos[:12], 0, 0.0)
     preload = (robot.home_ctrl - robot.home_joint_pos)[:6]  # motor minus link at home
     for j in (3, 4):  # knee, ankle pitch: the springs that carry the weight
@@ -249,7 +249,7 @@ def test_series_compensation_adds_the_servo_yield() -> None:
     from walkrepro.controllers.timeprojection.openloop import series_stiffness
 
     robot, series = _controller(start_time=0.0, spring_compensation="posture_series")
-    _, spring = _controller(start_time=0.0)
+    _, spring = _controller(start_time=0.0, spring_compensation="posture")
     snap = _snapshot(robot, 0.0)
     a, b = (ctrl.step(0.0, snap) for ctrl in (series, spring))
     q_des = np.asarray(b.signals["q_cmd_legs"])
