@@ -68,6 +68,8 @@ BYTES_PER_TICK = 8
 MAX_FORCE, MAX_TORQUE = 1e4, 1e3
 #: Largest Coulomb friction coefficient (floor and obstacles).
 MAX_FRICTION = 10.0
+#: Longest contact time constant 1/ω [s] a spec may set (MuJoCo's default contact is 0.02 s).
+MAX_CONTACT_TIME_CONSTANT = 0.1
 #: Largest sensing delay [s].
 MAX_DELAY = 1.0
 #: Largest servo stiffness [Nm/rad] and joint friction loss [Nm].
@@ -201,8 +203,12 @@ class ObstacleSpec(_Strict):
     )
     solref: tuple[Real, Real] | None = Field(
         None,
-        description="MuJoCo contact solref (time constant [s], damping ratio) of the obstacle's"
-        " contacts; default MuJoCo's (0.02, 1)",
+        description="MuJoCo contact solref of the obstacle's contacts, in MuJoCo's own form "
+        "((time constant [s], damping ratio), or (-stiffness, -damping)); default the contact "
+        "model of docs/contact.md. Requires `solref_reason`",
+    )
+    solref_reason: str | None = Field(
+        None, min_length=1, description="why this obstacle departs from the contact model"
     )
 
     @field_validator("size")
@@ -235,14 +241,32 @@ class ObstacleSpec(_Strict):
     def _free_needs_mass(self) -> ObstacleSpec:
         if not self.fixed and self.mass is None:
             raise ValueError("a movable obstacle (fixed: false) needs a mass [kg]")
+        if self.solref is not None and self.solref_reason is None:
+            raise ValueError(
+                "an obstacle's own solref departs from the contact model (docs/contact.md): "
+                "say why in solref_reason"
+            )
         return self
 
 
+class ContactSpec(_Strict):
+    """A departure from the contact model of docs/contact.md for a whole experiment (floor and
+    obstacles): the contact's time constant 1/ω and its damping ratio (by default the model's,
+    critical). ``reason`` says why."""
+
+    time_constant: Real = Field(
+        gt=0.0, le=MAX_CONTACT_TIME_CONSTANT, description="1/ω [s], at least 2 × sim.timestep"
+    )
+    damping_ratio: Real = Field(1.0, gt=0.0, le=10.0, description="ζ [-]")
+    reason: str = Field(min_length=1, description="why this experiment departs from the model")
+
+
 class WorldSpec(_Strict):
-    """Ground and obstacles."""
+    """Ground and obstacles; the contact is docs/contact.md's unless ``contact`` departs."""
 
     floor_friction: Real = Field(1.0, gt=0.0, le=MAX_FRICTION)
     obstacles: list[ObstacleSpec] = Field(default_factory=list)
+    contact: ContactSpec | None = None
 
     @field_validator("obstacles")
     @classmethod

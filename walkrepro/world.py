@@ -1,5 +1,8 @@
 """Builds the MuJoCo scene: robot MJCF + floor + obstacles + the spec's physics options.
 
+The floor and every obstacle take the contact model of :mod:`walkrepro.contact`
+(docs/contact.md).
+
 The scene is returned as one self-contained XML string. The runner compiles its model from
 that very string, and the log stores it as ``scene.xml``; replaying a log therefore uses
 the identical model, bit for bit.
@@ -14,6 +17,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from walkrepro.contact import ContactModel, contact_model
 from walkrepro.errors import SpecError
 from walkrepro.robot import Robot
 from walkrepro.spec import ExperimentSpec, ObstacleSpec
@@ -63,14 +67,16 @@ def build_scene(robot: Robot, spec: ExperimentSpec) -> Scene:
     floor.friction = [spec.world.floor_friction, 0.005, 0.0001]
     # MuJoCo mixes two geoms' friction by taking the larger, so against the robot's soles
     # (friction 1) a lower floor friction would not act; the higher priority makes the
-    # floor's own friction (and its default solref/solimp, which the robots' geoms share)
-    # the one of every robot-floor contact.
+    # floor's own friction, solref and solimp the ones of every robot-floor contact.
     floor.priority = FLOOR_PRIORITY
+    contact = contact_model(robot, spec.world.contact, spec.sim.timestep)
+    floor.solref = list(contact.solref)
+    floor.solimp = list(contact.solimp)
     floor.contype = WORLD_CONTYPE
     floor.conaffinity = WORLD_CONAFFINITY
     floor.material = "grid"
     for obstacle in spec.world.obstacles:
-        _add_obstacle(mjspec, obstacle, spec.world.floor_friction)
+        _add_obstacle(mjspec, obstacle, spec.world.floor_friction, contact)
     _set_position_gains(mjspec, spec.actuators.position_gain)
     _set_drives(mjspec, spec.actuators.friction_loss, spec.actuators.torque_lag)
     mjspec.compile()  # to_xml() writes the compiled spec
@@ -109,7 +115,9 @@ def home_overlaps(robot: Robot, spec: ExperimentSpec) -> dict[str, dict[str, flo
     return out
 
 
-def _add_obstacle(mjspec: mujoco.MjSpec, obstacle: ObstacleSpec, floor_friction: float) -> None:
+def _add_obstacle(
+    mjspec: mujoco.MjSpec, obstacle: ObstacleSpec, floor_friction: float, contact: ContactModel
+) -> None:
     """A box with its centre (or, ``anchor: top``, its top face's centre) at ``position``,
     tilted about that point, about x then y (degrees)."""
     numbers = (*obstacle.size, *obstacle.position, obstacle.tilt_x_deg, obstacle.tilt_y_deg)
@@ -135,9 +143,10 @@ def _add_obstacle(mjspec: mujoco.MjSpec, obstacle: ObstacleSpec, floor_friction:
     # the floor's) makes the obstacle's own friction the one that acts on the foot, and on
     # the floor under a free obstacle.
     geom.priority = FLOOR_PRIORITY + 1
-    if obstacle.solref is not None:
-        # With the higher priority, the obstacle's solref is the one its contacts use.
-        geom.solref = list(obstacle.solref)
+    # With the higher priority, the obstacle's solref/solimp are the ones its contacts use:
+    # the floor's material (docs/contact.md) unless the spec departs, with its reason.
+    geom.solref = list(obstacle.solref if obstacle.solref is not None else contact.solref)
+    geom.solimp = list(contact.solimp)
     geom.contype = WORLD_CONTYPE
     geom.conaffinity = WORLD_CONAFFINITY
     geom.rgba = [0.85, 0.45, 0.2, 1.0]
