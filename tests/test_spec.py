@@ -474,6 +474,7 @@ def test_scene_refuses_a_non_finite_obstacle() -> None:
         friction=None,
         allow_overlap=False,
         solref=None,
+        solref_reason=None,
     )
     world = spec.world.model_copy(update={"obstacles": [bad]})
     with pytest.raises(SpecError, match="obstacle_nan.*finite"):
