@@ -205,7 +205,7 @@ class ObstacleSpec(_Strict):
         None,
         description="MuJoCo contact solref of the obstacle's contacts, in MuJoCo's own form "
         "((time constant [s], damping ratio), or (-stiffness, -damping)); default the contact "
-        "model of docs/contact.md. Requires `solref_reason`",
+        "in force (docs/contact.md). Requires `solref_reason`",
     )
     solref_reason: str | None = Field(
         None, min_length=1, description="why this obstacle departs from the contact model"
@@ -243,22 +243,29 @@ class ObstacleSpec(_Strict):
             raise ValueError("a movable obstacle (fixed: false) needs a mass [kg]")
         if self.solref is not None and self.solref_reason is None:
             raise ValueError(
-                "an obstacle's own solref departs from the contact model (docs/contact.md): "
+                "an obstacle's own solref departs from the contact in force (docs/contact.md): "
                 "say why in solref_reason"
             )
         return self
 
 
 class ContactSpec(_Strict):
-    """A departure from the contact model of docs/contact.md for a whole experiment (floor and
-    obstacles): the contact's time constant 1/ω and its damping ratio (by default the model's,
-    critical). ``reason`` says why."""
+    """A departure from the contact in force (docs/contact.md) for a whole experiment, floor
+    and obstacles: a linear contact of time constant 1/ω and damping ratio ζ, or (``sourced:
+    true``) the sole's sourced stiffness under the robot's weight. ``reason`` says why."""
 
-    time_constant: Real = Field(
-        gt=0.0, le=MAX_CONTACT_TIME_CONSTANT, description="1/ω [s], at least 2 × sim.timestep"
+    time_constant: Real | None = Field(
+        None, gt=0.0, le=MAX_CONTACT_TIME_CONSTANT, description="1/ω [s], at least 2 × sim.timestep"
     )
+    sourced: bool = Field(False, description="the sole's sourced stiffness (docs/contact.md)")
     damping_ratio: Real = Field(1.0, gt=0.0, le=10.0, description="ζ [-]")
-    reason: str = Field(min_length=1, description="why this experiment departs from the model")
+    reason: str = Field(min_length=1, description="why this experiment departs from the contact")
+
+    @model_validator(mode="after")
+    def _one_stiffness(self) -> ContactSpec:
+        if (self.time_constant is None) == (not self.sourced):
+            raise ValueError("give either time_constant [s] or sourced: true, not both or neither")
+        return self
 
 
 class WorldSpec(_Strict):

@@ -1,7 +1,6 @@
 """Builds the MuJoCo scene: robot MJCF + floor + obstacles + the spec's physics options.
 
-The floor and every obstacle take the contact model of :mod:`walkrepro.contact`
-(docs/contact.md).
+The floor and every obstacle take the contact of :mod:`walkrepro.contact` (docs/contact.md).
 
 The scene is returned as one self-contained XML string. The runner compiles its model from
 that very string, and the log stores it as ``scene.xml``; replaying a log therefore uses
