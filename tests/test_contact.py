@@ -31,7 +31,9 @@ from walkrepro.world import build_scene
     ("robot", "omega", "geyer_zeta"),
     [("dyros_red", 373.8, 0.0437), ("coman", 451.7, 0.0362), ("kist_humanoid", 390.2, 0.0419)],
 )
-def test_sourced_numbers_are_the_documented_ones(robot: str, omega: float, geyer_zeta: float) -> None:
+def test_sourced_numbers_are_the_documented_ones(
+    robot: str, omega: float, geyer_zeta: float
+) -> None:
     """ω = √(κ A / m) from the robot's mass and sole, as tabled in docs/contact.md, and the
     source's damping linearised under the robot's weight."""
     r = load_robot(robot)
@@ -43,7 +45,9 @@ def test_sourced_numbers_are_the_documented_ones(robot: str, omega: float, geyer
     assert AREAL_STIFFNESS == pytest.approx(2.7818e8)
 
 
-def _bounce(model: ContactModel, mass: float, v0: float = 0.1, dt: float = 2e-5) -> tuple[float, float]:
+def _bounce(
+    model: ContactModel, mass: float, v0: float = 0.1, dt: float = 2e-5
+) -> tuple[float, float]:
     """Drop a box on a floor with ``model``'s contact, gravity off: (contact time [s],
     restitution)."""
     solref = " ".join(f"{x:.10g}" for x in model.solref)
@@ -149,7 +153,9 @@ def _spec_file(tmp_path: Path, world: str) -> Path:
         ("world:\n  contact: {reason: r}\n", "either time_constant"),
     ],
 )
-def test_a_departure_without_its_reason_is_a_clear_error(tmp_path: Path, world: str, needle: str) -> None:
+def test_a_departure_without_its_reason_is_a_clear_error(
+    tmp_path: Path, world: str, needle: str
+) -> None:
     """No reason, no departure: the error names the file and the field."""
     path = _spec_file(tmp_path, world)
     with pytest.raises(SpecError, match=needle) as info:

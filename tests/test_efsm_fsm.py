@@ -5,8 +5,7 @@ from __future__ import annotations
 import math
 
 import pytest
-
-from walkrepro.controllers.efsm.fsm import (
+from oracles.efsm_fsm import (
     EventFsm,
     FsmInput,
     FsmParams,

@@ -8,10 +8,8 @@ import math
 import numpy as np
 import pinocchio as pin
 import pytest
-
-from walkrepro.controllers.efsm import kernels, wbc
-from walkrepro.controllers.efsm.controller import EfsmController, EfsmParams
-from walkrepro.controllers.efsm.fsm import (
+from oracles import efsm_wbc as wbc
+from oracles.efsm_fsm import (
     EventFsm,
     FsmInput,
     FsmParams,
@@ -19,6 +17,9 @@ from walkrepro.controllers.efsm.fsm import (
     capture_point,
     epsilon,
 )
+
+from walkrepro.controllers.efsm import kernels
+from walkrepro.controllers.efsm.controller import EfsmController, EfsmParams
 from walkrepro.robot import load_robot
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
+from oracles import efsm_wbc as wbc
 
-from walkrepro.controllers.efsm import wbc
 from walkrepro.robot import load_robot
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED

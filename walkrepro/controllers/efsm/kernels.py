@@ -4,14 +4,15 @@ One control tick of the OS-WBC (Appendices A–D) is about fifty products, inver
 projections of matrices with 1 to 18 rows. Written with numpy, each call costs 1–5 µs of
 overhead, far more than its arithmetic: the tick took ≈ 150 µs, which held the 2 kHz
 experiments near real time. Why numba: fused into one compiled call the same algebra takes
-a few µs, with no C extension to build. The kernels follow :mod:`.wbc` (the readable numpy
-reference, checked against Pinocchio's constrained dynamics) step by step, and
-``tests/test_efsm_kernels.py`` checks that they agree with it. ``cache=True`` keeps the
+a few µs, with no C extension to build. The kernels are the implementation; they follow the
+readable numpy reference kept as a test oracle, ``tests/oracles/efsm_wbc.py`` (checked against
+Pinocchio's constrained dynamics), step by step, and ``tests/test_efsm_kernels.py`` checks that
+they agree with it. ``cache=True`` keeps the
 machine code on disk, so only the first process compiles; the controller's reset compiles
 or loads them with two throwaway ticks.
 
 The whole tick after Pinocchio's ``computeAllTerms`` is one call, :func:`tick`: the frames,
-O_w, the E-FSM (:mod:`.fsm` is its reference), the footstep planner, A⁻¹ and J̇_c q̇ (as
+O_w, the E-FSM (its reference is the oracle ``tests/oracles/efsm_fsm.py``), the footstep planner, A⁻¹ and J̇_c q̇ (as
 Pinocchio computes them, bit for bit), Γ and the CoPs. Python around it cost more than the
 algebra: each numba call pays ≈ 50 ns per array argument (hence :func:`tick_state`, one
 record for the controller's own arrays), a Pinocchio call ≈ 1 µs, a line of Python
@@ -29,7 +30,6 @@ import math
 import numba
 import numpy as np
 
-from walkrepro.controllers.efsm.wbc import PINV_RCOND
 from walkrepro.robot import (
     eigen_rotate,
     frame_classical_acceleration,
@@ -39,6 +39,8 @@ from walkrepro.robot import (
 
 #: Rows of the two stacked foot wrenches other than the normal forces (Appendix C).
 TANGENTIAL_ROWS = np.array([0, 1, 3, 4, 5, 6, 7, 9, 10, 11])
+#: Relative singular-value cut-off of the pseudo-inverses (W is rank-deficient in DS).
+PINV_RCOND = 1e-9
 #: numpy's default cut-off of ``lstsq`` (rcond=None) for the 10 × 6 problem of Appendix C.
 _LSTSQ_RCOND = float(np.finfo(np.float64).eps) * 10
 
@@ -223,7 +225,7 @@ def lstsq(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 @_jit
 def inv_if_well_conditioned(m: np.ndarray) -> tuple[bool, np.ndarray]:
-    """m⁻¹ when it provably equals m⁺, as :func:`.wbc.inv_if_well_conditioned`.
+    """m⁻¹ when it provably equals m⁺, as the oracle's ``efsm_wbc.inv_if_well_conditioned``.
 
     Returns:
         (True, m⁻¹), or (False, anything) when the trace test cannot prove it.
@@ -460,7 +462,7 @@ def frame_placement(
 def contact_dynamics(
     a_inv: np.ndarray, nle: np.ndarray, jc: np.ndarray, jc_dot_v: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
-    """The contact-consistent quantities of Appendices A and B, as :func:`.wbc.contact_dynamics`.
+    """The contact-consistent quantities of Appendices A and B (oracle: ``contact_dynamics``).
 
     Uses the symmetry of A⁻¹ and Λ_c to form the products row by row (J_c A⁻¹ rather than
     A⁻¹ J_cᵀ), which the compiler vectorizes.
@@ -507,7 +509,7 @@ def _prioritized_torque_map(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Ñ_precᵀ J̃ᵀ and Λ of a task below the tasks stacked in ``prec_phi`` (pinv form, Eq. 11).
 
-    As ``wbc.prioritized_task(cd, phi, wbc.null_space_t(cd, prec_phi))``, or with no
+    As ``efsm_wbc.prioritized_task(cd, phi, efsm_wbc.null_space_t(cd, prec_phi))``, or with no
     preceding task when ``prec_phi`` has no rows.
     """
     jt = matmul_bt(W_pinv, phi)  # J̃ᵀ
@@ -528,7 +530,7 @@ def _prioritized_torque_map(
 def task_hierarchy(
     W: np.ndarray, W_pinv: np.ndarray, phi: np.ndarray, m1: int, m2: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Three prioritized tasks of Eq. (11), as :func:`.wbc.task_hierarchy`.
+    """Three prioritized tasks of Eq. (11), as the oracle's ``efsm_wbc.task_hierarchy``.
 
     Returns:
         torque map [J̃_1ᵀ, Ñ_1ᵀ J̃_2ᵀ, Ñ_12ᵀ J̃_3ᵀ] (k, m), and Λ_1, Λ_2, Λ_3.
@@ -573,7 +575,7 @@ def task_hierarchy(
 
 @_jit
 def grasp_map(rot_o: np.ndarray, origin: np.ndarray, contact_points: np.ndarray) -> np.ndarray:
-    """K of Eq. (10), as :func:`.wbc.grasp_map`; ``contact_points`` has shape (feet, 3)."""
+    """K of Eq. (10), as the oracle's ``efsm_wbc.grasp_map``; ``contact_points``: (feet, 3)."""
     n_feet = contact_points.shape[0]
     kmap = np.zeros((6, 6 * n_feet))
     for foot in range(n_feet):
@@ -618,7 +620,7 @@ def redistribution_torque(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Γ_c of Appendix C (Eqs. 14–16) and the leaving foot's reference wrench.
 
-    As :func:`.wbc.redistribution_torque` with the leaving foot's rows first
+    As the oracle's ``efsm_wbc.redistribution_torque`` with the leaving foot's rows first
     (``leave=slice(0, 6)``) and ``lever`` given.
     """
     v2 = w_eigvec[:, :6].copy()  # W's null space (Eq. 14)
@@ -808,7 +810,7 @@ def whole_body_torques(
         task_ref: shape (7,): [0:2] CoM y, z error in O_w [m]; [2:4] CoM y, z velocity in
             O_w [m/s]; [4:7] swing-sole position reference [m] (unused in DS).
         phase: E-FSM phase (fsm.Phase as int).
-        eps: ε; eps_onset: ε's onset ramp in DS (see ``wbc.redistribution_torque``).
+        eps: ε; eps_onset: ε's onset ramp in DS (oracle: ``efsm_wbc.redistribution_torque``).
         xp_des: desired CoP along x of O_w [m]; x_s: swing-foot centre along x of O_w [m].
         params: k_p, k_v, F_s force bound [N], F_s moment bound [Nm], decoupled saturation
             (1/0), balancing (1/0), CoP safety margin [m], torque limit [Nm], half sole
@@ -991,11 +993,12 @@ def measured_cop(
 # The tick after computeAllTerms is one compiled call (why: a numba call costs ≈ 50 ns per
 # array argument, a Pinocchio call ≈ 1 µs, and a line of Python 50–100 ns, at 2 kHz).
 # tests/test_efsm_kernels.py compares it with the same tick composed of the readable
-# references (fsm.EventFsm, Pinocchio's frames and A⁻¹, numpy), phase by phase.
+# references (the oracle's EventFsm in tests/oracles/efsm_fsm.py, Pinocchio's frames and A⁻¹,
+# numpy), phase by phase.
 
 #: Bits of :func:`tick`'s result: the E-FSM transitions of the tick (they happen in this order).
 SSD_TO_SSA, SSA_TO_DS, DS_TO_SSD = 1, 2, 4
-#: ``g`` of the capture point, Eq. (2), as fsm.capture_point [m/s²].
+#: ``g`` of the capture point, Eq. (2), as the oracle's efsm_fsm.capture_point [m/s²].
 _GRAVITY = 9.81
 
 #: The signals :func:`tick` writes into ``state["signals"]``, in order: (name, length).
@@ -1038,7 +1041,7 @@ def tick_state(nv: int, n_actuators: int) -> np.ndarray:
 
     Fields (per foot: left, right):
         params: k_p, k_v, F_s bounds, ..., as :func:`whole_body_torques`' ``params``.
-        zeta, r, dxp, d_thr, v_stop, use_epsilon, ds_onset_ramp: fsm.FsmParams and the onset
+        zeta, r, dxp, d_thr, v_stop, use_epsilon, ds_onset_ramp: efsm_fsm.FsmParams and the onset
             ramp switch (1/0) of EfsmParams.
         step_length, n_steps (−1: no limit), width, heading, lateral: the footstep planner.
         z_m0, raise_height, land_height: CoM height (Eq. 2) and swing heights (Table II) [m].
@@ -1126,7 +1129,7 @@ def ow_frame(
 
 @_jit
 def _epsilon(d: float, d_thr: float) -> float:
-    """ε(d) (§IV-B), as fsm.epsilon."""
+    """ε(d) (§IV-B), as the oracle's efsm_fsm.epsilon."""
     if d <= 0.0:
         return 0.0
     if d < d_thr:
@@ -1149,7 +1152,7 @@ def fsm_step(
     v_stop: float,
     use_epsilon: bool,
 ) -> tuple[int, float, float, float, int]:
-    """One control period of the E-FSM (Table I), as :meth:`.fsm.EventFsm.step`.
+    """One control period of the E-FSM (Table I), as the oracle's ``efsm_fsm.EventFsm.step``.
 
     Returns:
         The phase after the tick's transitions, x_p^des (Eqs. 3–4), ε, d, and the
@@ -1167,7 +1170,7 @@ def fsm_step(
         xp_des = xp_des + math.copysign(dxp, delta) if abs(delta) > dxp else x_s
     else:  # Eq. (3)
         xp_des = 0.0 if x_m > zeta else x_m - zeta
-    if phase == _DS:  # d (§IV-B; fsm.transition_distance)
+    if phase == _DS:  # d (§IV-B; the oracle's efsm_fsm.transition_distance)
         d = x_s - xp_des
     elif phase == _SSA:
         d = (x_s - r) - x_cp

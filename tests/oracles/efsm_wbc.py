@@ -14,9 +14,10 @@ so that a torque Γ = J̃ᵀ F gives the task acceleration Λ⁻¹ F and Φ Ñ�
 acceleration is blind to any torque Ñᵀ Γ_0). The hierarchy of Eq. (11) uses the
 prioritized projector Ñ_{12}ᵀ = Ñ_1ᵀ Ñ_{2|1}ᵀ for the third task.
 
-This module is the readable numpy reference of that algebra, tested against Pinocchio's
-constrained dynamics. The controller runs the same steps compiled in :mod:`.kernels` (a
-tick is too many small numpy calls to run fast), which the tests check against this one.
+A test oracle, not part of the package: the readable numpy reference of that algebra,
+tested against Pinocchio's constrained dynamics. The controller runs the same steps compiled
+in ``walkrepro.controllers.efsm.kernels`` (a tick is too many small numpy calls to run
+fast), which the tests check against this one.
 """
 
 from __future__ import annotations
@@ -26,8 +27,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-#: Relative singular-value cut-off of the pseudo-inverses (W is rank-deficient in DS).
-PINV_RCOND = 1e-9
+from walkrepro.controllers.efsm.kernels import PINV_RCOND
+
 #: Rows of the two stacked foot wrenches other than the normal forces (Appendix C).
 _TANGENTIAL = np.array([0, 1, 3, 4, 5, 6, 7, 9, 10, 11])
 
