@@ -151,6 +151,7 @@ def _spec_file(tmp_path: Path, world: str) -> Path:
         ("world:\n  contact: {time_constant: 0.5, reason: soft}\n", "world.contact.time_constant"),
         ("world:\n  contact: {time_constant: 0.005, sourced: true, reason: r}\n", "not both"),
         ("world:\n  contact: {reason: r}\n", "either time_constant"),
+        ("world:\n  contact: {time_constant: 0.0009, reason: r}\n", "2 × sim.timestep"),
     ],
 )
 def test_a_departure_without_its_reason_is_a_clear_error(

@@ -535,6 +535,20 @@ class ExperimentSpec(_Strict):
     #: Declared maps: a sweep and the paper's claims about its result.
     sweeps: list[SweepSpec] = Field(default_factory=list)
 
+    @field_validator("world")
+    @classmethod
+    def _contact_within_guidance(cls, world: WorldSpec, info: ValidationInfo) -> WorldSpec:
+        # MuJoCo's guidance (walkrepro/contact.py): a contact's time constant is at least two
+        # timesteps. The sourced contact's depends on the robot and is checked at build time.
+        sim = info.data.get("sim")
+        tc = world.contact.time_constant if world.contact is not None else None
+        if sim is not None and tc is not None and tc < 2.0 * sim.timestep:
+            raise ValueError(
+                f"world.contact.time_constant ({tc:g} s) must be at least 2 × sim.timestep "
+                f"({2.0 * sim.timestep:g} s), MuJoCo's guidance"
+            )
+        return world
+
     def to_yaml(self) -> str:
         """The resolved spec as YAML (every default filled in; empty sweep sections left out,
         so a spec without sweeps writes the same YAML as before they existed; likewise an
