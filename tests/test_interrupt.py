@@ -323,3 +323,30 @@ def test_a_stop_during_the_imports_leaves_an_interrupted_run(tmp_path: Path, sig
     assert record["outcome"] == "interrupted" and record["sim_time"] == 0.0, record
     code, text = recheck(run)
     assert code == 1 and "interrupted" in text and "Traceback" not in text, text
+
+
+def test_check_stopped_by_sigterm_exits_143(tmp_path: Path) -> None:
+    """`walkrepro check` stopped by a scheduler's SIGTERM (to its process group, workers
+    included) exits 143, as `run` does, not Ctrl-C's 130; nothing looks finished."""
+    spec = tmp_path / "tiny_walk_stand.yaml"
+    spec.write_text(SPEC)
+    out = tmp_path / "runs"
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "walkrepro", "check", str(spec), "--jobs", "1", "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        env=env,
+        start_new_session=True,
+    )
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline and not list(out.glob("*/.*.partial/log.mcap")):
+        time.sleep(0.05)
+    time.sleep(0.5)
+    os.killpg(proc.pid, signal.SIGTERM)
+    output, _ = proc.communicate(timeout=300)
+    text = output.decode()
+    assert proc.returncode == 143, text
+    assert "Traceback" not in text
+    record = json.loads((only_run(out) / "run.json").read_text())
+    assert record["outcome"] == "interrupted"

@@ -258,8 +258,8 @@ def check(
         _update_docs()
     if junit is not None:
         checks.write_junit(verdicts, junit)
-    if interrupted:
-        raise typer.Exit(code=130)
+    if interrupted:  # 130 after Ctrl-C, 143 after SIGTERM
+        raise typer.Exit(code=next(s.exit_code for s in summaries if s.interrupted))
     if not all(v.passed for v in verdicts):
         raise typer.Exit(code=1)
 
