@@ -208,7 +208,7 @@ class ObstacleSpec(_Strict):
         "in force (docs/contact.md). Requires `solref_reason`",
     )
     solref_reason: str | None = Field(
-        None, min_length=1, description="why this obstacle departs from the contact model"
+        None, min_length=1, description="why this obstacle departs from the contact in force"
     )
 
     @field_validator("size")
