@@ -16,7 +16,7 @@ from walkrepro.spec import experiment_names, load_spec
 
 def committed(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, values: dict, reasons: dict) -> None:
     """A committed reference results/other/metrics.json under a temporary results root."""
-    monkeypatch.setattr(experiment, "RESULTS_DIR", tmp_path)
+    monkeypatch.setattr(experiment, "REFERENCES_DIR", tmp_path)
     (tmp_path / "other").mkdir()
     results.write_metrics(tmp_path / "other" / results.METRICS_FILE, values, reasons)
 

@@ -1,7 +1,6 @@
 """walkrepro: reproduce published biped-walking controllers in MuJoCo and check the result."""
 
 import os
-from pathlib import Path
 
 # A stop signal (Ctrl-C, SIGTERM) during the second of start-up below (MuJoCo, numba) is
 # held, when this process is the walkrepro command, and handed to the run or the sweep, so
@@ -39,8 +38,13 @@ from walkrepro import numbacache  # noqa: E402
 
 numbacache.install()
 
-#: Repository root when run from a checkout (robots/, experiments/ live there).
-PROJECT_ROOT = Path(__file__).resolve().parent.parent
-ROBOTS_DIR = PROJECT_ROOT / "robots"
-EXPERIMENTS_DIR = PROJECT_ROOT / "experiments"
-RESULTS_DIR = PROJECT_ROOT / "results"
+# Where the robots, experiments and references are, and where runs go: a checkout's own
+# folders, or the installed package's shipped copies and ./results (see locations.py).
+from walkrepro.locations import (  # noqa: E402, F401
+    EXPERIMENTS_DIR,
+    IS_CHECKOUT,
+    PROJECT_ROOT,
+    REFERENCES_DIR,
+    RESULTS_DIR,
+    ROBOTS_DIR,
+)

@@ -20,7 +20,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from walkrepro import results
+from walkrepro import REFERENCES_DIR, results
 from walkrepro.errors import WalkreproError
 
 if TYPE_CHECKING:
@@ -65,8 +65,25 @@ def _main(
             help="Show walkrepro's version, git commit, and the MuJoCo and Pinocchio versions.",
         ),
     ] = False,
+    experiments: Annotated[
+        Path | None,
+        typer.Option(
+            "--experiments",
+            help="A folder of your own specs (NAME.yaml), searched before the shipped "
+            "experiments; `check` without names runs the folder's.",
+            file_okay=False,
+            dir_okay=True,
+            exists=True,
+            envvar="WALKREPRO_EXPERIMENTS",
+        ),
+    ] = None,
 ) -> None:
     """Reproduce published biped-walking controllers in MuJoCo and check the reproduction."""
+    from walkrepro.locations import USER_EXPERIMENTS_ENV
+
+    if experiments is not None:
+        # The environment carries it to --jobs workers and Ray workers too.
+        os.environ[USER_EXPERIMENTS_ENV] = str(experiments.resolve())
 
 
 def _console(stderr: bool = False) -> Console:
@@ -85,6 +102,18 @@ SetOption = Annotated[
 OutOption = Annotated[
     Path, typer.Option("--out", help="Root directory for run outputs.", show_default=True)
 ]
+
+
+def _needs_checkout(what: str) -> None:
+    """Refuse to write the repository's own files (references, calibration, docs) from an
+    installed walkrepro: they live in a clone (walkrepro/locations.py)."""
+    from walkrepro import IS_CHECKOUT
+
+    if not IS_CHECKOUT:
+        raise WalkreproError(
+            f"{what} writes the repository's committed files, and this walkrepro is an "
+            "installed copy; run it from a clone with `pip install -e .`."
+        )
 
 
 def friendly_errors(fn: F) -> F:
@@ -109,14 +138,15 @@ def friendly_errors(fn: F) -> F:
 @app.command("list")
 @friendly_errors
 def list_cmd() -> None:
-    """List every experiment with its paper, figure, robot and controller."""
-    from walkrepro.spec import experiment_names, load_spec
+    """List every experiment with its paper, figure, robot and controller (your own
+    folder's too, with --experiments DIR)."""
+    from walkrepro.spec import all_experiment_names, load_spec
 
     table = Table(title="walkrepro experiments")
     for col in ("experiment", "paper", "figure", "robot", "controller"):
         table.add_column(col, no_wrap=True)
     table.add_column("description", overflow="fold")
-    for name in experiment_names():
+    for name in all_experiment_names():
         spec = load_spec(name).spec
         section = ", ".join(x for x in (spec.paper.section, spec.paper.figure) if x)
         table.add_row(
@@ -148,10 +178,10 @@ def run(
 
 
 def _complete_experiment(incomplete: str) -> list[str]:
-    """Shell completion: the shipped experiments whose names start with ``incomplete``."""
-    from walkrepro.spec import experiment_names
+    """Shell completion: the experiments whose names start with ``incomplete``."""
+    from walkrepro.spec import all_experiment_names
 
-    return [n for n in experiment_names() if n.startswith(incomplete)]
+    return [n for n in all_experiment_names() if n.startswith(incomplete)]
 
 
 @app.command()
@@ -213,6 +243,8 @@ def check(
             "--update-reference takes runs of the experiments as shipped; drop --set "
             f"({' '.join(overrides)})."
         )
+    if update_reference:
+        _needs_checkout("--update-reference")
     verdicts: list[checks.Verdict] = []
     for path in run_dir or []:
         directory, log = results.resolve_run(path)
@@ -268,6 +300,8 @@ def _update_docs() -> None:
     """Regenerate the documents made from the references (``walkrepro docs``): new
     references change the README's status table and the deviations' measured values."""
     from walkrepro.docsgen import generated_files, write_docs
+
+    _needs_checkout("walkrepro docs")
 
     for path in write_docs(generated_files()):
         _console().print(f"docs updated: {path}", highlight=False)
@@ -558,7 +592,7 @@ def report(
             "--from",
             help="results/ (the committed references) or a walkrepro check --out directory.",
         ),
-    ] = results.RESULTS_DIR,
+    ] = REFERENCES_DIR,
     out: Annotated[
         Path | None,
         typer.Option(help="Site directory, replaced as a whole (default: next to --from, report/)."),
@@ -623,6 +657,8 @@ def sweep(
     """
     from walkrepro.sweep.command import sweep_command
 
+    if update_reference:
+        _needs_checkout("--update-reference")
     code = sweep_command(
         _console(stderr=True),
         experiment,
@@ -763,6 +799,8 @@ def calibrate(
     from walkrepro.calibration.run import CalibrateOptions, calibrate, compare
     from walkrepro.interrupt import Received, stop_signals_raise
 
+    if update:
+        _needs_checkout("walkrepro calibrate --update")
     if paper is None:
         _print_calibrations([load_calibration(find_calibration(p)) for p in calibration_papers()])
         return
@@ -871,6 +909,7 @@ def docs_cmd(
     status table from the specs and the committed results."""
     from walkrepro.docsgen import generated_files, stale_files, write_docs
 
+    _needs_checkout("walkrepro docs")
     files = generated_files()
     if check_only:
         stale = stale_files(files)
@@ -897,10 +936,10 @@ def _resolved(name: str, overrides: list[str]):  # noqa: ANN202 - returns Experi
 
 def _with_reference_video(names: list[str]) -> frozenset[str]:
     """The experiments among ``names`` whose committed reference keeps a video."""
-    from walkrepro import RESULTS_DIR
+    from walkrepro import REFERENCES_DIR
     from walkrepro.video import VIDEO_FILE
 
-    return frozenset(n for n in names if (RESULTS_DIR / n / VIDEO_FILE).is_file())
+    return frozenset(n for n in names if (REFERENCES_DIR / n / VIDEO_FILE).is_file())
 
 
 def _outputs_of(name: str, outputs: tuple[bool, frozenset[str]]) -> tuple[bool, bool]:

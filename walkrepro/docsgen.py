@@ -148,12 +148,12 @@ def collect(
     Args:
         results_dir: the committed references (``results/``).
     """
-    from walkrepro.spec import experiment_names, load_spec
+    from walkrepro.spec import load_spec, shipped_experiment_names
     from walkrepro.sweep.command import map_verdicts
 
     experiments, deviations = [], []
     tallies: dict[str, Tally] = {key: Tally() for key in PAPER_LABELS}
-    for name in experiment_names():
+    for name in shipped_experiment_names():
         spec = load_spec(name).spec
         tally = tallies.setdefault(spec.paper.key, Tally())
         tally.experiments += 1
@@ -224,9 +224,9 @@ def collect(
 def known_reasons() -> Iterator[tuple[str, str]]:
     """``(where, reason)`` of every known deviation in the shipped specs: expectations and
     map claims (where = ``experiment · metric`` or ``experiment · map NAME``)."""
-    from walkrepro.spec import experiment_names, load_spec
+    from walkrepro.spec import load_spec, shipped_experiment_names
 
-    for name in experiment_names():
+    for name in shipped_experiment_names():
         spec = load_spec(name).spec
         for e in spec.expect:
             if e.known_deviation is not None:

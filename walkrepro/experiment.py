@@ -13,7 +13,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from walkrepro import RESULTS_DIR, checks, metrics, provenance, results
+from walkrepro import REFERENCES_DIR, checks, metrics, provenance, results
 from walkrepro.errors import WalkreproError
 from walkrepro.interrupt import InterruptFlag
 from walkrepro.runner import ProgressCallback, RunResult, run
@@ -95,7 +95,7 @@ class References:
                 f"no run of {experiment} with the same overrides ({' '.join(self._overrides)}): "
                 f"{why}"
             )
-        committed = RESULTS_DIR / experiment / results.METRICS_FILE
+        committed = REFERENCES_DIR / experiment / results.METRICS_FILE
         if committed.is_file():
             try:
                 saved = results.read_metrics(committed)
@@ -124,10 +124,10 @@ def _latest_run_with(root: Path, experiment: str, overrides: Sequence[str]) -> P
 def partner_metric_names(experiment: str) -> tuple[str, ...]:
     """Metrics of ``experiment`` that other shipped experiments' relative expectations read,
     so that its run (and its committed reference) holds them."""
-    from walkrepro.spec import experiment_names, load_spec
+    from walkrepro.spec import all_experiment_names, load_spec
 
     names = []
-    for other in experiment_names():
+    for other in all_experiment_names():
         for e in load_spec(other).spec.expect:
             if e.relative_to is not None and e.relative_to.experiment == experiment:
                 names.append(e.reference_metric)

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import mujoco
 
-from walkrepro import PROJECT_ROOT, __version__
+from walkrepro import IS_CHECKOUT, PROJECT_ROOT, __version__
 
 if TYPE_CHECKING:
     from walkrepro.spec import ExperimentSpec
@@ -17,7 +17,10 @@ if TYPE_CHECKING:
 
 @lru_cache(maxsize=1)
 def git_commit() -> str:
-    """Commit of the checkout walkrepro runs from (``+dirty`` if modified), or ``unknown``."""
+    """Commit of the checkout walkrepro runs from (``+dirty`` if modified), or ``unknown``
+    (an installed copy has no commit; the version says which walkrepro it is)."""
+    if not IS_CHECKOUT:
+        return "unknown"
     try:
         commit = subprocess.run(
             ["git", "rev-parse", "HEAD"],

@@ -32,7 +32,7 @@ from pydantic import (
     model_validator,
 )
 
-from walkrepro import EXPERIMENTS_DIR, yamlload
+from walkrepro import locations, yamlload
 from walkrepro.deviation import KnownDeviation
 from walkrepro.errors import SpecError, UnknownNameError
 from walkrepro.sweep.model import SweepParameter, SweepSpec
@@ -582,23 +582,37 @@ class LoadedSpec(BaseModel):
         return _where(self.source, self.lines, tuple(path), self.overridden)
 
 
-def experiment_names() -> list[str]:
+def shipped_experiment_names() -> list[str]:
     """Names of the experiments shipped in ``experiments/``."""
-    return sorted(p.stem for p in EXPERIMENTS_DIR.glob("*.yaml"))
+    return sorted(p.stem for p in locations.EXPERIMENTS_DIR.glob("*.yaml"))
+
+
+def experiment_names() -> list[str]:
+    """Names of the experiments ``walkrepro check`` runs by default: those in the user's
+    folder (``--experiments DIR``) when one is given, else the shipped ones."""
+    user = locations.user_experiments_dir()
+    return sorted(p.stem for p in user.glob("*.yaml")) if user else shipped_experiment_names()
+
+
+def all_experiment_names() -> list[str]:
+    """Every name an experiment can be found by: the user's folder's and the shipped."""
+    return sorted({p.stem for d in locations.experiment_dirs() for p in d.glob("*.yaml")})
 
 
 def find_spec_file(name_or_path: str) -> Path:
-    """An experiment name (``experiments/NAME.yaml``) or a path to any spec file."""
+    """An experiment name (``NAME.yaml`` in the user's folder, else in the shipped
+    ``experiments/``) or a path to any spec file."""
     looks_like_path = name_or_path.endswith((".yaml", ".yml")) or "/" in name_or_path
     if looks_like_path:
         path = Path(name_or_path)
         if not path.is_file():
             raise SpecError(f"{name_or_path}: no such spec file.")
         return path
-    path = EXPERIMENTS_DIR / f"{name_or_path}.yaml"
-    if not path.is_file():
-        raise UnknownNameError("experiment", name_or_path, experiment_names())
-    return path
+    for directory in locations.experiment_dirs():
+        path = directory / f"{name_or_path}.yaml"
+        if path.is_file():
+            return path
+    raise UnknownNameError("experiment", name_or_path, all_experiment_names())
 
 
 def load_spec(
@@ -1026,11 +1040,11 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
         check_metric(exp.metric, ("expect", i, "metric"))
         if exp.relative_to is not None:
             where = ("expect", i, "relative_to")
-            if exp.relative_to.experiment not in experiment_names():
+            if exp.relative_to.experiment not in all_experiment_names():
                 raise UnknownNameError(
                     "experiment",
                     exp.relative_to.experiment,
-                    experiment_names(),
+                    all_experiment_names(),
                     loaded.where((*where, "experiment")),
                 )
             check_metric(exp.reference_metric, (*where, "metric"))

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from html import escape
 from pathlib import Path
 
-from walkrepro import RESULTS_DIR
+from walkrepro import IS_CHECKOUT, REFERENCES_DIR, RESULTS_DIR
 from walkrepro.errors import WalkreproError
 from walkrepro.report import html
 from walkrepro.report.claims import Tally, experiment_claims, tally
@@ -51,8 +51,9 @@ class ReportSite:
     notes: tuple[str, ...]
 
 
-def build_report(source: Path = RESULTS_DIR, out: Path | None = None) -> ReportSite:
-    """Build the static site from ``source`` into ``out`` (default ``source/../report``).
+def build_report(source: Path = REFERENCES_DIR, out: Path | None = None) -> ReportSite:
+    """Build the static site from ``source`` into ``out`` (default ``source/../report``; for an installed walkrepro's shipped references,
+    ``./results/report``).
 
     ``source`` is ``results/`` (the committed references) or a ``walkrepro check --out``
     directory; the maps come from ``source/maps`` if it exists, else from ``results/maps``.
@@ -62,11 +63,16 @@ def build_report(source: Path = RESULTS_DIR, out: Path | None = None) -> ReportS
         WalkreproError: ``source`` holds no results, or ``out`` cannot be written.
     """
     source = source.resolve()
-    out = (out or source.parent / "report").resolve()
+    if out is None:
+        # An installed walkrepro's references sit inside the package: its report goes
+        # beside the user's results instead.
+        in_package = not IS_CHECKOUT and source == REFERENCES_DIR.resolve()
+        out = RESULTS_DIR / "report" if in_package else source.parent / "report"
+    out = out.resolve()
     if out == source or source.is_relative_to(out):
         raise WalkreproError(f"--out {out}: would overwrite the results it reads ({source}).")
     found, notes = find_results(source)
-    maps_root = source / MAPS_DIR if (source / MAPS_DIR).is_dir() else RESULTS_DIR / MAPS_DIR
+    maps_root = source / MAPS_DIR if (source / MAPS_DIR).is_dir() else REFERENCES_DIR / MAPS_DIR
     by_paper: dict[str, list[ExperimentResult]] = defaultdict(list)
     for r in found:
         by_paper[r.spec.paper.key].append(r)

@@ -131,7 +131,7 @@ def map_verdicts(
     other overrides than the spec now declares is reported as stale (fail). With ``rerun``
     each map is swept again under ``out`` and evaluated on the new cells.
     """
-    from walkrepro import RESULTS_DIR
+    from walkrepro import REFERENCES_DIR
     from walkrepro.checks import FAIL, CheckRow, Verdict
     from walkrepro.spec import load_spec
     from walkrepro.sweep.claims import evaluate_sweep
@@ -150,7 +150,7 @@ def map_verdicts(
                 plot_sweep(plan.directory)
                 directory, origin = plan.directory, f"sweep {plan.directory.name}"
             else:
-                directory = RESULTS_DIR / MAPS_DIR_NAME / declared.name
+                directory = REFERENCES_DIR / MAPS_DIR_NAME / declared.name
                 origin = f"results/{MAPS_DIR_NAME}/{declared.name}"
             cells = directory / store.CELLS_FILE
             if not cells.is_file():

@@ -24,6 +24,7 @@ from multiprocessing.connection import Connection, wait
 from typing import Protocol
 
 from walkrepro.errors import WalkreproError
+from walkrepro.locations import USER_EXPERIMENTS_ENV
 from walkrepro.sweep.cells import CRASHED, CellResult, CellTask, run_cell
 
 CellFn = Callable[[CellTask], CellResult]
@@ -220,6 +221,8 @@ class RayEngine:
         ray = self.ray
         # The workers must import this walkrepro: pass the driver's module path on.
         env = {"PYTHONPATH": os.pathsep.join(p for p in _pythonpath() if p)}
+        if os.environ.get(USER_EXPERIMENTS_ENV):  # walkrepro --experiments DIR
+            env[USER_EXPERIMENTS_ENV] = os.environ[USER_EXPERIMENTS_ENV]
         kwargs: dict = {
             "runtime_env": {"env_vars": env},
             "include_dashboard": False,
