@@ -543,7 +543,8 @@ def _ordered_defs(schema: dict[str, Any]) -> list[str]:
 def spec_reference() -> str:
     """``docs/spec-reference.md``: every spec field from the pydantic schema, then each
     controller's ``params``."""
-    from walkrepro.controllers import controller_class, controller_names
+    from walkrepro import plugins
+    from walkrepro.controllers import controller_class
     from walkrepro.spec import PAPERS, ExperimentSpec
 
     schema = ExperimentSpec.model_json_schema()
@@ -569,7 +570,9 @@ def spec_reference() -> str:
         "`controller.params`, validated by the controller named in `controller.type`.",
         "",
     ]
-    for cname in controller_names():
+    # walkrepro's own controllers only: an installed outside plugin documents its own.
+    own = {n for r in plugins.registered() if r.name in plugins.OWN for n in r.plugin.controllers}
+    for cname in sorted(own):
         params = controller_class(cname).Params.model_json_schema()
         out += _model_section(f"`{cname}`: {params.get('title', 'Params')}", params)
     return "\n".join(out)

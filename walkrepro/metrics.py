@@ -450,11 +450,20 @@ def metric(name: str, doc: str, arg: ArgCheck = no_argument) -> Callable[[Metric
     return register
 
 
+def _registry() -> dict[str, tuple[MetricFn, str, ArgCheck]]:
+    """Every registered metric: the core ones above and, imported on the first lookup, every
+    plugin's metric modules (:mod:`walkrepro.plugins`)."""
+    from walkrepro import plugins
+
+    plugins.load_metric_modules()
+    return _METRICS
+
+
 def check_metric_arg(full: str) -> None:
     """Raise :class:`MetricArgError` if the metric ``full`` (``name:arg``) cannot read its
     argument (an unknown metric is not checked here)."""
     base, arg = split_metric(full)
-    if base in _METRICS:
+    if base in _registry():
         try:
             _METRICS[base][2](arg)
         except MetricArgError as exc:
@@ -520,12 +529,12 @@ def qualified_check(head: ArgCheck, qualifier: ArgCheck) -> ArgCheck:
 
 def metric_names() -> list[str]:
     """Every registered metric base name."""
-    return sorted(_METRICS)
+    return sorted(_registry())
 
 
 def metric_doc(name: str) -> str:
     """One-line description of a metric."""
-    return _METRICS[name][1]
+    return _registry()[name][1]
 
 
 def split_metric(full: str) -> tuple[str, str]:
@@ -542,13 +551,14 @@ def evaluate(data: LogData, names: list[str]) -> MetricResults:
     but an old log's spec may not have been); any other exception is a bug and propagates.
     """
     values, reasons = {}, {}
+    registry = _registry()
     for full in names:
         base, arg = split_metric(full)
-        if base not in _METRICS:  # an old log's spec may name a metric since renamed
+        if base not in registry:  # an old log's spec may name a metric since renamed
             values[full], reasons[full] = math.nan, f"this walkrepro has no metric {base!r}"
             continue
         try:
-            values[full] = float(_METRICS[base][0](data, arg))
+            values[full] = float(registry[base][0](data, arg))
         except NotMeasurable as exc:
             values[full], reasons[full] = math.nan, exc.reason
         except MetricArgError as exc:
@@ -795,7 +805,3 @@ def _state_duration_spread(d: LogData, arg: str) -> float:
     if len(durations) < 2:
         raise NotMeasurable(f"{len(durations)} complete visit(s) of fsm_state {arg}, 2 needed")
     return float(np.std(durations) / np.mean(durations))
-
-
-# Paper-specific metrics register themselves on import (after `metric` exists).
-from walkrepro.paper_metrics import faraji, jo_oh, lee2021  # noqa: E402, F401

@@ -1,35 +1,43 @@
-"""Registry of controllers, by the ``controller.type`` name a spec uses.
+"""Controllers by the ``controller.type`` name a spec uses, from the installed plugins
+(:mod:`walkrepro.plugins`).
 
-Entries are imported lazily so that listing experiments does not import every paper's
-controller (and its dependencies).
+A controller's module is imported when a spec names it, so that listing experiments does not
+import every paper's controller (and its dependencies).
 """
 
 from __future__ import annotations
 
-from importlib import import_module
-
+from walkrepro import plugins
 from walkrepro.controllers.base import Command, Controller, ControllerParams
-from walkrepro.errors import UnknownNameError
-
-_REGISTRY: dict[str, str] = {
-    "posture": "walkrepro.controllers.posture:PostureController",
-    "qpimpedance": "walkrepro.controllers.qpimpedance.controller:QPImpedanceController",
-    "timeprojection": "walkrepro.controllers.timeprojection.controller:TimeProjectionController",
-    "efsm": "walkrepro.controllers.efsm.controller:EfsmController",
-}
+from walkrepro.errors import UnknownNameError, WalkreproError
 
 
 def controller_names() -> list[str]:
-    """Every controller type a spec may name."""
-    return sorted(_REGISTRY)
+    """Every controller type a spec may name: those of every installed plugin."""
+    return sorted(plugins.controllers())
 
 
 def controller_class(name: str) -> type[Controller]:
-    """The controller class registered as ``name``."""
-    if name not in _REGISTRY:
+    """The controller class registered as ``name``, imported now.
+
+    Raises:
+        UnknownNameError: no plugin declares ``name``.
+        WalkreproError: the declared class does not import or is not a :class:`Controller`.
+    """
+    registry = plugins.controllers()
+    if name not in registry:
         raise UnknownNameError("controller", name, controller_names())
-    module, _, attr = _REGISTRY[name].partition(":")
-    return getattr(import_module(module), attr)
+    try:
+        cls = plugins.load(registry[name])
+    except (ImportError, AttributeError) as exc:
+        raise WalkreproError(
+            f"controller {name!r} ({registry[name]}) does not import: {type(exc).__name__}: {exc}"
+        ) from None
+    if not (isinstance(cls, type) and issubclass(cls, Controller)):
+        raise WalkreproError(
+            f"controller {name!r} ({registry[name]}) is not a walkrepro.controllers.Controller."
+        )
+    return cls
 
 
 __all__ = ["Command", "Controller", "ControllerParams", "controller_class", "controller_names"]

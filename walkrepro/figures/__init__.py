@@ -1,20 +1,21 @@
 """Figure registry: which figures a run gets, by the paper its spec reproduces.
 
-Every run gets the generic overview (:mod:`walkrepro.figures.overview`); a paper module
-(``lee2021.py``, ``faraji.py``, ``jo_oh.py``) registers the figures that redraw that
-paper's plots. Figures read only the log.
+Every run gets the generic overview (:mod:`walkrepro.figures.overview`); the module a plugin
+declares for the run's paper key (:mod:`walkrepro.plugins`; walkrepro's own are
+``lee2021.py``, ``faraji.py``, ``jo_oh.py``) adds the figures that redraw that paper's
+plots. Figures read only the log.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from importlib import import_module
 from pathlib import Path
 
 import matplotlib
 
 matplotlib.use("Agg")  # headless: figures are files, never windows
 
+from walkrepro import plugins  # noqa: E402
 from walkrepro.figures import style  # noqa: E402
 from walkrepro.metrics import LogData  # noqa: E402
 
@@ -25,18 +26,13 @@ FigureFn = Callable[[LogData, Path], list[Path]]
 #: A comparison figure draws from two logs (e.g. with and without impedance).
 CompareFn = Callable[[LogData, LogData, Path], list[Path]]
 
-#: paper key -> module holding its FIGURES (and optionally COMPARE) lists
-_PAPER_MODULES: dict[str, str] = {
-    "lee2021": "walkrepro.figures.lee2021",
-    "faraji": "walkrepro.figures.faraji",
-    "jo_oh": "walkrepro.figures.jo_oh",
-}
-
 
 def _paper_figures(paper: str) -> tuple[list[FigureFn], list[CompareFn]]:
-    if paper not in _PAPER_MODULES:
+    """The FIGURES and COMPARE lists of the module a plugin declares for ``paper``."""
+    modules = plugins.figure_modules()
+    if paper not in modules:
         return [], []
-    module = import_module(_PAPER_MODULES[paper])
+    module = plugins.load(modules[paper])
     return list(getattr(module, "FIGURES", [])), list(getattr(module, "COMPARE", []))
 
 

@@ -1,0 +1,144 @@
+"""The plugin registry: every controller, metric and figure comes from an installed plugin.
+
+A plugin is an installed package that declares, in its ``pyproject.toml``::
+
+    [project.entry-points."walkrepro.plugins"]
+    my_lab = "my_lab.walkrepro_plugin:PLUGIN"
+
+where ``PLUGIN`` is a :class:`Plugin`. walkrepro's own controllers and papers are plugins
+declared the same way in walkrepro's ``pyproject.toml`` (``walkrepro/papers/``); nothing
+about them is special. A guide with a worked outside package: ``docs/plugins.md`` and
+``examples/walkrepro-example-plugin/``.
+
+Declarations are strings, so that nothing is imported before it is needed:
+
+- the controller names are known from the declarations; a controller's module is imported
+  when a spec names it;
+- the metric modules are imported on the first metric lookup (a spec's validation needs
+  every metric name), and register their metrics with :func:`walkrepro.metrics.metric`;
+- a paper's figure module is imported when a run of that paper draws its figures.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from importlib import import_module, metadata
+
+from walkrepro.errors import WalkreproError
+
+#: The entry-point group plugins register under.
+GROUP = "walkrepro.plugins"
+#: walkrepro's own plugins (in its pyproject.toml); missing means stale install metadata.
+OWN = ("walkrepro", "lee2021", "faraji", "jo_oh")
+
+
+@dataclass(frozen=True)
+class Plugin:
+    """What a plugin adds, as import paths.
+
+    Attributes:
+        controllers: ``controller.type`` name -> ``"module:Class"``, a subclass of
+            :class:`walkrepro.controllers.Controller`.
+        metric_modules: modules whose import registers metrics with
+            :func:`walkrepro.metrics.metric`.
+        figures: paper key (a spec's ``paper.key``) -> a module holding ``FIGURES`` (functions
+            ``(LogData, out_dir) -> [paths]``) and optionally ``COMPARE`` (functions
+            ``(LogData, LogData, out_dir) -> [paths]``).
+    """
+
+    controllers: Mapping[str, str] = field(default_factory=dict)
+    metric_modules: tuple[str, ...] = ()
+    figures: Mapping[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Registered:
+    """A loaded plugin: its entry-point name, the distribution that installed it, and it."""
+
+    name: str
+    distribution: str
+    plugin: Plugin
+
+
+@functools.cache
+def registered() -> tuple[Registered, ...]:
+    """Every installed plugin, walkrepro's own first, then by name.
+
+    Raises:
+        WalkreproError: an entry point that does not load or is not a :class:`Plugin`, or
+            walkrepro's own plugins are missing (install metadata older than this code).
+    """
+    found = []
+    for ep in metadata.entry_points(group=GROUP):
+        where = f"plugin {ep.name!r} ({ep.value}"
+        dist = ep.dist.name if ep.dist is not None else "unknown distribution"
+        try:
+            plugin = ep.load()
+        except Exception as exc:  # noqa: BLE001 - any import error of a third-party plugin
+            raise WalkreproError(
+                f"{where}, from {dist}) does not load: {type(exc).__name__}: {exc}"
+            ) from None
+        if not isinstance(plugin, Plugin):
+            raise WalkreproError(
+                f"{where}, from {dist}) is a {type(plugin).__name__}, not a "
+                "walkrepro.plugins.Plugin."
+            )
+        found.append(Registered(ep.name, dist, plugin))
+    missing = [name for name in OWN if name not in {r.name for r in found}]
+    if missing:
+        raise WalkreproError(
+            f"walkrepro's own plugins ({', '.join(missing)}) are not registered: the install's "
+            "metadata is older than this code. Reinstall: pip install -e . (from the clone)."
+        )
+    return tuple(sorted(found, key=lambda r: (r.name not in OWN, r.name)))
+
+
+def _merged(kind: str, label: str) -> dict[str, str]:
+    """``name -> target`` of one kind (a :class:`Plugin` field) across plugins; a name that
+    two plugins declare differently is an error naming both."""
+    merged: dict[str, str] = {}
+    owner: dict[str, str] = {}
+    for reg in registered():
+        for name, target in getattr(reg.plugin, kind).items():
+            if name in merged and merged[name] != target:
+                raise WalkreproError(
+                    f"{label} {name!r} is declared by two plugins: {owner[name]} "
+                    f"({merged[name]}) and {reg.name} from {reg.distribution} ({target}); "
+                    "uninstall one."
+                )
+            merged[name], owner[name] = target, f"{reg.name} from {reg.distribution}"
+    return merged
+
+
+@functools.cache
+def controllers() -> dict[str, str]:
+    """Every controller type name -> ``"module:Class"``."""
+    return _merged("controllers", "controller")
+
+
+@functools.cache
+def figure_modules() -> dict[str, str]:
+    """Every paper key with figures -> its figure module."""
+    return _merged("figures", "the figures of paper")
+
+
+def load(target: str) -> object:
+    """Import ``"module:attr"`` (or a module) and return the object."""
+    module, _, attr = target.partition(":")
+    loaded = import_module(module)
+    return getattr(loaded, attr) if attr else loaded
+
+
+@functools.cache
+def load_metric_modules() -> None:
+    """Import every plugin's metric modules once (they register their metrics on import)."""
+    for reg in registered():
+        for module in reg.plugin.metric_modules:
+            import_module(module)
+
+
+#: walkrepro's core plugin: the posture controller of the ``stand_*`` sanity checks. The core
+#: metrics register in :mod:`walkrepro.metrics` itself, the overview figure is every run's.
+CORE = Plugin(controllers={"posture": "walkrepro.controllers.posture:PostureController"})
