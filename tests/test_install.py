@@ -11,6 +11,7 @@ import sysconfig
 from pathlib import Path
 
 import pytest
+from test_cli import SPEC
 from typer.testing import CliRunner
 
 from walkrepro import locations
@@ -20,16 +21,8 @@ ROOT = Path(__file__).resolve().parents[1]
 #: What a wheel is not built from: git, build products, runs and their logs.
 NOT_SOURCES = (".git", "build", "dist", "*.egg-info", "__pycache__", ".*_cache", "runs", "report")
 
-USER_SPEC = """\
-name: my_stand
-description: a user's own short standing run
-paper: {key: walkrepro}
-robot: dyros_red
-controller: {type: posture}
-sim: {timestep: 0.0005, control_period: 0.001, duration: 0.3}
-expect:
-  - {metric: fell, op: "==", value: 0, source: test}
-"""
+#: A user's own spec: the CLI tests' short standing run under another name.
+USER_SPEC = SPEC.replace("name: tiny_stand", "name: my_stand")
 
 
 @pytest.fixture

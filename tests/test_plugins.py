@@ -40,6 +40,14 @@ def fake_entry_points(monkeypatch: pytest.MonkeyPatch, *extra: metadata.EntryPoi
     )
 
 
+def install_fake_plugin(monkeypatch: pytest.MonkeyPatch, controllers: dict[str, str]) -> None:
+    """An outside plugin ``lab`` (module ``fake_lab``) declaring ``controllers``."""
+    module = type(sys)("fake_lab")
+    module.PLUGIN = plugins.Plugin(controllers=controllers)
+    monkeypatch.setitem(sys.modules, "fake_lab", module)
+    fake_entry_points(monkeypatch, metadata.EntryPoint("lab", "fake_lab:PLUGIN", plugins.GROUP))
+
+
 def test_walkrepro_own_papers_come_through_the_entry_points() -> None:
     names = {r.name: r.distribution for r in plugins.registered()}
     assert {n: names[n] for n in plugins.OWN} == dict.fromkeys(plugins.OWN, "walkrepro")
@@ -59,11 +67,7 @@ def test_an_unknown_controller_lists_the_known_ones() -> None:
 def test_an_outside_plugin_adds_its_names(
     monkeypatch: pytest.MonkeyPatch, fresh_registry: None
 ) -> None:
-    monkeypatch.setitem(sys.modules, "fake_lab", type(sys)("fake_lab"))
-    sys.modules["fake_lab"].PLUGIN = plugins.Plugin(
-        controllers={"fake": "walkrepro.controllers.posture:PostureController"}
-    )
-    fake_entry_points(monkeypatch, metadata.EntryPoint("lab", "fake_lab:PLUGIN", plugins.GROUP))
+    install_fake_plugin(monkeypatch, {"fake": "walkrepro.controllers.posture:PostureController"})
     assert "fake" in controller_names()
     assert controller_class("fake").__name__ == "PostureController"
 
@@ -71,9 +75,7 @@ def test_an_outside_plugin_adds_its_names(
 def test_two_plugins_declaring_one_name_is_an_error(
     monkeypatch: pytest.MonkeyPatch, fresh_registry: None
 ) -> None:
-    monkeypatch.setitem(sys.modules, "fake_lab", type(sys)("fake_lab"))
-    sys.modules["fake_lab"].PLUGIN = plugins.Plugin(controllers={"efsm": "fake_lab:Mine"})
-    fake_entry_points(monkeypatch, metadata.EntryPoint("lab", "fake_lab:PLUGIN", plugins.GROUP))
+    install_fake_plugin(monkeypatch, {"efsm": "fake_lab:Mine"})
     with pytest.raises(WalkreproError, match="'efsm' is declared by two plugins.*lab"):
         controller_names()
 
@@ -101,9 +103,7 @@ def test_stale_install_metadata_says_to_reinstall(
 def test_a_declared_class_that_is_not_a_controller_is_refused(
     monkeypatch: pytest.MonkeyPatch, fresh_registry: None
 ) -> None:
-    monkeypatch.setitem(sys.modules, "fake_lab", type(sys)("fake_lab"))
-    sys.modules["fake_lab"].PLUGIN = plugins.Plugin(controllers={"bad": "pathlib:Path"})
-    fake_entry_points(monkeypatch, metadata.EntryPoint("lab", "fake_lab:PLUGIN", plugins.GROUP))
+    install_fake_plugin(monkeypatch, {"bad": "pathlib:Path"})
     with pytest.raises(WalkreproError, match="not a walkrepro.controllers.Controller"):
         controller_class("bad")
 

@@ -32,8 +32,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 __version__ = "0.1.0"
 
-# numba's cache=True notices edits to a kernel's own file only; this keys every walkrepro
-# kernel's cache on the sources it imports too (see numbacache.py). Before any kernel exists.
+# numba's cache=True notices edits to a kernel's own file only; this points numba's cache at
+# a directory keyed on every source the kernels import too (see numbacache.py). Before
+# anything imports numba, which reads NUMBA_CACHE_DIR when it loads.
 from walkrepro import numbacache  # noqa: E402
 
 numbacache.install()

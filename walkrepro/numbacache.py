@@ -1,4 +1,4 @@
-"""numba's on-disk cache, keyed on every source file a kernel can depend on.
+"""numba's on-disk cache, in a directory keyed on every source file a kernel can depend on.
 
 numba's ``cache=True`` stamps a cached kernel with its own file's modification time and
 size only. A kernel compiles its callees (``@njit`` helpers) and the globals it reads
@@ -6,31 +6,44 @@ size only. A kernel compiles its callees (``@njit`` helpers) and the globals it 
 ``walkrepro/robot.py``'s ``frame_jacobian`` used by ``controllers/efsm/kernels.py``, would
 leave the kernel's stale machine code in use.
 
-:class:`SourceTreeLocator` is numba's in-tree locator (cache files in the module's
-``__pycache__``) with a different stamp: a hash of the kernel's module and of every module
-of the same package it imports, transitively, found by reading their ``import`` statements
-(not by importing them). Any edit to one of those files changes the stamp, and numba then
-recompiles the kernel and overwrites its cache. It is installed for :data:`PACKAGES` when
-walkrepro is imported, before any kernel is defined.
+So walkrepro gives numba a cache directory of its own through numba's documented setting
+``NUMBA_CACHE_DIR`` (``numba.config.CACHE_DIR``): ``<cache home>/walkrepro/numba/<key>``,
+where the key is a hash of the kernel sources of the watched packages (:data:`PACKAGES`):
+every module that imports numba, and every module of the same package it imports,
+transitively, found by reading their ``import`` statements (not by importing them). An edit
+to one of those files gives a new key and so a new, empty directory, where numba compiles
+afresh; an edit elsewhere (the CLI, a figure) keeps the compiled kernels. The cache home is
+``$XDG_CACHE_HOME`` or ``~/.cache``, or, when the user set ``NUMBA_CACHE_DIR``, that
+directory. Keys unused for :data:`KEEP_DAYS` days are removed.
+
+:func:`install` runs when walkrepro is imported, before anything imports numba.
 """
 
 from __future__ import annotations
 
 import ast
 import hashlib
+import json
+import os
+import shutil
 import sys
+import time
 from functools import cache
 from pathlib import Path
 
-from numba.core import caching
-
-#: Top-level packages whose kernels are cached by :class:`SourceTreeLocator`.
+#: Top-level packages whose kernels' sources key the cache directory.
 PACKAGES: set[str] = {"walkrepro"}
+#: A cache directory (one key) not used for this many days is removed.
+KEEP_DAYS = 14
+#: numba's setting (an environment variable read when numba is imported).
+CACHE_DIR_ENV = "NUMBA_CACHE_DIR"
 
 
 def watch(package: str) -> None:
-    """Key the caches of ``package``'s kernels (those defined from now on) on its sources."""
+    """Key the cache directory on ``package``'s kernel sources too (a package outside
+    walkrepro with kernels of its own); call it before the package's kernels compile."""
     PACKAGES.add(package)
+    install()
 
 
 def _package_root(module: str) -> Path | None:
@@ -40,6 +53,11 @@ def _package_root(module: str) -> Path | None:
         return None
     package = sys.modules.get(top)
     file = getattr(package, "__file__", None)
+    if file is None:  # not imported yet: found on the path without importing it
+        from importlib.util import find_spec
+
+        spec = find_spec(top)
+        file = spec.origin if spec is not None else None
     return Path(file).resolve().parent.parent if file else None
 
 
@@ -93,11 +111,6 @@ def _runtime_nodes(tree: ast.AST):  # noqa: ANN202 - a generator of nodes
                 todo.append(child)
 
 
-@cache
-def _file_hash(file: Path, mtime_ns: int, size: int) -> bytes:
-    return hashlib.sha256(file.read_bytes()).digest()
-
-
 def dependency_files(module: str) -> list[Path]:
     """``module``'s source file and those of every module of its package that it imports,
     directly or through others (sorted); empty if ``module`` is not in a watched package."""
@@ -118,35 +131,120 @@ def dependency_files(module: str) -> list[Path]:
     return sorted(seen.values())
 
 
-def source_stamp(module: str) -> str:
-    """Hash of :func:`dependency_files` (their paths and contents)."""
+def kernel_modules(package: str) -> list[str]:
+    """The modules of ``package`` that import numba (where a kernel can be defined)."""
+    root = _package_root(package)
+    if root is None:
+        return []
+    found = []
+    for file in sorted((root / package).rglob("*.py")):
+        if b"numba" in file.read_bytes():  # cheap filter, then the imports themselves
+            module = ".".join(file.relative_to(root).with_suffix("").parts)
+            module = module.removesuffix(".__init__")
+            tree = ast.parse(file.read_bytes(), str(file))
+            imported = {
+                alias.name.partition(".")[0]
+                for node in _runtime_nodes(tree)
+                if isinstance(node, ast.Import)
+                for alias in node.names
+            } | {
+                (node.module or "").partition(".")[0]
+                for node in _runtime_nodes(tree)
+                if isinstance(node, ast.ImportFrom) and not node.level
+            }
+            if "numba" in imported:
+                found.append(module)
+    return found
+
+
+def _stat_signature() -> str:
+    """Hash of the path, modification time and size of every source file of the watched
+    packages: cheap (no file is read), and it changes whenever a source file may have."""
     digest = hashlib.sha256()
-    for file in dependency_files(module):
-        stat = file.stat()
-        digest.update(str(file).encode() + _file_hash(file, stat.st_mtime_ns, stat.st_size))
+    for package in sorted(PACKAGES):
+        root = _package_root(package)
+        if root is None:
+            continue
+        for file in sorted((root / package).rglob("*.py")):
+            stat = file.stat()
+            digest.update(f"{file}\0{stat.st_mtime_ns}\0{stat.st_size}\n".encode())
     return digest.hexdigest()
 
 
-class SourceTreeLocator(caching.InTreeCacheLocator):
-    """numba's in-tree cache locator, stamped with :func:`source_stamp` of the kernel's
-    module instead of its own file's modification time."""
+def cache_key() -> str:
+    """:func:`source_key`, remembered in the cache home for the sources' current
+    :func:`_stat_signature` (reading and parsing them takes a third of a second)."""
+    memo = cache_home() / "keys.json"
+    signature = _stat_signature()
+    try:
+        known = json.loads(memo.read_text())
+    except (OSError, ValueError):
+        known = {}
+    if not isinstance(known, dict):
+        known = {}
+    if isinstance(known.get(signature), str):
+        return known[signature]
+    key = source_key()
+    known = dict(list(known.items())[-31:]) | {signature: key}
+    try:
+        memo.parent.mkdir(parents=True, exist_ok=True)
+        partial = memo.with_name(f".keys.{os.getpid()}.json")
+        partial.write_text(json.dumps(known))
+        os.replace(partial, memo)  # atomic: a concurrent reader sees the old or the new
+    except OSError:
+        pass
+    return key
 
-    def __init__(self, py_func, py_file) -> None:  # noqa: ANN001 - numba's signature
-        super().__init__(py_func, py_file)
-        self._module = py_func.__module__
 
-    @classmethod
-    def from_function(cls, py_func, py_file):  # noqa: ANN001, ANN206 - numba's signature
-        if _package_root(getattr(py_func, "__module__", "") or "") is None:
-            return None  # not ours: numba's own locators decide
-        return super().from_function(py_func, py_file)
+def source_key() -> str:
+    """Hash of the kernel sources of every watched package: their paths (relative to the
+    package's parent) and contents."""
+    digest = hashlib.sha256()
+    for package in sorted(PACKAGES):
+        root = _package_root(package)
+        if root is None:
+            continue
+        files = sorted({f for m in kernel_modules(package) for f in dependency_files(m)})
+        for file in files:
+            digest.update(str(file.relative_to(root)).encode() + b"\0" + file.read_bytes())
+    return digest.hexdigest()[:16]
 
-    def get_source_stamp(self) -> str:
-        return source_stamp(self._module)
+
+def cache_home() -> Path:
+    """The user's ``NUMBA_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/walkrepro/numba`` (or
+    ``~/.cache/walkrepro/numba``). A ``NUMBA_CACHE_DIR`` that is already one of ours (a
+    worker process inherits its parent's) names its home by its parent."""
+    user = os.environ.get(CACHE_DIR_ENV)
+    if user:
+        path = Path(user)
+        return path.parent if path.name.startswith("walkrepro-") else path
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "walkrepro" / "numba"
 
 
-def install() -> None:
-    """Puts :class:`SourceTreeLocator` first among numba's cache locators (idempotent)."""
-    impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # numba < 0.61
-    if SourceTreeLocator not in impl._locator_classes:
-        impl._locator_classes = [SourceTreeLocator, *impl._locator_classes]
+def _prune(home: Path, keep: Path) -> None:
+    """Remove the key directories beside ``keep`` unused for :data:`KEEP_DAYS` days."""
+    cutoff = time.time() - KEEP_DAYS * 86400
+    for old in home.glob("walkrepro-*"):
+        if old != keep and old.is_dir() and old.stat().st_mtime < cutoff:
+            shutil.rmtree(old, ignore_errors=True)
+
+
+def install() -> Path | None:
+    """Point numba's cache at the directory of the current :func:`cache_key` (idempotent).
+
+    Returns the directory, or None if it cannot be created (numba's own default applies).
+    """
+    home = cache_home()
+    directory = home / f"walkrepro-{cache_key()}"
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        os.utime(directory)  # marks it used, for _prune
+    except OSError:
+        return None
+    _prune(home, directory)
+    os.environ[CACHE_DIR_ENV] = str(directory)  # read when numba is imported
+    config = sys.modules.get("numba.core.config")
+    if config is not None:  # numba already imported: its setting, read at each compile
+        config.CACHE_DIR = str(directory)
+    return directory
