@@ -284,6 +284,72 @@ def log3_theta_axis(val: float, m: np.ndarray, i0: int) -> tuple[float, float, f
     return 2.0 * math.atan2(norm, w), axis[0] / norm, axis[1] / norm, axis[2] / norm
 
 
+#: Pinocchio's ``TaylorSeriesExpansion<double>::precision<2>()``, ε^(1/3): where
+#: :func:`log3_entries` switches to its series near 0 and to its form near π.
+LOG3_PRECISION = math.pow(_EPS, 1.0 / 3.0)
+
+
+@numba.njit(cache=True)
+def log3_entries(
+    r00: float, r01: float, r02: float,
+    r10: float, r11: float, r12: float,
+    r20: float, r21: float, r22: float,
+) -> tuple[float, float, float]:  # fmt: skip
+    """log₃ R: the rotation vector θ u [rad] of the rotation R with entries r_ij, as
+    ``pinocchio.log3`` (tested against it to 1e-12 near 0, in between and near π).
+
+    The steps of Pinocchio's ``log3_impl``: re-orthonormalise R (columns 0 and 1 normalised,
+    c₂ = c₀ × c₁, c₀ = c₁ × c₂); θ from the trace (acos, its series near 0); near θ = π the
+    axis from the largest diagonal entry (:func:`log3_theta_axis`); then θ / sin θ (its
+    series below ε^(1/3)) times the skew part. The one log₃ of the compiled controllers
+    (Paper I's orientation errors, Paper III's pelvis and torso tasks); on scalars, because
+    3-vectors cost more in allocations than in arithmetic.
+    """
+    n0 = math.sqrt(r00 * r00 + r10 * r10 + r20 * r20)
+    n1 = math.sqrt(r01 * r01 + r11 * r11 + r21 * r21)
+    x0, x1, x2 = r00 / n0, r10 / n0, r20 / n0  # column 0
+    y0, y1, y2 = r01 / n1, r11 / n1, r21 / n1  # column 1
+    z0, z1, z2 = x1 * y2 - x2 * y1, x2 * y0 - x0 * y2, x0 * y1 - x1 * y0  # column 2 = x × y
+    x0, x1, x2 = y1 * z2 - y2 * z1, y2 * z0 - y0 * z2, y0 * z1 - y1 * z0  # column 0 = y × z
+    trace = x0 + (y1 + z2)
+    cos_value = (trace - 1.0) / 2.0
+    prec = LOG3_PRECISION
+    if cos_value < -1.0 + prec:  # θ ≈ π: the axis from the largest 2 R_kk − tr + 1
+        m = np.empty((3, 3))
+        m[0, 0], m[1, 0], m[2, 0] = x0, x1, x2
+        m[0, 1], m[1, 1], m[2, 1] = y0, y1, y2
+        m[0, 2], m[1, 2], m[2, 2] = z0, z1, z2
+        val0, val1, val2 = (2.0 * x0 - trace + 1.0, 2.0 * y1 - trace + 1.0,
+                            2.0 * z2 - trace + 1.0)  # fmt: skip
+        if val0 >= val1:
+            k, val = (0, val0) if val0 >= val2 else (2, val2)
+        else:
+            k, val = (1, val1) if val1 >= val2 else (2, val2)
+        theta, u0, u1, u2 = log3_theta_axis(val, m, k)
+        return theta * u0, theta * u1, theta * u2
+    acos_expansion = math.sqrt(2.0 * (1.0 - cos_value) + _EPS * _EPS)
+    if trace <= 3.0 - prec:
+        theta = math.acos(cos_value) if trace >= -1.0 + prec else math.pi - acos_expansion
+    else:
+        theta = acos_expansion
+    w0, w1, w2 = 0.5 * (y2 - z1), 0.5 * (z0 - x2), 0.5 * (x1 - y0)  # unskew
+    if theta >= prec:
+        t = theta / math.sin(theta)
+    else:
+        n2 = w0 * w0 + w1 * w1 + w2 * w2
+        t = 1.0 + n2 / 6.0 + n2 * n2 * 3.0 / 40.0
+    return t * w0, t * w1, t * w2
+
+
+@numba.njit(cache=True)
+def log3(rotation: np.ndarray, out: np.ndarray) -> None:
+    """:func:`log3_entries` of a 3 × 3 rotation, written into ``out`` (shape (3,)) [rad]."""
+    r = rotation
+    out[0], out[1], out[2] = log3_entries(
+        r[0, 0], r[0, 1], r[0, 2], r[1, 0], r[1, 1], r[1, 2], r[2, 0], r[2, 1], r[2, 2]
+    )
+
+
 @dataclass(frozen=True, eq=False)  # eq=False: compare by identity, arrays have no ==
 class Robot:
     """One robot, loaded from ``robots/<name>/robot.xml`` into MuJoCo and Pinocchio.
