@@ -310,6 +310,16 @@ def test_frame_jacobian_matches_pinocchio() -> None:
         _close(out, s["jc"][6 * i : 6 * i + 6], rel=1e-14)
 
 
+def test_log3_matches_pinocchio() -> None:
+    """log3 equals pinocchio.log3 on random rotations, near identity and near π."""
+    rng = np.random.default_rng(8)
+    for angle in (0.0, 1e-9, 1e-6, 1e-3, 0.3, 2.0, math.pi - 1e-3, math.pi - 1e-7, math.pi):
+        for _ in range(5):
+            axis = rng.normal(size=3)
+            rot = pin.exp3(angle * axis / np.linalg.norm(axis))
+            np.testing.assert_allclose(kernels.log3(rot), pin.log3(rot), rtol=1e-12, atol=1e-13)
+
+
 def test_warm_up_compiles_what_a_tick_uses() -> None:
     """After reset, ticks in and out of DS compile nothing more (the first tick is not slow)."""
     robot = load_robot("dyros_red")

@@ -105,6 +105,14 @@ def _random_rotations(rng: np.random.Generator) -> list[np.ndarray]:
     return rotations
 
 
+def test_log3_equals_pinocchio_bit_for_bit() -> None:
+    """The compiled log₃ returns pin.log3's floats exactly, near 0, in between and near π."""
+    out = np.empty(3)
+    for rotation in _random_rotations(np.random.default_rng(10)):
+        tasks.log3(rotation, out)
+        np.testing.assert_array_equal(out, pin.log3(rotation))
+
+
 def test_matrix_to_rpy_equals_pinocchio_bit_for_bit() -> None:
     """The compiled roll–pitch–yaw returns pin.rpy.matrixToRpy's floats exactly, any yaw sign."""
     out = np.empty(3)

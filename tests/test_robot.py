@@ -25,8 +25,6 @@ from walkrepro.robot import (
     leg_actuators,
     list_robots,
     load_robot,
-    log3,
-    log3_entries,
     with_servo_gains,
 )
 
@@ -159,25 +157,6 @@ def anchor(model: mujoco.MjModel, data: mujoco.MjData, joint: str) -> np.ndarray
 
 
 # ---- registry ---------------------------------------------------------------------------
-
-
-def test_log3_matches_pinocchio_to_1e12() -> None:
-    """The compiled controllers' one log₃ equals pin.log3 to 1e-12 on rotations of every
-    size: identity, tiny (its series), small, large, within 1e-3 rad of a half turn, a half
-    turn exactly."""
-    rng = np.random.default_rng(10)
-    rotations = [np.eye(3), pin.exp3(np.array([0.0, 0.0, np.pi]))]
-    for scale in (1e-9, 1e-6, 1e-4, 1e-2, 0.3, 1.5):
-        rotations += [pin.exp3(rng.normal(0, scale, 3)) for _ in range(200)]
-    for _ in range(200):
-        axis = rng.normal(size=3)
-        angle = np.pi - abs(rng.normal(0, 1e-3))
-        rotations.append(pin.exp3(angle * axis / np.linalg.norm(axis)))
-    out = np.empty(3)
-    for rotation in rotations:
-        log3(rotation, out)
-        np.testing.assert_allclose(out, pin.log3(rotation), rtol=1e-12, atol=1e-12)
-        assert log3_entries(*rotation.ravel()) == tuple(out)
 
 
 def test_list_robots() -> None:

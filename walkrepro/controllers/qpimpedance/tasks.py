@@ -17,7 +17,7 @@ the same arithmetic, in the same order, in a few µs. Its inputs are views of Pi
 ``Data`` after ``computeAllTerms`` (M, C ξ̇ + g, the joint Jacobians, frame and joint
 placements, the joints' velocities and drift accelerations), passed without copies. The
 frames' drifts J̇ ξ̇, log₃ and roll–pitch–yaw angles are formed here (:func:`~walkrepro.robot.frame_classical_acceleration`,
-:func:`~walkrepro.robot.log3`, :func:`matrix_to_rpy`) in Pinocchio's own operations and summation order, so
+:func:`log3`, :func:`matrix_to_rpy`) in Pinocchio's own operations and summation order, so
 bit for bit what its Python functions return, instead of eight calls from Python (≈ 0.6–1 µs
 each). The small kernels it calls are compiled functions too, each tested against
 its Python reference (:func:`.footsteps.quintic`, :meth:`.footsteps.SwingTrajectory.at`,
@@ -41,10 +41,14 @@ from walkrepro.robot import (
     eigen_rotate,
     frame_classical_acceleration,
     frame_jacobian,
-    log3,
+    log3_theta_axis,
 )
 
 GRAVITY = 9.81  # [m/s^2]
+_EPS = float(np.finfo(np.float64).eps)
+#: Pinocchio's ``TaylorSeriesExpansion<double>::precision<2>()``, ε^(1/3) (the same libm
+#: pow): where :func:`log3` switches to its series near 0 and to its form near π.
+_LOG3_PREC = math.pow(_EPS, 1.0 / 3.0)
 
 #: Entries of the ``scalars`` array of :func:`task_rows`, in order.
 SCALARS = (
@@ -136,6 +140,60 @@ def kinematic_chain(model: pin.Model, frame_id: int) -> np.ndarray:
         start = model.joints[joint].idx_v
         chain[start : start + model.joints[joint].nv] = True
     return chain
+
+
+@numba.njit(cache=True)
+def log3(rotation: np.ndarray, out: np.ndarray) -> None:
+    """``pin.log3``: the rotation vector θ u of R [rad], compiled in Pinocchio's operations.
+
+    Pinocchio's ``log3_impl`` step by step: re-orthonormalise R, θ from the trace (acos, its
+    series near 0, or from the largest diagonal entry near π), then θ / sin θ times the skew
+    part; with Eigen's summation order (a column's norm as (x₀² + x₁²) + x₂², the trace as
+    R₀₀ + (R₁₁ + R₂₂)), so the result is Pinocchio's to the bit (tested).
+
+    Args:
+        rotation: R, shape (3, 3).
+        out: log₃ R, shape (3,).
+    """
+    r, m = rotation, np.empty((3, 3))
+    # renormalize_rotation_matrix: columns 0 and 1 normalised, c₂ = c₀ × c₁, c₀ = c₁ × c₂.
+    for j in range(2):
+        norm = math.sqrt(r[0, j] * r[0, j] + r[1, j] * r[1, j] + r[2, j] * r[2, j])
+        for i in range(3):
+            m[i, j] = r[i, j] / norm
+    m[0, 2] = m[1, 0] * m[2, 1] - m[2, 0] * m[1, 1]
+    m[1, 2] = m[2, 0] * m[0, 1] - m[0, 0] * m[2, 1]
+    m[2, 2] = m[0, 0] * m[1, 1] - m[1, 0] * m[0, 1]
+    m[0, 0] = m[1, 1] * m[2, 2] - m[2, 1] * m[1, 2]
+    m[1, 0] = m[2, 1] * m[0, 2] - m[0, 1] * m[2, 2]
+    m[2, 0] = m[0, 1] * m[1, 2] - m[1, 1] * m[0, 2]
+    trace = m[0, 0] + (m[1, 1] + m[2, 2])
+    cos_value = (trace - 1.0) / 2.0
+    prec = _LOG3_PREC
+    if cos_value < -1.0 + prec:  # θ ≈ π: the axis from the largest 2 R_kk − tr + 1
+        val0, val1, val2 = (2.0 * m[0, 0] - trace + 1.0, 2.0 * m[1, 1] - trace + 1.0,
+                            2.0 * m[2, 2] - trace + 1.0)  # fmt: skip
+        if val0 >= val1:
+            k, val = (0, val0) if val0 >= val2 else (2, val2)
+        else:
+            k, val = (1, val1) if val1 >= val2 else (2, val2)
+        theta, u0, u1, u2 = log3_theta_axis(val, m, k)
+        out[0], out[1], out[2] = theta * u0, theta * u1, theta * u2
+        return
+    acos_expansion = math.sqrt(2.0 * (1.0 - cos_value) + _EPS * _EPS)
+    if trace <= 3.0 - prec:
+        theta = math.acos(cos_value) if trace >= -1.0 + prec else math.pi - acos_expansion
+    else:
+        theta = acos_expansion
+    a0 = 0.5 * (m[2, 1] - m[1, 2])  # unSkew
+    a1 = 0.5 * (m[0, 2] - m[2, 0])
+    a2 = 0.5 * (m[1, 0] - m[0, 1])
+    if theta >= prec:
+        t = theta / math.sin(theta)
+    else:
+        n2 = a0 * a0 + a1 * a1 + a2 * a2
+        t = 1.0 + n2 / 6.0 + n2 * n2 * 3.0 / 40.0
+    out[0], out[1], out[2] = t * a0, t * a1, t * a2
 
 
 @numba.njit(cache=True)
