@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from walkrepro.controllers.timeprojection.dlqr import (
+from walkrepro.papers.faraji.dlqr import (
     Dlqr,
     constraint_selector,
     default_weights,
     error_map,
 )
-from walkrepro.controllers.timeprojection.gait import PeriodicGait
-from walkrepro.controllers.timeprojection.threelp import (
+from walkrepro.papers.faraji.gait import PeriodicGait
+from walkrepro.papers.faraji.threelp import (
     Q,
     ThreeLP,
     ThreeLPParams,

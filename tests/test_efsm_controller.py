@@ -7,8 +7,8 @@ from types import SimpleNamespace
 import numpy as np
 import pinocchio as pin
 
-from walkrepro.controllers.efsm.controller import EfsmController, EfsmParams
-from walkrepro.controllers.efsm.fsm import Phase
+from walkrepro.papers.lee2021.controller import EfsmController, EfsmParams
+from walkrepro.papers.lee2021.fsm import Phase
 from walkrepro.robot import load_robot
 
 
@@ -150,7 +150,7 @@ def test_pin_state_buffers_equal_the_snapshot_state() -> None:
 
 def test_ow_frame_matches_the_rotation_it_writes() -> None:
     """ow_frame's CoM, velocity and x_s are Rᵀ (· − p_sup) with the rotation it writes."""
-    from walkrepro.controllers.efsm.kernels import ow_frame
+    from walkrepro.papers.lee2021.kernels import ow_frame
 
     rng = np.random.default_rng(5)
     for _ in range(5):
@@ -165,7 +165,7 @@ def test_ow_frame_matches_the_rotation_it_writes() -> None:
 
 def test_signals_follow_the_kernel_layout() -> None:
     """Each logged signal reads the entries of kernels.SIGNALS that the tick wrote for it."""
-    from walkrepro.controllers.efsm.kernels import SIGNALS
+    from walkrepro.papers.lee2021.kernels import SIGNALS
 
     robot = load_robot("dyros_red")
     ctrl = EfsmController()

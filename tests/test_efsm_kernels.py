@@ -18,8 +18,8 @@ from oracles.efsm_fsm import (
     epsilon,
 )
 
-from walkrepro.controllers.efsm import kernels
-from walkrepro.controllers.efsm.controller import EfsmController, EfsmParams
+from walkrepro.papers.lee2021 import kernels
+from walkrepro.papers.lee2021.controller import EfsmController, EfsmParams
 from walkrepro.robot import load_robot
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED

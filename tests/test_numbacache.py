@@ -117,11 +117,11 @@ def test_install_points_numba_at_the_keyed_directory(watched_pair: Path, tmp_pat
 
 def test_walkrepro_kernels_depend_on_the_helpers_they_import() -> None:
     """The efsm and qpimpedance kernels' sources cover robot.py, whose helpers they inline."""
-    for module in ("walkrepro.controllers.efsm.kernels", "walkrepro.controllers.qpimpedance.tasks"):
+    for module in ("walkrepro.papers.lee2021.kernels", "walkrepro.papers.jo_oh.tasks"):
         names = {path.name for path in numbacache.dependency_files(module)}
         assert {"robot.py", f"{module.rsplit('.', 1)[1]}.py"} <= names
     kernels = numbacache.kernel_modules("walkrepro")
-    assert "walkrepro.controllers.efsm.kernels" in kernels and "walkrepro.cli" not in kernels
+    assert "walkrepro.papers.lee2021.kernels" in kernels and "walkrepro.cli" not in kernels
 
 
 def test_modules_outside_watched_packages_have_no_dependencies() -> None:

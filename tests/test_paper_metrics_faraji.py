@@ -20,9 +20,9 @@ from test_metrics import (
     write_log,
 )
 
-from walkrepro.controllers.timeprojection.controller import TimeProjectionParams
 from walkrepro.metrics import LogData
-from walkrepro.paper_metrics.faraji import (
+from walkrepro.papers.faraji.controller import TimeProjectionParams
+from walkrepro.papers.faraji.metrics import (
     CORRECTIVE_SIGMAS,
     corrective_band,
     corrective_steps,

@@ -22,7 +22,7 @@ from test_metrics import (
 )
 
 from walkrepro.metrics import LogData, MetricArgError, check_metric_arg
-from walkrepro.paper_metrics.lee2021 import eq3_cop_lead, ow_x, switch_torque_jumps
+from walkrepro.papers.lee2021.metrics import eq3_cop_lead, ow_x, switch_torque_jumps
 
 ROBOT = "dyros_red"
 BOX = {"name": "obstacle_box", "size": [0.2, 0.2, 0.15], "position": [0.4, -0.1, 0.075]}

@@ -7,16 +7,16 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from walkrepro.controllers.timeprojection.dlqr import Dlqr, default_weights
-from walkrepro.controllers.timeprojection.gait import PeriodicGait
-from walkrepro.controllers.timeprojection.projection import (
+from walkrepro.papers.faraji.dlqr import Dlqr, default_weights
+from walkrepro.papers.faraji.gait import PeriodicGait
+from walkrepro.papers.faraji.projection import (
     SAGITTAL,
     TimeProjection,
     attack_angle,
     projection_gains,
     truncate_footstep,
 )
-from walkrepro.controllers.timeprojection.threelp import (
+from walkrepro.papers.faraji.threelp import (
     D,
     Q,
     ThreeLP,

@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 from scipy.optimize import nnls
 
-from walkrepro.controllers.qpimpedance.centroidal_qp import (
+from walkrepro.papers.jo_oh.centroidal_qp import (
     Task,
     build_qp,
     contact_wrench_basis,
     friction_basis,
     joint_torques,
 )
-from walkrepro.controllers.qpimpedance.condensed import (
+from walkrepro.papers.jo_oh.condensed import (
     cholesky_in_place,
     nonnegative_qp,
     solve_centroidal,

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from walkrepro.controllers import controller_class
-from walkrepro.controllers.qpimpedance.controller import SUPPORTS, TAIL_SIGNALS
-from walkrepro.controllers.qpimpedance.tasks import SIGNAL_COM, signal_names
+from walkrepro.papers.jo_oh.controller import SUPPORTS, TAIL_SIGNALS
+from walkrepro.papers.jo_oh.tasks import SIGNAL_COM, signal_names
 from walkrepro.robot import load_robot
 
 

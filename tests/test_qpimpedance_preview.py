@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from walkrepro.controllers.qpimpedance.footsteps import RIGHT, SwingTrajectory, plan_walk
-from walkrepro.controllers.qpimpedance.preview import generate_com, preview_gains
+from walkrepro.papers.jo_oh.footsteps import RIGHT, SwingTrajectory, plan_walk
+from walkrepro.papers.jo_oh.preview import generate_com, preview_gains
 
 DT = 0.005
 

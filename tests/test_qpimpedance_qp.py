@@ -6,7 +6,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from walkrepro.controllers.qpimpedance.centroidal_qp import (
+from walkrepro.papers.jo_oh.centroidal_qp import (
     SOLVERS,
     CentroidalQP,
     Task,

@@ -11,9 +11,9 @@ import pinocchio as pin
 import pytest
 
 from walkrepro.controllers import controller_class
-from walkrepro.controllers.qpimpedance import tasks
-from walkrepro.controllers.qpimpedance.footsteps import SwingTrajectory, quintic
-from walkrepro.controllers.qpimpedance.impedance import ImpedanceFilter
+from walkrepro.papers.jo_oh import tasks
+from walkrepro.papers.jo_oh.footsteps import SwingTrajectory, quintic
+from walkrepro.papers.jo_oh.impedance import ImpedanceFilter
 from walkrepro.robot import frame_classical_acceleration, load_robot, pin_state_into
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED

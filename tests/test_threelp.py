@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from walkrepro.controllers.timeprojection.threelp import (
+from walkrepro.papers.faraji.threelp import (
     N_XI,
     D,
     Q,

@@ -7,7 +7,7 @@ import pinocchio as pin
 import pytest
 
 from walkrepro.controllers import controller_class
-from walkrepro.controllers.timeprojection.controller import TimeProjectionParams
+from walkrepro.papers.faraji.controller import TimeProjectionParams
 from walkrepro.robot import load_robot
 from walkrepro.sensors import SensorSnapshot
 
@@ -80,7 +80,7 @@ def test_posture_spring_compensation_matches_home_preload() -> None:
     import numpy as np
     import pytest as _pytest
 
-    from walkrepro.controllers.timeprojection.controller import TimeProjectionController
+    from walkrepro.papers.faraji.controller import TimeProjectionController
     from walkrepro.robot import load_robot
 
     robot = load_robot("coman")
@@ -246,7 +246,7 @@ def test_series_compensation_adds_the_servo_yield() -> None:
     """'posture_series' divides the static torques by the servo in series with the spring,
     so each sagittal offset grows by k_spring / k_series (knee 300 and ankle 125 Nm/rad
     behind 1111 Nm/rad servos: 1.27× and 1.11×); the roll and yaw targets do not change."""
-    from walkrepro.controllers.timeprojection.openloop import series_stiffness
+    from walkrepro.papers.faraji.openloop import series_stiffness
 
     robot, series = _controller(start_time=0.0, spring_compensation="posture_series")
     _, spring = _controller(start_time=0.0, spring_compensation="posture")

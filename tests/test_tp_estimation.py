@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from walkrepro.controllers.timeprojection import lift
-from walkrepro.controllers.timeprojection.estimation import (
+from walkrepro.papers.faraji import lift
+from walkrepro.papers.faraji.estimation import (
     IirFilter,
     KinematicState,
     MovingAverageDerivative,

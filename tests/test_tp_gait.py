@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from walkrepro.controllers.timeprojection.gait import PeriodicGait
-from walkrepro.controllers.timeprojection.threelp import (
+from walkrepro.papers.faraji.gait import PeriodicGait
+from walkrepro.papers.faraji.threelp import (
     N_XI,
     Q,
     ThreeLP,

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from walkrepro.controllers.timeprojection.ik import LegGeometry, forward, leg_ik
-from walkrepro.controllers.timeprojection.openloop import threelp_params_from_robot
+from walkrepro.papers.faraji.ik import LegGeometry, forward, leg_ik
+from walkrepro.papers.faraji.openloop import threelp_params_from_robot
 from walkrepro.robot import load_robot
 
 
@@ -38,7 +38,7 @@ def test_threelp_params_follow_the_model() -> None:
 
 def test_level_ik_matches_the_general_ik() -> None:
     """LegIk.solve_level (floats, per tick) equals LegIk.solve with a level pelvis."""
-    from walkrepro.controllers.timeprojection.openloop import LegIk, LegTargets
+    from walkrepro.papers.faraji.openloop import LegIk, LegTargets
 
     ik = LegIk(load_robot("coman"))
     rng = np.random.default_rng(2)

@@ -3,7 +3,7 @@
 numba's ``cache=True`` stamps a cached kernel with its own file's modification time and
 size only. A kernel compiles its callees (``@njit`` helpers) and the globals it reads
 (constants, arrays) into itself, so editing a helper or a constant in *another* module, e.g.
-``walkrepro/robot.py``'s ``frame_jacobian`` used by ``controllers/efsm/kernels.py``, would
+``walkrepro/robot.py``'s ``frame_jacobian`` used by ``papers/lee2021/kernels.py``, would
 leave the kernel's stale machine code in use.
 
 So walkrepro gives numba a cache directory of its own through numba's documented setting

@@ -179,7 +179,7 @@ def frame_jacobian(
     kinematic chain are zero.
 
     numba's cache does not notice edits here in the compiled callers that inline this
-    (``efsm/kernels.py``, ``qpimpedance/tasks.py``): after changing it, delete their
+    (``lee2021/kernels.py``, ``jo_oh/tasks.py``): after changing it, delete their
     ``__pycache__``.
 
     Args:

@@ -5,7 +5,7 @@ support-foot centre, x toward the swing foot's ground projection). No clock appe
 any transition: each state ends on an event of the measured state (Table I).
 
 A test oracle, not part of the package: the controller's tick runs the same E-FSM compiled,
-``walkrepro.controllers.efsm.kernels.fsm_step``, which ``tests/test_efsm_kernels.py``
+``walkrepro.papers.lee2021.kernels.fsm_step``, which ``tests/test_efsm_kernels.py``
 compares with :meth:`EventFsm.step`.
 """
 
@@ -15,7 +15,7 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from walkrepro.controllers.efsm.fsm import Phase
+from walkrepro.papers.lee2021.fsm import Phase
 
 
 @dataclass(frozen=True)

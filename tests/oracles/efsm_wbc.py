@@ -16,7 +16,7 @@ prioritized projector Ñ_{12}ᵀ = Ñ_1ᵀ Ñ_{2|1}ᵀ for the third task.
 
 A test oracle, not part of the package: the readable numpy reference of that algebra,
 tested against Pinocchio's constrained dynamics. The controller runs the same steps compiled
-in ``walkrepro.controllers.efsm.kernels`` (a tick is too many small numpy calls to run
+in ``walkrepro.papers.lee2021.kernels`` (a tick is too many small numpy calls to run
 fast), which the tests check against this one.
 """
 
@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from walkrepro.controllers.efsm.kernels import PINV_RCOND
+from walkrepro.papers.lee2021.kernels import PINV_RCOND
 
 #: Rows of the two stacked foot wrenches other than the normal forces (Appendix C).
 _TANGENTIAL = np.array([0, 1, 3, 4, 5, 6, 7, 9, 10, 11])

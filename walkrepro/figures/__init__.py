@@ -2,8 +2,8 @@
 
 Every run gets the generic overview (:mod:`walkrepro.figures.overview`); the module a plugin
 declares for the run's paper key (:mod:`walkrepro.plugins`; walkrepro's own are
-``lee2021.py``, ``faraji.py``, ``jo_oh.py``) adds the figures that redraw that paper's
-plots. Figures read only the log.
+``walkrepro/papers/<paper>/figures.py``) adds the figures that redraw that paper's plots.
+Figures read only the log.
 """
 
 from __future__ import annotations

@@ -25,16 +25,16 @@ import pinocchio as pin
 from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
-from walkrepro.controllers.qpimpedance.centroidal_qp import (
+from walkrepro.papers.jo_oh.centroidal_qp import (
     SOLVERS,
     CentroidalQP,
     contact_wrench_basis,
     friction_basis,
 )
-from walkrepro.controllers.qpimpedance.condensed import warm_up
-from walkrepro.controllers.qpimpedance.footsteps import LEFT, RIGHT, SIDES, FootstepPlan, plan_walk
-from walkrepro.controllers.qpimpedance.preview import generate_com, preview_gains
-from walkrepro.controllers.qpimpedance.tasks import (
+from walkrepro.papers.jo_oh.condensed import warm_up
+from walkrepro.papers.jo_oh.footsteps import LEFT, RIGHT, SIDES, FootstepPlan, plan_walk
+from walkrepro.papers.jo_oh.preview import generate_com, preview_gains
+from walkrepro.papers.jo_oh.tasks import (
     FOOT_BLOCK,
     N_SIGNALS,
     ROW_POSTURE,

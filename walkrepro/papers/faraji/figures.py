@@ -14,7 +14,7 @@ import numpy as np
 from walkrepro.figures import CompareFn, FigureFn, style
 from walkrepro.figures.style import save
 from walkrepro.metrics import LogData, NotMeasurable
-from walkrepro.paper_metrics.faraji import (
+from walkrepro.papers.faraji.metrics import (
     _feet_relative,
     _phase_times,
     _stride_speed,
@@ -45,7 +45,7 @@ def fig13_gains(d: LogData, out_dir: Path) -> list[Path]:
     """Fig. 13: time-projection gains over the phase (torque table A, footstep table B)."""
     if not _is_tp(d):
         return []
-    from walkrepro.controllers.timeprojection.controller import (
+    from walkrepro.papers.faraji.controller import (
         TimeProjectionController,
         TimeProjectionParams,
     )

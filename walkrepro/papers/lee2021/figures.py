@@ -16,7 +16,7 @@ import numpy as np
 from walkrepro.figures import CompareFn, FigureFn, style
 from walkrepro.figures.style import save
 from walkrepro.metrics import LogData
-from walkrepro.paper_metrics.lee2021 import switch_torque_jumps
+from walkrepro.papers.lee2021.metrics import switch_torque_jumps
 from walkrepro.robot import leg_actuators
 
 #: Fig. 14 shows the first steps: the paper's robot falls after t ≈ 1 s without ε [s].
@@ -133,7 +133,7 @@ def fig10_right_foot(d: LogData, out_dir: Path) -> list[Path]:
     t, sw = _sig(d, "swing_pos_world")
     _, ref = _sig(d, "swing_ref_world")
     _, swing = _sig(d, "swing_foot")
-    from walkrepro.paper_metrics.lee2021 import _sole_tracks
+    from walkrepro.papers.lee2021.metrics import _sole_tracks
 
     right = _sole_tracks(d)["right"]
     fig, ax = plt.subplots(1, 1, figsize=(9, 4))

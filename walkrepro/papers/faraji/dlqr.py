@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import solve_discrete_are
 
-from walkrepro.controllers.timeprojection.threelp import (
+from walkrepro.papers.faraji.threelp import (
     HIP,
     Q,
     ThreeLP,

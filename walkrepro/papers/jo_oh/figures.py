@@ -15,7 +15,7 @@ import numpy as np
 from walkrepro.figures import CompareFn, FigureFn, style
 from walkrepro.figures.style import save
 from walkrepro.metrics import GRAVITY, LogData
-from walkrepro.paper_metrics.jo_oh import CONTACT_FORCE, OBSTACLE_GLOB
+from walkrepro.papers.jo_oh.metrics import CONTACT_FORCE, OBSTACLE_GLOB
 
 FOOT = "right"
 #: Time shown before and after the first obstacle contact [s] (Figs. 4–7 span ~1.5 s).

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from walkrepro.controllers.timeprojection.threelp import (
+from walkrepro.papers.faraji.threelp import (
     ANKLE,
     HIP_C,
     HIP_R,

@@ -27,8 +27,8 @@ import pinocchio as pin
 from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
-from walkrepro.controllers.efsm import kernels
-from walkrepro.controllers.efsm.fsm import Phase
+from walkrepro.papers.lee2021 import kernels
+from walkrepro.papers.lee2021.fsm import Phase
 from walkrepro.robot import Robot, pin_state_into
 from walkrepro.sensors import SensorSnapshot
 from walkrepro.signals import SignalLayout, Signals

@@ -33,16 +33,16 @@ import pinocchio as pin
 from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
-from walkrepro.controllers.timeprojection import lift
-from walkrepro.controllers.timeprojection.dlqr import Dlqr
-from walkrepro.controllers.timeprojection.estimation import (
+from walkrepro.papers.faraji import lift
+from walkrepro.papers.faraji.dlqr import Dlqr
+from walkrepro.papers.faraji.estimation import (
     IirFilter,
     KinematicState,
     MovingAverageDerivative,
     dead_zone,
 )
-from walkrepro.controllers.timeprojection.gait import PeriodicGait
-from walkrepro.controllers.timeprojection.openloop import (
+from walkrepro.papers.faraji.gait import PeriodicGait
+from walkrepro.papers.faraji.openloop import (
     LegIk,
     LegTargets,
     ankle_series_stiffness,
@@ -50,8 +50,8 @@ from walkrepro.controllers.timeprojection.openloop import (
     series_stiffness,
     threelp_params_from_robot,
 )
-from walkrepro.controllers.timeprojection.projection import TimeProjection, truncate_footstep
-from walkrepro.controllers.timeprojection.threelp import ThreeLP
+from walkrepro.papers.faraji.projection import TimeProjection, truncate_footstep
+from walkrepro.papers.faraji.threelp import ThreeLP
 from walkrepro.robot import Robot
 from walkrepro.sensors import SensorSnapshot
 from walkrepro.signals import SignalLayout, Signals

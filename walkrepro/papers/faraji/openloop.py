@@ -14,15 +14,15 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from walkrepro.controllers.timeprojection.ik import (
+from walkrepro.papers.faraji.ik import (
     LegConstants,
     LegGeometry,
     leg_ik,
     leg_ik_scalar,
     rot_rpy,
 )
-from walkrepro.controllers.timeprojection.projection import TimeProjection
-from walkrepro.controllers.timeprojection.threelp import (
+from walkrepro.papers.faraji.projection import TimeProjection
+from walkrepro.papers.faraji.threelp import (
     HIP,
     PELVIS,
     SWING,

@@ -34,7 +34,7 @@ import qpsolvers
 from proxsuite import proxqp
 from scipy import sparse
 
-from walkrepro.controllers.qpimpedance.condensed import solve_centroidal, solve_eliminated
+from walkrepro.papers.jo_oh.condensed import solve_centroidal, solve_eliminated
 
 #: Solvers this module is tested with, fastest first on our problem (see README).
 SOLVERS = ("active_set", "proxqp", "osqp")

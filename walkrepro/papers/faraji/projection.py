@@ -24,14 +24,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from walkrepro.controllers.timeprojection.dlqr import (
+from walkrepro.papers.faraji.dlqr import (
     Dlqr,
     constraint_selector,
     error_map,
     split_blocks,
 )
-from walkrepro.controllers.timeprojection.gait import PeriodicGait
-from walkrepro.controllers.timeprojection.threelp import (
+from walkrepro.papers.faraji.gait import PeriodicGait
+from walkrepro.papers.faraji.threelp import (
     HIP,
     SWING,
     Q,

@@ -1,0 +1,18 @@
+"""Paper III, Jo & Oh, *Impedance control of humanoid walking on uneven terrain with
+centroidal momentum dynamics using QP* (``kist_humanoid``), declared as a plugin
+(:data:`PLUGIN`).
+
+Modules: :mod:`.footsteps` (footstep plan, ZMP reference, swing trajectory),
+:mod:`.preview` (LIPM CoM–ZMP preview control, the paper's ref. [23]), :mod:`.impedance`
+(Eqs. 1–3), :mod:`.centroidal_qp`, :mod:`.condensed` and :mod:`.tasks` (Eqs. 5–9 and the QP
+of §III-D), :mod:`.controller` (registered as ``qpimpedance``), :mod:`.metrics` and
+:mod:`.figures` (the paper's metrics and figures, from the log).
+"""
+
+from walkrepro.plugins import Plugin
+
+PLUGIN = Plugin(
+    controllers={"qpimpedance": "walkrepro.papers.jo_oh.controller:QPImpedanceController"},
+    metric_modules=("walkrepro.papers.jo_oh.metrics",),
+    figures={"jo_oh": "walkrepro.papers.jo_oh.figures"},
+)

@@ -1,0 +1,16 @@
+"""Paper I, Lee et al., *Toward Reactive Walking* (``dyros_red``): event-based FSM walking
+with an operational-space whole-body controller, declared as a plugin (:data:`PLUGIN`).
+
+Modules: :mod:`.controller` (the controller registered as ``efsm``), :mod:`.kernels` (its
+compiled per-tick arithmetic: the E-FSM, capture point, OS-WBC, Appendix C), :mod:`.fsm`
+(the E-FSM's states), :mod:`.metrics` (the paper's metrics, from the log) and
+:mod:`.figures` (its figures redrawn from a run).
+"""
+
+from walkrepro.plugins import Plugin
+
+PLUGIN = Plugin(
+    controllers={"efsm": "walkrepro.papers.lee2021.controller:EfsmController"},
+    metric_modules=("walkrepro.papers.lee2021.metrics",),
+    figures={"lee2021": "walkrepro.papers.lee2021.figures"},
+)
