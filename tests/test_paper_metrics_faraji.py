@@ -580,7 +580,7 @@ def test_push_figure_marks_the_corrective_steps(tmp_path: Path) -> None:
     matplotlib.use("Agg")
     from matplotlib import pyplot as plt
 
-    from walkrepro.figures import faraji as figs
+    from walkrepro.papers.faraji import figures as figs
 
     d = _landing_log(tmp_path, UNDISTURBED + [0.1, -0.06, 0.02, 0.015])
     _, ax = plt.subplots()
