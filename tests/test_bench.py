@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from walkrepro.bench import bench_experiment, machine_info
-from walkrepro.spec import load_spec, resolve_spec
+from walkrepro.specfiles import load_spec, resolve_spec
 
 
 @pytest.mark.slow

@@ -22,7 +22,7 @@ from walkrepro.calibration.run import CalibrateOptions, EngineEvaluators, calibr
 from walkrepro.calibration.search import CalibrationFailed, RootProblem, find_root, split
 from walkrepro.checks import CALIBRATED, FAIL, count, evaluate, write_junit
 from walkrepro.errors import SpecError, WalkreproError
-from walkrepro.spec import load_spec
+from walkrepro.specfiles import load_spec
 from walkrepro.sweep.cells import CellResult, CellTask
 from walkrepro.sweep.engines import ProcessEngine
 

@@ -155,7 +155,7 @@ def test_run_writes_a_complete_run_directory(tmp_path: Path) -> None:
 def test_determinism_same_spec_same_states(tmp_path: Path) -> None:
     """Two runs of the same spec and seed log identical /sim/state streams."""
     from walkrepro.runner import run as simulate
-    from walkrepro.spec import load_spec, resolve_spec
+    from walkrepro.specfiles import load_spec, resolve_spec
 
     path = tmp_path / "ok.yaml"
     path.write_text(

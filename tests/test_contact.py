@@ -23,7 +23,8 @@ from walkrepro.contact import (
 )
 from walkrepro.errors import SpecError
 from walkrepro.robot import load_robot
-from walkrepro.spec import ContactSpec, experiment_names, load_spec
+from walkrepro.spec import ContactSpec
+from walkrepro.specfiles import experiment_names, load_spec
 from walkrepro.world import build_scene
 
 

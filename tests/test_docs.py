@@ -101,7 +101,7 @@ def test_a_copied_reason_is_found_across_line_breaks_and_markup() -> None:
 
 def test_every_known_deviation_is_in_its_papers_page(generated: dict[Path, str]) -> None:
     """Each known deviation's reason appears on the generated page of its paper."""
-    from walkrepro.spec import load_spec
+    from walkrepro.specfiles import load_spec
 
     pages = {p.stem: t for p, t in generated.items() if p.parent.name == "deviations"}
     assert set(pages) == {"lee2021", "faraji", "jo_oh"}

@@ -11,7 +11,7 @@ import pytest
 from walkrepro import RESULTS_DIR, experiment, results
 from walkrepro.cli import _paired_partners, _resolved
 from walkrepro.experiment import References, partner_metric_names
-from walkrepro.spec import experiment_names, load_spec
+from walkrepro.specfiles import experiment_names, load_spec
 
 
 def committed(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, values: dict, reasons: dict) -> None:

@@ -104,7 +104,7 @@ def test_fall_message_is_readable() -> None:
     """A fall by pelvis height says how far the pelvis dropped against its standing height."""
     from walkrepro.contacts import FallDetector
     from walkrepro.robot import load_robot
-    from walkrepro.spec import load_spec
+    from walkrepro.specfiles import load_spec
     from walkrepro.world import build_scene
 
     spec = load_spec("stand_dyros_red").spec

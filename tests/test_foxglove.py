@@ -19,7 +19,7 @@ from mcap.reader import make_reader
 from walkrepro import PROJECT_ROOT, foxglove
 from walkrepro.record import TOPIC_FRAMES, TOPIC_SCENE, TOPIC_SIGNALS, TOPIC_STATE, read_log
 from walkrepro.runner import run
-from walkrepro.spec import load_spec, resolve_spec
+from walkrepro.specfiles import load_spec, resolve_spec
 
 LAYOUT = PROJECT_ROOT / "foxglove" / "walkrepro-layout.json"
 

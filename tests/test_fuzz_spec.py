@@ -27,7 +27,7 @@ from typer.testing import CliRunner
 from walkrepro import EXPERIMENTS_DIR, yamlload
 from walkrepro.cli import app
 from walkrepro.errors import WalkreproError
-from walkrepro.spec import load_spec, resolve_spec
+from walkrepro.specfiles import load_spec, resolve_spec
 
 #: Seed of every mutation; change it to explore other cases.
 SEED = 32

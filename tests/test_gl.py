@@ -85,7 +85,7 @@ def _tiny_log(tmp_path: object):  # noqa: ANN202 - Path
     from pathlib import Path
 
     from walkrepro.runner import run
-    from walkrepro.spec import load_spec, resolve_spec
+    from walkrepro.specfiles import load_spec, resolve_spec
 
     spec = resolve_spec(load_spec("stand_dyros_red", ["sim.duration=0.1"])).spec
     path = Path(str(tmp_path)) / "log.mcap"

@@ -222,7 +222,7 @@ def test_flag_takes_sigterm_like_ctrl_c_and_says_which() -> None:
 def test_a_run_without_log_is_rechecked_from_its_record(tmp_path: Path) -> None:
     """A run directory stopped before its log exists (run.json and spec.yaml only) re-checks as interrupted and verify says there is no log; one without spec.yaml is a one-paragraph error."""
     from walkrepro import results
-    from walkrepro.spec import load_spec
+    from walkrepro.specfiles import load_spec
 
     spec = load_spec("stand_coman").spec
     run = results.abandon(

@@ -120,7 +120,7 @@ def test_render_video_writes_a_playable_mp4_of_the_whole_run(tmp_path: Path) -> 
     import imageio_ffmpeg
 
     from walkrepro.runner import run
-    from walkrepro.spec import load_spec, resolve_spec
+    from walkrepro.specfiles import load_spec, resolve_spec
 
     spec = resolve_spec(load_spec("stand_dyros_red", ["sim.duration=0.5"])).spec
     log = tmp_path / "log.mcap"
@@ -179,7 +179,7 @@ def test_without_gl_a_run_keeps_everything_but_the_video(
 def test_contact_forces_can_be_drawn(tmp_path: Path) -> None:
     """With contact forces on, the feet's contact arrows change the picture of a standing robot."""
     from walkrepro.runner import run
-    from walkrepro.spec import load_spec, resolve_spec
+    from walkrepro.specfiles import load_spec, resolve_spec
 
     spec = resolve_spec(load_spec("stand_dyros_red", ["sim.duration=0.1"])).spec
     log = tmp_path / "log.mcap"

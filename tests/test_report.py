@@ -21,7 +21,8 @@ from walkrepro.errors import WalkreproError
 from walkrepro.report import build_report
 from walkrepro.report.claims import Tally, claim_from_row, tally
 from walkrepro.report.sources import VIDEO_FILE
-from walkrepro.spec import PAPERS, load_spec
+from walkrepro.spec import PAPERS
+from walkrepro.specfiles import load_spec
 
 CHROMIUM, CHROMEDRIVER = Path("/usr/bin/chromium"), Path("/usr/bin/chromedriver")
 PAPER_KEYS = ("lee2021", "faraji", "jo_oh")

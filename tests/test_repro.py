@@ -18,7 +18,7 @@ from walkrepro import gl, record
 from walkrepro.cli import app
 from walkrepro.replay import verify_log
 from walkrepro.results import latest_run
-from walkrepro.spec import experiment_names
+from walkrepro.specfiles import experiment_names
 
 runner = CliRunner()
 

@@ -700,7 +700,7 @@ def test_controller_robot_carries_the_specs_servo_gains() -> None:
     """with_servo_gains copies the scene's servo gains (a spec's actuators.position_gain:
     in_place runs its hip pitch at 1111 Nm/rad, the robot model at 222) into a copy of the
     robot; the cached robot keeps its own, and a torque robot comes back unchanged."""
-    from walkrepro.spec import load_spec
+    from walkrepro.specfiles import load_spec
     from walkrepro.world import build_scene
 
     robot = load_robot("coman")

@@ -12,7 +12,7 @@ from walkrepro.controllers.base import Command, Controller
 from walkrepro.controllers.posture import PostureController
 from walkrepro.metrics import LogData, compute
 from walkrepro.replay import verify_log
-from walkrepro.spec import load_spec, resolve_spec
+from walkrepro.specfiles import load_spec, resolve_spec
 
 
 def spec_of(name: str, *overrides: str):  # noqa: ANN201 - ExperimentSpec

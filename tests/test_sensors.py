@@ -12,7 +12,8 @@ from walkrepro.contacts import ContactReader
 from walkrepro.robot import load_robot
 from walkrepro.runner import _set_home
 from walkrepro.sensors import SensorModel, SensorSnapshot
-from walkrepro.spec import SensorsSpec, load_spec, resolve_spec
+from walkrepro.spec import SensorsSpec
+from walkrepro.specfiles import load_spec, resolve_spec
 from walkrepro.world import build_scene
 
 G = 9.81

@@ -9,7 +9,7 @@ import pytest
 
 from walkrepro import EXPERIMENTS_DIR
 from walkrepro.errors import SpecError, UnknownNameError
-from walkrepro.spec import experiment_names, load_spec, resolve_spec
+from walkrepro.specfiles import experiment_names, load_spec, resolve_spec
 
 GOOD = """\
 name: tiny
@@ -244,7 +244,7 @@ def test_relative_expectation_must_name_a_shipped_experiment(tmp_path: Path) -> 
 def test_a_spec_known_deviation_needs_its_observed_band(tmp_path: Path) -> None:
     """A spec whose known deviation gives only a reason is refused at resolution, naming the field."""
     from walkrepro.errors import SpecError
-    from walkrepro.spec import load_spec, resolve_spec
+    from walkrepro.specfiles import load_spec, resolve_spec
 
     text = (EXPERIMENTS_DIR / "stand_dyros_red.yaml").read_text()
     text = text.replace(

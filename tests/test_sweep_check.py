@@ -8,7 +8,7 @@ import pytest
 
 from walkrepro import EXPERIMENTS_DIR, RESULTS_DIR
 from walkrepro.checks import FAIL, KNOWN, PASS
-from walkrepro.spec import experiment_names, load_spec
+from walkrepro.specfiles import experiment_names, load_spec
 from walkrepro.sweep import store
 from walkrepro.sweep.command import _stale, map_verdicts
 

@@ -140,7 +140,7 @@ def friendly_errors(fn: F) -> F:
 def list_cmd() -> None:
     """List every experiment with its paper, figure, robot and controller (your own
     folder's too, with --experiments DIR)."""
-    from walkrepro.spec import all_experiment_names, load_spec
+    from walkrepro.specfiles import all_experiment_names, load_spec
 
     table = Table(title="walkrepro experiments")
     for col in ("experiment", "paper", "figure", "robot", "controller"):
@@ -179,7 +179,7 @@ def run(
 
 def _complete_experiment(incomplete: str) -> list[str]:
     """Shell completion: the experiments whose names start with ``incomplete``."""
-    from walkrepro.spec import all_experiment_names
+    from walkrepro.specfiles import all_experiment_names
 
     return [n for n in all_experiment_names() if n.startswith(incomplete)]
 
@@ -234,7 +234,7 @@ def check(
     """
     from walkrepro import checks
     from walkrepro.experiment import References, evaluate_log
-    from walkrepro.spec import experiment_names
+    from walkrepro.specfiles import experiment_names
 
     overrides = list(set_ or [])
     figures = figures or update_reference
@@ -713,7 +713,7 @@ def bench(
     import json
 
     from walkrepro.bench import bench_experiments, load_bench, machine_info
-    from walkrepro.spec import experiment_names
+    from walkrepro.specfiles import experiment_names
 
     names = list(experiments or experiment_names())
     specs = [_resolved(n, set_ or []) for n in names]
@@ -929,7 +929,7 @@ def docs_cmd(
 
 
 def _resolved(name: str, overrides: list[str]):  # noqa: ANN202 - returns ExperimentSpec
-    from walkrepro.spec import load_spec, resolve_spec
+    from walkrepro.specfiles import load_spec, resolve_spec
 
     return resolve_spec(load_spec(name, overrides)).spec
 

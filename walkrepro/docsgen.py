@@ -148,7 +148,7 @@ def collect(
     Args:
         results_dir: the committed references (``results/``).
     """
-    from walkrepro.spec import load_spec, shipped_experiment_names
+    from walkrepro.specfiles import load_spec, shipped_experiment_names
     from walkrepro.sweep.command import map_verdicts
 
     experiments, deviations = [], []
@@ -224,7 +224,7 @@ def collect(
 def known_reasons() -> Iterator[tuple[str, str]]:
     """``(where, reason)`` of every known deviation in the shipped specs: expectations and
     map claims (where = ``experiment · metric`` or ``experiment · map NAME``)."""
-    from walkrepro.spec import load_spec, shipped_experiment_names
+    from walkrepro.specfiles import load_spec, shipped_experiment_names
 
     for name in shipped_experiment_names():
         spec = load_spec(name).spec

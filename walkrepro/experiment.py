@@ -124,7 +124,7 @@ def _latest_run_with(root: Path, experiment: str, overrides: Sequence[str]) -> P
 def partner_metric_names(experiment: str) -> tuple[str, ...]:
     """Metrics of ``experiment`` that other shipped experiments' relative expectations read,
     so that its run (and its committed reference) holds them."""
-    from walkrepro.spec import all_experiment_names, load_spec
+    from walkrepro.specfiles import all_experiment_names, load_spec
 
     names = []
     for other in all_experiment_names():

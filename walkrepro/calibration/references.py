@@ -1,6 +1,6 @@
 """Specs and calibration files: ``{calibrated: NAME}`` references and ``calibrated:`` rows.
 
-The spec loader (:func:`walkrepro.spec.load_spec`) calls these for a spec that mentions
+The spec loader (:func:`walkrepro.specfiles.load_spec`) calls these for a spec that mentions
 calibration:
 
 - :func:`resolve_references` replaces each mapping ``{calibrated: NAME}`` (after the

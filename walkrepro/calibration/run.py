@@ -262,7 +262,7 @@ class EngineEvaluators:
         Raises:
             CalibrationFailed: a run broke (error, crashed worker) or was interrupted.
         """
-        from walkrepro.spec import load_spec, resolve_spec
+        from walkrepro.specfiles import load_spec, resolve_spec
         from walkrepro.sweep.cells import CellTask
         from walkrepro.sweep.grid import value_text
 

@@ -15,7 +15,8 @@ from pathlib import Path
 
 from walkrepro import results
 from walkrepro.errors import UnknownNameError, WalkreproError
-from walkrepro.spec import ExperimentSpec, load_spec, spec_from_yaml_text
+from walkrepro.spec import ExperimentSpec, spec_from_yaml_text
+from walkrepro.specfiles import load_spec
 
 #: Figure files the report shows, in order of preference for the full-size link.
 FIGURE_SUFFIXES = (".png", ".svg")

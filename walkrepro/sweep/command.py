@@ -133,7 +133,7 @@ def map_verdicts(
     """
     from walkrepro import REFERENCES_DIR
     from walkrepro.checks import FAIL, CheckRow, Verdict
-    from walkrepro.spec import load_spec
+    from walkrepro.specfiles import load_spec
     from walkrepro.sweep.claims import evaluate_sweep
     from walkrepro.sweep.engines import ProcessEngine
 

@@ -160,7 +160,8 @@ def plan_cells(
     Raises:
         WalkreproError: naming the grid item or the cell, with the spec's own message.
     """
-    from walkrepro.spec import ExperimentSpec, load_spec, resolve_spec
+    from walkrepro.spec import ExperimentSpec
+    from walkrepro.specfiles import load_spec, resolve_spec
 
     base = load_spec(experiment, overrides).spec
     fields = [a.field for a in axes]

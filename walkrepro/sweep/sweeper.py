@@ -114,7 +114,7 @@ def plan_new(
         metrics: extra metrics; the first one is the map's.
         map_name: a declared sweep of the spec.
     """
-    from walkrepro.spec import find_spec_file, load_spec
+    from walkrepro.specfiles import find_spec_file, load_spec
 
     base = load_spec(experiment, overrides).spec
     declared = None
