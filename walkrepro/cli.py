@@ -6,6 +6,7 @@ name, unwritable directory) prints one paragraph and exits with code 2, no trace
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import os
 import sys
@@ -104,6 +105,38 @@ OutOption = Annotated[
 ]
 
 
+def options_from(record: type) -> Callable[[Callable[[Any], None]], Callable[..., None]]:
+    """A command whose options are the fields of ``record``, a dataclass whose field types
+    are typer's ``Annotated`` declarations: typer reads them from the signature of the
+    function returned, and the command's body receives one ``record`` rather than a
+    parameter per option."""
+    import dataclasses
+    import inspect
+    import typing
+
+    hints = typing.get_type_hints(record, include_extras=True)
+    parameters = [
+        inspect.Parameter(
+            field.name,
+            inspect.Parameter.KEYWORD_ONLY,
+            default=field.default,
+            annotation=hints[field.name],
+        )
+        for field in dataclasses.fields(record)
+    ]
+
+    def decorate(body: Callable[[Any], None]) -> Callable[..., None]:
+        @functools.wraps(body)
+        def command(**options: Any) -> None:
+            return body(record(**options))
+
+        command.__signature__ = inspect.Signature(parameters)  # type: ignore[attr-defined]
+        command.__annotations__ = {q.name: q.annotation for q in parameters}
+        return command
+
+    return decorate
+
+
 def _needs_checkout(what: str) -> None:
     """Refuse to write the repository's own files (references, calibration, docs) from an
     installed walkrepro: they live in a clone (walkrepro/locations.py)."""
@@ -184,21 +217,22 @@ def _complete_experiment(incomplete: str) -> list[str]:
     return [n for n in all_experiment_names() if n.startswith(incomplete)]
 
 
-@app.command()
-@friendly_errors
-def check(
+@dataclasses.dataclass(frozen=True)
+class CheckOptions:
+    """``walkrepro check``: the experiments and runs to check, and how."""
+
     experiments: Annotated[
         list[str] | None,
         typer.Argument(help="Experiments to run and check.", autocompletion=_complete_experiment),
-    ] = None,
+    ] = None
     run_dir: Annotated[
         list[Path] | None, typer.Option("--run", help="Re-check an existing run directory or log.")
-    ] = None,
-    set_: SetOption = None,
-    out: OutOption = results.DEFAULT_ROOT,
-    jobs: Annotated[int, typer.Option(help="Parallel runs (processes).")] = os.cpu_count() or 1,
-    junit: Annotated[Path | None, typer.Option(help="Also write a JUnit XML report.")] = None,
-    figures: Annotated[bool, typer.Option(help="Draw figures for each run.")] = False,
+    ] = None
+    set_: SetOption = None
+    out: OutOption = results.DEFAULT_ROOT
+    jobs: Annotated[int, typer.Option(help="Parallel runs (processes).")] = os.cpu_count() or 1
+    junit: Annotated[Path | None, typer.Option(help="Also write a JUnit XML report.")] = None
+    figures: Annotated[bool, typer.Option(help="Draw figures for each run.")] = False
     update_reference: Annotated[
         bool,
         typer.Option(
@@ -206,7 +240,7 @@ def check(
             help="Copy each run's metrics, verdict and PNG figures to results/<experiment>/ "
             "(implies --figures: a reference's figures are drawn from its own run).",
         ),
-    ] = False,
+    ] = False
     sweeps: Annotated[
         bool,
         typer.Option(
@@ -214,7 +248,7 @@ def check(
             help="Re-run the experiments' declared maps (default: check their claims on the "
             "committed results/maps/<map>/cells.csv).",
         ),
-    ] = False,
+    ] = False
     details: Annotated[
         bool,
         typer.Option(
@@ -222,8 +256,13 @@ def check(
             help="Print every row (paper value, measured, observed band, source and note); "
             "default: one line per experiment, failing rows in full.",
         ),
-    ] = False,
-) -> None:
+    ] = False
+
+
+@app.command()
+@friendly_errors
+@options_from(CheckOptions)
+def check(options: CheckOptions) -> None:
     """Run experiments (or re-check runs) and compare them with the papers. Exit 1 on failure.
 
     An expectation relative to another experiment (its partner) compares with the partner's
@@ -236,33 +275,35 @@ def check(
     from walkrepro.experiment import References, evaluate_log
     from walkrepro.specfiles import experiment_names
 
-    overrides = list(set_ or [])
-    figures = figures or update_reference
-    if update_reference and overrides:
+    overrides = list(options.set_ or [])
+    figures = options.figures or options.update_reference
+    if options.update_reference and overrides:
         raise WalkreproError(
             "--update-reference takes runs of the experiments as shipped; drop --set "
             f"({' '.join(overrides)})."
         )
-    if update_reference:
+    if options.update_reference:
         _needs_checkout("--update-reference")
     verdicts: list[checks.Verdict] = []
-    for path in run_dir or []:
+    for path in options.run_dir or []:
         directory, log = results.resolve_run(path)
         made_with = _recorded_overrides(directory)
         # A run lives in <root>/<experiment>/<run>: partners with the same overrides are
         # looked for under <root>.
         lookup = References(overrides=made_with, search_root=directory.parent.parent)
         verdicts.append(evaluate_log(log, directory, lookup)[1])
-    names = list(experiments or [])
-    if not names and not run_dir:
+    names = list(options.experiments or [])
+    if not names and not options.run_dir:
         names = experiment_names()
     specs = {name: _resolved(name, overrides) for name in names}  # validate all before running
     partners, unpaired = _paired_partners(specs, overrides)
     batch_names = names + partners
     # Videos only where a reference keeps one (a video per run would cost a check minutes).
-    video = _with_reference_video(batch_names) if update_reference else frozenset()
+    video = _with_reference_video(batch_names) if options.update_reference else frozenset()
     summaries = (
-        _run_batch(batch_names, overrides, out, (figures, video), jobs) if batch_names else []
+        _run_batch(batch_names, overrides, options.out, (figures, video), options.jobs)
+        if batch_names
+        else []
     )
     if summaries:
         # Comparisons between experiments use this batch's runs, now that all are done.
@@ -282,14 +323,16 @@ def check(
     if names and not overrides:  # committed maps were made without overrides
         from walkrepro.sweep.command import map_verdicts
 
-        verdicts += map_verdicts(names, sweeps, out, jobs, _console(stderr=True))
-    _print_verdicts(verdicts, details)
+        verdicts += map_verdicts(
+            names, options.sweeps, options.out, options.jobs, _console(stderr=True)
+        )
+    _print_verdicts(verdicts, options.details)
     interrupted = any(s.interrupted for s in summaries)
-    if update_reference and not interrupted:
+    if options.update_reference and not interrupted:
         _update_references(summaries)
         _update_docs()
-    if junit is not None:
-        checks.write_junit(verdicts, junit)
+    if options.junit is not None:
+        checks.write_junit(verdicts, options.junit)
     if interrupted:  # 130 after Ctrl-C, 143 after SIGTERM
         raise typer.Exit(code=next(s.exit_code for s in summaries if s.interrupted))
     if not all(v.passed for v in verdicts):
@@ -595,7 +638,9 @@ def report(
     ] = REFERENCES_DIR,
     out: Annotated[
         Path | None,
-        typer.Option(help="Site directory, replaced as a whole (default: next to --from, report/)."),
+        typer.Option(
+            help="Site directory, replaced as a whole (default: next to --from, report/)."
+        ),
     ] = None,
 ) -> None:
     """Build the static HTML report: per paper, each claim with the paper's value, the
@@ -614,12 +659,13 @@ def report(
     _console().print(f"wrote {site.index.as_uri()}", highlight=False)
 
 
-@app.command()
-@friendly_errors
-def sweep(
+@dataclasses.dataclass(frozen=True)
+class SweepOptions:
+    """``walkrepro sweep``: the sweep to run or resume, and where its cells run."""
+
     experiment: Annotated[
         str | None, typer.Argument(help="Experiment name or spec path (not with --resume).")
-    ] = None,
+    ] = None
     grid: Annotated[
         list[str] | None,
         typer.Option(
@@ -627,53 +673,56 @@ def sweep(
             help="FIELD=VALUES: a spec path or sweep parameter, and a comma list (20,40,60) "
             "or a range start:stop:count. Repeat for more axes (Cartesian product).",
         ),
-    ] = None,
-    jobs: Annotated[int, typer.Option(help="Parallel cells.")] = os.cpu_count() or 1,
-    engine: Annotated[str, typer.Option(help="process or ray.")] = "process",
+    ] = None
+    jobs: Annotated[int, typer.Option(help="Parallel cells.")] = os.cpu_count() or 1
+    engine: Annotated[str, typer.Option(help="process or ray.")] = "process"
     address: Annotated[
         str | None, typer.Option(help="An existing Ray cluster (with --engine ray).")
-    ] = None,
-    out: OutOption = results.DEFAULT_ROOT,
+    ] = None
+    out: OutOption = results.DEFAULT_ROOT
     resume: Annotated[
         Path | None, typer.Option(help="Run only the missing cells of this sweep directory.")
-    ] = None,
-    keep_logs: Annotated[bool, typer.Option(help="Keep every cell's run directory.")] = False,
+    ] = None
+    keep_logs: Annotated[bool, typer.Option(help="Keep every cell's run directory.")] = False
     metric: Annotated[
         list[str] | None,
         typer.Option("--metric", help="Also record this metric; the first one is mapped."),
-    ] = None,
-    set_: SetOption = None,
+    ] = None
+    set_: SetOption = None
     map_name: Annotated[
         str | None, typer.Option("--map", help="Run the spec's declared sweep of this name.")
-    ] = None,
+    ] = None
     update_reference: Annotated[
         bool,
         typer.Option("--update-reference", help="Copy the finished map to results/maps/<map>/."),
-    ] = False,
-) -> None:
+    ] = False
+
+
+@app.command()
+@friendly_errors
+@options_from(SweepOptions)
+def sweep(options: SweepOptions) -> None:
     """Sweep spec fields over a grid: one run per cell, a cells.csv table and maps.
 
     Every cell is validated before any runs. Without --grid, runs the spec's declared map.
     """
-    from walkrepro.sweep.command import sweep_command
+    from walkrepro.sweep.command import EngineChoice, SweepRequest, sweep_command
 
-    if update_reference:
+    if options.update_reference:
         _needs_checkout("--update-reference")
-    code = sweep_command(
-        _console(stderr=True),
-        experiment,
-        grid or [],
-        set_ or [],
-        out,
-        jobs,
-        engine,
-        address,
-        resume,
-        keep_logs,
-        metric or [],
-        map_name,
-        update_reference,
+    request = SweepRequest(
+        experiment=options.experiment,
+        out=options.out,
+        grid=options.grid or [],
+        overrides=options.set_ or [],
+        metrics=options.metric or [],
+        map_name=options.map_name,
+        resume=options.resume,
+        keep_logs=options.keep_logs,
+        update_reference=options.update_reference,
     )
+    engine = EngineChoice(options.engine, options.jobs, options.address)
+    code = sweep_command(_console(stderr=True), request, engine)
     if code:
         raise typer.Exit(code=code)
 
@@ -985,9 +1034,7 @@ def _run_one(  # noqa: ANN202
             task = bar.add_task("run", total=spec.sim.duration, sim="", rtf="")
 
             def progress(t: float, duration: float, rtf: float) -> None:
-                bar.update(
-                    task, completed=t, sim=f"{t:6.2f}/{duration:.2f} s", rtf=f"{rtf:5.2f}x"
-                )
+                bar.update(task, completed=t, sim=f"{t:6.2f}/{duration:.2f} s", rtf=f"{rtf:5.2f}x")
 
             return execute(spec, out, progress, outputs, overrides, flag, run_dir)
 

@@ -49,7 +49,7 @@ from datetime import datetime, timezone
 from importlib import metadata as importlib_metadata
 from pathlib import Path
 from types import NoneType, TracebackType
-from typing import Any, NoReturn
+from typing import Any, NamedTuple, NoReturn
 
 import mujoco
 import numpy as np
@@ -262,6 +262,21 @@ def _json_schemas() -> dict[str, tuple[str, dict[str, Any]]]:
             },
         ),
     }
+
+
+class SimState(NamedTuple):
+    """The simulation's state at a physics step, as a ``/sim/state`` row holds it.
+
+    Attributes:
+        step: physics steps since the start; t: simulated time [s].
+        qpos, qvel, act: MjData's arrays (views are fine: the row copies them).
+    """
+
+    step: int
+    t: float
+    qpos: np.ndarray
+    qvel: np.ndarray
+    act: np.ndarray
 
 
 class _Channel:
@@ -685,11 +700,7 @@ class LogWriter:
 
     def write_tick(
         self,
-        step: int,
-        t: float,
-        qpos: np.ndarray,
-        qvel: np.ndarray,
-        act: np.ndarray,
+        sim: SimState,
         snapshot: Any,
         signals: Signals | Mapping[str, Any],
         ctrl: np.ndarray,
@@ -701,6 +712,7 @@ class LogWriter:
         check. Anything but the simulation loop's steady case (a snapshot read at ``t``, the
         run's Signals layout, no disturbance) goes through those four methods.
         """
+        step, t, qpos, qvel, act = sim
         state, sensors, logged = self._state_rows, self._sensor_rows, self._signal_rows
         if (
             sensors is None

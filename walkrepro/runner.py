@@ -27,7 +27,7 @@ import numpy as np
 
 from walkrepro import record
 from walkrepro.contacts import ContactReader, FallDetector
-from walkrepro.controllers import controller_class
+from walkrepro.controllers import controller_class, controller_params
 from walkrepro.disturbances import DisturbanceSchedule
 from walkrepro.foxglove import frame_every
 from walkrepro.interrupt import InterruptFlag
@@ -196,7 +196,7 @@ def run(
     controller = cls()
     controller.reset(
         with_servo_gains(robot, model),  # the spec's servo gains, as the controller runs them
-        cls.Params.model_validate(spec.controller.params),
+        controller_params(spec.controller),
         spec.sim.control_period,
     )
     sensors = SensorModel(robot, model, spec.sensors, spec.sim.control_period, spec.sim.seed)
@@ -292,7 +292,11 @@ def run(
                 # The state this tick saw (unchanged since mj_step1), the snapshot, the
                 # signals, and the inputs of this step.
                 writer.write_tick(
-                    step, t, qpos, qvel, act, snapshot, command.signals, ctrl_held, wrenches
+                    record.SimState(step, t, qpos, qvel, act),
+                    snapshot,
+                    command.signals,
+                    ctrl_held,
+                    wrenches,
                 )
             else:
                 writer.write_inputs(step, ctrl_held, wrenches, t)

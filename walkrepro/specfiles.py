@@ -164,7 +164,7 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
     # Imported here: the registries import heavy modules (mujoco, pinocchio).
     import mujoco
 
-    from walkrepro.controllers import controller_class, controller_names
+    from walkrepro.controllers import controller_class, controller_names, controller_params
     from walkrepro.metrics import MetricArgError, check_metric_arg, metric_names, split_metric
     from walkrepro.robot import list_robots, load_robot
 
@@ -188,7 +188,7 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
                 f"(got {value!r})."
             )
     try:
-        params = cls.Params.model_validate(spec.controller.params)
+        params = controller_params(spec.controller)
     except ValidationError as exc:
         raise SpecError(
             _format_validation(exc, loaded.source, loaded.lines, loaded.overridden, params_where)

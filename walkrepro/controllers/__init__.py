@@ -7,9 +7,16 @@ import every paper's controller (and its dependencies).
 
 from __future__ import annotations
 
+import functools
+import json
+from typing import TYPE_CHECKING
+
 from walkrepro import plugins
 from walkrepro.controllers.base import Command, Controller, ControllerParams
 from walkrepro.errors import UnknownNameError, WalkreproError
+
+if TYPE_CHECKING:
+    from walkrepro.spec import ControllerSpec
 
 
 def controller_names() -> list[str]:
@@ -40,4 +47,36 @@ def controller_class(name: str) -> type[Controller]:
     return cls
 
 
-__all__ = ["Command", "Controller", "ControllerParams", "controller_class", "controller_names"]
+def controller_params(controller: ControllerSpec) -> ControllerParams:
+    """The typed parameters of a spec's controller: its ``params`` validated by the
+    controller's own model (``Params``), the one place a spec's dict becomes that record.
+
+    :func:`walkrepro.specfiles.resolve_spec` calls it at load, turning a
+    ``pydantic.ValidationError`` into file:line errors; the runner and the metrics that need
+    the parameters get the same record from it (the models are frozen: one validated record
+    per controller and parameter set, per process).
+
+    Raises:
+        UnknownNameError, WalkreproError: see :func:`controller_class`.
+        pydantic.ValidationError: the parameters do not fit the model.
+    """
+    try:
+        key = json.dumps(controller.params, sort_keys=True)
+    except (TypeError, ValueError):  # not plain data (e.g. a YAML date): the model says why
+        return controller_class(controller.type).Params.model_validate(controller.params)
+    return _validated(controller.type, key)
+
+
+@functools.lru_cache(maxsize=64)
+def _validated(name: str, params_json: str) -> ControllerParams:
+    return controller_class(name).Params.model_validate(json.loads(params_json))
+
+
+__all__ = [
+    "Command",
+    "Controller",
+    "ControllerParams",
+    "controller_class",
+    "controller_names",
+    "controller_params",
+]

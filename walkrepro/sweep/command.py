@@ -4,6 +4,7 @@ these; they print and return, the CLI exits)."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -24,27 +25,49 @@ from walkrepro.sweep.sweeper import (
 CRASHED_EXIT = 1
 
 
-def sweep_command(
-    console: Any,
-    experiment: str | None,
-    grid: Sequence[str],
-    overrides: Sequence[str],
-    out: Path,
-    jobs: int,
-    engine: str,
-    address: str | None,
-    resume: Path | None,
-    keep_logs: bool,
-    metrics: Sequence[str],
-    map_name: str | None,
-    update_ref: bool,
-) -> int:
+@dataclass(frozen=True)
+class SweepRequest:
+    """What ``walkrepro sweep`` was asked to do: a new sweep, or the rest of an earlier one.
+
+    Attributes:
+        experiment: experiment name or spec path (None with ``resume``).
+        grid: ``FIELD=VALUES`` axes (empty: the spec's declared map ``map_name``).
+        overrides: ``--set`` items applied to every cell; metrics: extra metrics to record.
+        map_name: the spec's declared sweep to run.
+        out: root directory of new sweeps; resume: an earlier sweep's directory.
+        keep_logs: keep every cell's run directory.
+        update_reference: copy the finished map to ``results/maps/<map>/``.
+    """
+
+    experiment: str | None
+    out: Path
+    grid: Sequence[str] = ()
+    overrides: Sequence[str] = ()
+    metrics: Sequence[str] = ()
+    map_name: str | None = None
+    resume: Path | None = None
+    keep_logs: bool = False
+    update_reference: bool = False
+
+
+@dataclass(frozen=True)
+class EngineChoice:
+    """Where the cells run: ``process`` (a local pool of ``jobs``) or ``ray`` (a local
+    cluster, or the one at ``address``)."""
+
+    name: str = "process"
+    jobs: int = 1
+    address: str | None = None
+
+
+def sweep_command(console: Any, request: SweepRequest, engine: EngineChoice) -> int:
     """Plan (validating every cell), run and map a sweep; returns the exit code: 0, 1 when
     cells crashed (their worker died), 130 or 143 when Ctrl-C or SIGTERM stopped it."""
     from walkrepro.sweep.maps import plot_sweep
 
+    experiment, resume = request.experiment, request.resume
     if resume is not None:
-        if grid or overrides or metrics or map_name:
+        if request.grid or request.overrides or request.metrics or request.map_name:
             raise WalkreproError(
                 "--resume continues a sweep with its own grid, --set and --metric; "
                 "give only --resume (and engine options)."
@@ -58,17 +81,24 @@ def sweep_command(
     else:
         if experiment is None:
             raise WalkreproError("give an EXPERIMENT to sweep (or --resume SWEEP_DIR).")
-        plan = plan_new(experiment, grid, overrides, out, metrics, map_name)
-    if update_ref and not plan.info.get("map"):
+        plan = plan_new(
+            experiment,
+            request.grid,
+            request.overrides,
+            request.out,
+            request.metrics,
+            request.map_name,
+        )
+    if request.update_reference and not plan.info.get("map"):
         raise WalkreproError("--update-reference applies to a declared map (--map NAME) only.")
-    runner = make_engine(engine, jobs, address)
+    runner = make_engine(engine.name, engine.jobs, engine.address)
     todo = len(plan.missing)
     console.print(
         f"sweep of {plan.info['experiment']}: {len(plan.cells)} cells, {todo} to run "
-        f"({engine} engine, {jobs} job(s)) → {plan.directory}",
+        f"({engine.name} engine, {engine.jobs} job(s)) → {plan.directory}",
         highlight=False,
     )
-    report = run_plan(plan, runner, keep_logs, console) if todo else None
+    report = run_plan(plan, runner, request.keep_logs, console) if todo else None
     written = plot_sweep(plan.directory)
     for path in written:
         console.print(f"wrote {path}", highlight=False)
@@ -107,7 +137,7 @@ def sweep_command(
             highlight=False,
         )
         return CRASHED_EXIT
-    if update_ref:
+    if request.update_reference:
         target = update_reference(plan.directory, plan.info["map"])
         console.print(f"reference map updated: {target}", highlight=False)
     return 0

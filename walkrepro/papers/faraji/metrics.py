@@ -657,12 +657,10 @@ def _dead_zone_spread(d: LogData, arg: str) -> float:
     for a dead-zone function" (the filtered state errors of open-loop in-place walking).
     :func:`_error_spread` divided by the run's threshold (its spec's controller parameters,
     defaults included)."""
-    from walkrepro.controllers import controller_class
+    from walkrepro.controllers import controller_params
 
     spread = _error_spread(d, arg)
-    params = controller_class(d.spec.controller.type).Params.model_validate(
-        d.spec.controller.params
-    )
+    params = controller_params(d.spec.controller)
     thresholds = getattr(params, "dead_zone_thresholds", None)
     if thresholds is None:
         raise NotMeasurable(f"controller {d.spec.controller.type!r} has no dead-zones")
