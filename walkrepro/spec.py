@@ -107,6 +107,13 @@ class PaperRef(_Strict):
         return key
 
 
+def require_unique(what: str, names: Sequence[str]) -> None:
+    """Raise ``ValueError`` (a pydantic validator's error) naming the names that repeat."""
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise ValueError(f"{what} names must be unique; repeated: {', '.join(repeated)}")
+
+
 class ControllerSpec(_Strict):
     """Controller type (a registry name) and its parameters (validated by the controller)."""
 
@@ -275,10 +282,7 @@ class WorldSpec(_Strict):
     @field_validator("obstacles")
     @classmethod
     def _unique_names(cls, obstacles: list[ObstacleSpec]) -> list[ObstacleSpec]:
-        names = [o.name for o in obstacles]
-        dup = sorted({n for n in names if names.count(n) > 1})
-        if dup:
-            raise ValueError(f"obstacle names must be unique; repeated: {', '.join(dup)}")
+        require_unique("obstacle", [o.name for o in obstacles])
         return obstacles
 
 

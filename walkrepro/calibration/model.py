@@ -33,6 +33,7 @@ from walkrepro.spec import (
     _format_validation,
     _parse_yaml,
     _where,
+    require_unique,
 )
 
 #: Where the shipped calibration files live: ``experiments/calibration/<paper>.yaml``.
@@ -214,10 +215,7 @@ class CalibrationFile(_Strict):
     @field_validator("parameters")
     @classmethod
     def _unique(cls, parameters: list[Parameter]) -> list[Parameter]:
-        names = [p.name for p in parameters]
-        dup = sorted({n for n in names if names.count(n) > 1})
-        if dup:
-            raise ValueError(f"parameter names must be unique; repeated: {', '.join(dup)}")
+        require_unique("parameter", [p.name for p in parameters])
         return parameters
 
     def parameter(self, name: str) -> Parameter:
