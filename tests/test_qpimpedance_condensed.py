@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from oracles.centroidal_qp import solve_with_library
 from scipy.optimize import nnls
 
 from walkrepro.papers.jo_oh.centroidal_qp import (
@@ -14,6 +15,11 @@ from walkrepro.papers.jo_oh.centroidal_qp import (
     joint_torques,
 )
 from walkrepro.papers.jo_oh.condensed import (
+    CostRows,
+    Dynamics,
+    QPSolution,
+    QPWeights,
+    SupportContacts,
     cholesky_in_place,
     nonnegative_qp,
     solve_centroidal,
@@ -103,7 +109,7 @@ def test_eliminated_qp_satisfies_kkt_of_the_full_qp() -> None:
 
 @pytest.mark.parametrize("n_feet", [1, 2])
 def test_solve_centroidal_equals_build_qp_and_proxqp(n_feet: int) -> None:
-    """The fused kernel finds build_qp's solution (ProxQP at 1e-11) and its Eq. (9) torques."""
+    """The fused kernel finds build_qp's solution (ProxQP through qpsolvers at 1e-11) and its Eq. (9) torques."""
     rng = np.random.default_rng(n_feet)
     nv = 28
     mass = np.asfortranarray(_spd(rng, nv, 1.0))  # Pinocchio's M is column-major
@@ -116,34 +122,23 @@ def test_solve_centroidal_equals_build_qp_and_proxqp(n_feet: int) -> None:
     task = Task("t", rng.standard_normal((9, nv)), rng.standard_normal(9), np.full(9, 4.0))
     b1, w1 = rng.standard_normal(6), np.ones(6)
     support = tuple(range(n_feet))
-    problem = build_qp(mass, nle, b1, w1, jacs, drifts, maps, support, [task], 1e-4, 1e-6)
-    ref = problem.solve("proxqp", eps_abs=1e-11, eps_rel=0.0)
+    contacts = SupportContacts(jacs, drifts, maps)
+    problem = build_qp(
+        Dynamics(mass, nle), b1, w1, contacts, support, [task], QPWeights(1e-4, 1e-6)
+    )
+    ref = solve_with_library(problem, "proxqp", eps_abs=1e-11, eps_rel=0.0)
     ref_accel, ref_wrenches = problem.split(ref)
     rows = np.ascontiguousarray(np.vstack([mass[:6], 2.0 * task.jacobian]))
     rhs = np.concatenate([b1, 2.0 * task.target])
     beta, accel = np.zeros(16 * n_feet), np.zeros(nv)
     wrenches, tau = np.zeros((n_feet, 6)), np.zeros(nv - 6)
-    assert (
-        solve_centroidal(
-            rows,
-            rhs,
-            mass,
-            nle,
-            np.array(jacs),
-            np.array(drifts),
-            np.array(maps),
-            1e-4,
-            1e-6,
-            beta,
-            accel,
-            wrenches,
-            tau,
-        )  # fmt: skip
-        > 0
-    )
+    stacked = SupportContacts(np.array(jacs), np.array(drifts), np.array(maps))
+    solution = QPSolution(beta, accel, wrenches, tau)
+    cost = CostRows(rows, rhs)
+    assert solve_centroidal(cost, Dynamics(mass, nle), stacked, QPWeights(1e-4, 1e-6), solution) > 0
     np.testing.assert_allclose(accel, ref_accel, rtol=1e-6, atol=1e-6)
     np.testing.assert_allclose(wrenches, np.array(ref_wrenches), rtol=1e-6, atol=1e-5)
     np.testing.assert_allclose(
         tau, joint_torques(mass, nle, ref_accel, jacs, ref_wrenches), rtol=1e-6, atol=1e-5
     )
-    np.testing.assert_allclose(problem.solve("active_set"), ref, rtol=1e-6, atol=1e-5)
+    np.testing.assert_allclose(problem.solve(), ref, rtol=1e-6, atol=1e-5)

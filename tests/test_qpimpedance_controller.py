@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
+from pydantic import ValidationError
 
 from walkrepro.controllers import controller_class
 from walkrepro.papers.jo_oh.controller import SUPPORTS, TAIL_SIGNALS
@@ -24,16 +26,12 @@ def test_standing_tick_puts_the_weight_on_both_feet(kist_home_snapshot) -> None:
     assert cmd.signals["swing_foot"] == -1.0
 
 
-def test_unknown_solver_is_rejected_with_the_valid_names() -> None:
-    """A spec naming an unsupported QP solver fails at reset and lists proxqp and osqp."""
-    robot = load_robot("kist_humanoid")
+def test_the_removed_solver_params_are_rejected() -> None:
+    """The QP has one solver (the compiled active set): ``solver`` is no parameter any more."""
     cls = controller_class("qpimpedance")
-    try:
-        cls().reset(robot, cls.Params(solver="cvxopt"), 0.001)
-    except ValueError as exc:
-        assert "proxqp" in str(exc) and "osqp" in str(exc)
-    else:  # pragma: no cover
-        raise AssertionError("expected a ValueError")
+    for name, value in (("solver", "proxqp"), ("solver_eps", 1e-6)):
+        with pytest.raises(ValidationError, match=name):
+            cls.Params(**{name: value})
 
 
 def test_ticks_are_deterministic_and_signals_plain(kist_home_snapshot) -> None:
@@ -52,17 +50,6 @@ def test_ticks_are_deterministic_and_signals_plain(kist_home_snapshot) -> None:
         assert a.signals.keys() == b.signals.keys()
         np.testing.assert_allclose(list(a.signals.values()), list(b.signals.values()), atol=1e-9)
         assert all(type(v) is float for v in a.signals.values())
-
-
-def test_osqp_runs_through_qpsolvers(kist_home_snapshot) -> None:
-    """With solver osqp the tick goes through qpsolvers and still carries the robot's weight."""
-    robot = load_robot("kist_humanoid")
-    cls = controller_class("qpimpedance")
-    ctrl = cls()
-    ctrl.reset(robot, cls.Params(solver="osqp"), 0.001)
-    cmd = ctrl.step(0.0, kist_home_snapshot())
-    total = cmd.signals["left_fz_qp"] + cmd.signals["right_fz_qp"]
-    assert abs(total - robot.total_mass * 9.81) < 0.05 * robot.total_mass * 9.81
 
 
 def _perturbed(snapshot, rng: np.random.Generator):  # noqa: ANN001, ANN202

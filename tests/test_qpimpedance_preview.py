@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from walkrepro.papers.jo_oh.footsteps import RIGHT, SwingTrajectory, plan_walk
+from walkrepro.papers.jo_oh.footsteps import RIGHT, SwingTrajectory, WalkPattern, plan_walk
 from walkrepro.papers.jo_oh.preview import generate_com, preview_gains
 
 DT = 0.005
 
 
 def _plan():  # noqa: ANN202 - FootstepPlan
-    return plan_walk(0.09, 0.35, 6, RIGHT, 1.0, 0.56, 0.14, 0.5, DT)
+    return plan_walk(WalkPattern(0.09, 0.35, 6, RIGHT, 1.0, 0.56, 0.14, 0.5), DT)
 
 
 def test_zmp_of_generated_com_tracks_reference() -> None:

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
+from oracles.centroidal_qp import LIBRARY_SOLVERS, solve_with_library
 
 from walkrepro.papers.jo_oh.centroidal_qp import (
-    SOLVERS,
     CentroidalQP,
     Task,
     build_qp,
@@ -16,6 +16,7 @@ from walkrepro.papers.jo_oh.centroidal_qp import (
     joint_torques,
     rotate_wrench_basis,
 )
+from walkrepro.papers.jo_oh.condensed import CostRows, Dynamics, QPWeights, SupportContacts
 from walkrepro.robot import load_robot
 
 MU = 0.6
@@ -80,17 +81,13 @@ def _inputs(support: tuple[int, ...]) -> dict:
 def _problem(support: tuple[int, ...]):  # noqa: ANN202
     i = _inputs(support)
     problem = build_qp(
-        i["mass"],
-        i["nle"],
+        Dynamics(i["mass"], i["nle"]),
         i["b1"],
         np.ones(6),
-        i["jacs"],
-        i["drifts"],
-        i["maps"],
+        SupportContacts(i["jacs"], i["drifts"], i["maps"]),
         support,
         [i["posture"]],
-        1e-4,
-        1e-6,
+        QPWeights(1e-4, 1e-6),
     )
     return problem, i["mass"], i["nle"], i["jacs"], i["drifts"]
 
@@ -104,16 +101,19 @@ def test_problem_is_inspectable() -> None:
     np.testing.assert_allclose(problem.P, problem.P.T)
 
 
-@pytest.mark.parametrize("solver", SOLVERS)
+@pytest.mark.parametrize("solver", ("active_set", *LIBRARY_SOLVERS))
 def test_solution_satisfies_floating_base_dynamics(solver: str) -> None:
-    """The QP solution satisfies the floating-base rows of Eq. (5) and the contact constraints."""
+    """The QP solution satisfies the floating-base rows of Eq. (5) and the contact constraints,
+    solved by the package's active set and by the library solvers (the oracles)."""
     problem, mass, nle, jacs, drifts = _problem((0, 1))
-    opts = {
-        "active_set": {},
-        "proxqp": {"eps_abs": 1e-10, "eps_rel": 0.0},
-        "osqp": {"eps_abs": 1e-10, "eps_rel": 1e-10, "polishing": True, "max_iter": 100000},
-    }[solver]
-    x = problem.solve(solver, **opts)
+    if solver == "active_set":
+        x = problem.solve()
+    else:
+        opts = {
+            "proxqp": {"eps_abs": 1e-10, "eps_rel": 0.0},
+            "osqp": {"eps_abs": 1e-10, "eps_rel": 1e-10, "polishing": True, "max_iter": 100000},
+        }[solver]
+        x = solve_with_library(problem, solver, **opts)
     assert x is not None
     accel, wrenches = problem.split(x)
     base = (
@@ -133,7 +133,7 @@ def test_solution_satisfies_floating_base_dynamics(solver: str) -> None:
 def test_eq9_torques_reproduce_the_joint_rows() -> None:
     """Eq. (9) torques with the QP's ξ̈ and λ make the whole Eq. (5) hold."""
     problem, mass, nle, jacs, _ = _problem((1,))
-    x = problem.solve("proxqp", eps_abs=1e-10, eps_rel=0.0)
+    x = solve_with_library(problem, "proxqp", eps_abs=1e-10, eps_rel=0.0)
     accel, wrenches = problem.split(x)
     tau = joint_torques(mass, nle, accel, jacs, wrenches)
     gen = np.concatenate([np.zeros(6), tau]) + sum(
@@ -142,19 +142,20 @@ def test_eq9_torques_reproduce_the_joint_rows() -> None:
     np.testing.assert_allclose(mass @ accel + nle, gen, atol=1e-6)
 
 
-@pytest.mark.parametrize("solver", ["active_set", "proxqp"])
 @pytest.mark.parametrize("support", [(0, 1), (1,)])
-def test_preallocated_qp_matches_build_qp(support: tuple[int, ...], solver: str) -> None:
-    """CentroidalQP builds build_qp's matrices and, cold then warm, finds its solution and Eq. (9) torques."""
+def test_preallocated_qp_matches_build_qp(support: tuple[int, ...]) -> None:
+    """CentroidalQP builds build_qp's matrices and, cold then warm, finds its solution (ProxQP
+    through qpsolvers, the oracle) and Eq. (9) torques."""
     i = _inputs(support)
     problem, mass, nle, jacs, _ = _problem(support)
     nv = i["mass"].shape[0]
-    qp = CentroidalQP(nv, support, [i["local"]] * len(support), 1e-4, 1e-6, solver, 1e-10)
+    qp = CentroidalQP(nv, support, [i["local"]] * len(support), 1e-4, 1e-6)
     qp.update(
-        i["mass"],
-        i["nle"],
-        np.vstack([i["mass"][:6], i["posture"].jacobian]),
-        np.concatenate([i["b1"], i["posture"].target]),
+        Dynamics(i["mass"], i["nle"]),
+        CostRows(
+            np.vstack([i["mass"][:6], i["posture"].jacobian]),
+            np.concatenate([i["b1"], i["posture"].target]),
+        ),
         i["jacs"],
         i["drifts"],
         i["rots"],
@@ -162,7 +163,7 @@ def test_preallocated_qp_matches_build_qp(support: tuple[int, ...], solver: str)
     built = qp.build()
     for name in ("P", "q", "A", "b", "lb", "ub"):
         np.testing.assert_allclose(getattr(built, name), getattr(problem, name), atol=1e-9)
-    ref = problem.solve("proxqp", eps_abs=1e-10, eps_rel=0.0)
+    ref = solve_with_library(problem, "proxqp", eps_abs=1e-10, eps_rel=0.0)
     ref_accel, ref_wrenches = problem.split(ref)
     ref_tau = joint_torques(mass, nle, ref_accel, jacs, ref_wrenches)
     for warm in (False, True):

@@ -69,9 +69,8 @@ def test_advance_impedance_equals_impedance_filter(enabled: bool) -> None:
         wrench = scale * rng.normal(0, 1, 3)
         was_active = reference.active
         reference.update(x_d, v_d, a_d, wrench, 1e-3, enabled=enabled)
-        switched = tasks.advance_impedance(
-            state, flags, x_d, v_d, a_d, wrench, gains, 1e-3, enabled
-        )
+        desired = tasks.DesiredMotion(x_d, v_d, a_d)
+        switched = tasks.advance_impedance(state, flags, desired, wrench, gains, 1e-3, enabled)
         assert switched == (reference.active and not was_active)
         switches += switched
         assert (flags[0], flags[1]) == (reference.armed, reference.active)
@@ -350,3 +349,32 @@ def test_reset_compiles_the_tick_kernels_for_a_real_tick(kist_home_snapshot) -> 
     snapshot = kist_home_snapshot()
     ctrl.step(0.0, snapshot)
     assert [len(k.signatures) for k in kernels] == compiled
+
+
+def test_readings_of_another_kind_go_through_numbas_dispatcher() -> None:
+    """Contiguous float readings take task_rows' entry bound at reset; a strided one goes through
+    numba's dispatcher (which checks its type), with the same rows and signals."""
+    robot = load_robot("kist_humanoid")
+    cls = controller_class("qpimpedance")
+    rng = np.random.default_rng(3)
+    joint_pos, joint_vel = rng.normal(0, 0.3, (2, robot.n_joints))
+    fts = rng.normal(0, 50, (2, 6))
+    outputs = []
+    for strided in (False, True):
+        ctrl = cls()
+        ctrl.reset(robot, cls.Params(), 0.001)
+        calls = []
+        entry = ctrl._task_kernel
+
+        def counted(*args, entry=entry, calls=calls):  # noqa: ANN002, ANN202
+            calls.append(args)
+            return entry(*args)
+
+        ctrl._task_kernel = counted
+        pos = np.repeat(joint_pos, 2)[::2] if strided else joint_pos
+        assert pos.flags.c_contiguous != strided and np.array_equal(pos, joint_pos)
+        ctrl._task_rows(0.0, -1, pos, joint_vel, *fts)
+        assert len(calls) == (0 if strided else 1)
+        outputs.append((ctrl._cost_rows.copy(), ctrl._cost_rhs.copy(), ctrl._signals.copy()))
+    for bound, dispatched in zip(*outputs, strict=True):
+        np.testing.assert_allclose(dispatched, bound, rtol=1e-12, atol=1e-12)

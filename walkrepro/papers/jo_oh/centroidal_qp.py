@@ -14,30 +14,32 @@ from Eq. (9): τ = M_q ξ̈* + C_q ξ̇ + g_q − Σ_k J_{C_k}ᵀ λ*_k.
 Here the contact Jacobians are Pinocchio's sole-frame Jacobians in LOCAL_WORLD_ALIGNED
 axes, so Σ X_{C_k B}ᵀ R̃ U_k β_k is the base block of J_kᵀ (U_k β_k) with U_k β_k the
 contact wrench at the sole centre in world axes. Build, then solve: :func:`build_qp`
-returns an inspectable :class:`QPProblem`; :meth:`QPProblem.solve` calls ``qpsolvers``.
+returns an inspectable :class:`QPProblem` (its matrices are what any QP library takes; the
+tests hand them to ``qpsolvers`` as the oracle); :meth:`QPProblem.solve` solves it exactly
+by the active set of :mod:`.condensed`.
 
-At 1 kHz the controller uses :class:`CentroidalQP` instead: the same problem, and by default
-(``active_set``) solved exactly in one compiled call with ξ̈ and the equality rows
-eliminated (:mod:`.condensed`: 16 or 32 bounded variables instead of 60). With ``proxqp``
-it is assembled in preallocated arrays by the same code as :func:`build_qp`
-(:func:`assemble_qp`) and solved by one ``proxsuite.proxqp.dense.QP`` per support set, set up
-once and warm-started each tick (:class:`ProxQPSolver`). Other solvers go through
-``qpsolvers``.
+At 1 kHz the controller uses :class:`CentroidalQP` instead: the same problem, solved exactly
+in one compiled call with ξ̈ and the equality rows eliminated (:mod:`.condensed`: 16 or 32
+bounded variables instead of 60), warm-started from the support set's last β.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import qpsolvers
-from proxsuite import proxqp
-from scipy import sparse
 
-from walkrepro.papers.jo_oh.condensed import solve_centroidal, solve_eliminated
-
-#: Solvers this module is tested with, fastest first on our problem (see README).
-SOLVERS = ("active_set", "proxqp", "osqp")
+from walkrepro.papers.jo_oh.condensed import (
+    CostRows,
+    Dynamics,
+    QPSolution,
+    QPWeights,
+    SupportContacts,
+    compiled_entry,
+    solve_centroidal,
+    solve_eliminated,
+)
 
 
 def friction_basis(mu: float, n_edges: int) -> np.ndarray:
@@ -145,44 +147,27 @@ class QPProblem:
     wrench_maps: tuple[np.ndarray, ...]
     support: tuple[int, ...]
 
-    def solve(
-        self, solver: str, initvals: np.ndarray | None = None, **options: object
-    ) -> np.ndarray | None:
-        """Solve with ``qpsolvers``, or exactly with ``active_set``; None when no solution.
+    def solve(self) -> np.ndarray | None:
+        """Solve exactly by the active set with ξ̈ eliminated; None when it finds no solution.
 
-        ``active_set`` (:func:`.condensed.solve_eliminated`) needs the shape
-        :func:`empty_qp` gives: q and P zero on β but for P's W_4 I, and β ≥ 0 its only
-        bounds. It takes no options and ignores ``initvals``.
+        :func:`.condensed.solve_eliminated` needs the shape :func:`empty_qp` gives: q and P
+        zero on β but for P's W_4 I, and β ≥ 0 its only bounds.
         """
-        if solver == "active_set":
-            nv = self.nv
-            x = np.zeros(self.q.size)
-            force_weight = self.P[nv, nv] if self.q.size > nv else 1.0
-            accel = x[:nv]  # a view: the kernel writes ξ̈ into x
-            ok = solve_eliminated(
-                self.P[:nv, :nv].copy(),
-                self.q[:nv].copy(),
-                np.ascontiguousarray(self.A[:, :nv]),
-                np.ascontiguousarray(self.A[:, nv:]),
-                self.b.copy(),
-                force_weight,
-                x[nv:],
-                accel,
-            )
-            return x if ok >= 0 else None
-        if solver not in qpsolvers.available_solvers:
-            raise ValueError(
-                f"QP solver {solver!r} is not installed; installed: "
-                f"{', '.join(qpsolvers.available_solvers)} (pip install qpsolvers[{solver}])"
-            )
-        p, a = self.P, self.A
-        if solver == "proxqp":
-            options = {"backend": "dense", **options}  # our matrices are dense
-        elif solver == "osqp":  # OSQP takes sparse matrices; converting here avoids a warning
-            p, a = sparse.csc_matrix(p), sparse.csc_matrix(a)
-        problem = qpsolvers.Problem(p, self.q, None, None, a, self.b, self.lb, self.ub)
-        solution = qpsolvers.solve_problem(problem, solver=solver, initvals=initvals, **options)
-        return solution.x if solution.found else None
+        nv = self.nv
+        x = np.zeros(self.q.size)
+        force_weight = self.P[nv, nv] if self.q.size > nv else 1.0
+        accel = x[:nv]  # a view: the kernel writes ξ̈ into x
+        ok = solve_eliminated(
+            self.P[:nv, :nv].copy(),
+            self.q[:nv].copy(),
+            np.ascontiguousarray(self.A[:, :nv]),
+            np.ascontiguousarray(self.A[:, nv:]),
+            self.b.copy(),
+            force_weight,
+            x[nv:],
+            accel,
+        )
+        return x if ok >= 0 else None
 
     def split(self, x: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
         """ξ̈ and each support foot's contact wrench U_k β_k (world axes, at the sole)."""
@@ -195,53 +180,38 @@ class QPProblem:
 
 
 def build_qp(
-    mass_matrix: np.ndarray,
-    nonlinear: np.ndarray,
+    dynamics: Dynamics,
     momentum_target: np.ndarray,
     momentum_weight: np.ndarray,
-    contact_jacobians: list[np.ndarray],
-    contact_drifts: list[np.ndarray],
-    wrench_maps: list[np.ndarray],
+    contacts: SupportContacts,
     support: tuple[int, ...],
     tasks: list[Task],
-    accel_weight: float,
-    force_weight: float,
+    weights: QPWeights,
 ) -> QPProblem:
     """Assemble the QP of §III-D.
 
     Args:
-        mass_matrix: M, shape (nv, nv) (Pinocchio, base velocity in the base frame).
-        nonlinear: C ξ̇ + g, shape (nv,).
+        dynamics: M (Pinocchio, base velocity in the base frame) and C ξ̇ + g.
         momentum_target: b_1 = X_GBᵀ ḣ_{G,r} − C_B ξ̇, shape (6,).
         momentum_weight: diagonal of W_1, shape (6,).
-        contact_jacobians: J_k (sole frame, world axes) of each support foot, shape (6, nv).
-        contact_drifts: J̇_k ξ̇ of each support foot, shape (6,).
-        wrench_maps: R̃ U_k of each support foot, shape (6, m N_c).
+        contacts: J_k (sole frame, world axes), J̇_k ξ̇ and R̃ U_k of each support foot, per
+            foot shapes (6, nv), (6,) and (6, m N_c) (stacked arrays or sequences).
         support: which feet these are (for bookkeeping).
         tasks: task-space acceleration tasks (swing foot Eq. 3, trunk, arms ...).
-        accel_weight: W_3 (scalar times identity).
-        force_weight: W_4 (scalar times identity).
+        weights: W_3 and W_4.
     """
-    nv = mass_matrix.shape[0]
-    problem = empty_qp(nv, tuple(u.shape[1] for u in wrench_maps), support, force_weight)
-    for u, out in zip(wrench_maps, problem.wrench_maps, strict=True):
-        out[:] = u
+    nv = dynamics.mass_matrix.shape[0]
+    n_beta = tuple(u.shape[1] for u in contacts.wrench_maps)
+    problem = empty_qp(nv, n_beta, support, weights.force)
     # Cost rows: √W (Φ ξ̈ − b).
-    rows = [np.sqrt(momentum_weight)[:, None] * mass_matrix[:6]]
+    rows = [np.sqrt(momentum_weight)[:, None] * dynamics.mass_matrix[:6]]
     rhs = [np.sqrt(momentum_weight) * momentum_target]
     for task in tasks:
         sw = np.sqrt(task.weight)
         rows.append(sw[:, None] * task.jacobian)
         rhs.append(sw * task.target)
     assemble_qp(
-        problem,
-        mass_matrix,
-        nonlinear,
-        np.vstack(rows),
-        np.concatenate(rhs),
-        contact_jacobians,
-        contact_drifts,
-        accel_weight,
+        problem, dynamics, CostRows(np.vstack(rows), np.concatenate(rhs)), contacts, weights.accel
     )
     return problem
 
@@ -273,41 +243,36 @@ def empty_qp(
 
 def assemble_qp(
     problem: QPProblem,
-    mass_matrix: np.ndarray,
-    nonlinear: np.ndarray,
-    cost_rows: np.ndarray,
-    cost_rhs: np.ndarray,
-    contact_jacobians: list[np.ndarray],
-    contact_drifts: list[np.ndarray],
+    dynamics: Dynamics,
+    cost: CostRows,
+    contacts: SupportContacts,
     accel_weight: float,
 ) -> None:
     """Write the tick-dependent blocks of the §III-D QP into ``problem`` (from :func:`empty_qp`).
 
     P_ξξ = AᵀA + W_3 I and q_ξ = −Aᵀb for the stacked weighted cost rows A ξ̈ ≈ b (momentum
     rows √W_1 M_B, b = √W_1 b_1, then the tasks √W_t Φ_t, √W_t b_t; zero rows add nothing);
-    the equality rows of Eq. (5) and of the support feet. ``problem.wrench_maps`` must hold
-    this tick's R̃ U_k.
+    the equality rows of Eq. (5) and of the support feet; ``problem.wrench_maps`` the R̃ U_k.
 
     Args:
         problem: the problem to fill in place.
-        mass_matrix: M, shape (nv, nv).
-        nonlinear: C ξ̇ + g, shape (nv,).
-        cost_rows: stacked √W Φ rows, shape (r, nv).
-        cost_rhs: stacked √W b, shape (r,).
-        contact_jacobians: J_k of each support foot, shape (6, nv).
-        contact_drifts: J̇_k ξ̇ of each support foot, shape (6,).
+        dynamics: M and C ξ̇ + g.
+        cost: stacked √W Φ rows, shape (r, nv), and √W b, shape (r,).
+        contacts: J_k, J̇_k ξ̇ and R̃ U_k of each support foot (as :func:`build_qp`).
         accel_weight: W_3 (scalar times identity).
     """
     nv = problem.nv
-    hess = cost_rows.T @ cost_rows
+    for out, u in zip(problem.wrench_maps, contacts.wrench_maps, strict=True):
+        out[:] = u
+    hess = cost.rows.T @ cost.rows
     hess.reshape(-1)[:: nv + 1] += accel_weight  # a view: hess is contiguous
     problem.P[:nv, :nv] = hess
-    np.negative(cost_rhs @ cost_rows, out=problem.q[:nv])
+    np.negative(cost.rhs @ cost.rows, out=problem.q[:nv])
     a_eq, b_eq = problem.A, problem.b
-    a_eq[:6, :nv] = mass_matrix[:6]
-    np.negative(nonlinear[:6], out=b_eq[:6])
+    a_eq[:6, :nv] = dynamics.mass_matrix[:6]
+    np.negative(dynamics.nonlinear[:6], out=b_eq[:6])
     col, row = nv, 6
-    for jac, drift, u in zip(contact_jacobians, contact_drifts, problem.wrench_maps, strict=True):
+    for jac, drift, u in zip(contacts.jacobians, contacts.drifts, problem.wrench_maps, strict=True):
         m = u.shape[1]
         np.negative(jac[:, :6].T @ u, out=a_eq[:6, col : col + m])
         a_eq[row : row + 6, :nv] = jac
@@ -316,65 +281,11 @@ def assemble_qp(
         row += 6
 
 
-class ProxQPSolver:
-    """ProxQP's dense solver kept from tick to tick for problems of one fixed shape and bounds.
-
-    ``qpsolvers`` builds a new solver each call: it recomputes the Ruiz preconditioner
-    (≈ 60 µs here) and turns the bounds into an nx-row inequality block. Here a cold start
-    sets up a fresh ``proxsuite.proxqp.dense.QP`` (preconditioner included), exactly like one
-    ``qpsolvers`` call; the warm ticks that follow only update P, q, A and b in place, keep
-    that preconditioner and start from the previous primal and dual solution
-    (deterministic). Only the bounded variables (β ≥ 0) get inequality rows: the free ξ̈
-    need none, so the constraint set is the same.
-
-    Args:
-        problem: a problem of the shape to solve (fixes the bounds, which must not change).
-        eps_abs: absolute tolerance (``eps_rel`` stays 0, as through ``qpsolvers``).
-    """
-
-    def __init__(self, problem: QPProblem, eps_abs: float) -> None:
-        self._shape = problem.P.shape[0], problem.A.shape[0]
-        bounded = np.isfinite(problem.lb) | np.isfinite(problem.ub)
-        self._c = np.eye(self._shape[0])[bounded]
-        self._l, self._u = problem.lb[bounded].copy(), problem.ub[bounded].copy()
-        self._eps_abs = eps_abs
-        self._qp: proxqp.dense.QP | None = None
-
-    def solve(self, problem: QPProblem, warm: bool) -> np.ndarray | None:
-        """Solve ``problem``; ``warm`` continues from the previous solve, else starts afresh.
-
-        A cold start (the first tick of a support phase) also recomputes the preconditioner:
-        kept across a phase change it leaves the solver from the equality-constrained guess
-        tens of iterations from the solution, at times thousands.
-
-        Returns:
-            x, or None when the solver finds no solution.
-        """
-        qp = self._qp
-        if warm and qp is not None:
-            qp.update(H=problem.P, g=problem.q, A=problem.A, b=problem.b)
-            qp.solve()
-        else:
-            qp = self._qp = proxqp.dense.QP(*self._shape, self._c.shape[0])
-            qp.settings.eps_abs = self._eps_abs
-            qp.settings.eps_rel = 0.0
-            qp.init(problem.P, problem.q, problem.A, problem.b, self._c, self._l, self._u)
-            qp.solve()  # from the equality-constrained initial guess (the default)
-            qp.settings.initial_guess = proxqp.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
-        results = qp.results
-        if results.info.status != proxqp.QPSolverOutput.PROXQP_SOLVED:
-            return None
-        return results.x
-
-
 class CentroidalQP:
     """The QP of §III-D for one support set, in preallocated arrays, solved tick after tick.
 
-    ``active_set`` (the default) solves the QP exactly with ξ̈ and the equality rows
-    eliminated (:mod:`.condensed`, one compiled call that also applies Eq. 9), warm-started
-    from the set's last β; should it ever fail (a singular factor), that tick falls back to
-    ProxQP on the full problem. ``proxqp`` runs ProxSuite on the full problem directly
-    (:class:`ProxQPSolver`); other solvers go through ``qpsolvers``.
+    The QP is solved exactly with ξ̈ and the equality rows eliminated (:mod:`.condensed`, one
+    compiled call that also applies Eq. 9), warm-started from the set's last β.
 
     Args:
         nv: size of ξ̈.
@@ -383,12 +294,9 @@ class CentroidalQP:
             (``contact_wrench_basis(np.eye(3), ...)``).
         accel_weight: W_3 (scalar times identity).
         force_weight: W_4 (scalar times identity).
-        solver: ``active_set``, ``proxqp`` or another ``qpsolvers`` backend.
-        eps_abs: solver absolute tolerance (ProxQP and ``qpsolvers`` only).
 
     Attributes:
-        problem: the full problem, filled in by :meth:`build` (and by :meth:`solve` for the
-            solvers that need it).
+        problem: the full problem, filled in by :meth:`build` (for inspection).
         accel: ξ̈* of the last successful :meth:`solve`, shape (nv,).
         wrenches: U_k β*_k of each support foot (world axes, at the sole), shape (k, 6).
         tau: Eq. (9) joint torques of the last successful :meth:`solve`, shape (nv − 6,).
@@ -401,45 +309,34 @@ class CentroidalQP:
         local_maps: list[np.ndarray],
         accel_weight: float,
         force_weight: float,
-        solver: str,
-        eps_abs: float,
     ) -> None:
         n_feet, m = len(local_maps), local_maps[0].shape[1]
         self.problem = empty_qp(nv, tuple(u.shape[1] for u in local_maps), support, force_weight)
         self._local_maps = [np.ascontiguousarray(u) for u in local_maps]
-        self._accel_weight, self._force_weight = accel_weight, force_weight
-        self._solver, self._eps_abs = solver, eps_abs
-        self._proxqp = ProxQPSolver(self.problem, eps_abs)
-        self._x_prev: np.ndarray | None = None
-        # Stacks per support foot that :meth:`update` fills for the compiled kernel, and
-        # this tick's inputs (these stacks, or the arrays :meth:`set_inputs` was given).
-        self._stacks = np.zeros((n_feet, 6, nv)), np.zeros((n_feet, 6)), np.zeros((n_feet, 6, m))
-        self._jacobians, self._drifts, self._maps = self._stacks
-        self._mass_matrix = np.zeros((nv, nv))
-        self._nonlinear = np.zeros(nv)
-        self._cost_rows = np.zeros((0, nv))
-        self._cost_rhs = np.zeros(0)
-        self._beta = np.zeros(n_feet * m)
+        self._weights = QPWeights(accel_weight, force_weight)
+        # Stacks per support foot that :meth:`update` fills for the compiled kernel.
+        self._stacks = SupportContacts(
+            np.zeros((n_feet, 6, nv)), np.zeros((n_feet, 6)), np.zeros((n_feet, 6, m))
+        )
         self.accel = np.zeros(nv)
         self.wrenches = np.zeros((n_feet, 6))
         self.tau = np.zeros(nv - 6)
-        self.fallbacks = 0  # ticks the active-set solve failed and ProxQP stepped in
-        self._kernel_args: tuple = ()  # solve_centroidal's arguments (set_inputs)
-        self.set_inputs(
-            self._mass_matrix, self._nonlinear, self._cost_rows, self._cost_rhs, *self._stacks
-        )
+        self._solution = QPSolution(np.zeros(n_feet * m), self.accel, self.wrenches, self.tau)
+        # This tick's inputs (:meth:`set_inputs`) and the kernel to call on them: until then
+        # empty inputs and the dispatcher, which compiles nothing before it is called.
+        empty = Dynamics(np.zeros((nv, nv)), np.zeros(nv)), CostRows(np.zeros((0, nv)), np.zeros(0))
+        self._kernel_args = (empty[1], empty[0], self._stacks, self._weights, self._solution)
+        self._kernel = solve_centroidal
 
     def update(
         self,
-        mass_matrix: np.ndarray,
-        nonlinear: np.ndarray,
-        cost_rows: np.ndarray,
-        cost_rhs: np.ndarray,
+        dynamics: Dynamics,
+        cost: CostRows,
         contact_jacobians: list[np.ndarray],
         contact_drifts: list[np.ndarray],
         contact_rotations: list[np.ndarray],
     ) -> None:
-        """Take this tick's inputs (arguments as :func:`assemble_qp`; R̃_{C_k} per foot).
+        """Take this tick's inputs (as :func:`assemble_qp`; J_k, J̇_k ξ̇ and R̃_{C_k} per foot).
 
         The arrays are referenced, not copied, except the per-foot ones, which are stacked.
         """
@@ -450,62 +347,27 @@ class CentroidalQP:
             jacobians[k] = jac
             drifts[k] = drift
             rotate_wrench_basis(rot, self._local_maps[k], maps[k])
-        self.set_inputs(
-            mass_matrix,
-            nonlinear,
-            np.ascontiguousarray(cost_rows),
-            cost_rhs,
-            jacobians,
-            drifts,
-            maps,
-        )
+        self.set_inputs(dynamics, CostRows(np.ascontiguousarray(cost.rows), cost.rhs), self._stacks)
 
-    def set_inputs(
-        self,
-        mass_matrix: np.ndarray,
-        nonlinear: np.ndarray,
-        cost_rows: np.ndarray,
-        cost_rhs: np.ndarray,
-        jacobians: np.ndarray,
-        drifts: np.ndarray,
-        wrench_maps: np.ndarray,
-    ) -> None:
+    def set_inputs(self, dynamics: Dynamics, cost: CostRows, contacts: SupportContacts) -> None:
         """Take this tick's inputs already stacked per support foot, by reference (no copies).
 
         Args:
-            mass_matrix, nonlinear, cost_rows, cost_rhs: as :meth:`update` (``cost_rows``
-                C-contiguous).
-            jacobians: J_k of each support foot, shape (k, 6, nv), C-contiguous.
-            drifts: J̇_k ξ̇ of each support foot, shape (k, 6).
-            wrench_maps: R̃_{C_k} U_k of each support foot, shape (k, 6, m N_c).
+            dynamics: M and C ξ̇ + g.
+            cost: the stacked weighted cost rows (``rows`` C-contiguous).
+            contacts: J_k (C-contiguous), J̇_k ξ̇ and R̃_{C_k} U_k of each support foot.
         """
-        self._mass_matrix, self._nonlinear = mass_matrix, nonlinear
-        self._cost_rows, self._cost_rhs = cost_rows, cost_rhs
-        self._jacobians, self._drifts, self._maps = jacobians, drifts, wrench_maps
-        # One tuple for the compiled call: a caller whose inputs stay the same arrays (filled
-        # in place each tick) sets them once, and :meth:`solve` looks up no attributes.
-        self._kernel_args = (
-            cost_rows, cost_rhs, mass_matrix, nonlinear, jacobians, drifts, wrench_maps,
-            self._accel_weight, self._force_weight, self._beta, self.accel, self.wrenches,
-            self.tau,
-        )  # fmt: skip
+        # One tuple for the compiled call, and the kernel's entry for its types: a caller
+        # whose inputs stay the same arrays (filled in place each tick) sets them once, and
+        # :meth:`solve` neither looks up attributes nor has numba check the records' types.
+        self._kernel_args = (cost, dynamics, contacts, self._weights, self._solution)
+        self._kernel = compiled_entry(solve_centroidal, *self._kernel_args)
 
     def build(self) -> QPProblem:
         """The full problem of this tick's inputs (as :func:`build_qp`), for inspection."""
-        problem = self.problem
-        for out, u in zip(problem.wrench_maps, self._maps, strict=True):
-            out[:] = u
-        assemble_qp(
-            problem,
-            self._mass_matrix,
-            self._nonlinear,
-            self._cost_rows,
-            self._cost_rhs,
-            list(self._jacobians),
-            list(self._drifts),
-            self._accel_weight,
-        )
-        return problem
+        cost, dynamics, contacts, weights, _ = self._kernel_args
+        assemble_qp(self.problem, dynamics, cost, contacts, weights.accel)
+        return self.problem
 
     def solve(self, warm: bool) -> bool:
         """Solve this tick's problem; ``warm`` starts from this set's last solution.
@@ -513,39 +375,17 @@ class CentroidalQP:
         Returns:
             Whether a solution was found (then in :attr:`accel`, :attr:`wrenches`, :attr:`tau`).
         """
-        if self._solver == "active_set":
-            if not warm:
-                self._beta[:] = 0.0  # cold: every β at its bound
-            if solve_centroidal(*self._kernel_args) >= 0:
-                return True
-            self.fallbacks += 1
-            x = self._proxqp.solve(self.build(), warm=False)
-            if x is not None:
-                self._beta[:] = np.maximum(x[self.problem.nv :], 0.0)
-        elif self._solver == "proxqp":
-            x = self._proxqp.solve(self.build(), warm)
-        else:
-            init = self._x_prev if warm else None
-            x = self.build().solve(self._solver, initvals=init, eps_abs=self._eps_abs)
-            if x is not None:
-                self._x_prev = x
-        if x is None:
-            return False
-        accel, wrenches = self.problem.split(x)
-        self.accel[:] = accel
-        self.wrenches[:] = wrenches
-        self.tau[:] = joint_torques(
-            self._mass_matrix, self._nonlinear, accel, list(self._jacobians), wrenches
-        )
-        return True
+        if not warm:
+            self._solution.beta[:] = 0.0  # cold: every β at its bound
+        return self._kernel(*self._kernel_args) >= 0
 
 
 def joint_torques(
     mass_matrix: np.ndarray,
     nonlinear: np.ndarray,
     accel: np.ndarray,
-    contact_jacobians: list[np.ndarray],
-    wrenches: list[np.ndarray],
+    contact_jacobians: Sequence[np.ndarray],
+    wrenches: Sequence[np.ndarray],
 ) -> np.ndarray:
     """Eq. (9): τ = M_q ξ̈* + C_q ξ̇ + g_q − Σ_k J_{C_k}ᵀ λ*_k, shape (n,) [N m]."""
     tau = mass_matrix[6:] @ accel + nonlinear[6:]

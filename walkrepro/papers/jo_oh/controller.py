@@ -26,13 +26,25 @@ from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
 from walkrepro.papers.jo_oh.centroidal_qp import (
-    SOLVERS,
     CentroidalQP,
     contact_wrench_basis,
     friction_basis,
 )
-from walkrepro.papers.jo_oh.condensed import warm_up
-from walkrepro.papers.jo_oh.footsteps import LEFT, RIGHT, SIDES, FootstepPlan, plan_walk
+from walkrepro.papers.jo_oh.condensed import (
+    CostRows,
+    Dynamics,
+    SupportContacts,
+    compiled_entry,
+    warm_up,
+)
+from walkrepro.papers.jo_oh.footsteps import (
+    LEFT,
+    RIGHT,
+    SIDES,
+    FootstepPlan,
+    WalkPattern,
+    plan_walk,
+)
 from walkrepro.papers.jo_oh.preview import generate_com, preview_gains
 from walkrepro.papers.jo_oh.tasks import (
     FOOT_BLOCK,
@@ -41,6 +53,13 @@ from walkrepro.papers.jo_oh.tasks import (
     SCALARS,
     SIGNAL_COM,
     SIGNAL_FEET,
+    RobotTerms,
+    SensorReadings,
+    SoleKinematics,
+    TaskConstants,
+    TaskOutputs,
+    TaskReferences,
+    TaskState,
     kinematic_chain,
     pack_swing,
     signal_names,
@@ -51,6 +70,9 @@ from walkrepro.sensors import SensorSnapshot
 from walkrepro.signals import SignalLayout, Signals
 
 Vec3 = tuple[float, float, float]
+#: The readings the tick's compiled entry of task_rows takes: contiguous float64 vectors.
+_FLOAT64 = np.dtype(np.float64)
+_VECTOR_STRIDES = (_FLOAT64.itemsize,)
 #: Support sets, each with its own QP (its β blocks differ).
 SUPPORTS = ((LEFT, RIGHT), (RIGHT,), (LEFT,))
 #: Signals logged after the QP's contact forces, in order.
@@ -144,13 +166,6 @@ class QPImpedanceParams(ControllerParams):
     w_force: float = Field(1e-6, gt=0, description="W_4 regularisation of β")
     friction: float = Field(0.6, gt=0, description="friction coefficient μ of the pyramid (Eq. 8)")
     pyramid_edges: int = Field(4, ge=3, description="edges m of each pyramid (Eq. 8)")
-    solver: str = Field(
-        "active_set",
-        description=f"QP solver, one of {SOLVERS}: active_set solves the QP exactly with ξ̈"
-        " eliminated (compiled, warm-started), proxqp runs ProxSuite directly on the full QP"
-        " (warm-started), the others go through qpsolvers",
-    )
-    solver_eps: float = Field(1e-6, gt=0, description="solver absolute tolerance")
 
     @property
     def swing_gains(self) -> tuple[float, float]:
@@ -253,13 +268,11 @@ class QPImpedanceController(Controller):
             [[sx * length / 2, sy * width / 2, 0.0] for sx in (1, -1) for sy in (1, -1)]
         )
         pyramid = friction_basis(p.friction, p.pyramid_edges)
-        if p.solver not in SOLVERS:
-            raise ValueError(f"unknown QP solver {p.solver!r}; valid: {', '.join(SOLVERS)}")
 
         # Walking pattern: footsteps, ZMP reference and the preview-control CoM (ref. [23]).
         com_height = p.com_height or robot.nominal_com_height
         first = LEFT if p.first_swing == "left" else RIGHT
-        self._plan: FootstepPlan = plan_walk(
+        pattern = WalkPattern(
             p.foot_y,
             p.stride,
             p.n_steps,
@@ -268,8 +281,8 @@ class QPImpedanceController(Controller):
             p.t_single,
             p.t_double,
             p.t_end_hold,
-            p.preview_dt,
         )
+        self._plan: FootstepPlan = plan_walk(pattern, p.preview_dt)
         self._phase_ends = [ph.t1 for ph in self._plan.phases]
         gains = preview_gains(p.preview_dt, com_height, p.preview_time, p.preview_q, p.preview_r)
         q0, v0 = robot.pin_state_from_mujoco(robot.home_qpos, np.zeros(robot.mj_model.nv))
@@ -360,13 +373,7 @@ class QPImpedanceController(Controller):
         }
         self._qps = {
             support: CentroidalQP(
-                nv,
-                support,
-                [self._local_map] * len(support),
-                p.w_accel,
-                p.w_force,
-                p.solver,
-                p.solver_eps,
+                nv, support, [self._local_map] * len(support), p.w_accel, p.w_force
             )
             for support in SUPPORTS
         }
@@ -376,6 +383,7 @@ class QPImpedanceController(Controller):
         self._refresh_views = False
         self._check_views(q0)
         self._bind_task_args()
+        self._bind_task_kernel()
         self._bind_qp_inputs()
         warm_up()  # compile the QP kernels now (or load them from numba's cache), not on tick 1
         self._warm_up_tick(q0, v0)
@@ -410,13 +418,11 @@ class QPImpedanceController(Controller):
             n_rows = self._rows_swing + (6 if len(support) == 1 else 0)
             feet = self._support_slices[support]
             qp.set_inputs(
-                views.mass_matrix,
-                views.nle,
-                self._cost_rows[:n_rows],
-                self._cost_rhs[:n_rows],
-                self._sole_jacobians[feet],
-                self._sole_drifts[feet],
-                self._wrench_maps[feet],
+                Dynamics(views.mass_matrix, views.nle),
+                CostRows(self._cost_rows[:n_rows], self._cost_rhs[:n_rows]),
+                SupportContacts(
+                    self._sole_jacobians[feet], self._sole_drifts[feet], self._wrench_maps[feet]
+                ),
             )
 
     def _warm_up_tick(self, q0: np.ndarray, v0: np.ndarray) -> None:
@@ -480,14 +486,14 @@ class QPImpedanceController(Controller):
         self._stance_z[phase.swing] = phase.target[2]
 
     def _bind_task_args(self) -> None:
-        """Gather :func:`.tasks.task_rows`' arguments that are the same arrays every tick.
+        """Gather :func:`.tasks.task_rows`' records, which hold the same arrays every tick.
 
-        Data's views and ξ̇ (before the sensor readings), then the constants, the per-tick
-        state and the output buffers (after them), in the kernel's order: all are filled in
-        place, so a tick passes two prebuilt tuples instead of looking up fifty attributes.
+        Data's views and ξ̇, the constants, the walking pattern, the per-tick state and the
+        output buffers: all are filled in place, so a tick passes one prebuilt tuple instead
+        of looking up fifty attributes.
         """
         views = self._views
-        self._task_args_pinocchio = (
+        terms = RobotTerms(
             views.jacobians,
             views.mass_matrix,
             views.nle,
@@ -501,36 +507,44 @@ class QPImpedanceController(Controller):
             views.pelvis_rotation,
             views.torso_rotation,
             *views.torso_joint,
-            *views.soles[LEFT],
-            *views.soles[RIGHT],
+            SoleKinematics(*views.soles[LEFT]),
+            SoleKinematics(*views.soles[RIGHT]),
             self._v,
         )
-        self._task_args_buffers = (
+        constants = TaskConstants(
             self._scalars,
+            self._momentum_sqrt_w,
+            self._impedance_gains,
             self._chains,
             self._posture_idx,
-            self._q_home_posture,
-            self._momentum_sqrt_w,
-            self._com_plan,
-            self._swing_plan,
-            self._stance_z,
             self._sole_site_rotation,
             self._sole_site_position,
             self._sole_foot_com,
             self._sole_offset,
             self._local_map,
-            self._impedance_gains,
-            self._impedance_state,
-            self._impedance_flags,
-            self._prev_foot_vel,
-            self._foot_acc_cmd,
-            self._cost_rows,
-            self._cost_rhs,
+        )
+        references = TaskReferences(
+            self._com_plan, self._swing_plan, self._stance_z, self._q_home_posture
+        )
+        state = TaskState(
+            self._impedance_state, self._impedance_flags, self._prev_foot_vel, self._foot_acc_cmd
+        )
+        outputs = TaskOutputs(
+            CostRows(self._cost_rows, self._cost_rhs),
             self._sole_jacobians,
             self._sole_drifts,
             self._wrench_maps,
             self._signals,
         )
+        self._task_args = (terms, constants, references, state, outputs)
+
+    def _bind_task_kernel(self) -> None:
+        """Take task_rows' compiled entry for the records' types and readings of the kind a
+        snapshot holds (contiguous float vectors): a tick then skips numba's check of every
+        record's fields (the records' types stay when the views are refreshed)."""
+        joints, ft = np.zeros(self._robot.n_joints), np.zeros(6)
+        readings = SensorReadings(joints, joints, ft, ft)
+        self._task_kernel = compiled_entry(task_rows, 0.0, -1, readings, *self._task_args)
 
     def _task_rows(
         self,
@@ -543,19 +557,22 @@ class QPImpedanceController(Controller):
     ) -> int:
         """Run :func:`.tasks.task_rows` on this tick's Pinocchio terms and sensor readings.
 
+        Readings of another kind than :meth:`_bind_task_kernel` bound the entry for go
+        through numba's dispatcher, which checks their types.
+
         Returns:
             A bit per foot (1 left, 2 right) whose impedance modification switched on.
         """
-        return task_rows(
-            t,
-            swing,
-            *self._task_args_pinocchio,
-            joint_pos,
-            joint_vel,
-            left_ft,
-            right_ft,
-            *self._task_args_buffers,
-        )
+        readings = SensorReadings(joint_pos, joint_vel, left_ft, right_ft)
+        kernel = self._task_kernel
+        for reading in readings:
+            if not (
+                type(reading) is np.ndarray
+                and reading.dtype is _FLOAT64
+                and reading.strides == _VECTOR_STRIDES
+            ):
+                kernel = task_rows
+        return kernel(t, swing, readings, *self._task_args)
 
     def step(self, t: float, s: SensorSnapshot) -> Command:
         """One tick of §III-D: tasks → QP → Eq. (9)."""

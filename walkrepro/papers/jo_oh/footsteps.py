@@ -82,20 +82,11 @@ class FootstepPlan:
         object.__setattr__(self, "_xy", [tuple(p) for p in self.zmp_xy.tolist()])
 
 
-def plan_walk(
-    foot_y: float,
-    stride: float,
-    n_steps: int,
-    first_swing: int,
-    t_start: float,
-    t_single: float,
-    t_double: float,
-    t_end_hold: float,
-    dt: float,
-) -> FootstepPlan:
-    """Plan ``n_steps`` steps straight ahead along +x (§IV: 0.35 m stride, 0.56 s + 0.14 s).
+@dataclass(frozen=True)
+class WalkPattern:
+    """A straight walk along +x: where the feet go and when (§IV: 0.35 m stride, 0.56 s + 0.14 s).
 
-    Args:
+    Attributes:
         foot_y: lateral offset of each sole centre from the midline [m] (left +, right −).
         stride: distance a swing foot travels per full step [m]; the first and the last
             step travel half of it.
@@ -106,8 +97,31 @@ def plan_walk(
         t_double: double-support time of every step [s].
         t_end_hold: double support after the last step, in the plan (the ZMP comes to the
             middle of the feet) [s].
+    """
+
+    foot_y: float
+    stride: float
+    n_steps: int
+    first_swing: int
+    t_start: float
+    t_single: float
+    t_double: float
+    t_end_hold: float
+
+
+def plan_walk(pattern: WalkPattern, dt: float) -> FootstepPlan:
+    """Plan ``pattern.n_steps`` steps straight ahead along +x, with the ZMP reference.
+
+    Args:
+        pattern: the feet's offsets, the stride, the number of steps and the phase times.
         dt: sample time of the ZMP reference [s].
     """
+    foot_y, stride, n_steps, first_swing = (
+        pattern.foot_y, pattern.stride, pattern.n_steps, pattern.first_swing
+    )  # fmt: skip
+    t_start, t_single, t_double, t_end_hold = (
+        pattern.t_start, pattern.t_single, pattern.t_double, pattern.t_end_hold
+    )  # fmt: skip
     if n_steps < 2:
         raise ValueError(f"n_steps must be at least 2, got {n_steps}")
     feet = np.array([[0.0, foot_y], [0.0, -foot_y]])  # sole centres (x, y) [m]

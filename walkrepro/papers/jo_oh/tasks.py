@@ -25,18 +25,22 @@ its Python reference (:func:`.footsteps.quintic`, :meth:`.footsteps.SwingTraject
 :mod:`.condensed`, the kernels are cached on disk (``cache=True``) and compiled by
 :func:`warm_up` when the controller resets.
 
-Scalars travel in one float array (:data:`SCALARS` names its entries): numba checks each
-argument's type on every call, and one array is cheaper to check than twenty floats.
+:func:`task_rows` takes its inputs in records (named tuples, :class:`RobotTerms` …
+:class:`TaskOutputs`), which the controller builds once at reset: the arrays in them are
+filled in place every tick. Scalars travel in one float array (:data:`SCALARS` names its
+entries): one array is cheaper to pass than twenty floats.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
 import pinocchio as pin
 
+from walkrepro.papers.jo_oh.condensed import CostRows
 from walkrepro.robot import (
     eigen_rotate,
     frame_classical_acceleration,
@@ -113,6 +117,186 @@ FOOT_BLOCK = len(FOOT_SIGNALS) + 1 + 3 * len(REFERENCE_SIGNALS)
 SIGNAL_FEET = 2  # after t_plan and swing_foot
 SIGNAL_COM = SIGNAL_FEET + 2 * FOOT_BLOCK
 N_SIGNALS = SIGNAL_COM + 6
+
+
+class SoleKinematics(NamedTuple):
+    """A sole frame's placement and its parent joint's motion, from Pinocchio's ``Data``.
+
+    Attributes:
+        rotation, position: world placement of the sole frame (``data.oMf``) [-, m].
+        joint_rotation: its parent joint's world rotation (``data.oMi[j].rotation``).
+        joint_velocity: its parent joint's spatial velocity, joint axes (``data.v[j]``).
+        joint_drift: its parent joint's drift acceleration, joint axes (``data.a[j]``).
+    """
+
+    rotation: np.ndarray
+    position: np.ndarray
+    joint_rotation: np.ndarray
+    joint_velocity: np.ndarray
+    joint_drift: np.ndarray
+
+
+class RobotTerms(NamedTuple):
+    """Pinocchio's terms of the tick (after ``computeAllTerms`` and ``updateFramePlacements``;
+    the drifts J̇ ξ̇ follow from the joints' ``data.v``, ``data.a`` by
+    :func:`~walkrepro.robot.frame_classical_acceleration`), and ξ̇.
+
+    Attributes:
+        joint_jacobians: ``data.J``, shape (6, nv).
+        mass_matrix: M (``data.M``), shape (nv, nv).
+        nonlinear: C ξ̇ + g (``data.nle``), shape (nv,).
+        gravity_torques: g (``data.g``), shape (nv,).
+        com, com_vel: CoM position [m] and velocity [m/s] in the world, shape (3,).
+        angular_momentum: k, the angular part of h_G [kg m²/s], shape (3,).
+        base_rotation, base_position: world-from-base placement (``data.oMi[1]``), which
+            is also the pelvis frame's parent joint.
+        base_drift: the base joint's drift acceleration (``data.a[1].vector``), shape (6,).
+        pelvis_rotation, torso_rotation: the frame's world rotation (``data.oMf``).
+        torso_joint_rotation, torso_joint_drift: the torso frame's parent joint's world
+            rotation and drift acceleration (``data.oMi[j].rotation``, ``data.a[j].vector``).
+        left, right: the soles.
+        velocity: ξ̇ (Pinocchio's v), shape (nv,).
+    """
+
+    joint_jacobians: np.ndarray
+    mass_matrix: np.ndarray
+    nonlinear: np.ndarray
+    gravity_torques: np.ndarray
+    com: np.ndarray
+    com_vel: np.ndarray
+    angular_momentum: np.ndarray
+    base_rotation: np.ndarray
+    base_position: np.ndarray
+    base_drift: np.ndarray
+    pelvis_rotation: np.ndarray
+    torso_rotation: np.ndarray
+    torso_joint_rotation: np.ndarray
+    torso_joint_drift: np.ndarray
+    left: SoleKinematics
+    right: SoleKinematics
+    velocity: np.ndarray
+
+
+class SensorReadings(NamedTuple):
+    """The tick's sensor readings, actuator order.
+
+    Attributes:
+        joint_pos, joint_vel: joint angles [rad] and velocities [rad/s], shape (n,).
+        left_ft, right_ft: each foot's F/T reading (force [N], torque [N m]) in its sensor
+            frame, shape (6,).
+    """
+
+    joint_pos: np.ndarray
+    joint_vel: np.ndarray
+    left_ft: np.ndarray
+    right_ft: np.ndarray
+
+
+class TaskConstants(NamedTuple):
+    """Gains, weights and the robot's geometry, set at reset.
+
+    Attributes:
+        scalars: gains, weights and times, named by :data:`SCALARS`.
+        momentum_sqrt_w: √W_1, shape (6,).
+        impedance_gains: M_d, B_d, K_d and thresholds (see :func:`advance_impedance`).
+        chains: per frame of :data:`CHAIN_LEFT_SOLE` … whether each velocity moves it,
+            shape (4, nv) bool.
+        posture_idx: actuator indices of the arm and waist joints.
+        sole_site_rotation, sole_site_position: each F/T sensor's placement in its sole
+            frame, shapes (2, 3, 3) and (2, 3) [-, m].
+        sole_foot_com: each foot body's centre of mass in its sole frame, shape (2, 3) [m].
+        sole_offset: each sole frame's origin in its parent joint's frame [m], shape (2, 3).
+        local_wrench_map: U_k in the contact frame (Eq. 8), shape (6, m N_c).
+    """
+
+    scalars: np.ndarray
+    momentum_sqrt_w: np.ndarray
+    impedance_gains: np.ndarray
+    chains: np.ndarray
+    posture_idx: np.ndarray
+    sole_site_rotation: np.ndarray
+    sole_site_position: np.ndarray
+    sole_foot_com: np.ndarray
+    sole_offset: np.ndarray
+    local_wrench_map: np.ndarray
+
+
+class TaskReferences(NamedTuple):
+    """The walking pattern the tasks track: set at reset, the swing at each phase's start.
+
+    Attributes:
+        com_plan: the preview CoM pattern (see :func:`desired_com`), shape (N, 6).
+        swing_plan: this phase's swing trajectory (see :func:`pack_swing`), shape (14,).
+        stance_z: each foot's planned stance height [m], shape (2,).
+        posture_home: home angles of the arm and waist joints [rad] (``posture_idx``).
+    """
+
+    com_plan: np.ndarray
+    swing_plan: np.ndarray
+    stance_z: np.ndarray
+    posture_home: np.ndarray
+
+
+class TaskState(NamedTuple):
+    """Each foot's state carried from tick to tick, updated in place.
+
+    Attributes:
+        impedance_state, impedance_flags: each foot's (see :func:`advance_impedance`),
+            shapes (2, 3, 3) and (2, 2).
+        prev_foot_vel: each sole's spatial velocity of the previous tick, shape (2, 6).
+        foot_acc_cmd: each sole's commanded linear acceleration [m/s²], shape (2, 3).
+    """
+
+    impedance_state: np.ndarray
+    impedance_flags: np.ndarray
+    prev_foot_vel: np.ndarray
+    foot_acc_cmd: np.ndarray
+
+
+class TaskOutputs(NamedTuple):
+    """What :func:`task_rows` writes each tick.
+
+    Attributes:
+        cost: the stacked weighted rows (see :data:`ROW_PELVIS`); the constant posture rows
+            are not written.
+        sole_jacobians, sole_drifts, wrench_maps: per foot, J_k (6, nv), J̇_k ξ̇ (6,) and
+            R̃ U_k (6, m N_c).
+        signals: the signal vector named by :func:`signal_names`.
+    """
+
+    cost: CostRows
+    sole_jacobians: np.ndarray
+    sole_drifts: np.ndarray
+    wrench_maps: np.ndarray
+    signals: np.ndarray
+
+
+class RowGains(NamedTuple):
+    """A task's gains in ẍ_r = ẍ_d + K_V (ẋ_d − ẋ) + K_P (x_d − x) and its rows' weight.
+
+    Attributes:
+        kp: K_P [1/s²].
+        kv: K_V [1/s].
+        sqrt_w: √W_t of the task's rows.
+    """
+
+    kp: float
+    kv: float
+    sqrt_w: float
+
+
+class DesiredMotion(NamedTuple):
+    """Desired coordinates, their rates and accelerations, each of shape (3,).
+
+    Attributes:
+        position: x_d.
+        velocity: ẋ_d.
+        acceleration: ẍ_d.
+    """
+
+    position: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
 
 
 def signal_names(sides: tuple[str, ...]) -> tuple[str, ...]:
@@ -292,9 +476,7 @@ def swing_reference(
 def advance_impedance(
     state: np.ndarray,
     flags: np.ndarray,
-    x_d: np.ndarray,
-    v_d: np.ndarray,
-    a_d: np.ndarray,
+    desired: DesiredMotion,
     wrench: np.ndarray,
     gains: np.ndarray,
     dt: float,
@@ -305,7 +487,7 @@ def advance_impedance(
     Args:
         state: (x_m, ẋ_m, ẍ_m), updated in place, shape (3, 3).
         flags: (armed, active), updated in place, shape (2,) bool.
-        x_d, v_d, a_d: desired (z, φ_x, φ_y), rates and accelerations, shape (3,).
+        desired: desired (z [m], φ_x, φ_y [rad]), rates and accelerations.
         wrench: contact wrench λ = (f_z [N], μ_x [N m], μ_y [N m]).
         gains: rows M_d, B_d, K_d and the switch-on thresholds, shape (4, 3).
         dt: control period [s].
@@ -314,6 +496,7 @@ def advance_impedance(
     Returns:
         Whether the modification switched on this tick.
     """
+    x_d, v_d, a_d = desired.position, desired.velocity, desired.acceleration
     over = False
     for i in range(3):
         if abs(wrench[i]) > gains[3, i]:
@@ -435,15 +618,16 @@ def desired_com(
 def _weighted_rows(
     source: np.ndarray,
     first: int,
-    target: np.ndarray,
-    rhs: np.ndarray,
-    row: int,
     n_rows: int,
+    cost: CostRows,
+    row: int,
     acc_ref: np.ndarray,
     drift: np.ndarray,
     sqrt_w: float,
 ) -> None:
-    """Cost rows √W Φ and √W (ẍ_r − Φ̇ ξ̇) of a task: Φ = ``source[first:first+n_rows]``."""
+    """Cost rows ``row:row+n_rows``, √W Φ and √W (ẍ_r − Φ̇ ξ̇), of a task with
+    Φ = ``source[first:first+n_rows]``."""
+    target, rhs = cost.rows, cost.rhs
     for r in range(n_rows):
         for j in range(source.shape[1]):
             target[row + r, j] = source[first + r, j] * sqrt_w
@@ -452,160 +636,100 @@ def _weighted_rows(
 
 @numba.njit(cache=True)
 def _orientation_rows(
-    joint_jacobians: np.ndarray,
+    terms: RobotTerms,
     chain: np.ndarray,
-    velocity: np.ndarray,
     log_r: np.ndarray,
     drift: np.ndarray,
-    kp: float,
-    kv: float,
-    sqrt_w: float,
+    gains: RowGains,
     row: int,
     frame_jac: np.ndarray,
-    cost_rows: np.ndarray,
-    cost_rhs: np.ndarray,
+    cost: CostRows,
 ) -> None:
     """Rows ``row:row+3`` of a frame held upright, heading +x: ẍ_r = K_P log(R⁻¹) − K_V ω.
 
-    ``log_r`` is log₃ R of the frame's world rotation (so −log_r is the error), ``drift``
-    the angular part of its J̇ ξ̇; ``frame_jac`` is scratch (6, nv).
+    ``chain`` marks the velocities that move the frame; ``log_r`` is log₃ R of the frame's
+    world rotation (so −log_r is the error), ``drift`` the angular part of its J̇ ξ̇;
+    ``frame_jac`` is scratch (6, nv).
     """
+    velocity, kp, kv = terms.velocity, gains.kp, gains.kv
     origin = np.zeros(3)  # the angular rows do not depend on the point
-    frame_jacobian(joint_jacobians, chain, origin, frame_jac)
+    frame_jacobian(terms.joint_jacobians, chain, origin, frame_jac)
     acc_ref = np.empty(3)
     for i in range(3):
         omega = 0.0
         for j in range(velocity.shape[0]):
             omega += frame_jac[3 + i, j] * velocity[j]
         acc_ref[i] = -kp * log_r[i] - kv * omega
-    _weighted_rows(frame_jac, 3, cost_rows, cost_rhs, row, 3, acc_ref, drift, sqrt_w)
+    _weighted_rows(frame_jac, 3, 3, cost, row, acc_ref, drift, gains.sqrt_w)
 
 
 @numba.njit(cache=True)
 def task_rows(
     t: float,
     swing: int,
-    joint_jacobians: np.ndarray,
-    mass_matrix: np.ndarray,
-    nonlinear: np.ndarray,
-    gravity_torques: np.ndarray,
-    com: np.ndarray,
-    com_vel: np.ndarray,
-    angular_momentum: np.ndarray,
-    base_rotation: np.ndarray,
-    base_position: np.ndarray,
-    base_drift: np.ndarray,
-    pelvis_rotation: np.ndarray,
-    torso_rotation: np.ndarray,
-    torso_joint_rotation: np.ndarray,
-    torso_joint_drift: np.ndarray,
-    left_rotation: np.ndarray,
-    left_position: np.ndarray,
-    left_joint_rotation: np.ndarray,
-    left_joint_velocity: np.ndarray,
-    left_joint_drift: np.ndarray,
-    right_rotation: np.ndarray,
-    right_position: np.ndarray,
-    right_joint_rotation: np.ndarray,
-    right_joint_velocity: np.ndarray,
-    right_joint_drift: np.ndarray,
-    velocity: np.ndarray,
-    joint_pos: np.ndarray,
-    joint_vel: np.ndarray,
-    left_ft: np.ndarray,
-    right_ft: np.ndarray,
-    scalars: np.ndarray,
-    chains: np.ndarray,
-    posture_idx: np.ndarray,
-    posture_home: np.ndarray,
-    momentum_sqrt_w: np.ndarray,
-    com_plan: np.ndarray,
-    swing_plan: np.ndarray,
-    stance_z: np.ndarray,
-    sole_site_rotation: np.ndarray,
-    sole_site_position: np.ndarray,
-    sole_foot_com: np.ndarray,
-    sole_offset: np.ndarray,
-    local_wrench_map: np.ndarray,
-    impedance_gains: np.ndarray,
-    impedance_state: np.ndarray,
-    impedance_flags: np.ndarray,
-    prev_foot_vel: np.ndarray,
-    foot_acc_cmd: np.ndarray,
-    cost_rows: np.ndarray,
-    cost_rhs: np.ndarray,
-    sole_jacobians: np.ndarray,
-    sole_drifts: np.ndarray,
-    wrench_maps: np.ndarray,
-    signals: np.ndarray,
+    readings: SensorReadings,
+    terms: RobotTerms,
+    constants: TaskConstants,
+    references: TaskReferences,
+    state: TaskState,
+    outputs: TaskOutputs,
 ) -> int:
     """One tick's task rows (§III-D), foot states, contact wrenches and impedance (Eqs. 1–3).
-
-    Pinocchio inputs (after ``computeAllTerms`` and ``updateFramePlacements``; the drifts
-    J̇ ξ̇ follow from the joints' ``data.v``, ``data.a`` by :func:`~walkrepro.robot.frame_classical_acceleration`):
 
     Args:
         t: time [s].
         swing: the swing foot (0 left, 1 right), or −1 in double support.
-        joint_jacobians: ``data.J``, shape (6, nv).
-        mass_matrix: M (``data.M``), shape (nv, nv).
-        nonlinear: C ξ̇ + g (``data.nle``), shape (nv,).
-        gravity_torques: g (``data.g``), shape (nv,).
-        com, com_vel: CoM position [m] and velocity [m/s] in the world, shape (3,).
-        angular_momentum: k, the angular part of h_G [kg m²/s], shape (3,).
-        base_rotation, base_position: world-from-base placement (``data.oMi[1]``), which
-            is also the pelvis frame's parent joint.
-        base_drift: the base joint's drift acceleration (``data.a[1].vector``), shape (6,).
-        pelvis_rotation, torso_rotation: the frame's world rotation (``data.oMf``).
-        torso_joint_rotation, torso_joint_drift: the torso frame's parent joint's world
-            rotation and drift acceleration (``data.oMi[j].rotation``, ``data.a[j].vector``).
-        left_rotation, left_position: world placement of the left sole frame.
-        left_joint_rotation, left_joint_velocity, left_joint_drift: its parent joint's
-            world rotation, spatial velocity and drift acceleration (joint axes).
-        right_*: the same for the right sole.
-        velocity: ξ̇ (Pinocchio's v), shape (nv,).
-
-    Sensor inputs: ``joint_pos``, ``joint_vel`` (actuator order) and each foot's F/T
-    reading ``left_ft``, ``right_ft`` (shape (6,), sensor frame).
-
-    Constants (set at reset):
-        scalars: gains, weights and times, named by :data:`SCALARS`.
-        chains: per frame of :data:`CHAIN_LEFT_SOLE` … whether each velocity moves it,
-            shape (4, nv) bool.
-        posture_idx: actuator indices of the arm and waist joints; posture_home their home
-            angles [rad].
-        momentum_sqrt_w: √W_1, shape (6,).
-        com_plan: the preview CoM pattern (see :func:`desired_com`), shape (N, 6).
-        swing_plan: this phase's swing trajectory (see :func:`pack_swing`), shape (14,).
-        stance_z: each foot's planned stance height [m], shape (2,).
-        sole_site_rotation, sole_site_position: each F/T sensor's placement in its sole
-            frame, shapes (2, 3, 3) and (2, 3).
-        sole_foot_com: each foot body's centre of mass in its sole frame, shape (2, 3).
-        sole_offset: each sole frame's origin in its parent joint's frame [m], shape (2, 3).
-        local_wrench_map: U_k in the contact frame, shape (6, m N_c).
-        impedance_gains: M_d, B_d, K_d and thresholds (see :func:`advance_impedance`).
-
-    State, updated in place:
-        impedance_state, impedance_flags: each foot's (see :func:`advance_impedance`),
-            shapes (2, 3, 3) and (2, 2).
-        prev_foot_vel: each sole's spatial velocity of the previous tick, shape (2, 6).
-        foot_acc_cmd: each sole's commanded linear acceleration, shape (2, 3).
-
-    Outputs:
-        cost_rows, cost_rhs: the stacked weighted rows (see :data:`ROW_PELVIS`); the constant
-            posture rows are not written.
-        sole_jacobians, sole_drifts, wrench_maps: per foot, J_k (6, nv), J̇_k ξ̇ (6,) and
-            R̃ U_k (6, m N_c).
-        signals: the signal vector named by :func:`signal_names`.
+        readings: the joint encoders and each foot's F/T reading.
+        terms: Pinocchio's terms of the tick and ξ̇.
+        constants: gains, weights and geometry (set at reset).
+        references: the CoM pattern, this phase's swing trajectory, stance heights and home
+            posture.
+        state: each foot's impedance state, previous velocity and commanded acceleration,
+            updated in place.
+        outputs: the cost rows, each foot's J_k, J̇_k ξ̇ and R̃ U_k, and the signal vector.
 
     Returns:
         A bit per foot (1 left, 2 right) whose impedance modification switched on this tick.
     """
+    joint_jacobians, mass_matrix, velocity = (
+        terms.joint_jacobians,
+        terms.mass_matrix,
+        terms.velocity,
+    )
+    nonlinear, gravity_torques = terms.nonlinear, terms.gravity_torques
+    com, com_vel, angular_momentum = terms.com, terms.com_vel, terms.angular_momentum
+    base_rotation, base_position, base_drift = (
+        terms.base_rotation, terms.base_position, terms.base_drift
+    )  # fmt: skip
+    joint_pos, joint_vel = readings.joint_pos, readings.joint_vel
+    scalars, chains, momentum_sqrt_w = (
+        constants.scalars, constants.chains, constants.momentum_sqrt_w
+    )  # fmt: skip
+    posture_idx, posture_home = constants.posture_idx, references.posture_home
+    local_wrench_map = constants.local_wrench_map
+    impedance_state, impedance_flags = state.impedance_state, state.impedance_flags
+    prev_foot_vel, foot_acc_cmd = state.prev_foot_vel, state.foot_acc_cmd
+    cost_rows, cost_rhs = outputs.cost.rows, outputs.cost.rhs
+    sole_jacobians, sole_drifts, wrench_maps = (
+        outputs.sole_jacobians,
+        outputs.sole_drifts,
+        outputs.wrench_maps,
+    )
+    signals = outputs.signals
     nv = velocity.shape[0]
     m = scalars[MASS]
     # ---- centroidal momentum reference (§III-D) --------------------------------------
     c_d, v_d, a_d = np.empty(3), np.empty(3), np.empty(3)
-    desired_com(com_plan, t, scalars[PREVIEW_DT], scalars[PLAN_END], scalars[COM_Z], c_d, v_d, a_d)
+    desired_com(
+        references.com_plan,
+        t,
+        scalars[PREVIEW_DT],
+        scalars[PLAN_END],
+        scalars[COM_Z],
+        c_d,
+        v_d,
+        a_d,
+    )
     kh, ki = scalars[K_H], scalars[K_I]
     # ḣ_lin = m (c̈_d + K_h (ċ_d − ċ) + K_I (c_d − c)), with ∫(h_d − h) = m (c_d − c).
     lin = np.empty(3)
@@ -638,19 +762,20 @@ def task_rows(
     drift[0], drift[1], drift[2] = eigen_rotate(
         base_rotation, base_drift[3], base_drift[4], base_drift[5]
     )
-    log3(pelvis_rotation, log_r)
+    log3(terms.pelvis_rotation, log_r)
+    gains = RowGains(kp, kv, scalars[SQRT_W_PELVIS])
     _orientation_rows(
-        joint_jacobians, chains[CHAIN_PELVIS], velocity, log_r, drift, kp, kv,
-        scalars[SQRT_W_PELVIS], ROW_PELVIS, frame_jac, cost_rows, cost_rhs,
-    )  # fmt: skip
-    drift[0], drift[1], drift[2] = eigen_rotate(
-        torso_joint_rotation, torso_joint_drift[3], torso_joint_drift[4], torso_joint_drift[5]
+        terms, chains[CHAIN_PELVIS], log_r, drift, gains, ROW_PELVIS, frame_jac, outputs.cost
     )
-    log3(torso_rotation, log_r)
+    torso_drift = terms.torso_joint_drift
+    drift[0], drift[1], drift[2] = eigen_rotate(
+        terms.torso_joint_rotation, torso_drift[3], torso_drift[4], torso_drift[5]
+    )
+    log3(terms.torso_rotation, log_r)
+    gains = RowGains(kp, kv, scalars[SQRT_W_TORSO])
     _orientation_rows(
-        joint_jacobians, chains[CHAIN_TORSO], velocity, log_r, drift, kp, kv,
-        scalars[SQRT_W_TORSO], ROW_TORSO, frame_jac, cost_rows, cost_rhs,
-    )  # fmt: skip
+        terms, chains[CHAIN_TORSO], log_r, drift, gains, ROW_TORSO, frame_jac, outputs.cost
+    )
 
     # ---- arm and waist joints: hold home ---------------------------------------------
     n_post = posture_idx.shape[0]
@@ -670,17 +795,16 @@ def task_rows(
     pos_d, vel_d, acc_d = np.empty(5), np.empty(5), np.empty(5)
     rpy = np.empty(3)
     for side in range(2):
-        if side == 0:  # the sole's placement, F/T reading and parent joint's R, v, a
-            rot, pos, ft = left_rotation, left_position, left_ft
-            joint_r, joint_v, joint_a = left_joint_rotation, left_joint_velocity, left_joint_drift
+        if side == 0:  # the sole's placement and parent joint's R, v, a; its F/T reading
+            sole, ft = terms.left, readings.left_ft
         else:
-            rot, pos, ft = right_rotation, right_position, right_ft
-            joint_r, joint_v = right_joint_rotation, right_joint_velocity
-            joint_a = right_joint_drift
+            sole, ft = terms.right, readings.right_ft
+        rot, pos = sole.rotation, sole.position
+        joint_r, joint_v, joint_a = sole.joint_rotation, sole.joint_velocity, sole.joint_drift
         sole_jac = sole_jacobians[side]
         frame_jacobian(joint_jacobians, chains[CHAIN_LEFT_SOLE + side], pos, sole_jac)
         drift = sole_drifts[side]
-        frame_classical_acceleration(joint_r, joint_v, joint_a, sole_offset[side], drift)
+        frame_classical_acceleration(joint_r, joint_v, joint_a, constants.sole_offset[side], drift)
         # R̃ U_k: both halves (forces, moments) of the contact-frame basis rotated.
         for half in range(2):
             for i in range(3):
@@ -694,11 +818,11 @@ def task_rows(
             site_pos[i] = pos[i]
             foot_com[i] = pos[i]
             for k in range(3):
-                site_pos[i] += rot[i, k] * sole_site_position[side, k]
-                foot_com[i] += rot[i, k] * sole_foot_com[side, k]
+                site_pos[i] += rot[i, k] * constants.sole_site_position[side, k]
+                foot_com[i] += rot[i, k] * constants.sole_foot_com[side, k]
                 s = 0.0
                 for j in range(3):
-                    s += rot[i, j] * sole_site_rotation[side, j, k]
+                    s += rot[i, j] * constants.sole_site_rotation[side, j, k]
                 site_rot[i, k] = s
         vel = np.empty(6)
         for i in range(6):
@@ -721,28 +845,27 @@ def task_rows(
         for i in range(13):
             signals[out + i] = values[i]
         refs = signals[out + 14 : out + FOOT_BLOCK]  # x_d, ẋ_d, ẍ_d, x_m, ẋ_m, ẍ_m
-        state = impedance_state[side]
+        foot_state = impedance_state[side]
         if side != swing:
             # Support: re-initialise the impedance at the foot's state (§IV), no command.
             flags = impedance_flags[side]
             flags[0] = flags[1] = False
-            state[0, 0], state[0, 1], state[0, 2] = pos[2], roll, pitch
-            state[1:] = 0.0
+            foot_state[0, 0], foot_state[0, 1], foot_state[0, 2] = pos[2], roll, pitch
+            foot_state[1:] = 0.0
             foot_acc_cmd[side] = 0.0
             signals[out + 13] = 0.0
             refs[:] = 0.0
-            refs[0] = refs[9] = stance_z[side]
+            refs[0] = refs[9] = references.stance_z[side]
             continue
-        swing_reference(swing_plan, t, pos_d, vel_d, acc_d)
+        swing_reference(references.swing_plan, t, pos_d, vel_d, acc_d)
         wrench = np.array((fz, mx, my))
+        desired = DesiredMotion(pos_d[2:5], vel_d[2:5], acc_d[2:5])
         if advance_impedance(
-            state,
+            foot_state,
             impedance_flags[side],
-            pos_d[2:5],
-            vel_d[2:5],
-            acc_d[2:5],
+            desired,
             wrench,
-            impedance_gains,
+            constants.impedance_gains,
             dt,
             scalars[IMPEDANCE] != 0.0,
         ):
@@ -755,16 +878,18 @@ def task_rows(
         acc_ref[1] = acc_d[1] + kv * (vel_d[1] - vel[1]) + kp * (pos_d[1] - pos[1])
         for i in range(3):
             acc_ref[2 + i] = (
-                state[2, i] + kv * (state[1, i] - vel[2 + i]) + kp * (state[0, i] - x_now[i])
+                foot_state[2, i]
+                + kv * (foot_state[1, i] - vel[2 + i])
+                + kp * (foot_state[0, i] - x_now[i])
             )
         acc_ref[5] = -kv * vel[5] - kp * yaw
         foot_acc_cmd[side] = acc_ref[:3]
         _weighted_rows(
-            sole_jac, 0, cost_rows, cost_rhs, row_swing, 6, acc_ref, drift, scalars[SQRT_W_SWING]
+            sole_jac, 0, 6, outputs.cost, row_swing, acc_ref, drift, scalars[SQRT_W_SWING]
         )
         signals[out + 13] = 1.0 if impedance_flags[side, 1] else 0.0
         refs[0:3], refs[3:6], refs[6:9] = pos_d[2:5], vel_d[2:5], acc_d[2:5]
-        refs[9:12], refs[12:15], refs[15:18] = state[0], state[1], state[2]
+        refs[9:12], refs[12:15], refs[15:18] = foot_state[0], foot_state[1], foot_state[2]
     signals[SIGNAL_COM : SIGNAL_COM + 3] = com
     signals[SIGNAL_COM + 3 : SIGNAL_COM + 6] = c_d
     return switched_on
