@@ -291,10 +291,17 @@ def test_whole_tick_matches_reference_composition(phase: Phase) -> None:
     params = np.array([100.0, 20.0, 30.0, 10.0, 1.0, 0.0, 0.03, 1e9, 0.1, 0.05])  # no clip
     c = 12 if phase is Phase.DS else 6
     f1, balancing, _, _ = kernels.whole_body_torques(
-        s["a_inv"], s["nle"], s["j_world"], s["jc_dot_v"][:c].copy(), s["support"][0],
-        s["support"][1], s["j_com"], s["v"], rot, s["sole_pos"][0], s["sole_pos"][1],
-        s["sole_rot"][0], s["sole_rot"][1], s["pelvis_rot"], rot_des, task_ref, int(phase),
-        0.6, 0.5, 0.02, 0.3, params, actuator_rows, tau,
+        kernels.WbcDynamics(
+            s["a_inv"], s["nle"], s["jc_dot_v"][:c].copy(), s["j_world"], s["j_com"], s["v"]
+        ),
+        kernels.WbcFrames(
+            rot, s["sole_pos"][0], s["sole_pos"][1], s["sole_rot"][0], s["sole_rot"][1],
+            s["pelvis_rot"], s["support"][0], s["support"][1],
+        ),
+        kernels.WbcTargets(rot_des, task_ref, int(phase), 0.6, 0.5, 0.02, 0.3),
+        params,
+        actuator_rows,
+        tau,
     )  # fmt: skip
     assert not balancing
     assert f1 == pytest.approx(f1_want, rel=1e-8)
@@ -421,6 +428,9 @@ def test_matmul_skips_zeros_without_changing_a_bit() -> None:
 def test_fsm_step_matches_event_fsm() -> None:
     """The compiled E-FSM step equals fsm.EventFsm.step tick by tick, through every state."""
     params = FsmParams(use_epsilon=True)
+    kernel_params = kernels.FsmParams(
+        params.zeta, params.r, params.dxp, params.d_thr, params.v_stop, params.use_epsilon
+    )
     fsm = EventFsm(params, Phase.SSD, 0.0)
     phase, xp_des = int(Phase.SSD), 0.0
     rng = np.random.default_rng(11)
@@ -433,9 +443,8 @@ def test_fsm_step_matches_event_fsm() -> None:
         x_cp = capture_point(x_m, xd_m, 0.6)
         want = fsm.step(FsmInput(x_m, xd_m, x_cp, x_s))
         phase, xp_des, eps, d, bits = kernels.fsm_step(
-            phase, xp_des, x_m, xd_m, x_cp, x_s, params.zeta, params.r, params.dxp,
-            params.d_thr, params.v_stop, params.use_epsilon,
-        )  # fmt: skip
+            phase, xp_des, kernels.FsmInput(x_m, xd_m, x_cp, x_s), kernel_params
+        )
         assert (phase, xp_des, eps, d) == (int(want.phase), want.xp_des, want.epsilon, want.d)
         codes = {
             (Phase.SSD, Phase.SSA): kernels.SSD_TO_SSA,
@@ -517,10 +526,19 @@ def _reference_tick(ctrl: EfsmController, sensors, state: np.ndarray) -> tuple:
     pin.cholesky.decompose(model, data)
     tau = np.empty(st["tau"].size)
     f1, balancing, cop_x, cop_y = kernels.whole_body_torques(
-        pin.cholesky.computeMinv(model, data), data.nle, data.J, jc_dot_v,
-        st["sole_support"][sup], st["sole_support"][sw], data.Jcom, v, rot, p_sup, p_sw,
-        soles[sup].rotation, soles[sw].rotation, data.oMi[1].rotation, st["rot_des"], task_ref,
-        int(out.phase), out.epsilon, eps_on, xp_des, x_s, st["params"], st["actuator_rows"], tau,
+        kernels.WbcDynamics(
+            pin.cholesky.computeMinv(model, data), data.nle, jc_dot_v, data.J, data.Jcom, v
+        ),
+        kernels.WbcFrames(
+            rot, p_sup, p_sw, soles[sup].rotation, soles[sw].rotation, data.oMi[1].rotation,
+            st["sole_support"][sup], st["sole_support"][sw],
+        ),
+        kernels.WbcTargets(
+            st["rot_des"], task_ref, int(out.phase), out.epsilon, eps_on, xp_des, x_s
+        ),
+        st["params"],
+        st["actuator_rows"],
+        tau,
     )  # fmt: skip
     meas = ctrl._measured_cop(sensors)
     valid = all(math.isfinite(x) for x in meas)

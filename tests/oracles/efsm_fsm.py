@@ -5,8 +5,10 @@ support-foot centre, x toward the swing foot's ground projection). No clock appe
 any transition: each state ends on an event of the measured state (Table I).
 
 A test oracle, not part of the package: the controller's tick runs the same E-FSM compiled,
-``walkrepro.papers.lee2021.kernels.fsm_step``, which ``tests/test_efsm_kernels.py``
-compares with :meth:`EventFsm.step`.
+``walkrepro.papers.lee2021.kernels.fsm_step`` (its inputs and parameters are the records
+``kernels.FsmInput`` and ``kernels.FsmParams``, with the fields of :class:`FsmInput` and
+:class:`FsmParams` here, in the same order), which ``tests/test_efsm_kernels.py`` compares
+with :meth:`EventFsm.step`.
 """
 
 from __future__ import annotations

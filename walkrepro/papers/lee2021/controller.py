@@ -9,7 +9,7 @@ three prioritized tasks (Eq. 11):
 3. upper-body roll and pitch (Eq. 6), plus F_3^bal when the expected CoP leaves the
    shrunk support polygon (Appendix D-3, Eqs. 23–29).
 
-Speed (issue 6): the tick runs at 2 kHz, so it calls Pinocchio's combined algorithm once
+Speed: the tick runs at 2 kHz, so it calls Pinocchio's combined algorithm once
 (``computeAllTerms``), reads its results through views of ``Data`` taken at reset, and does
 everything else (O_w, the E-FSM, footsteps, the WBC algebra, the CoPs) in one compiled numba
 call, :func:`.kernels.tick` (why numba: see :mod:`.kernels`). Python keeps the first tick's
@@ -121,9 +121,10 @@ class _PoseViews:
     Pinocchio returns its vectors and matrices as views of ``Data``'s own memory, which
     the algorithms overwrite in place, so views taken once stay current: reading a field
     per tick then costs nothing. :meth:`aliases` proves that on this Pinocchio; where it
-    does not hold, the controller calls :meth:`refresh` every tick. Per-foot fields are
-    pairs (left, right), indexed like :data:`FEET`: the joint carrying each foot's sole and
-    F/T frame.
+    does not hold, the controller calls :meth:`refresh` every tick. ``terms`` and ``feet``
+    (left, right, indexed like :data:`FEET`: the joint carrying each foot's sole and F/T
+    frame) are the kernel's records; ``kernel_views`` holds them both as the one argument
+    :func:`.kernels.tick` reads them from.
     """
 
     def __init__(self, data: pin.Data, foot: tuple[int, int]):
@@ -134,21 +135,32 @@ class _PoseViews:
     def refresh(self) -> None:
         """(Re)take every view from ``Data``."""
         data = self._data
-        self.com, self.vcom = data.com[0], data.vcom[0]  # [m], [m/s], world
-        self.mass, self.nle, self.j_com, self.j_world = data.M, data.nle, data.Jcom, data.J
-        self.foot_rot = tuple(data.oMi[j].rotation for j in self._foot)
-        self.foot_pos = tuple(data.oMi[j].translation for j in self._foot)
-        self.foot_vel = tuple(data.v[j].vector for j in self._foot)  # (v, ω), joint axes
-        self.foot_acc = tuple(data.a[j].vector for j in self._foot)  # bias (q̈ = 0)
-        self.pelvis_rot = data.oMi[PELVIS_JOINT].rotation
+        self.terms = kernels.PinocchioTerms(
+            mass=data.M,
+            nle=data.nle,
+            j_world=data.J,
+            j_com=data.Jcom,
+            com=data.com[0],  # [m], world
+            vcom=data.vcom[0],  # [m/s], world
+            pelvis_rot=data.oMi[PELVIS_JOINT].rotation,
+        )
+        self.feet = tuple(
+            kernels.FootJoint(
+                rot=data.oMi[j].rotation,
+                pos=data.oMi[j].translation,
+                vel=data.v[j].vector,  # (v, ω), joint axes
+                acc=data.a[j].vector,  # bias (q̈ = 0)
+            )
+            for j in self._foot
+        )
+        self.kernel_views = kernels.pinocchio_views(self.terms, self.feet)
 
     def aliases(self) -> bool:
         """True if every view holds what a fresh read of ``Data`` gives."""
         fresh = _PoseViews(self._data, self._foot)
-        names = ("com", "vcom", "mass", "nle", "j_com", "j_world", "pelvis_rot")
-        pairs = [(getattr(self, k), getattr(fresh, k)) for k in names]
-        for k in ("foot_rot", "foot_pos", "foot_vel", "foot_acc"):
-            pairs += zip(getattr(self, k), getattr(fresh, k), strict=True)
+        pairs = list(zip(self.terms, fresh.terms, strict=True))
+        for mine, theirs in zip(self.feet, fresh.feet, strict=True):
+            pairs += zip(mine, theirs, strict=True)
         return all(np.array_equal(a, b) for a, b in pairs)
 
 
@@ -314,27 +326,8 @@ class EfsmController(Controller):
             pose.refresh()
         if not self._started:
             self._start()
-        (rot_l, rot_r), (pos_l, pos_r) = pose.foot_rot, pose.foot_pos
-        (vel_l, vel_r), (acc_l, acc_r) = pose.foot_vel, pose.foot_acc
         transitions = kernels.tick(
-            pose.mass,
-            pose.nle,
-            pose.j_world,
-            pose.j_com,
-            pose.com,
-            pose.vcom,
-            rot_l,
-            pos_l,
-            vel_l,
-            acc_l,
-            rot_r,
-            pos_r,
-            vel_r,
-            acc_r,
-            pose.pelvis_rot,
-            sensors.left_ft,
-            sensors.right_ft,
-            self._state,
+            pose.kernel_views, sensors.left_ft, sensors.right_ft, self._state
         )
         tau = self._tau
         # The kernel's signals, then the reference torques, as one new vector.

@@ -15,8 +15,10 @@ The whole tick after Pinocchio's ``computeAllTerms`` is one call, :func:`tick`: 
 O_w, the E-FSM (its reference is the oracle ``tests/oracles/efsm_fsm.py``), the footstep planner, A⁻¹ and J̇_c q̇ (as
 Pinocchio computes them, bit for bit), Γ and the CoPs. Python around it cost more than the
 algebra: each numba call pays ≈ 50 ns per array argument (hence :func:`tick_state`, one
-record for the controller's own arrays), a Pinocchio call ≈ 1 µs, a line of Python
-≈ 0.1 µs. Inside, temporary arrays are kept few: each is an allocation, and at 2 kHz
+record for the controller's own arrays, and :class:`PinocchioViews`, one for the views of
+Pinocchio's ``Data``, made once), a Pinocchio call ≈ 1 µs, a line of Python ≈ 0.1 µs.
+Records the kernels pass each other (:class:`WbcDynamics`, :class:`FsmParams`, …) are
+named tuples built in compiled code, where they cost nothing. Inside, temporary arrays are kept few: each is an allocation, and at 2 kHz
 between MuJoCo steps little of the tick's memory is still in cache.
 
 Matrices here are small, so products are plain loops: they take any memory layout
@@ -26,9 +28,12 @@ Matrices here are small, so products are plain loops: they take any memory layou
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
+from numba.core import types
+from numba.experimental import structref
 
 from walkrepro.robot import (
     eigen_rotate,
@@ -281,20 +286,21 @@ def log3(rot: np.ndarray) -> np.ndarray:
     """
     out = np.empty(3)
     out[0], out[1], out[2] = _log3(
-        rot[0, 0], rot[0, 1], rot[0, 2], rot[1, 0], rot[1, 1], rot[1, 2],
-        rot[2, 0], rot[2, 1], rot[2, 2],
+        (
+            rot[0, 0], rot[0, 1], rot[0, 2],
+            rot[1, 0], rot[1, 1], rot[1, 2],
+            rot[2, 0], rot[2, 1], rot[2, 2],
+        )
     )  # fmt: skip
     return out
 
 
 @_jit
-def _log3(
-    r00: float, r01: float, r02: float,
-    r10: float, r11: float, r12: float,
-    r20: float, r21: float, r22: float,
-) -> tuple[float, float, float]:  # fmt: skip
-    """:func:`log3` of the rotation with entries r_ij, on scalars: as arrays, the 3-vectors
-    cost more in allocations than in arithmetic."""
+def _log3(rot: tuple[float, ...]) -> tuple[float, float, float]:
+    """:func:`log3` of a rotation given as its nine entries, row by row (r_00, r_01, …, r_22):
+    a tuple of floats, which numba keeps in registers; as arrays, the 3-vectors cost more in
+    allocations than in arithmetic."""
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = rot
     n0 = math.sqrt(r00**2 + r10**2 + r20**2)
     n1 = math.sqrt(r01**2 + r11**2 + r21**2)
     x0, x1, x2 = r00 / n0, r10 / n0, r20 / n0  # column 0
@@ -343,9 +349,11 @@ def _row_row(a: np.ndarray, i: int, b: np.ndarray, j: int) -> float:
 def orientation_error(rot_des: np.ndarray, rot: np.ndarray) -> tuple[float, float, float]:
     """log3(R_des Rᵀ), the orientation error in world axes [rad] (a tuple: no allocation)."""
     return _log3(
-        _row_row(rot_des, 0, rot, 0), _row_row(rot_des, 0, rot, 1), _row_row(rot_des, 0, rot, 2),
-        _row_row(rot_des, 1, rot, 0), _row_row(rot_des, 1, rot, 1), _row_row(rot_des, 1, rot, 2),
-        _row_row(rot_des, 2, rot, 0), _row_row(rot_des, 2, rot, 1), _row_row(rot_des, 2, rot, 2),
+        (
+            _row_row(rot_des, 0, rot, 0), _row_row(rot_des, 0, rot, 1), _row_row(rot_des, 0, rot, 2),
+            _row_row(rot_des, 1, rot, 0), _row_row(rot_des, 1, rot, 1), _row_row(rot_des, 1, rot, 2),
+            _row_row(rot_des, 2, rot, 0), _row_row(rot_des, 2, rot, 1), _row_row(rot_des, 2, rot, 2),
+        )
     )  # fmt: skip
 
 
@@ -757,31 +765,82 @@ def balance_force(
 
 
 # ---- the whole tick -------------------------------------------------------------------------
+# Records of :func:`whole_body_torques`' inputs. :func:`tick` builds them in compiled code,
+# where a named tuple is a struct of pointers and numbers (no allocation); built in Python
+# (as the tests do) numba types each of their arrays at every call, a few µs.
+
+
+class WbcDynamics(NamedTuple):
+    """The dynamics of a tick, world axes (n velocity coordinates, the pelvis first).
+
+    Attributes:
+        a_inv: A⁻¹, shape (n, n).
+        nle: b + g, shape (n,).
+        jc_dot_v: J̇_c q̇ of the contacts (support sole, then the swing sole in DS), shape
+            (6 or 12,).
+        j_world: Pinocchio's joint Jacobians ``data.J`` (see
+            :func:`walkrepro.robot.frame_jacobian`). The pelvis (the rigid upper body) is the
+            floating base: its first six columns.
+        j_com: CoM Jacobian, shape (3, n).
+        v: generalized velocity, shape (n,).
+    """
+
+    a_inv: np.ndarray
+    nle: np.ndarray
+    jc_dot_v: np.ndarray
+    j_world: np.ndarray
+    j_com: np.ndarray
+    v: np.ndarray
+
+
+class WbcFrames(NamedTuple):
+    """The frames of a :func:`whole_body_torques` call: O_w and the two soles, world axes.
+
+    Attributes:
+        ow_rot: world-from-O_w rotation (§III-A1).
+        p_sup, p_sw: support and swing sole centres [m]; p_sup is the origin of O_w.
+        sole_rot_sup, sole_rot_sw: world-from-sole rotations.
+        pelvis_rot: world-from-pelvis rotation.
+        support_sup, support_sw: the velocity coordinates moving each sole (1/0), shape (n,).
+    """
+
+    ow_rot: np.ndarray
+    p_sup: np.ndarray
+    p_sw: np.ndarray
+    sole_rot_sup: np.ndarray
+    sole_rot_sw: np.ndarray
+    pelvis_rot: np.ndarray
+    support_sup: np.ndarray
+    support_sw: np.ndarray
+
+
+class WbcTargets(NamedTuple):
+    """What the E-FSM and the task references ask of a tick (Eq. 6, Table II, §IV-B).
+
+    Attributes:
+        rot_des: orientation targets (Table II), shape (2, 3, 3): pelvis, swing sole.
+        task_ref: shape (7,): [0:2] CoM y, z error in O_w [m]; [2:4] CoM y, z velocity in
+            O_w [m/s]; [4:7] swing-sole position reference [m] (unused in DS).
+        phase: E-FSM phase (fsm.Phase as int).
+        eps: ε; eps_onset: ε's onset ramp in DS (oracle: ``efsm_wbc.redistribution_torque``).
+        xp_des: desired CoP along x of O_w [m].
+        x_s: swing-foot centre along x of O_w [m].
+    """
+
+    rot_des: np.ndarray
+    task_ref: np.ndarray
+    phase: int
+    eps: float
+    eps_onset: float
+    xp_des: float
+    x_s: float
 
 
 @_jit
 def whole_body_torques(
-    a_inv: np.ndarray,
-    nle: np.ndarray,
-    j_world: np.ndarray,
-    jc_dot_v: np.ndarray,
-    support_sup: np.ndarray,
-    support_sw: np.ndarray,
-    j_com: np.ndarray,
-    v: np.ndarray,
-    rot: np.ndarray,
-    p_sup: np.ndarray,
-    p_sw: np.ndarray,
-    sole_rot_sup: np.ndarray,
-    sole_rot_sw: np.ndarray,
-    pelvis_rot: np.ndarray,
-    rot_des: np.ndarray,
-    task_ref: np.ndarray,
-    phase: int,
-    eps: float,
-    eps_onset: float,
-    xp_des: float,
-    x_s: float,
+    dynamics: WbcDynamics,
+    frames: WbcFrames,
+    targets: WbcTargets,
     params: np.ndarray,
     actuator_rows: np.ndarray,
     tau: np.ndarray,
@@ -794,24 +853,9 @@ def whole_body_torques(
     support sole, plus the swing sole in DS (its rows second).
 
     Args:
-        a_inv: A⁻¹, shape (n, n).
-        nle: b + g, shape (n,).
-        j_world: Pinocchio's joint Jacobians ``data.J`` (see :func:`walkrepro.robot.frame_jacobian`). The
-            pelvis (the rigid upper body) is the floating base: its first six columns.
-        jc_dot_v: J̇_c q̇ of the contacts, world axes, shape (6 or 12,).
-        support_sup, support_sw: the velocity coordinates moving each sole, shape (n,).
-        j_com: CoM Jacobian, world axes, shape (3, n).
-        v: generalized velocity, shape (n,).
-        rot: world-from-O_w rotation.
-        p_sup, p_sw: support and swing sole centres [m]; p_sup is the origin of O_w.
-        sole_rot_sup, sole_rot_sw: world-from-sole rotations.
-        pelvis_rot: world-from-pelvis rotation.
-        rot_des: orientation targets (Table II), shape (2, 3, 3): pelvis, swing sole.
-        task_ref: shape (7,): [0:2] CoM y, z error in O_w [m]; [2:4] CoM y, z velocity in
-            O_w [m/s]; [4:7] swing-sole position reference [m] (unused in DS).
-        phase: E-FSM phase (fsm.Phase as int).
-        eps: ε; eps_onset: ε's onset ramp in DS (oracle: ``efsm_wbc.redistribution_torque``).
-        xp_des: desired CoP along x of O_w [m]; x_s: swing-foot centre along x of O_w [m].
+        dynamics: A⁻¹, b + g, J̇_c q̇, the Jacobians and v (:class:`WbcDynamics`).
+        frames: O_w, the soles and the pelvis (:class:`WbcFrames`).
+        targets: phase, ε, x_p^des and the task references (:class:`WbcTargets`).
         params: k_p, k_v, F_s force bound [N], F_s moment bound [Nm], decoupled saturation
             (1/0), balancing (1/0), CoP safety margin [m], torque limit [Nm], half sole
             length and width [m].
@@ -822,6 +866,9 @@ def whole_body_torques(
         F_1 (the CoM x-force [N]), whether F_3^bal acted, and the expected CoP (x, y) in
         O_w [m] (NaN if unloaded).
     """
+    a_inv, nle, jc_dot_v, j_world, j_com, v = dynamics
+    rot, p_sup, p_sw, sole_rot_sup, sole_rot_sw, pelvis_rot, support_sup, support_sw = frames
+    rot_des, task_ref, phase, eps, eps_onset, xp_des, x_s = targets
     kp, kv, f_max, m_max = params[0], params[1], params[2], params[3]
     decoupled, balance, margin, tau_lim = params[4], params[5] != 0.0, params[6], params[7]
     n = a_inv.shape[0]
@@ -1137,27 +1184,59 @@ def _epsilon(d: float, d_thr: float) -> float:
     return 1.0
 
 
+class FsmInput(NamedTuple):
+    """What the E-FSM reads each tick, along the x-axis of O_w (the oracle's
+    ``efsm_fsm.FsmInput``).
+
+    Attributes:
+        x_m: CoM position [m]; xd_m: CoM velocity [m/s].
+        x_cp: capture point, Eq. (2) [m].
+        x_s: swing-foot centre [m].
+    """
+
+    x_m: float
+    xd_m: float
+    x_cp: float
+    x_s: float
+
+
+class FsmParams(NamedTuple):
+    """Parameters of the E-FSM (§V-B; the oracle's ``efsm_fsm.FsmParams``).
+
+    Attributes:
+        zeta: margin ζ of law L1 [m].
+        r: margin r of law L2 [m].
+        dxp: Δx_p^des per control period [m] (Eq. 4).
+        d_thr: ε threshold d^thr [m] (§IV-B).
+        v_stop: |ẋ_m| counted as ≈ 0 ending SSD [m/s] (Table I).
+        use_epsilon: False: ε ≡ 1 (the ablation of §VI-D1).
+    """
+
+    zeta: float
+    r: float
+    dxp: float
+    d_thr: float
+    v_stop: float
+    use_epsilon: bool
+
+
 @_jit
 def fsm_step(
-    phase: int,
-    xp_des: float,
-    x_m: float,
-    xd_m: float,
-    x_cp: float,
-    x_s: float,
-    zeta: float,
-    r: float,
-    dxp: float,
-    d_thr: float,
-    v_stop: float,
-    use_epsilon: bool,
+    phase: int, xp_des: float, fsm_input: FsmInput, params: FsmParams
 ) -> tuple[int, float, float, float, int]:
     """One control period of the E-FSM (Table I), as the oracle's ``efsm_fsm.EventFsm.step``.
+
+    Args:
+        phase: the phase before the tick (fsm.Phase as int); xp_des: x_p^des before it [m].
+        fsm_input: CoM, capture point and swing foot along x of O_w (:class:`FsmInput`).
+        params: ζ, r, Δx_p^des, d^thr, v_stop and the ε switch (:class:`FsmParams`).
 
     Returns:
         The phase after the tick's transitions, x_p^des (Eqs. 3–4), ε, d, and the
         transitions as bits (:data:`SSD_TO_SSA`, :data:`SSA_TO_DS`, :data:`DS_TO_SSD`).
     """
+    x_m, xd_m, x_cp, x_s = fsm_input
+    zeta, r, dxp, d_thr, v_stop, use_epsilon = params
     transitions = 0
     if phase == _SSD and xd_m >= -v_stop:
         transitions |= SSD_TO_SSA
@@ -1214,23 +1293,76 @@ def next_swing_target(
     )
 
 
+class PinocchioTerms(NamedTuple):
+    """What a tick reads of Pinocchio's ``computeAllTerms`` (views of ``Data``), world axes.
+
+    Attributes:
+        mass: A, ``data.M`` (only its upper triangle is read), shape (n, n).
+        nle: b + g, ``data.nle``, shape (n,).
+        j_world: the joint Jacobians ``data.J``, shape (6, n).
+        j_com: the CoM Jacobian ``data.Jcom``, shape (3, n).
+        com: the CoM ``data.com[0]`` [m]; vcom: its velocity ``data.vcom[0]`` [m/s].
+        pelvis_rot: world-from-pelvis rotation, ``data.oMi[1].rotation``.
+    """
+
+    mass: np.ndarray
+    nle: np.ndarray
+    j_world: np.ndarray
+    j_com: np.ndarray
+    com: np.ndarray
+    vcom: np.ndarray
+    pelvis_rot: np.ndarray
+
+
+class FootJoint(NamedTuple):
+    """The joint j carrying one foot's sole and F/T frame, after ``computeAllTerms`` (views).
+
+    Attributes:
+        rot, pos: its placement ``data.oMi[j]``: world-from-joint rotation, position [m].
+        vel: its spatial velocity ``data.v[j].vector`` (v [m/s], ω [rad/s]), joint axes.
+        acc: its bias acceleration ``data.a[j].vector`` (q̈ = 0), joint axes.
+    """
+
+    rot: np.ndarray
+    pos: np.ndarray
+    vel: np.ndarray
+    acc: np.ndarray
+
+
+@structref.register
+class PinocchioViewsType(types.StructRef):
+    """numba's type of :class:`PinocchioViews` (its fields typed as given, not literal)."""
+
+    def preprocess_fields(self, fields: tuple) -> tuple:
+        """The fields' types without literal values."""
+        return tuple((name, types.unliteral(typ)) for name, typ in fields)
+
+
+class PinocchioViews(structref.StructRefProxy):
+    """Everything :func:`tick` reads of Pinocchio's ``Data``, as one argument; make it with
+    :func:`pinocchio_views`, once per ``Data`` (its arrays are views, so it stays current).
+
+    Fields: ``terms`` (:class:`PinocchioTerms`) and ``feet`` (:class:`FootJoint` of the
+    left, then the right foot). Why not a named tuple: numba finds the type of a named tuple
+    argument in Python at every call, ≈ 2 µs for these fifteen arrays (more than the
+    separate arrays cost); a StructRef carries its type, and its arrays were unboxed once,
+    when it was made.
+    """
+
+
+structref.define_proxy(PinocchioViews, PinocchioViewsType, ["terms", "feet"])
+
+
+@_jit
+def pinocchio_views(terms: PinocchioTerms, feet: tuple[FootJoint, FootJoint]) -> PinocchioViews:
+    """The :class:`PinocchioViews` of ``terms`` and ``feet`` (left, right); compiled and
+    cached, unlike the proxy's own constructor."""
+    return PinocchioViews(terms, feet)
+
+
 @_jit
 def tick(
-    mass: np.ndarray,
-    nle: np.ndarray,
-    j_world: np.ndarray,
-    j_com: np.ndarray,
-    com: np.ndarray,
-    vcom: np.ndarray,
-    joint_rot_left: np.ndarray,
-    joint_pos_left: np.ndarray,
-    joint_vel_left: np.ndarray,
-    joint_acc_left: np.ndarray,
-    joint_rot_right: np.ndarray,
-    joint_pos_right: np.ndarray,
-    joint_vel_right: np.ndarray,
-    joint_acc_right: np.ndarray,
-    pelvis_rot: np.ndarray,
+    views: PinocchioViews,
     wrench_left: np.ndarray,
     wrench_right: np.ndarray,
     state: np.ndarray,
@@ -1239,18 +1371,17 @@ def tick(
     Γ (Eq. 7) and the expected and measured CoP.
 
     Args:
-        mass, nle, j_world, j_com, com, vcom: ``data.M`` (upper triangle), ``data.nle``,
-            ``data.J``, ``data.Jcom``, ``data.com[0]``, ``data.vcom[0]`` of computeAllTerms.
-        joint_*_left, joint_*_right: the placement (``data.oMi[j]`` rotation, translation),
-            velocity (``data.v[j]``) and bias acceleration (``data.a[j]``) of the joint
-            carrying each foot's sole and F/T frame.
-        pelvis_rot: world-from-pelvis rotation.
+        views: :class:`PinocchioViews` of ``Data`` after computeAllTerms: the dynamics, CoM
+            and pelvis (:class:`PinocchioTerms`) and the joint carrying each foot's sole and
+            F/T frame (:class:`FootJoint`, left and right).
         wrench_left, wrench_right: the F/T readings (see :func:`measured_cop`).
         state: :func:`tick_state`, read and updated; ``tau`` and ``signals`` are written.
 
     Returns:
         The E-FSM transitions of the tick as bits (:data:`DS_TO_SSD`: the feet swapped roles).
     """
+    mass, nle, j_world, j_com, com, vcom, pelvis_rot = views.terms
+    feet = views.feet
     st = state[0]
     n = mass.shape[0]
     # The soles and the F/T frames (left, right), as updateFramePlacements.
@@ -1258,8 +1389,7 @@ def tick(
     sole_rot, sole_pos = frames[0:2, 0:3], frames[0:2, 3]
     ft_rot, ft_pos = frames[2:4, 0:3], frames[2:4, 3]
     for f in range(2):
-        joint_rot = joint_rot_left if f == 0 else joint_rot_right
-        joint_pos = joint_pos_left if f == 0 else joint_pos_right
+        joint_rot, joint_pos = feet[f].rot, feet[f].pos
         frame_placement(
             joint_rot,
             joint_pos,
@@ -1278,10 +1408,10 @@ def tick(
     rot = st.rot
     cos_w, sin_w, com_w, vcom_w, x_s = ow_frame(sole_pos[sup], sole_pos[sw], com, vcom, rot)
     x_cp = math.sqrt(st.z_m0 / _GRAVITY) * vcom_w[0] + com_w[0]
+    fsm_params = FsmParams(st.zeta, st.r, st.dxp, st.d_thr, st.v_stop, st.use_epsilon != 0)
     phase, xp_des, eps, d, transitions = fsm_step(
-        st.phase, st.xp_des, com_w[0], vcom_w[0], x_cp, x_s,
-        st.zeta, st.r, st.dxp, st.d_thr, st.v_stop, st.use_epsilon != 0,
-    )  # fmt: skip
+        st.phase, st.xp_des, FsmInput(com_w[0], vcom_w[0], x_cp, x_s), fsm_params
+    )
     if transitions & DS_TO_SSD:
         # DS ends: the swing foot becomes the support foot; next footstep target; O_w moves
         # (x_p^des, the new support centre, is 0 in it).
@@ -1326,19 +1456,20 @@ def tick(
     for i in range(2 if double else 1):
         f = sup if i == 0 else sw
         frame_classical_acceleration(
-            joint_rot_left if f == 0 else joint_rot_right,
-            joint_vel_left if f == 0 else joint_vel_right,
-            joint_acc_left if f == 0 else joint_acc_right,
-            st.sole_local_pos[f],
-            jc_dot_v[6 * i : 6 * i + 6],
+            feet[f].rot, feet[f].vel, feet[f].acc, st.sole_local_pos[f], jc_dot_v[6 * i : 6 * i + 6]
         )
 
     # Γ = Γ_t + Γ_c + Γ_gc (Eqs. 7 and 11, Appendices A–D), saturated, actuator order.
     f1, balancing, cop_exp_x, cop_exp_y = whole_body_torques(
-        a_inv, nle, j_world, jc_dot_v, st.sole_support[sup], st.sole_support[sw], j_com,
-        st.v, rot, sole_pos[sup], sole_pos[sw], sole_rot[sup], sole_rot[sw], pelvis_rot,
-        st.rot_des, task_ref, phase, eps, eps_on, xp_des, x_s, st.params,
-        st.actuator_rows, st.tau,
+        WbcDynamics(a_inv, nle, jc_dot_v, j_world, j_com, st.v),
+        WbcFrames(
+            rot, sole_pos[sup], sole_pos[sw], sole_rot[sup], sole_rot[sw], pelvis_rot,
+            st.sole_support[sup], st.sole_support[sw],
+        ),
+        WbcTargets(st.rot_des, task_ref, phase, eps, eps_on, xp_des, x_s),
+        st.params,
+        st.actuator_rows,
+        st.tau,
     )  # fmt: skip
     meas_x, meas_y = measured_cop(
         ft_rot[0], ft_pos[0], wrench_left, ft_rot[1], ft_pos[1], wrench_right,
