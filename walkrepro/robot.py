@@ -111,12 +111,20 @@ class LinkAddresses(NamedTuple):
 
 
 _READ = numba.types.Array(numba.types.float64, 1, "A", readonly=True)
-_INDEX = numba.types.Array(numba.types.int64, 1, "A", readonly=True)
-_WRITE = numba.types.Array(numba.types.float64, 1, "A")
+_INDEX = numba.types.Array(numba.types.int64, 2, "A", readonly=True)
+_WRITE = numba.types.Array(numba.types.float64, 2, "A")
+
+
+def pin_state_buffer(model: pin.Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A buffer for :func:`pin_state_into` and its two views: ``(state, q, v)``, with ``q``
+    the first nq entries of row 0 and ``v`` the first nv of row 1 (contiguous, for
+    Pinocchio)."""
+    state = np.zeros((2, max(model.nq, model.nv)))
+    return state, state[0, : model.nq], state[1, : model.nv]
 
 
 @numba.njit(
-    numba.types.void(_READ, _READ, _READ, _READ, _READ, _READ, _INDEX, _INDEX, _WRITE, _WRITE),
+    numba.types.void(_READ, _READ, _READ, _READ, _READ, _READ, _INDEX, _WRITE),
     cache=True,
 )
 def pin_state_into(
@@ -126,26 +134,27 @@ def pin_state_into(
     base_angvel: np.ndarray,
     joint_pos: np.ndarray,
     joint_vel: np.ndarray,
-    q_idx: np.ndarray,
-    v_idx: np.ndarray,
-    q: np.ndarray,
-    v: np.ndarray,
+    joint_index: np.ndarray,
+    state: np.ndarray,
 ) -> None:
-    """Pinocchio's (q, v) written into ``q`` and ``v`` (see :meth:`Robot.pin_state`).
+    """Pinocchio's (q, v) written into ``state`` (see :meth:`Robot.pin_state`).
 
     Compiled because whole-body controllers call it every tick at 1-2 kHz (5 µs in numpy and
     Pinocchio's Python bindings, 1 µs here). The base's linear velocity moves from world to
-    base axes (Rᵀ v) with R the normalised quaternion's rotation, formed as Eigen's
-    ``Quaternion::normalized().toRotationMatrix()`` does, so the result is bit for bit the
-    same as with Pinocchio.
+    base axes (Rᵀ v) with R the normalised quaternion's rotation, in the operations (and
+    the order) of Eigen's ``Quaternion::normalized().toRotationMatrix()``; tests compare the
+    result with Pinocchio's to 1e-12.
 
     Args:
         base_pos: pelvis position in the world [m]; base_quat: world-from-pelvis (w, x, y, z).
         base_linvel: pelvis velocity, world axes [m/s]; base_angvel: pelvis axes [rad/s].
         joint_pos, joint_vel: link-side joints, actuator order [rad, rad/s].
-        q_idx, v_idx: each actuated joint's index in q and v.
-        q, v: out, shapes (nq,) and (nv,); entries of joints not in q_idx/v_idx are left alone.
+        joint_index: each actuated joint's index in q (row 0) and in v (row 1), shape (2, n)
+            (:attr:`Robot.pin_joint_index`).
+        state: out: q in row 0, v in row 1 (:func:`pin_state_buffer`); entries of joints not
+            in ``joint_index`` are left alone.
     """
+    q, v = state[0], state[1]
     w, x, y, z = base_quat[0], base_quat[1], base_quat[2], base_quat[3]
     q[0], q[1], q[2] = base_pos[0], base_pos[1], base_pos[2]
     q[3], q[4], q[5], q[6] = x, y, z, w
@@ -162,9 +171,9 @@ def pin_state_into(
     for j in range(3):
         v[j] = base_linvel[0] * rot[0, j] + base_linvel[1] * rot[1, j] + base_linvel[2] * rot[2, j]
         v[3 + j] = base_angvel[j]
-    for i in range(q_idx.shape[0]):
-        q[q_idx[i]] = joint_pos[i]
-        v[v_idx[i]] = joint_vel[i]
+    for i in range(joint_index.shape[1]):
+        q[joint_index[0, i]] = joint_pos[i]
+        v[joint_index[1, i]] = joint_vel[i]
 
 
 @numba.njit(cache=True)
@@ -313,6 +322,8 @@ class Robot:
             [Nm/rad]; None for a rigid robot.
         pin_q_idx: index in Pinocchio's ``q`` of each actuated joint, shape (n,).
         pin_v_idx: index in Pinocchio's ``v`` of each actuated joint, shape (n,).
+        pin_joint_index: ``pin_q_idx`` and ``pin_v_idx`` as the two rows of one array, shape
+            (2, n) (for :func:`pin_state_into`).
         encoders_motor_side: the joint encoders sit before the gear and read the motor DoF
             of each series-elastic joint (``dyros_red_actuated``, Lee et al. §V-A); otherwise
             they read the link angle (motor + spring).
@@ -334,6 +345,7 @@ class Robot:
     spring_stiffness: np.ndarray | None
     pin_q_idx: np.ndarray
     pin_v_idx: np.ndarray
+    pin_joint_index: np.ndarray
     encoders_motor_side: bool
     _qpos_adr: LinkAddresses = field(repr=False)
     _qvel_adr: LinkAddresses = field(repr=False)
@@ -417,7 +429,7 @@ class Robot:
             ``q`` (nq,) with the quaternion as (x, y, z, w), and ``v`` (nv,) with the base
             linear and angular velocity both in the pelvis frame.
         """
-        q, v = np.zeros(self.pin_model.nq), np.zeros(self.pin_model.nv)
+        state, q, v = pin_state_buffer(self.pin_model)
         pin_state_into(
             np.asarray(base_pos, dtype=np.float64),
             np.asarray(base_quat_wxyz, dtype=np.float64),
@@ -425,10 +437,8 @@ class Robot:
             np.asarray(base_angvel_local, dtype=np.float64),
             np.asarray(joint_pos, dtype=np.float64),
             np.asarray(joint_vel, dtype=np.float64),
-            self.pin_q_idx,
-            self.pin_v_idx,
-            q,
-            v,
+            self.pin_joint_index,
+            state,
         )
         return q, v
 
@@ -556,6 +566,7 @@ def load_robot(name: str) -> Robot:
         spring_stiffness=None if stiffness is None else _frozen(stiffness),
         pin_q_idx=_frozen(pin_q_idx),
         pin_v_idx=_frozen(pin_v_idx),
+        pin_joint_index=_frozen(np.stack((pin_q_idx, pin_v_idx))),
         encoders_motor_side=motor_encoders,
         _qpos_adr=LinkAddresses(_frozen(qpos_adr.adr), _frozen(qpos_adr.starts)),
         _qvel_adr=LinkAddresses(_frozen(qvel_adr.adr), _frozen(qvel_adr.starts)),

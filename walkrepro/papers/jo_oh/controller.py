@@ -65,7 +65,7 @@ from walkrepro.papers.jo_oh.tasks import (
     signal_names,
     task_rows,
 )
-from walkrepro.robot import Robot, pin_state_into
+from walkrepro.robot import Robot, pin_state_buffer, pin_state_into
 from walkrepro.sensors import SensorSnapshot
 from walkrepro.signals import SignalLayout, Signals
 
@@ -302,9 +302,8 @@ class QPImpedanceController(Controller):
             ]
         )
         self._q_home_posture = robot.home_joint_pos[self._posture_idx].copy()
-        self._q_idx = np.ascontiguousarray(robot.pin_q_idx, dtype=np.int64)
         self._v_idx = np.ascontiguousarray(robot.pin_v_idx, dtype=np.int64)
-        self._q, self._v = np.zeros(model.nq), np.zeros(model.nv)
+        self._pin_state, self._q, self._v = pin_state_buffer(model)
         frames = (self._sole[LEFT], self._sole[RIGHT], self._pelvis, self._torso)
         self._chains = np.array([kinematic_chain(model, fid) for fid in frames])  # tasks.CHAIN_*
         parents = tuple(model.frames[fid].parentJoint for fid in frames)
@@ -434,7 +433,7 @@ class QPImpedanceController(Controller):
         zero3, zero_ft = np.zeros(3), np.zeros(6)
         pin_state_into(
             home_pos, home_quat, zero3, zero3, home_joints, zero_joints,
-            self._q_idx, self._v_idx, self._q, self._v,
+            robot.pin_joint_index, self._pin_state,
         )  # fmt: skip
         pin.computeAllTerms(self._model, self._data, q0, v0)
         pin.updateFramePlacements(self._model, self._data)
@@ -456,10 +455,8 @@ class QPImpedanceController(Controller):
             s.base_angvel,
             s.joint_pos,
             s.joint_vel,
-            self._q_idx,
-            self._v_idx,
-            q,
-            v,
+            self._robot.pin_joint_index,
+            self._pin_state,
         )
         return q, v
 

@@ -210,10 +210,11 @@ class EfsmController(Controller):
         nv, n_act = model.nv, len(robot.pin_v_idx)
         # Everything the tick kernel keeps or reads besides Pinocchio's Data, as one record;
         # the controller works through views of its fields.
-        self._state = state = kernels.tick_state(nv, n_act)
+        self._state = state = kernels.tick_state(model.nq, nv, n_act)
         self._st = st = state[0]
         # Pinocchio's (q, v), rewritten in place every tick (nothing keeps them across ticks).
-        self._q, self._v = np.zeros(model.nq), st["v"]
+        self._pin_buffer = st["pin_state"]
+        self._q, self._v = self._pin_buffer[0, : model.nq], self._pin_buffer[1, :nv]
         self._tau, self._signals, self._rot_w = st["tau"], st["signals"], st["rot"]
         self._signal_layout = signal_layout(len(self._tau))
         # Γ is in joint order, ctrl in actuator order: the joint-torque row of each actuator.
@@ -357,7 +358,6 @@ class EfsmController(Controller):
         """
         if sensors.base_pos is None or sensors.base_quat is None:
             return sensors.pinocchio_state(self._robot, "the E-FSM controller")  # raises
-        robot, q, v = self._robot, self._q, self._v
         pin_state_into(
             sensors.base_pos,
             sensors.base_quat,
@@ -365,12 +365,10 @@ class EfsmController(Controller):
             sensors.base_angvel,
             sensors.joint_pos,
             sensors.joint_vel,
-            robot.pin_q_idx,
-            robot.pin_v_idx,
-            q,
-            v,
+            self._robot.pin_joint_index,
+            self._pin_buffer,
         )
-        return q, v
+        return self._q, self._v
 
     def _start(self) -> None:
         """Record the initial targets (Table II) and start the first DS (Table I)."""

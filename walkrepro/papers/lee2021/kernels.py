@@ -1079,7 +1079,7 @@ SIGNALS = (
 )
 
 
-def tick_state(nv: int, n_actuators: int) -> np.ndarray:
+def tick_state(nq: int, nv: int, n_actuators: int) -> np.ndarray:
     """A zeroed state of :func:`tick`: one numpy record (a structured array of length 1).
 
     The controller's own arrays and numbers, as one argument: numba unboxes a record in one
@@ -1100,7 +1100,8 @@ def tick_state(nv: int, n_actuators: int) -> np.ndarray:
         support (0 left, 1 right), phase (fsm.Phase), xp_des [m], ds_start_xp (x_p^des when
             DS started; NaN out of DS) [m], steps_done, swing_target [m]: the E-FSM's state.
         rot: world-from-O_w, rewritten every tick.
-        v: the generalized velocity of the tick (written by the controller).
+        pin_state: Pinocchio's q (row 0, first nq entries) and v (row 1, first nv entries)
+            of the tick, written by the controller (:func:`walkrepro.robot.pin_state_into`).
         tau: out: actuator torques [Nm]. signals: out: :data:`SIGNALS`, flattened.
     """
     f8, i8 = np.float64, np.int64
@@ -1139,7 +1140,7 @@ def tick_state(nv: int, n_actuators: int) -> np.ndarray:
         ("steps_done", i8),
         ("swing_target", f8, (3,)),
         ("rot", f8, (3, 3)),
-        ("v", f8, (nv,)),
+        ("pin_state", f8, (2, max(nq, nv))),
         ("tau", f8, (n_actuators,)),
         ("signals", f8, (n_signals,)),
     ]
@@ -1461,7 +1462,7 @@ def tick(
 
     # Γ = Γ_t + Γ_c + Γ_gc (Eqs. 7 and 11, Appendices A–D), saturated, actuator order.
     f1, balancing, cop_exp_x, cop_exp_y = whole_body_torques(
-        WbcDynamics(a_inv, nle, jc_dot_v, j_world, j_com, st.v),
+        WbcDynamics(a_inv, nle, jc_dot_v, j_world, j_com, st.pin_state[1, :n]),
         WbcFrames(
             rot, sole_pos[sup], sole_pos[sw], sole_rot[sup], sole_rot[sw], pelvis_rot,
             st.sole_support[sup], st.sole_support[sw],
