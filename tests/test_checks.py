@@ -191,7 +191,10 @@ def test_summary_line_names_the_experiment_its_outcome_and_counts() -> None:
     bad = Expectation(metric="footsteps", op=">=", value=11, source="s")
     good = evaluate(make_spec(ok), {"fell": 0.0}, "complete")
     line = summary_line(good, 10)
-    assert line == "ok    t           complete    1 reproduced, 0 calibrated, 0 known deviations, 0 failed"
+    assert (
+        line
+        == "ok    t           complete    1 reproduced, 0 calibrated, 0 known deviations, 0 failed"
+    )
     failed = evaluate(make_spec(ok, bad), {"fell": 0.0, "footsteps": 3.0}, "fell")
     assert summary_line(failed).startswith("FAIL") and "fell" in summary_line(failed)
     (text,) = failing_row_text(failed)

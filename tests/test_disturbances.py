@@ -80,6 +80,7 @@ def test_spec_rejects_a_ramp_longer_than_its_window_and_unknown_profiles() -> No
 
 # ---- the human's hand that holds (kind: hold, Lee et al. §VI-C) ----------------------------
 
+
 def _hold(**update: object) -> DisturbanceSpec:
     fields: dict[str, object] = dict(
         name="hand", body="pelvis", kind="hold", frame="O_w", axes=["x"], stiffness=2000.0,

@@ -576,6 +576,7 @@ def test_no_push_in_the_spec(tmp_path: Path) -> None:
 
 # ---- the hand's hold (§VI-C: the force at equilibrium and the still CoM) -----------------
 
+
 def _hold_log(tmp_path: Path, force: object, com_speed: object = 0.0) -> LogData:
     """A 3 s log with a 0.5–2.5 s hold (:func:`_push`)."""
     return _push(tmp_path, [], com_speed=com_speed, force=force, end=2.5)

@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-
-from walkrepro.papers.jo_oh.impedance import ImpedanceFilter, reference_acceleration
+from oracles.jo_oh_impedance import ImpedanceFilter, reference_acceleration
 
 M, B, K = np.array([30.0, 0.3, 0.3]), np.array([120.0, 0.6, 0.6]), np.array([1500.0, 10.0, 10.0])
 

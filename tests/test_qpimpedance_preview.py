@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from oracles.jo_oh_swing import SwingTrajectory
 
-from walkrepro.papers.jo_oh.footsteps import RIGHT, SwingTrajectory, WalkPattern, plan_walk
+from walkrepro.papers.jo_oh.footsteps import RIGHT, WalkPattern, plan_walk
 from walkrepro.papers.jo_oh.preview import generate_com, preview_gains
 
 DT = 0.005

@@ -50,7 +50,9 @@ def test_every_experiment_meets_its_expectations(checked: tuple[Path, int, str])
     """`walkrepro check` over all experiments exits 0: every paper expectation holds or is a declared deviation."""
     _, code, output = checked
     assert code == 0, output
-    summary = re.findall(r"\d+ reproduced, \d+ calibrated, \d+ known deviations?, \d+ failed", output)[-1]
+    summary = re.findall(
+        r"\d+ reproduced, \d+ calibrated, \d+ known deviations?, \d+ failed", output
+    )[-1]
     assert summary.endswith(" 0 failed"), output
     assert "all expectations hold" not in output
 

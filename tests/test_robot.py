@@ -717,3 +717,23 @@ def test_controller_robot_carries_the_specs_servo_gains() -> None:
         with_servo_gains(torque, build_scene(torque, load_spec("forward_walk").spec).model)
         is torque
     )
+
+
+def test_log3_agrees_with_pinocchio() -> None:
+    """walkrepro's one log₃ (robot.log3, inlined in the whole-body ticks as log3_entries)
+    equals pin.log3 to 1e-12 near identity (its series), in between, and near a half turn
+    (the axis from the largest diagonal term), on random axes."""
+    from walkrepro.robot import log3
+
+    rng = np.random.default_rng(8)
+    angles = [0.0, 1e-9, 1e-6, 1e-3, 0.3, 2.0, np.pi - 1e-3, np.pi - 1e-7, np.pi]
+    angles += list(rng.uniform(0, np.pi, 200))
+    out = np.empty(3)
+    for angle in angles:
+        for _ in range(5):
+            axis = rng.normal(size=3)
+            rotation = pin.exp3(angle * axis / np.linalg.norm(axis))
+            log3(np.asfortranarray(rotation), out)  # Data's matrices are column-major
+            np.testing.assert_allclose(out, pin.log3(rotation), rtol=0, atol=1e-12)
+            log3(np.ascontiguousarray(rotation), out)
+            np.testing.assert_allclose(out, pin.log3(rotation), rtol=0, atol=1e-12)

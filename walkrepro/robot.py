@@ -214,7 +214,7 @@ def frame_jacobian(
 def eigen_rotate(rot: np.ndarray, x0: float, x1: float, x2: float) -> tuple[float, float, float]:
     """rot · x summed as Eigen's 3 × 3 product in Pinocchio: rows 0 and 1 as one two-lane
     packet, (r₀x₀ + r₁x₁) + r₂x₂; row 2 alone as a tree, r₀x₀ + (r₁x₁ + r₂x₂). Summing in
-    Pinocchio's order keeps the compiled controllers' results Pinocchio's to the last bit.
+    The compiled controllers' references were made with this order, so it stays.
 
     Like :func:`frame_jacobian`, inlined into compiled callers whose numba cache does not
     notice edits here: after changing it, delete their ``__pycache__``.
@@ -236,7 +236,7 @@ def frame_classical_acceleration(
 ) -> None:
     """J̇ q̇ of a frame fixed to a joint's body, world axes at the frame origin, as Pinocchio's
     ``getFrameClassicalAcceleration(..., LOCAL_WORLD_ALIGNED)`` after ``computeAllTerms``,
-    bit for bit (its operations in its order), for the whole-body controllers' ticks.
+    in its operations (tested against it to 1e-12), for the whole-body controllers' ticks.
 
     The joint's spatial velocity (v, ω) and bias acceleration (a, α) (q̈ = 0), in joint axes,
     move to the frame origin (v + ω × o, a + α × o), turn to world axes, and the classical
@@ -291,6 +291,68 @@ def log3_theta_axis(val: float, m: np.ndarray, i0: int) -> tuple[float, float, f
     w = 1.0 / (2.0 * s) * (m[i2, i1] - m[i1, i2])
     norm = math.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])
     return 2.0 * math.atan2(norm, w), axis[0] / norm, axis[1] / norm, axis[2] / norm
+
+
+#: Pinocchio's Taylor-expansion threshold of log₃, ``TaylorSeriesExpansion<double>::precision<2>``.
+_LOG3_PREC = math.pow(_EPS, 1.0 / 3.0)
+
+
+@numba.njit(cache=True)
+def log3_entries(r: tuple[float, ...]) -> tuple[float, float, float]:
+    """log₃ R, the rotation vector θ u [rad] of R given as its nine entries row by row
+    (r₀₀, r₀₁, …, r₂₂): walkrepro's one log₃, compiled into the whole-body ticks (a tuple of
+    floats stays in registers, where 3-vectors would cost more in allocations than in
+    arithmetic).
+
+    Pinocchio's ``log3`` method: re-orthonormalise R (columns 0 and 1 normalised, c₂ = c₀ × c₁,
+    c₀ = c₁ × c₂), θ from the trace (acos; its series near 0; near π the axis from the
+    largest 2 R_kk − tr + 1, :func:`log3_theta_axis`), then θ / sin θ (its Taylor series
+    below θ = ε^(1/3)) times the skew part. Sums run left to right: the result agrees with
+    ``pin.log3`` to 1e-12 (tests/test_robot.py), not to the last bit.
+    """
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = r
+    n0 = math.sqrt(r00 * r00 + r10 * r10 + r20 * r20)
+    n1 = math.sqrt(r01 * r01 + r11 * r11 + r21 * r21)
+    x0, x1, x2 = r00 / n0, r10 / n0, r20 / n0  # column 0
+    y0, y1, y2 = r01 / n1, r11 / n1, r21 / n1  # column 1
+    z0, z1, z2 = x1 * y2 - x2 * y1, x2 * y0 - x0 * y2, x0 * y1 - x1 * y0  # column 2 = x × y
+    x0, x1, x2 = y1 * z2 - y2 * z1, y2 * z0 - y0 * z2, y0 * z1 - y1 * z0  # column 0 = y × z
+    tr = x0 + y1 + z2
+    cos_value = (tr - 1.0) / 2.0
+    prec = _LOG3_PREC
+    if cos_value < -1.0 + prec:  # θ ≈ π
+        m = np.empty((3, 3))
+        m[0, 0], m[1, 0], m[2, 0] = x0, x1, x2
+        m[0, 1], m[1, 1], m[2, 1] = y0, y1, y2
+        m[0, 2], m[1, 2], m[2, 2] = z0, z1, z2
+        val0, val1, val2 = 2.0 * x0 - tr + 1.0, 2.0 * y1 - tr + 1.0, 2.0 * z2 - tr + 1.0
+        if val0 >= val1:
+            k, val = (0, val0) if val0 >= val2 else (2, val2)
+        else:
+            k, val = (1, val1) if val1 >= val2 else (2, val2)
+        theta, u0, u1, u2 = log3_theta_axis(val, m, k)
+        return theta * u0, theta * u1, theta * u2
+    acos_expansion = math.sqrt(2.0 * (1.0 - cos_value) + _EPS * _EPS)
+    if tr <= 3.0 - prec:
+        theta = math.acos(cos_value) if tr >= -1.0 + prec else math.pi - acos_expansion
+    else:
+        theta = acos_expansion
+    w0, w1, w2 = 0.5 * (y2 - z1), 0.5 * (z0 - x2), 0.5 * (x1 - y0)  # the antisymmetric part
+    if theta >= prec:
+        t = theta / math.sin(theta)
+    else:
+        sq = w0 * w0 + w1 * w1 + w2 * w2
+        t = 1.0 + sq / 6.0 + sq * sq * 3.0 / 40.0
+    return t * w0, t * w1, t * w2
+
+
+@numba.njit(cache=True)
+def log3(rotation: np.ndarray, out: np.ndarray) -> None:
+    """log₃ of a 3 × 3 rotation written into ``out`` (3,) [rad]: :func:`log3_entries`."""
+    r = rotation
+    out[0], out[1], out[2] = log3_entries(
+        (r[0, 0], r[0, 1], r[0, 2], r[1, 0], r[1, 1], r[1, 2], r[2, 0], r[2, 1], r[2, 2])
+    )
 
 
 @dataclass(frozen=True, eq=False)  # eq=False: compare by identity, arrays have no ==

@@ -16,14 +16,15 @@ costs about 1 µs per call on such small arrays). One compiled call, :func:`task
 the same arithmetic, in the same order, in a few µs. Its inputs are views of Pinocchio's
 ``Data`` after ``computeAllTerms`` (M, C ξ̇ + g, the joint Jacobians, frame and joint
 placements, the joints' velocities and drift accelerations), passed without copies. The
-frames' drifts J̇ ξ̇, log₃ and roll–pitch–yaw angles are formed here (:func:`~walkrepro.robot.frame_classical_acceleration`,
-:func:`log3`, :func:`matrix_to_rpy`) in Pinocchio's own operations and summation order, so
-bit for bit what its Python functions return, instead of eight calls from Python (≈ 0.6–1 µs
-each). The small kernels it calls are compiled functions too, each tested against
-its Python reference (:func:`.footsteps.quintic`, :meth:`.footsteps.SwingTrajectory.at`,
-:class:`.impedance.ImpedanceFilter`, Pinocchio's frame Jacobians, numpy expressions). Like
-:mod:`.condensed`, the kernels are cached on disk (``cache=True``) and compiled by
-:func:`warm_up` when the controller resets.
+frames' drifts J̇ ξ̇, log₃ and roll–pitch–yaw angles are formed here
+(:func:`~walkrepro.robot.frame_classical_acceleration`, :func:`~walkrepro.robot.log3`,
+:func:`matrix_to_rpy`) in Pinocchio's operations, tested against its Python functions to
+1e-12, instead of eight calls from Python (≈ 0.4–1 µs each;
+``benchmarks/pinocchio_ports.py``). The small kernels it calls are compiled functions too,
+each tested against a reference: the swing trajectory and the impedance filter in
+``tests/oracles/jo_oh_*.py``, Pinocchio's frame Jacobians, numpy expressions. Like
+:mod:`.condensed`, the kernels are cached on disk (``cache=True``) and compiled or loaded
+when the controller resets.
 
 :func:`task_rows` takes its inputs in records (named tuples, :class:`RobotTerms` …
 :class:`TaskOutputs`), which the controller builds once at reset: the arrays in them are
@@ -41,18 +42,9 @@ import numpy as np
 import pinocchio as pin
 
 from walkrepro.papers.jo_oh.condensed import CostRows
-from walkrepro.robot import (
-    eigen_rotate,
-    frame_classical_acceleration,
-    frame_jacobian,
-    log3_theta_axis,
-)
+from walkrepro.robot import eigen_rotate, frame_classical_acceleration, frame_jacobian, log3
 
 GRAVITY = 9.81  # [m/s^2]
-_EPS = float(np.finfo(np.float64).eps)
-#: Pinocchio's ``TaylorSeriesExpansion<double>::precision<2>()``, ε^(1/3) (the same libm
-#: pow): where :func:`log3` switches to its series near 0 and to its form near π.
-_LOG3_PREC = math.pow(_EPS, 1.0 / 3.0)
 
 #: Entries of the ``scalars`` array of :func:`task_rows`, in order.
 SCALARS = (
@@ -327,65 +319,11 @@ def kinematic_chain(model: pin.Model, frame_id: int) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def log3(rotation: np.ndarray, out: np.ndarray) -> None:
-    """``pin.log3``: the rotation vector θ u of R [rad], compiled in Pinocchio's operations.
-
-    Pinocchio's ``log3_impl`` step by step: re-orthonormalise R, θ from the trace (acos, its
-    series near 0, or from the largest diagonal entry near π), then θ / sin θ times the skew
-    part; with Eigen's summation order (a column's norm as (x₀² + x₁²) + x₂², the trace as
-    R₀₀ + (R₁₁ + R₂₂)), so the result is Pinocchio's to the bit (tested).
-
-    Args:
-        rotation: R, shape (3, 3).
-        out: log₃ R, shape (3,).
-    """
-    r, m = rotation, np.empty((3, 3))
-    # renormalize_rotation_matrix: columns 0 and 1 normalised, c₂ = c₀ × c₁, c₀ = c₁ × c₂.
-    for j in range(2):
-        norm = math.sqrt(r[0, j] * r[0, j] + r[1, j] * r[1, j] + r[2, j] * r[2, j])
-        for i in range(3):
-            m[i, j] = r[i, j] / norm
-    m[0, 2] = m[1, 0] * m[2, 1] - m[2, 0] * m[1, 1]
-    m[1, 2] = m[2, 0] * m[0, 1] - m[0, 0] * m[2, 1]
-    m[2, 2] = m[0, 0] * m[1, 1] - m[1, 0] * m[0, 1]
-    m[0, 0] = m[1, 1] * m[2, 2] - m[2, 1] * m[1, 2]
-    m[1, 0] = m[2, 1] * m[0, 2] - m[0, 1] * m[2, 2]
-    m[2, 0] = m[0, 1] * m[1, 2] - m[1, 1] * m[0, 2]
-    trace = m[0, 0] + (m[1, 1] + m[2, 2])
-    cos_value = (trace - 1.0) / 2.0
-    prec = _LOG3_PREC
-    if cos_value < -1.0 + prec:  # θ ≈ π: the axis from the largest 2 R_kk − tr + 1
-        val0, val1, val2 = (2.0 * m[0, 0] - trace + 1.0, 2.0 * m[1, 1] - trace + 1.0,
-                            2.0 * m[2, 2] - trace + 1.0)  # fmt: skip
-        if val0 >= val1:
-            k, val = (0, val0) if val0 >= val2 else (2, val2)
-        else:
-            k, val = (1, val1) if val1 >= val2 else (2, val2)
-        theta, u0, u1, u2 = log3_theta_axis(val, m, k)
-        out[0], out[1], out[2] = theta * u0, theta * u1, theta * u2
-        return
-    acos_expansion = math.sqrt(2.0 * (1.0 - cos_value) + _EPS * _EPS)
-    if trace <= 3.0 - prec:
-        theta = math.acos(cos_value) if trace >= -1.0 + prec else math.pi - acos_expansion
-    else:
-        theta = acos_expansion
-    a0 = 0.5 * (m[2, 1] - m[1, 2])  # unSkew
-    a1 = 0.5 * (m[0, 2] - m[2, 0])
-    a2 = 0.5 * (m[1, 0] - m[0, 1])
-    if theta >= prec:
-        t = theta / math.sin(theta)
-    else:
-        n2 = a0 * a0 + a1 * a1 + a2 * a2
-        t = 1.0 + n2 / 6.0 + n2 * n2 * 3.0 / 40.0
-    out[0], out[1], out[2] = t * a0, t * a1, t * a2
-
-
-@numba.njit(cache=True)
 def matrix_to_rpy(rotation: np.ndarray, out: np.ndarray) -> None:
     """``pin.rpy.matrixToRpy``: roll, pitch, yaw [rad] with R = R_z(yaw) R_y(pitch) R_x(roll).
 
     Eigen's ``eulerAngles(2, 1, 0)`` (Graphics Gems IV) reversed, then Pinocchio's fold of
-    the pitch into [−π/2, π/2], in the same operations, so bit for bit Pinocchio's (tested).
+    the pitch into [−π/2, π/2], in the same operations (tested against it to 1e-12).
 
     Args:
         rotation: R, shape (3, 3).
@@ -412,7 +350,9 @@ def matrix_to_rpy(rotation: np.ndarray, out: np.ndarray) -> None:
 
 @numba.njit(cache=True)
 def quintic(s: float, duration: float) -> tuple[float, float, float]:
-    """:func:`.footsteps.quintic`, compiled: minimum-jerk blend b(s), ḃ [1/s], b̈ [1/s²]."""
+    """Minimum-jerk blend b(s) = u³ (10 − 15 u + 6 u²), u = s / duration clipped to [0, 1],
+    with ḃ [1/s] and b̈ [1/s²] (zero velocity and acceleration at both ends; 1, 0, 0 for a
+    non-positive duration)."""
     if duration <= 0:
         return 1.0, 0.0, 0.0
     u = min(max(s / duration, 0.0), 1.0)
@@ -432,8 +372,8 @@ def pack_swing(
     rise_fraction: float,
     out: np.ndarray,
 ) -> None:
-    """Write a :class:`.footsteps.SwingTrajectory`'s fields into the 14-array of
-    :func:`swing_reference`: (t0, duration, start (5), target (5), apex, rise_fraction)."""
+    """Write a swing trajectory into the 14-array of :func:`swing_reference`: (t0 [s],
+    duration [s], start (5), target (5), apex [m], rise_fraction [-])."""
     out[0], out[1] = t0, duration
     out[2:7], out[7:12] = start, target
     out[12], out[13] = apex, rise_fraction
@@ -443,10 +383,16 @@ def pack_swing(
 def swing_reference(
     swing: np.ndarray, t: float, pos: np.ndarray, vel: np.ndarray, acc: np.ndarray
 ) -> None:
-    """:meth:`.footsteps.SwingTrajectory.at`, compiled, for the trajectory packed in ``swing``.
+    """The swing-foot sole-centre reference at ``t``, from lift-off to the planned landing.
+
+    x, y and the roll/pitch angles blend from ``start`` to ``target`` by minimum jerk
+    (:func:`quintic`) over the whole swing; z rises from the lift-off height to ``apex``
+    above the higher of start and target over the first ``rise_fraction`` of the swing,
+    then descends to the landing height by the end. ``tests/oracles/jo_oh_swing.py`` is its
+    readable numpy reference (tested equal).
 
     Args:
-        swing: see :func:`pack_swing`, shape (14,).
+        swing: the trajectory, see :func:`pack_swing`, shape (14,).
         t: time [s].
         pos, vel, acc: out, desired (x, y, z, roll, pitch), rates and accelerations, (5,).
     """
@@ -482,7 +428,31 @@ def advance_impedance(
     dt: float,
     enabled: bool,
 ) -> bool:
-    """:meth:`.impedance.ImpedanceFilter.update`, compiled (Eqs. 1–3 over z, φ_x, φ_y).
+    """Impedance modification of the swing-foot reference (§II, Eqs. 1–3).
+
+    The foot is modelled as a mass–spring–damper driven by the contact wrench (Fig. 2):
+
+        M_d (ẍ − ẍ_d) + B_d (ẋ − ẋ_d) + K_d (x − x_d) = λ,                          (1)
+
+    over the coordinates x = (z, φ_x, φ_y) of the paper's x_{C_k} = [0 0 z φx φy 0]ᵀ. The
+    modified acceleration
+
+        ẍ_m = ẍ_d + M_d⁻¹ (λ + B_d ė + K_d e),   e = x_d − x_m,                     (2)
+
+    is integrated (semi-implicit Euler) to the modified velocity and position. Eq. (2) writes
+    e with the foot's state; we use the modified state x_m, which equals the foot's state when
+    the QP tracks Eq. (3), and makes the modified reference an exact mass–spring–damper of λ
+    (no feedback of tracking noise into the integrator). The reference acceleration for the QP
+    is Eq. (3):
+
+        ẍ_r = ẍ_m + K_v (ẋ_m − ẋ) + K_p (x_m − x).                                  (3)
+
+    The modification switches on in swing, once the foot has been unloaded after lift-off,
+    when |λ_z| exceeds the force threshold or |λ_φx|, |λ_φy| the torque threshold (§IV:
+    10 N, 3 N m), stays on to the end of that swing, and is re-initialised (x_m = x_d) in
+    support (§IV).
+
+    ``tests/oracles/jo_oh_impedance.py`` is its readable numpy reference (tested equal).
 
     Args:
         state: (x_m, ẋ_m, ẍ_m), updated in place, shape (3, 3).

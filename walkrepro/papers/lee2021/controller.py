@@ -13,8 +13,9 @@ Speed: the tick runs at 2 kHz, so it calls Pinocchio's combined algorithm once
 (``computeAllTerms``), reads its results through views of ``Data`` taken at reset, and does
 everything else (O_w, the E-FSM, footsteps, the WBC algebra, the CoPs) in one compiled numba
 call, :func:`.kernels.tick` (why numba: see :mod:`.kernels`). Python keeps the first tick's
-set-up, the events and the signal dict. :mod:`.fsm` and :mod:`.wbc` keep the E-FSM and the
-algebra in plain Python/numpy as the references the tests compare the kernels with.
+set-up, the events and the signal dict. The E-FSM and the algebra in plain Python/numpy,
+the references the tests compare the kernels with, are test oracles
+(``tests/oracles/efsm_fsm.py``, ``tests/oracles/efsm_wbc.py``).
 """
 
 from __future__ import annotations

@@ -12,8 +12,9 @@ machine code on disk, so only the first process compiles; the controller's reset
 or loads them with two throwaway ticks.
 
 The whole tick after Pinocchio's ``computeAllTerms`` is one call, :func:`tick`: the frames,
-O_w, the E-FSM (its reference is the oracle ``tests/oracles/efsm_fsm.py``), the footstep planner, A⁻¹ and J̇_c q̇ (as
-Pinocchio computes them, bit for bit), Γ and the CoPs. Python around it cost more than the
+O_w, the E-FSM (its reference is the oracle ``tests/oracles/efsm_fsm.py``), the footstep
+planner, A⁻¹ and J̇_c q̇ (in Pinocchio's operations, tested against it to 1e-12), Γ and the
+CoPs. Python around it cost more than the
 algebra: each numba call pays ≈ 50 ns per array argument (hence :func:`tick_state`, one
 record for the controller's own arrays, and :class:`PinocchioViews`, one for the views of
 Pinocchio's ``Data``, made once), a Pinocchio call ≈ 1 µs, a line of Python ≈ 0.1 µs.
@@ -39,7 +40,7 @@ from walkrepro.robot import (
     eigen_rotate,
     frame_classical_acceleration,
     frame_jacobian,
-    log3_theta_axis,
+    log3_entries,
 )
 
 #: Rows of the two stacked foot wrenches other than the normal forces (Appendix C).
@@ -272,69 +273,6 @@ def pinv_eigh(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 # ---- kinematics read from Pinocchio's results ----------------------------------------------
 
-#: Pinocchio's Taylor-expansion threshold of log3, TaylorSeriesExpansion<double>::precision<2>.
-_LOG3_PREC = float(np.finfo(np.float64).eps) ** (1.0 / 3.0)
-_EPS = float(np.finfo(np.float64).eps)
-
-
-@_jit
-def log3(rot: np.ndarray) -> np.ndarray:
-    """The rotation vector of ``rot`` [rad], as ``pinocchio.log3`` (same branches).
-
-    The rotation is renormalized first; below θ = ε^(1/3) a Taylor expansion replaces
-    θ / sin θ, and near θ = π the axis comes from the largest diagonal entry.
-    """
-    out = np.empty(3)
-    out[0], out[1], out[2] = _log3(
-        (
-            rot[0, 0], rot[0, 1], rot[0, 2],
-            rot[1, 0], rot[1, 1], rot[1, 2],
-            rot[2, 0], rot[2, 1], rot[2, 2],
-        )
-    )  # fmt: skip
-    return out
-
-
-@_jit
-def _log3(rot: tuple[float, ...]) -> tuple[float, float, float]:
-    """:func:`log3` of a rotation given as its nine entries, row by row (r_00, r_01, …, r_22):
-    a tuple of floats, which numba keeps in registers; as arrays, the 3-vectors cost more in
-    allocations than in arithmetic."""
-    r00, r01, r02, r10, r11, r12, r20, r21, r22 = rot
-    n0 = math.sqrt(r00**2 + r10**2 + r20**2)
-    n1 = math.sqrt(r01**2 + r11**2 + r21**2)
-    x0, x1, x2 = r00 / n0, r10 / n0, r20 / n0  # column 0
-    y0, y1, y2 = r01 / n1, r11 / n1, r21 / n1  # column 1
-    z0, z1, z2 = x1 * y2 - x2 * y1, x2 * y0 - x0 * y2, x0 * y1 - x1 * y0  # column 2 = x × y
-    x0, x1, x2 = y1 * z2 - y2 * z1, y2 * z0 - y0 * z2, y0 * z1 - y1 * z0  # column 0 = y × z
-    tr = x0 + y1 + z2
-    cos_value = (tr - 1.0) / 2.0
-    prec = _LOG3_PREC
-    if cos_value < -1.0 + prec:  # θ ≈ π
-        r = np.empty((3, 3))
-        r[0, 0], r[1, 0], r[2, 0] = x0, x1, x2
-        r[0, 1], r[1, 1], r[2, 1] = y0, y1, y2
-        r[0, 2], r[1, 2], r[2, 2] = z0, z1, z2
-        vals = np.array([2.0 * r[i, i] - tr + 1.0 for i in range(3)])
-        if vals[0] >= vals[1]:
-            i0 = 0 if vals[0] >= vals[2] else 2
-        else:
-            i0 = 1 if vals[1] >= vals[2] else 2
-        theta, u0, u1, u2 = log3_theta_axis(vals[i0], r, i0)
-        return theta * u0, theta * u1, theta * u2
-    acos_expansion = math.sqrt(2.0 * (1.0 - cos_value) + _EPS * _EPS)
-    if tr <= 3.0 - prec:
-        theta = math.acos(cos_value) if tr >= -1.0 + prec else math.pi - acos_expansion
-    else:
-        theta = acos_expansion
-    w0, w1, w2 = 0.5 * (y2 - z1), 0.5 * (z0 - x2), 0.5 * (x1 - y0)  # the antisymmetric part
-    sq = w0**2 + w1**2 + w2**2
-    if theta >= prec:
-        t = theta / math.sin(theta)
-    else:
-        t = 1.0 + sq / 6.0 + sq * sq * 3.0 / 40.0
-    return t * w0, t * w1, t * w2
-
 
 @_jit
 def _row_row(a: np.ndarray, i: int, b: np.ndarray, j: int) -> float:
@@ -348,7 +286,7 @@ def _row_row(a: np.ndarray, i: int, b: np.ndarray, j: int) -> float:
 @_jit
 def orientation_error(rot_des: np.ndarray, rot: np.ndarray) -> tuple[float, float, float]:
     """log3(R_des Rᵀ), the orientation error in world axes [rad] (a tuple: no allocation)."""
-    return _log3(
+    return log3_entries(
         (
             _row_row(rot_des, 0, rot, 0), _row_row(rot_des, 0, rot, 1), _row_row(rot_des, 0, rot, 2),
             _row_row(rot_des, 1, rot, 0), _row_row(rot_des, 1, rot, 1), _row_row(rot_des, 1, rot, 2),
@@ -361,9 +299,9 @@ def orientation_error(rot_des: np.ndarray, rot: np.ndarray) -> tuple[float, floa
 # After computeAllTerms a tick also called Pinocchio's cholesky.decompose, computeMinv and
 # getFrameClassicalAcceleration: about 1 µs of Python binding each, and a fresh 18 × 18 array.
 # These kernels (and robot.frame_classical_acceleration, shared with Paper III's controller)
-# do the same arithmetic in the same order (Pinocchio's C++ read side by side),
-# so their results are Pinocchio's bit for bit on this build; tests/test_efsm_kernels.py
-# checks that, and a Pinocchio built otherwise would still agree to rounding.
+# compute what those calls return inside the tick, in Pinocchio's operations;
+# tests/test_efsm_kernels.py checks them against Pinocchio to 1e-12, and
+# benchmarks/pinocchio_ports.py measures what calling Pinocchio instead would cost.
 
 
 @_jit

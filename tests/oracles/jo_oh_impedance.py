@@ -1,4 +1,7 @@
-"""Impedance modification of the swing-foot reference (§II, Eqs. 1–3).
+"""Readable numpy reference of Paper III's impedance modification of the swing-foot
+reference (§II, Eqs. 1–3), a test oracle: the controller runs it compiled,
+``walkrepro.papers.jo_oh.tasks.advance_impedance``, which tests/test_qpimpedance_tasks.py
+checks against this one.
 
 The foot is modelled as a mass–spring–damper driven by the contact wrench (Fig. 2):
 
