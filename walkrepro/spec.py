@@ -102,9 +102,15 @@ class PaperRef(_Strict):
     @field_validator("key")
     @classmethod
     def _known_paper(cls, key: str) -> str:
-        if key not in PAPERS:
-            raise ValueError(f"unknown paper {key!r}; valid papers: {', '.join(sorted(PAPERS))}")
-        return key
+        return known_paper(key)
+
+
+def known_paper(key: str) -> str:
+    """``key`` if it names a paper of :data:`PAPERS`, else a ``ValueError`` (a pydantic
+    validator's error) listing them."""
+    if key not in PAPERS:
+        raise ValueError(f"unknown paper {key!r}; valid papers: {', '.join(sorted(PAPERS))}")
+    return key
 
 
 def require_unique(what: str, names: Sequence[str]) -> None:

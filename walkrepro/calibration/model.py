@@ -25,7 +25,6 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from walkrepro import EXPERIMENTS_DIR
 from walkrepro.errors import SpecError, UnknownNameError
 from walkrepro.spec import (
-    PAPERS,
     Count,
     Real,
     _check_plain_data,
@@ -33,6 +32,7 @@ from walkrepro.spec import (
     _format_validation,
     _parse_yaml,
     _where,
+    known_paper,
     require_unique,
 )
 
@@ -208,9 +208,7 @@ class CalibrationFile(_Strict):
     @field_validator("paper")
     @classmethod
     def _known_paper(cls, key: str) -> str:
-        if key not in PAPERS:
-            raise ValueError(f"unknown paper {key!r}; valid papers: {', '.join(sorted(PAPERS))}")
-        return key
+        return known_paper(key)
 
     @field_validator("parameters")
     @classmethod

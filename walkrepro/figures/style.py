@@ -14,11 +14,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import matplotlib as mpl
 import matplotlib.pyplot as plt
 import numpy as np
+
+if TYPE_CHECKING:
+    from walkrepro.metrics import LogData
 
 #: How a figure title names each paper (spec ``paper.key``).
 PAPER_NAMES: Mapping[str, str] = {
@@ -164,3 +167,9 @@ def save(fig: plt.Figure, stem: Path) -> list[Path]:
     fig.savefig(paths[1], bbox_inches="tight")
     plt.close(fig)
     return paths
+
+
+def save_titled(fig: plt.Figure, d: LogData, figure: str, what: str, stem: Path) -> list[Path]:
+    """:func:`title` from the run ``d`` (its paper, its experiment), then :func:`save`."""
+    title(fig, d.spec.paper.key, figure, what, d.spec.name)
+    return save(fig, stem)

@@ -67,8 +67,9 @@ def fig13_gains(d: LogData, out_dir: Path) -> list[Path]:
     for a in ax:
         a.set_xlabel("phase time t [s]")
     style.legend(ax[2])
-    style.title(fig, d.spec.paper.key, "Fig. 13", "time-projection look-up tables", d.spec.name)
-    return save(fig, out_dir / "fig13_gains")
+    return style.save_titled(
+        fig, d, "Fig. 13", "time-projection look-up tables", out_dir / "fig13_gains"
+    )
 
 
 def fig14_feet(d: LogData, out_dir: Path) -> list[Path]:
@@ -86,14 +87,9 @@ def fig14_feet(d: LogData, out_dir: Path) -> list[Path]:
     ax.set_ylabel("x (forward) [m]")
     ax.set_aspect("equal")
     style.legend(ax)
-    style.title(
-        fig,
-        d.spec.paper.key,
-        "Fig. 14",
-        "feet relative to the pelvis\nat phase changes",
-        d.spec.name,
+    return style.save_titled(
+        fig, d, "Fig. 14", "feet relative to the pelvis\nat phase changes", out_dir / "fig14_feet"
     )
-    return save(fig, out_dir / "fig14_feet")
 
 
 def _footstep_plot(d: LogData, ax: plt.Axes) -> None:
@@ -131,8 +127,7 @@ def fig16_push(d: LogData, out_dir: Path) -> list[Path]:
     ):
         style.panel(a, tag, what)
     ax[-1].set_xlabel("time [s]")
-    style.title(fig, d.spec.paper.key, "Figs. 16–17", "push recovery", d.spec.name)
-    return save(fig, out_dir / "fig16_push")
+    return style.save_titled(fig, d, "Figs. 16–17", "push recovery", out_dir / "fig16_push")
 
 
 def _mark_corrective(ax: plt.Axes, d: LogData) -> None:
@@ -197,8 +192,9 @@ def fig18_drag(d: LogData, out_dir: Path) -> list[Path]:
     ax[1].set_ylabel("speed [m/s]")
     ax[1].set_xlabel("time [s]")
     style.legend(ax[1])
-    style.title(fig, d.spec.paper.key, "Fig. 18", "emergent walking under a drag", d.spec.name)
-    return save(fig, out_dir / "fig18_drag")
+    return style.save_titled(
+        fig, d, "Fig. 18", "emergent walking under a drag", out_dir / "fig18_drag"
+    )
 
 
 def fig19_walk(d: LogData, out_dir: Path) -> list[Path]:
@@ -218,8 +214,7 @@ def fig19_walk(d: LogData, out_dir: Path) -> list[Path]:
     ax[1].set_xlabel("time [s]")
     style.legend(ax[0])
     style.legend(ax[1])
-    style.title(fig, d.spec.paper.key, "Fig. 19", f"walking at {speed} m/s", d.spec.name)
-    return save(fig, out_dir / "fig19_walk")
+    return style.save_titled(fig, d, "Fig. 19", f"walking at {speed} m/s", out_dir / "fig19_walk")
 
 
 def fig20_ankle(d: LogData, out_dir: Path) -> list[Path]:
@@ -239,8 +234,7 @@ def fig20_ankle(d: LogData, out_dir: Path) -> list[Path]:
     ax[1].set_xlabel("time [s]")
     for a in ax:
         style.legend(a)
-    style.title(fig, d.spec.paper.key, "Fig. 20", "standing pull test", d.spec.name)
-    return save(fig, out_dir / "fig20_ankle")
+    return style.save_titled(fig, d, "Fig. 20", "standing pull test", out_dir / "fig20_ankle")
 
 
 def signals(d: LogData, out_dir: Path) -> list[Path]:
@@ -257,14 +251,9 @@ def signals(d: LogData, out_dir: Path) -> list[Path]:
     ax[2].plot(t, v, label="adaptive lift (Eq. 29) [m]")
     style.legend(ax[2])
     ax[-1].set_xlabel("time [s]")
-    style.title(
-        fig,
-        d.spec.paper.key,
-        "",
-        "time-projection controller signals (no paper figure)",
-        d.spec.name,
+    return style.save_titled(
+        fig, d, "", "time-projection controller signals (no paper figure)", out_dir / "signals"
     )
-    return save(fig, out_dir / "signals")
 
 
 def compare_feet(a: LogData, b: LogData, out_dir: Path) -> list[Path]:

@@ -96,8 +96,9 @@ def fig7_com_and_feet(d: LogData, out_dir: Path) -> list[Path]:
         style.panel(ax, tag, what)
         style.legend(ax)
     axes[-1].set_xlabel("time [s]")
-    style.title(fig, d.spec.paper.key, "Fig. 7", "CoM and foot motion in O_g", d.spec.name)
-    return save(fig, out_dir / "fig7_com_feet")
+    return style.save_titled(
+        fig, d, "Fig. 7", "CoM and foot motion in O_g", out_dir / "fig7_com_feet"
+    )
 
 
 def _states(ax: plt.Axes, d: LogData) -> None:
@@ -122,8 +123,7 @@ def fig8_states(d: LogData, out_dir: Path) -> list[Path]:
     _states(ax, d)
     style.legend(ax)
     ax.set_xlabel("time [s]")
-    style.title(fig, d.spec.paper.key, "Fig. 8", "E-FSM states", d.spec.name)
-    return save(fig, out_dir / "fig8_states")
+    return style.save_titled(fig, d, "Fig. 8", "E-FSM states", out_dir / "fig8_states")
 
 
 def fig10_right_foot(d: LogData, out_dir: Path) -> list[Path]:
@@ -144,8 +144,9 @@ def fig10_right_foot(d: LogData, out_dir: Path) -> list[Path]:
     ax.set_xlabel("time [s]")
     ax.set_ylabel("x_g [m]")
     style.legend(ax)
-    style.title(fig, d.spec.paper.key, "Fig. 10", "right foot against the obstacle", d.spec.name)
-    return save(fig, out_dir / "fig10_right_foot")
+    return style.save_titled(
+        fig, d, "Fig. 10", "right foot against the obstacle", out_dir / "fig10_right_foot"
+    )
 
 
 def fig12_push(d: LogData, out_dir: Path) -> list[Path]:
@@ -185,10 +186,9 @@ def fig12_push(d: LogData, out_dir: Path) -> list[Path]:
         style.panel(ax, tag, what)
         style.legend(ax)
     axes[-1].set_xlabel("time [s]")
-    style.title(
-        fig, d.spec.paper.key, "Fig. 12", "a push on the upper body during walking", d.spec.name
+    return style.save_titled(
+        fig, d, "Fig. 12", "a push on the upper body during walking", out_dir / "fig12_push"
     )
-    return save(fig, out_dir / "fig12_push")
 
 
 def _switches(ax: plt.Axes, d: LogData, t_max: float) -> None:
@@ -264,14 +264,13 @@ def fig14_torques(d: LogData, out_dir: Path) -> list[Path]:
     style.panel(axes[0], "", "reference torques of the left leg")
     style.panel(axes[1], "", "state-transition parameter ε")
     axes[1].set_xlabel("time [s]")
-    style.title(
+    return style.save_titled(
         fig,
-        d.spec.paper.key,
+        d,
         "Fig. 14",
         "left-leg reference torques and ε (dotted: E-FSM switches)",
-        d.spec.name,
+        out_dir / "fig14_torques",
     )
-    return save(fig, out_dir / "fig14_torques")
 
 
 def fig14_compare(a: LogData, b: LogData, out_dir: Path) -> list[Path]:
@@ -321,8 +320,7 @@ def fig15_cop(d: LogData, out_dir: Path) -> list[Path]:
         style.panel(ax, tag, what)
         style.legend(ax)
     axes[-1].set_xlabel("time [s]")
-    style.title(fig, d.spec.paper.key, "Fig. 15", "expected and measured CoP", d.spec.name)
-    return save(fig, out_dir / "fig15_cop")
+    return style.save_titled(fig, d, "Fig. 15", "expected and measured CoP", out_dir / "fig15_cop")
 
 
 #: Figures drawn from one run.
