@@ -24,20 +24,23 @@ from walkrepro.papers.jo_oh.tasks import matrix_to_rpy
 from walkrepro.papers.lee2021 import kernels
 from walkrepro.robot import frame_classical_acceleration, frame_jacobian, load_robot, log3
 
-#: Calls per control tick: (Paper I's tick in double support, Paper III's tick).
+#: Calls per control tick: (Paper I's tick in double support, Paper III's tick); Paper I's
+#: tick places four frames, one updateFramePlacements would do them all.
 CALLS_PER_TICK = {
     "frame Jacobian (getFrameJacobian)": (2, 4),
     "frame classical acceleration (getFrameClassicalAcceleration)": (2, 2),
     "frame placement (updateFramePlacements)": (1, 0),
     "A⁻¹ (cholesky.decompose + computeMinv)": (1, 0),
-    "log₃ (log3)": (3, 2),
+    "log₃ (log3)": (2, 2),
     "roll-pitch-yaw (rpy.matrixToRpy)": (0, 2),
 }
 REPEAT = 2000
 
 
 @numba.njit(cache=False)
-def _loop_jacobian(j: np.ndarray, chain: np.ndarray, p: np.ndarray, out: np.ndarray, n: int) -> None:
+def _loop_jacobian(
+    j: np.ndarray, chain: np.ndarray, p: np.ndarray, out: np.ndarray, n: int
+) -> None:
     for _ in range(n):
         frame_jacobian(j, chain, p, out)
 
@@ -70,7 +73,13 @@ def _loop_rpy(rot: np.ndarray, out: np.ndarray, n: int) -> None:
 
 @numba.njit(cache=False)
 def _loop_placement(
-    jr: np.ndarray, jp: np.ndarray, lr: np.ndarray, lp: np.ndarray, r: np.ndarray, p: np.ndarray, n: int
+    jr: np.ndarray,
+    jp: np.ndarray,
+    lr: np.ndarray,
+    lp: np.ndarray,
+    r: np.ndarray,
+    p: np.ndarray,
+    n: int,
 ) -> None:
     for _ in range(n):
         kernels.frame_placement(jr, jp, lr, lp, r, p)
@@ -93,7 +102,11 @@ def measure(robot_name: str) -> dict[str, tuple[float, float]]:
     v = rng.standard_normal(model.nv)
     pin.computeAllTerms(model, data, q, v)
     pin.updateFramePlacements(model, data)
-    fid = model.getFrameId("left_foot_sole") if model.existFrame("left_foot_sole") else model.nframes - 1
+    fid = (
+        model.getFrameId("left_foot_sole")
+        if model.existFrame("left_foot_sole")
+        else model.nframes - 1
+    )
     frame = model.frames[fid]
     jid = frame.parentJoint
     lwa = pin.LOCAL_WORLD_ALIGNED
@@ -122,7 +135,9 @@ def measure(robot_name: str) -> dict[str, tuple[float, float]]:
             _per_call(lambda: _loop_placement(rot_j, pos_j, local_r, local_p, r3, p3, n), 1) / n,
         ),
         "A⁻¹ (cholesky.decompose + computeMinv)": (
-            _per_call(lambda: (pin.cholesky.decompose(model, data), pin.cholesky.computeMinv(model, data))),
+            _per_call(
+                lambda: (pin.cholesky.decompose(model, data), pin.cholesky.computeMinv(model, data))
+            ),
             _per_call(lambda: _loop_minv(mass, tree, minv, n), 1) / n,
         ),
         "log₃ (log3)": (
@@ -147,7 +162,9 @@ def main() -> None:
             calls = CALLS_PER_TICK[name][paper]
             total += calls * (py - jit)
             print(f"{name:64s} {py:9.2f} {jit:7.3f} {calls:5d} {calls * (py - jit):7.2f}")
-        print(f"{'calling Pinocchio instead would add per tick':64s} {'':9s} {'':7s} {'':5s} {total:7.2f}")
+        print(
+            f"{'calling Pinocchio instead would add per tick':64s} {'':9s} {'':7s} {'':5s} {total:7.2f}"
+        )
 
 
 if __name__ == "__main__":
