@@ -3,26 +3,8 @@ reference (§II, Eqs. 1–3), a test oracle: the controller runs it compiled,
 ``walkrepro.papers.jo_oh.tasks.advance_impedance``, which tests/test_qpimpedance_tasks.py
 checks against this one.
 
-The foot is modelled as a mass–spring–damper driven by the contact wrench (Fig. 2):
-
-    M_d (ẍ − ẍ_d) + B_d (ẋ − ẋ_d) + K_d (x − x_d) = λ,                          (1)
-
-over the coordinates x = (z, φ_x, φ_y) of the paper's x_{C_k} = [0 0 z φx φy 0]ᵀ. The
-modified acceleration
-
-    ẍ_m = ẍ_d + M_d⁻¹ (λ + B_d ė + K_d e),   e = x_d − x_m,                     (2)
-
-is integrated (semi-implicit Euler) to the modified velocity and position. Eq. (2) writes
-e with the foot's state; we use the modified state x_m, which equals the foot's state when
-the QP tracks Eq. (3), and makes the modified reference an exact mass–spring–damper of λ
-(no feedback of tracking noise into the integrator). The reference acceleration for the QP
-is Eq. (3):
-
-    ẍ_r = ẍ_m + K_v (ẋ_m − ẋ) + K_p (x_m − x).                                  (3)
-
-The modification switches on in swing, once the foot has been unloaded after lift-off, when |λ_z| exceeds the force threshold or |λ_φx|,
-|λ_φy| the torque threshold (§IV: 10 N, 3 N m), stays on to the end of that swing, and is
-re-initialised (x_m = x_d) in support (§IV).
+The model (Eqs. 1–3, and why e uses the modified state) is described at
+``advance_impedance``.
 """
 
 from __future__ import annotations
