@@ -114,6 +114,7 @@ def test_spec_is_a_leaf_of_walkrepro() -> None:
         "walkrepro.yamlload",
         "walkrepro.deviation",
         "walkrepro.errors",
+        "walkrepro.origin",
         "walkrepro.sweep.model",
     }
 

@@ -149,6 +149,23 @@ def _needs_checkout(what: str) -> None:
         )
 
 
+def _needs_clean_tree(what: str, allow_dirty: bool) -> None:
+    """Refuse to write committed results from uncommitted changes to ``walkrepro/``,
+    ``robots/`` or ``experiments/``: a reference must come from a commit a reader can check
+    out. ``--allow-dirty`` lets local work go on; its results' provenance then says
+    ``+dirty``."""
+    from walkrepro.provenance import dirty_paths
+
+    changed = dirty_paths(("walkrepro", "robots", "experiments"))
+    if changed and not allow_dirty:
+        shown = ", ".join(changed[:5]) + (" …" if len(changed) > 5 else "")
+        raise WalkreproError(
+            f"{what} writes committed results, and walkrepro/, robots/ or experiments/ have "
+            f"uncommitted changes ({shown}); commit them first, or pass --allow-dirty for "
+            "local work (the results' provenance then says +dirty)."
+        )
+
+
 def friendly_errors(fn: F) -> F:
     """Turn user errors into one paragraph on stderr and exit code 2."""
 
@@ -186,6 +203,46 @@ def list_cmd() -> None:
             name, spec.paper.key, section, spec.robot, spec.controller.type, spec.description
         )
     _console().print(table)
+
+
+@app.command()
+@friendly_errors
+def provenance(
+    experiments: Annotated[
+        list[str], typer.Argument(help="Experiment names or paths to spec YAML files.")
+    ],
+    set_: SetOption = None,
+    unclassified_only: Annotated[
+        bool, typer.Option("--unclassified", help="List only the numbers without a class.")
+    ] = False,
+) -> None:
+    """List every number an experiment's run uses (robot, scene, spec, controller) with its
+    provenance class (paper, source, assumed, calibrated) and source; exit 1 when one has
+    none (docs/provenance.md)."""
+    from walkrepro.ledger import LISTED, UNCLASSIFIED, counts, experiment_ledger
+
+    console = _console()
+    missing = 0
+    for name in experiments:
+        numbers = experiment_ledger(name, tuple(set_ or ()))
+        table = Table(title=f"{name}: every number the run uses")
+        for col in ("group", "parameter", "value", "class"):
+            table.add_column(col, overflow="fold")
+        table.add_column("source", overflow="fold")
+        for n in numbers:
+            if unclassified_only and n.klass != UNCLASSIFIED:
+                continue
+            style = "bold red" if n.klass == UNCLASSIFIED else None
+            table.add_row(n.group, n.name, n.value, n.klass, n.source, style=style)
+        console.print(table)
+        c = counts(numbers)
+        console.print(
+            f"{name}: " + ", ".join(f"{c[k]} {k}" for k in LISTED if c[k] or k != "override"),
+            highlight=False,
+        )
+        missing += c[UNCLASSIFIED]
+    if missing:
+        raise typer.Exit(code=1)
 
 
 @app.command()
@@ -241,6 +298,14 @@ class CheckOptions:
             "(implies --figures: a reference's figures are drawn from its own run).",
         ),
     ] = False
+    allow_dirty: Annotated[
+        bool,
+        typer.Option(
+            "--allow-dirty",
+            help="With --update-reference: write references from uncommitted changes "
+            "(local work; their provenance says +dirty).",
+        ),
+    ] = False
     sweeps: Annotated[
         bool,
         typer.Option(
@@ -284,6 +349,7 @@ def check(options: CheckOptions) -> None:
         )
     if options.update_reference:
         _needs_checkout("--update-reference")
+        _needs_clean_tree("check --update-reference", options.allow_dirty)
     verdicts: list[checks.Verdict] = []
     for path in options.run_dir or []:
         directory, log = results.resolve_run(path)
@@ -696,6 +762,14 @@ class SweepOptions:
         bool,
         typer.Option("--update-reference", help="Copy the finished map to results/maps/<map>/."),
     ] = False
+    allow_dirty: Annotated[
+        bool,
+        typer.Option(
+            "--allow-dirty",
+            help="With --update-reference: write references from uncommitted changes "
+            "(local work; their provenance says +dirty).",
+        ),
+    ] = False
 
 
 @app.command()
@@ -710,6 +784,7 @@ def sweep(options: SweepOptions) -> None:
 
     if options.update_reference:
         _needs_checkout("--update-reference")
+        _needs_clean_tree("sweep --update-reference", options.allow_dirty)
     request = SweepRequest(
         experiment=options.experiment,
         out=options.out,
@@ -833,6 +908,14 @@ def calibrate(
         str | None,
         typer.Option("--only", help="Calibrate this parameter alone (the others keep theirs)."),
     ] = None,
+    allow_dirty: Annotated[
+        bool,
+        typer.Option(
+            "--allow-dirty",
+            help="With --update: write results from uncommitted changes (local work; their "
+            "provenance says +dirty).",
+        ),
+    ] = False,
 ) -> None:
     """Run a paper's declared calibration (experiments/calibration/<paper>.yaml) and compare
     it with the committed results, or write them with --update. Exit 1 when a calibration
@@ -850,6 +933,7 @@ def calibrate(
 
     if update:
         _needs_checkout("walkrepro calibrate --update")
+        _needs_clean_tree("walkrepro calibrate --update", allow_dirty)
     if paper is None:
         _print_calibrations([load_calibration(find_calibration(p)) for p in calibration_papers()])
         return

@@ -43,6 +43,24 @@ def git_commit() -> str:
     return commit + ("+dirty" if dirty else "")
 
 
+def dirty_paths(folders: tuple[str, ...]) -> list[str]:
+    """Files under ``folders`` of the checkout with uncommitted changes (tracked files only;
+    empty in an installed copy or where git cannot tell)."""
+    if not IS_CHECKOUT:
+        return []
+    try:
+        out = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no", "--", *folders],
+            cwd=PROJECT_ROOT,
+            capture_output=True,
+            text=True,
+            timeout=10,
+        ).stdout
+    except (OSError, subprocess.SubprocessError):
+        return []
+    return [line[3:] for line in out.splitlines() if line.strip()]
+
+
 def pinocchio_version() -> str:
     """Pinocchio's version string."""
     import pinocchio

@@ -32,6 +32,7 @@ from pydantic import (
 from walkrepro import yamlload
 from walkrepro.deviation import KnownDeviation
 from walkrepro.errors import SpecError
+from walkrepro.origin import assumed, scenario
 from walkrepro.sweep.model import SweepParameter, SweepSpec
 
 
@@ -130,8 +131,18 @@ class ControllerSpec(_Strict):
 class FallSpec(_Strict):
     """When a run counts as a fall (TARGETS.md: pelvis below 60 % of nominal, or ground contact)."""
 
-    pelvis_height_ratio: Real = Field(0.6, gt=0.0, lt=1.0)
-    non_foot_ground_contact: bool = True
+    pelvis_height_ratio: Real = Field(
+        0.6,
+        gt=0.0,
+        lt=1.0,
+        json_schema_extra=assumed(
+            "TARGETS.md: a fall is the pelvis below 60 % of its nominal height"
+        ),
+    )
+    non_foot_ground_contact: bool = Field(
+        True,
+        json_schema_extra=assumed("TARGETS.md: a fall is also any body but the feet on the ground"),
+    )
 
 
 class SimSpec(_Strict):
@@ -143,10 +154,29 @@ class SimSpec(_Strict):
     control tick must fit in :data:`MAX_RUN_MEMORY`.
     """
 
-    timestep: Real = Field(0.0005, ge=MIN_TIMESTEP, le=MAX_TIMESTEP, description="[s]")
-    control_period: Real = Field(0.0005, gt=0.0, le=MAX_CONTROL_PERIOD, description="[s]")
-    duration: Real = Field(gt=0.0, le=MAX_DURATION, description="[s], at most one hour")
-    seed: Count = Field(0, ge=0, le=2**32 - 1)
+    timestep: Real = Field(
+        0.0005,
+        ge=MIN_TIMESTEP,
+        le=MAX_TIMESTEP,
+        description="[s]",
+        json_schema_extra=assumed("2 kHz physics, the rate Papers I (§V-A) and III (§IV) ran at"),
+    )
+    control_period: Real = Field(
+        0.0005,
+        gt=0.0,
+        le=MAX_CONTROL_PERIOD,
+        description="[s]",
+        json_schema_extra=assumed("control at the physics rate unless the paper gives its own"),
+    )
+    duration: Real = Field(
+        gt=0.0,
+        le=MAX_DURATION,
+        description="[s], at most one hour",
+        json_schema_extra=scenario("the experiment's duration"),
+    )
+    seed: Count = Field(
+        0, ge=0, le=2**32 - 1, json_schema_extra=scenario("the experiment's noise seed")
+    )
     fall: FallSpec = Field(default_factory=FallSpec)
 
     @field_validator("control_period")
@@ -281,7 +311,12 @@ class ContactSpec(_Strict):
 class WorldSpec(_Strict):
     """Ground and obstacles; the contact is docs/contact.md's unless ``contact`` departs."""
 
-    floor_friction: Real = Field(1.0, gt=0.0, le=MAX_FRICTION)
+    floor_friction: Real = Field(
+        1.0,
+        gt=0.0,
+        le=MAX_FRICTION,
+        json_schema_extra=assumed("MuJoCo's default sliding friction, 1"),
+    )
     obstacles: list[ObstacleSpec] = Field(default_factory=list)
     contact: ContactSpec | None = None
 
@@ -372,18 +407,61 @@ class DisturbanceSpec(_Strict):
 class SensorsSpec(_Strict):
     """Sensor imperfections (standard deviations of white noise, quantization step, delay)."""
 
-    joint_position_noise: Real = Field(0.0, ge=0.0, le=1.0, description="[rad]")
-    joint_position_quantization: Real = Field(0.0, ge=0.0, le=1.0, description="encoder step [rad]")
-    joint_velocity_noise: Real = Field(0.0, ge=0.0, le=100.0, description="[rad/s]")
-    imu_gyro_noise: Real = Field(0.0, ge=0.0, le=100.0, description="[rad/s]")
-    imu_acc_noise: Real = Field(0.0, ge=0.0, le=1000.0, description="[m/s^2]")
-    ft_force_noise: Real = Field(0.0, ge=0.0, le=MAX_FORCE, description="[N]")
-    ft_torque_noise: Real = Field(0.0, ge=0.0, le=MAX_TORQUE, description="[Nm]")
+    joint_position_noise: Real = Field(
+        0.0,
+        ge=0.0,
+        le=1.0,
+        description="[rad]",
+        json_schema_extra=assumed("no noise unless the experiment models the robot's sensors"),
+    )
+    joint_position_quantization: Real = Field(
+        0.0,
+        ge=0.0,
+        le=1.0,
+        description="encoder step [rad]",
+        json_schema_extra=assumed("ideal encoders unless the experiment models them"),
+    )
+    joint_velocity_noise: Real = Field(
+        0.0,
+        ge=0.0,
+        le=100.0,
+        description="[rad/s]",
+        json_schema_extra=assumed("no noise unless the experiment models the robot's sensors"),
+    )
+    imu_gyro_noise: Real = Field(
+        0.0,
+        ge=0.0,
+        le=100.0,
+        description="[rad/s]",
+        json_schema_extra=assumed("no noise unless the experiment models the robot's sensors"),
+    )
+    imu_acc_noise: Real = Field(
+        0.0,
+        ge=0.0,
+        le=1000.0,
+        description="[m/s^2]",
+        json_schema_extra=assumed("no noise unless the experiment models the robot's sensors"),
+    )
+    ft_force_noise: Real = Field(
+        0.0,
+        ge=0.0,
+        le=MAX_FORCE,
+        description="[N]",
+        json_schema_extra=assumed("no noise unless the experiment models the robot's sensors"),
+    )
+    ft_torque_noise: Real = Field(
+        0.0,
+        ge=0.0,
+        le=MAX_TORQUE,
+        description="[Nm]",
+        json_schema_extra=assumed("no noise unless the experiment models the robot's sensors"),
+    )
     delay: Real = Field(
         0.0,
         ge=0.0,
         le=MAX_DELAY,
         description="sensor-to-controller delay [s], a whole number of control periods",
+        json_schema_extra=assumed("no sensing delay unless the paper gives one"),
     )
     joint_position_offset: Real = Field(
         0.0,
@@ -391,15 +469,21 @@ class SensorsSpec(_Strict):
         le=1.0,
         description="σ of each link encoder's fixed calibration offset, drawn once per seed "
         "(a systematic error: the same in every reading of the run) [rad]",
+        json_schema_extra=assumed("no encoder offset unless the experiment models one"),
     )
     joint_backlash: dict[str, Real] = Field(
         default_factory=dict,
         description="total play between a link and its encoder by actuator name or glob "
         "(``*knee*``): the encoder follows the link only once the link has crossed the play "
         "[rad]; later entries win where globs overlap",
+        json_schema_extra=assumed("no backlash unless the experiment models it"),
     )
     base_state: bool = Field(
-        True, description="the simulator provides the floating-base pose and velocity"
+        True,
+        description="the simulator provides the floating-base pose and velocity",
+        json_schema_extra=assumed(
+            "the simulator gives the base state; a paper whose robot estimates it sets false"
+        ),
     )
 
     @field_validator("joint_backlash")
@@ -419,7 +503,10 @@ class ActuatorsSpec(_Strict):
     COMAN servo to 500 V/rad / β. Later entries win where globs overlap.
     """
 
-    position_gain: dict[str, Real] = Field(default_factory=dict)
+    position_gain: dict[str, Real] = Field(
+        default_factory=dict,
+        json_schema_extra=assumed("the robot's own servo gains (robots/<robot>/parameters.yaml)"),
+    )
     friction_loss: Real | None = Field(
         None,
         ge=0,
@@ -428,6 +515,7 @@ class ActuatorsSpec(_Strict):
         "drives: the motor DoF of a drive or series-elastic joint, else the joint; None keeps "
         "the robot's value (dyros_red_actuated: the lab's published 0.9 Nm, 22 Nm at the ankle "
         "roll; robots/dyros_red_actuated/README.md)",
+        json_schema_extra=assumed("None keeps the robot's value (robots/<robot>/parameters.yaml)"),
     )
     torque_lag: Real | None = Field(
         None,
@@ -436,6 +524,7 @@ class ActuatorsSpec(_Strict):
         description="time constant [s] of the first-order torque loop of robots whose "
         "actuators have one (MuJoCo dyntype filterexact; dyros_red_actuated: 0.5 ms, "
         "assumed); None keeps the robot's value",
+        json_schema_extra=assumed("None keeps the robot's value (robots/<robot>/parameters.yaml)"),
     )
 
     @field_validator("position_gain")
@@ -519,6 +608,19 @@ class Expectation(_Strict):
         return self.relative_to.metric or self.metric
 
 
+class Origin(_Strict):
+    """The provenance of a value a spec sets (walkrepro/origin.py, docs/provenance.md)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+
+    klass: Literal["paper", "source", "assumed", "calibrated"] = Field(alias="class")
+    source: str = Field(
+        min_length=1,
+        description="paper: section, table or equation; source: repository @ commit : path; "
+        "assumed: the criterion, which uses no result; calibrated: the result it was chosen on",
+    )
+
+
 class ExperimentSpec(_Strict):
     """A whole experiment."""
 
@@ -541,6 +643,10 @@ class ExperimentSpec(_Strict):
     sweep_parameters: dict[str, SweepParameter] = Field(default_factory=dict)
     #: Declared maps: a sweep and the paper's claims about its result.
     sweeps: list[SweepSpec] = Field(default_factory=list)
+    #: The class of each value this spec sets that is not the experiment's scenario, by
+    #: dotted path (``controller.params.footstep_scale``); values shared by a paper's specs
+    #: are classed in ``experiments/provenance/<paper>.yaml`` instead (docs/provenance.md).
+    provenance: dict[str, Origin] = Field(default_factory=dict)
 
     @field_validator("world")
     @classmethod
@@ -561,7 +667,7 @@ class ExperimentSpec(_Strict):
         so a spec without sweeps writes the same YAML as before they existed; likewise an
         obstacle's ``allow_overlap`` unless set)."""
         data = self.model_dump(mode="json")
-        for key in ("sweep_parameters", "sweeps"):
+        for key in ("sweep_parameters", "sweeps", "provenance"):
             if not data[key]:
                 del data[key]
         for obstacle in data["world"]["obstacles"]:

@@ -18,6 +18,7 @@ import numpy as np
 
 from walkrepro.contact import ContactModel, contact_model
 from walkrepro.errors import SpecError
+from walkrepro.origin import assumed
 from walkrepro.robot import Robot
 from walkrepro.spec import ExperimentSpec, ObstacleSpec
 
@@ -34,6 +35,15 @@ FLOOR_PRIORITY = 1
 OVERLAP_TOLERANCE = 1e-3
 #: The robot's root body (robot.py's conventions); its subtree is the robot.
 ROBOT_ROOT = "pelvis"
+#: The class of every scene option :func:`build_scene` sets away from MuJoCo's default
+#: (:mod:`walkrepro.ledger` lists the others as MuJoCo's default, and an undeclared
+#: departure as unclassified).
+SCENE_ORIGINS: dict[str, dict[str, str]] = {
+    "option.cone": assumed(
+        "elliptic friction cones (MuJoCo's default is pyramidal): the exact Coulomb cone, "
+        "chosen for accurate foot friction before the runs"
+    )["provenance"],
+}
 
 
 @dataclass(frozen=True)

@@ -22,6 +22,7 @@ import pinocchio as pin
 from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
+from walkrepro.origin import assumed
 from walkrepro.robot import Robot
 from walkrepro.sensors import SensorSnapshot
 
@@ -31,9 +32,23 @@ SOLE_FRAMES = ("left_sole", "right_sole")
 class PostureParams(ControllerParams):
     """Posture gains (torque robots only)."""
 
-    kp: float = Field(300.0, ge=0.0, description="joint stiffness K_p [Nm/rad]")
-    kd: float = Field(20.0, ge=0.0, description="joint damping K_d [Nms/rad]")
-    gravity_compensation: bool = Field(True, description="add S(g − J_cᵀλ)")
+    kp: float = Field(
+        300.0,
+        ge=0.0,
+        description="joint stiffness K_p [Nm/rad]",
+        json_schema_extra=assumed("walkrepro's standing check, not a paper's: 300 Nm/rad"),
+    )
+    kd: float = Field(
+        20.0,
+        ge=0.0,
+        description="joint damping K_d [Nms/rad]",
+        json_schema_extra=assumed("walkrepro's standing check: 20 Nms/rad"),
+    )
+    gravity_compensation: bool = Field(
+        True,
+        description="add S(g − J_cᵀλ)",
+        json_schema_extra=assumed("walkrepro's standing check: gravity compensated"),
+    )
 
 
 @numba.njit("f8[:](f8[:,:], f8[:])", cache=True)

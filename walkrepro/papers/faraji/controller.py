@@ -33,6 +33,7 @@ import pinocchio as pin
 from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
+from walkrepro.origin import assumed, calibrated, paper
 from walkrepro.papers.faraji import lift
 from walkrepro.papers.faraji.dlqr import Dlqr
 from walkrepro.papers.faraji.estimation import (
@@ -92,15 +93,60 @@ SIGNAL_LAYOUT = SignalLayout(
 class TimeProjectionParams(ControllerParams):
     """Parameters of Paper II's controller (defaults: the paper's values)."""
 
-    stepping: bool = Field(True, description="time-projection footstep adjustment on/off")
-    dead_zone: bool = Field(True, description="smooth dead-zones (Eq. 27) on the errors")
-    adaptive_lift: bool = Field(True, description="adaptive lift and foot pitch (Eqs. 28-30)")
-    speed: float = Field(0.0, description="commanded 3LP speed v [m/s] (Fig. 19)")
-    step_time: float = Field(0.4, gt=0, description="T [s] (2.5 steps/s)")
-    step_width: float = Field(0.25, gt=0, description="W [m] (Paper II: 25 cm)")
-    roll_amplitude: float = Field(0.1, ge=0, description="pelvis roll, Eq. 22 [rad]")
-    lift_amplitude: float = Field(0.01, ge=0, description="swing lift, Eq. 23 [m]")
-    hip_switch_ratio: float = Field(0.2, gt=0, description="t1 / T of Eq. 24")
+    stepping: bool = Field(
+        True,
+        description="time-projection footstep adjustment on/off",
+        json_schema_extra=paper(
+            "Closed-Loop Control: time-projection footstep adjustment",
+            scenario="open loop vs closed loop (Figs. 14-15)",
+        ),
+    )
+    dead_zone: bool = Field(
+        True,
+        description="smooth dead-zones (Eq. 27) on the errors",
+        json_schema_extra=paper(
+            "Eq. 27: smooth dead-zones", scenario="the no-dead-zone ablation (Fig. 15)"
+        ),
+    )
+    adaptive_lift: bool = Field(
+        True,
+        description="adaptive lift and foot pitch (Eqs. 28-30)",
+        json_schema_extra=paper("Eqs. 28-30: adaptive lift", scenario="an ablation switch"),
+    )
+    speed: float = Field(
+        0.0,
+        description="commanded 3LP speed v [m/s] (Fig. 19)",
+        json_schema_extra=paper(
+            "Fig. 14: in place, v = 0", scenario="the commanded speed (Fig. 19)"
+        ),
+    )
+    step_time: float = Field(
+        0.4,
+        gt=0,
+        description="T [s] (2.5 steps/s)",
+        json_schema_extra=paper("Gait: T = 0.4 s, 2.5 steps/s", scenario="the step-time map"),
+    )
+    step_width: float = Field(
+        0.25,
+        gt=0,
+        description="W [m] (Paper II: 25 cm)",
+        json_schema_extra=paper("Gait: step width 0.25 m"),
+    )
+    roll_amplitude: float = Field(
+        0.1,
+        ge=0,
+        description="pelvis roll, Eq. 22 [rad]",
+        json_schema_extra=paper("Eq. 22: 0.1 sin(πt/T)"),
+    )
+    lift_amplitude: float = Field(
+        0.01,
+        ge=0,
+        description="swing lift, Eq. 23 [m]",
+        json_schema_extra=paper("Eq. 23: 0.01 sin(πt/T)"),
+    )
+    hip_switch_ratio: float = Field(
+        0.2, gt=0, description="t1 / T of Eq. 24", json_schema_extra=paper("Eq. 24: t_1 = 0.2 T")
+    )
     torso_term: Literal["link", "motor"] = Field(
         "link",
         description="the stance-hip torso term of Eq. 24 as a motor target: 'motor' is the "
@@ -109,21 +155,43 @@ class TimeProjectionParams(ControllerParams):
         "the spring compensation on the tracking part only; 'link' (walkrepro's departure, "
         "README known deviations) targets the link encoder + θ_pitch, which also feeds back "
         "the hip spring's deflection: the servo in series with the spring (142 Nm/rad)",
+        json_schema_extra=calibrated(
+            "walkrepro's departure from Eq. 24 ('motor' is the paper's), kept because the 500 V/rad in-place gaits and walks stand with it (robots/coman/README.md)",
+            scenario="the paper's Eq. 24 ablation",
+        ),
     )
-    zeta: float = Field(0.1, gt=0, le=1, description="IIR ζ, Eq. 26")
-    velocity_window: int = Field(30, ge=1, description="derivative averaging window [samples]")
+    zeta: float = Field(
+        0.1, gt=0, le=1, description="IIR ζ, Eq. 26", json_schema_extra=paper("Eq. 26: ζ = 0.1")
+    )
+    velocity_window: int = Field(
+        30,
+        ge=1,
+        description="derivative averaging window [samples]",
+        json_schema_extra=paper("State Estimation: 30-sample velocity averaging"),
+    )
     dead_zone_thresholds: tuple[float, float, float, float] = Field(
         (0.0275, 0.0271, 0.275, 0.052),
         description="a of Eq. 27 for e1x, e2x [m], de1x, de2x [m/s]: the standard deviation "
         "of the filtered errors of the open-loop in-place gait (Fig. 9 procedure). The specs "
         "take the declared calibration's value (experiments/calibration/faraji.yaml, "
         "in_place_open_loop 2-10.5 s); this default is the first model's, before calibration",
+        json_schema_extra=calibrated(
+            "experiments/calibration/faraji.yaml (Fig. 9 procedure); this default is the first model's, before calibration"
+        ),
     )
-    footstep_limit: float = Field(0.15, gt=0, description="truncation [m] (Fig. 13: 15 cm)")
+    footstep_limit: float = Field(
+        0.15,
+        gt=0,
+        description="truncation [m] (Fig. 13: 15 cm)",
+        json_schema_extra=paper("Fig. 13 / Strong Pushes: 15 cm truncation"),
+    )
     knee_deflection: float | None = Field(
         None,
         description="μ of Eq. 21 [rad]; None derives it from the home keyframe's knee "
         "pre-load (deflection at full body weight)",
+        json_schema_extra=assumed(
+            "None derives μ from the home keyframe's knee pre-load at full body weight"
+        ),
     )
     spring_compensation: Literal["posture", "posture_series", "knees"] = Field(
         "posture_series",
@@ -136,6 +204,10 @@ class TimeProjectionParams(ControllerParams):
         "the home pre-load on the other leg joints; 'posture' divides by the spring alone, "
         "which leaves the servo's own yield uncompensated (docs/analysis/faraji.md, why the "
         "in-place gait drifted forward)",
+        json_schema_extra=calibrated(
+            "walkrepro's departure from Eq. 21 ('knees' is the paper's), adopted because the in-place gait drifted forward with it (docs/analysis/faraji.md)",
+            scenario="the paper's Eq. 21 ablation",
+        ),
     )
     stance_ankle_bias: float = Field(
         0.0,
@@ -143,6 +215,9 @@ class TimeProjectionParams(ControllerParams):
         "the spring compensation, load·b [rad]: the stance bias of Eq. 21's compensation "
         "that no source gives; pinned by declared calibration (experiments/calibration/"
         "faraji.yaml: the open-loop in-place gait makes no progression)",
+        json_schema_extra=calibrated(
+            "experiments/calibration/faraji.yaml: the open-loop in-place gait makes no progression"
+        ),
     )
     footstep_scale: float = Field(
         1.0,
@@ -150,21 +225,25 @@ class TimeProjectionParams(ControllerParams):
         description="scale on the time-projection footstep gains (1 = the 3LP tables; see "
         "README known deviations: 3LP has free ankles, coman's stance ankle is a stiff "
         "servo behind a 125 Nm/rad spring)",
+        json_schema_extra=paper("Fig. 13: the 3LP time-projection footstep gains, unscaled"),
     )
     attack_in_ik: bool = Field(
         False,
         description="add the footstep adjustment to the swing foot's Cartesian target "
         "(IK keeps the foot flat) instead of the swing hip angle (Paper II)",
+        json_schema_extra=paper("Fig. 3: the adjustment goes to the swing hip angle"),
     )
     leg_inertia: bool = Field(
         True,
         description="3LP legs with the robot's pitch inertia about their CoM (Paper II: each "
         "pendulum has 'a mass in the middle and inertia'); false: point-mass legs",
+        json_schema_extra=paper("3LP: each pendulum has a mass in the middle and inertia"),
     )
     role_velocities: bool = Field(
         True,
         description="differentiate s1 = p - f and s2 = p - s by role (Paper II, State "
         "Estimation): the feet's rate histories swap at each touchdown; false: per foot",
+        json_schema_extra=paper("State Estimation: velocities of s1 = p - f and s2 = p - s"),
     )
     ankle_damping: float = Field(
         1.0,
@@ -173,12 +252,46 @@ class TimeProjectionParams(ControllerParams):
         "b = ankle_damping × D1 ω₁ [Nm s/m] (damping rate b / D1 = the 3LP falling rate ω₁), "
         "realised as a motor offset τ_a / k_eff through the ankle spring: it only adds speed "
         "along the commanded direction, none in place (v = 0); 0: the paper's free ankle",
+        json_schema_extra=calibrated(
+            "walkrepro's stance-ankle push-off, chosen on the walking speeds (Fig. 19 rows; robots/coman/README.md); 0 is the paper's free ankle"
+        ),
     )
-    table_samples: int = Field(100, ge=2, description="look-up-table samples per step")
-    start_time: float = Field(0.5, ge=0, description="stand still before the first step [s]")
-    ramp_steps: int = Field(3, ge=1, description="steps over which roll/lift/width/speed ramp up")
-    sway_steps: float = Field(0.0, ge=0, description="double-support sway before walking [steps]")
-    velocity_ramp_steps: int = Field(5, ge=1, description="steps over which the speed ramps up")
+    table_samples: int = Field(
+        100,
+        ge=2,
+        description="look-up-table samples per step",
+        json_schema_extra=assumed(
+            "look-up table resolution: 100 samples per step, 4 ms at T = 0.4 s, twice the control period"
+        ),
+    )
+    start_time: float = Field(
+        0.5,
+        ge=0,
+        description="stand still before the first step [s]",
+        json_schema_extra=assumed(
+            "the robot stands 0.5 s before its first step (the paper starts from standing)"
+        ),
+    )
+    ramp_steps: int = Field(
+        3,
+        ge=1,
+        description="steps over which roll/lift/width/speed ramp up",
+        json_schema_extra=assumed(
+            "roll, lift, width and speed ramp up over 3 steps from standing (the paper starts from standing)"
+        ),
+    )
+    sway_steps: float = Field(
+        0.0,
+        ge=0,
+        description="double-support sway before walking [steps]",
+        json_schema_extra=assumed("no double-support sway before walking"),
+    )
+    velocity_ramp_steps: int = Field(
+        5,
+        ge=1,
+        description="steps over which the speed ramps up",
+        json_schema_extra=assumed("the commanded speed ramps up over 5 steps (2 s)"),
+    )
 
 
 class TimeProjectionController(Controller):

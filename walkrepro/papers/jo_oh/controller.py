@@ -25,6 +25,7 @@ import pinocchio as pin
 from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
+from walkrepro.origin import assumed, calibrated, paper
 from walkrepro.papers.jo_oh.centroidal_qp import (
     CentroidalQP,
     contact_wrench_basis,
@@ -95,42 +96,143 @@ class QPImpedanceParams(ControllerParams):
 
     # Walking pattern (§IV).
     stride: float = Field(
-        0.35, gt=0, description="swing-foot travel per step [m] (§IV: 0.35 m stride)"
+        0.35,
+        gt=0,
+        description="swing-foot travel per step [m] (§IV: 0.35 m stride)",
+        json_schema_extra=paper("§IV: 0.35 m stride"),
     )
-    t_single: float = Field(0.56, gt=0, description="single-support time [s] (§IV)")
-    t_double: float = Field(0.14, gt=0, description="double-support time [s] (§IV)")
-    n_steps: int = Field(6, ge=2, description="number of steps")
-    first_swing: str = Field("right", pattern="^(left|right)$", description="first swing foot")
-    t_start: float = Field(1.0, gt=0, description="initial double support [s]")
-    t_end_hold: float = Field(0.5, ge=0, description="planned stance after the last step [s]")
+    t_single: float = Field(
+        0.56,
+        gt=0,
+        description="single-support time [s] (§IV)",
+        json_schema_extra=paper("§IV: 0.56 s single support"),
+    )
+    t_double: float = Field(
+        0.14,
+        gt=0,
+        description="double-support time [s] (§IV)",
+        json_schema_extra=paper("§IV: 0.14 s double support"),
+    )
+    n_steps: int = Field(
+        6,
+        ge=2,
+        description="number of steps",
+        json_schema_extra=assumed(
+            "6 steps: the obstacle step and room to step off it",
+            scenario="the experiment's number of steps",
+        ),
+    )
+    first_swing: str = Field(
+        "right",
+        pattern="^(left|right)$",
+        description="first swing foot",
+        json_schema_extra=paper(
+            "§IV-A: the right foot meets the obstacle", scenario="the experiment's first swing foot"
+        ),
+    )
+    t_start: float = Field(
+        1.0,
+        gt=0,
+        description="initial double support [s]",
+        json_schema_extra=assumed("1 s of double support before the first step"),
+    )
+    t_end_hold: float = Field(
+        0.5,
+        ge=0,
+        description="planned stance after the last step [s]",
+        json_schema_extra=assumed("0.5 s of planned stance after the last step"),
+    )
     foot_y: float = Field(
-        0.09, gt=0, description="lateral offset of each sole centre [m] (robot: hip ±0.09)"
+        0.09,
+        gt=0,
+        description="lateral offset of each sole centre [m] (robot: hip ±0.09)",
+        json_schema_extra=assumed(
+            "the reconstruction's hip spacing, ±0.09 m (robots/kist_humanoid)"
+        ),
     )
     swing_height: float = Field(
-        0.10, gt=0, description="swing apex above the higher of lift-off and landing [m] (assumed)"
+        0.10,
+        gt=0,
+        description="swing apex above the higher of lift-off and landing [m] (assumed)",
+        json_schema_extra=assumed(
+            "§IV gives no swing height; 0.10 m clears the paper's 5 cm obstacle by 5 cm"
+        ),
     )
     swing_rise_fraction: float = Field(
-        0.4, gt=0, lt=1, description="share of the swing spent rising [-] (assumed)"
+        0.4,
+        gt=0,
+        lt=1,
+        description="share of the swing spent rising [-] (assumed)",
+        json_schema_extra=assumed(
+            "40 % of the swing rising, the rest descending onto the landing point"
+        ),
     )
     com_height: float | None = Field(
-        None, gt=0, description="CoM height of the LIPM [m]; default: the robot's home CoM"
+        None,
+        gt=0,
+        description="CoM height of the LIPM [m]; default: the robot's home CoM",
+        json_schema_extra=assumed("None: the robot's home CoM height"),
     )
-    preview_dt: float = Field(0.005, gt=0, description="sample time of the preview controller [s]")
-    preview_time: float = Field(1.0, gt=0, description="preview horizon [s] (Kajita 2003: 1.6 s)")
-    preview_q: float = Field(1.0, gt=0, description="ZMP error weight Q_e [1/m²]")
-    preview_r: float = Field(1e-6, gt=0, description="CoM jerk weight R [s⁶/m²]")
+    preview_dt: float = Field(
+        0.005,
+        gt=0,
+        description="sample time of the preview controller [s]",
+        json_schema_extra=assumed("5 ms preview sample time (Kajita 2003's order)"),
+    )
+    preview_time: float = Field(
+        1.0,
+        gt=0,
+        description="preview horizon [s] (Kajita 2003: 1.6 s)",
+        json_schema_extra=assumed(
+            "1 s preview horizon (Kajita 2003: 1.6 s), longer than a 0.7 s step"
+        ),
+    )
+    preview_q: float = Field(
+        1.0,
+        gt=0,
+        description="ZMP error weight Q_e [1/m²]",
+        json_schema_extra=assumed("Kajita 2003's weights: Q_e = 1"),
+    )
+    preview_r: float = Field(
+        1e-6,
+        gt=0,
+        description="CoM jerk weight R [s⁶/m²]",
+        json_schema_extra=assumed("Kajita 2003's weights: R = 1e-6"),
+    )
     # Impedance (§II, §IV).
-    impedance: bool = Field(True, description="modify the swing reference by Eqs. (1)–(3)")
-    m_d: Vec3 = Field(
-        (30.0, 0.3, 0.3), description="desired mass M_d for (z, φx, φy) [kg, kg m², kg m²]"
+    impedance: bool = Field(
+        True,
+        description="modify the swing reference by Eqs. (1)–(3)",
+        json_schema_extra=paper("§II, Eqs. 1-3", scenario="with and without impedance (Figs. 4-7)"),
     )
-    b_d: Vec3 = Field((450.0, 3.0, 3.0), description="desired damping B_d [N s/m, N m s/rad]")
-    k_d: Vec3 = Field((1500.0, 10.0, 10.0), description="desired stiffness K_d [N/m, N m/rad]")
+    m_d: Vec3 = Field(
+        (30.0, 0.3, 0.3),
+        description="desired mass M_d for (z, φx, φy) [kg, kg m², kg m²]",
+        json_schema_extra=assumed(
+            "§II gives no values; M_d, B_d, K_d: 7 rad/s natural frequency, damping ratio 1.06 on z"
+        ),
+    )
+    b_d: Vec3 = Field(
+        (450.0, 3.0, 3.0),
+        description="desired damping B_d [N s/m, N m s/rad]",
+        json_schema_extra=assumed("§II gives no values; see m_d"),
+    )
+    k_d: Vec3 = Field(
+        (1500.0, 10.0, 10.0),
+        description="desired stiffness K_d [N/m, N m/rad]",
+        json_schema_extra=assumed("§II gives no values; see m_d"),
+    )
     force_threshold: float = Field(
-        10.0, gt=0, description="|λ_z| that switches impedance on [N] (§IV)"
+        10.0,
+        gt=0,
+        description="|λ_z| that switches impedance on [N] (§IV)",
+        json_schema_extra=paper("§IV: 10 N on z"),
     )
     torque_threshold: float = Field(
-        3.0, gt=0, description="|λ_φx|, |λ_φy| that switch it on [N m] (§IV)"
+        3.0,
+        gt=0,
+        description="|λ_φx|, |λ_φy| that switch it on [N m] (§IV)",
+        json_schema_extra=paper("§IV: 3 Nm about x and y"),
     )
     # Task gains (§III-D: ẍ_r = ẍ_d + K_V(ẋ_d − ẋ) + K_P(x_d − x), Eq. 3).
     # Swing gains K_P = ω², K_V = 2ζω. The paper gives no values; §II: low gains cause
@@ -139,33 +241,134 @@ class QPImpedanceParams(ControllerParams):
     # whose tracking lands the feet without an impact, i.e. the peak foot force of the flat
     # walk stays within 5 % of the robot's weight (ω = 20: 1.14 m g; 22.5: 1.02 m g).
     swing_omega: float = Field(
-        22.5, gt=0, description="swing-foot tracking bandwidth ω [rad/s] (K_P = ω², K_V = 2ζω)"
+        22.5,
+        gt=0,
+        description="swing-foot tracking bandwidth ω [rad/s] (K_P = ω², K_V = 2ζω)",
+        json_schema_extra=calibrated(
+            "the softest ω (2.5 rad/s steps) whose flat walk's peak foot force stays within 1.05 m g (walk_flat_kist's peak-force rows)"
+        ),
     )
-    swing_zeta: float = Field(1.0, gt=0, description="swing-foot damping ratio ζ [-]")
+    swing_zeta: float = Field(
+        1.0,
+        gt=0,
+        description="swing-foot damping ratio ζ [-]",
+        json_schema_extra=assumed("critical damping"),
+    )
     kp_swing: float | None = Field(
-        None, ge=0, description="swing-foot K_P [1/s²]; default ω² (overrides ω when given)"
+        None,
+        ge=0,
+        description="swing-foot K_P [1/s²]; default ω² (overrides ω when given)",
+        json_schema_extra=assumed("None: ω²"),
     )
     kv_swing: float | None = Field(
-        None, ge=0, description="swing-foot K_V [1/s]; default 2ζω (overrides ω when given)"
+        None,
+        ge=0,
+        description="swing-foot K_V [1/s]; default 2ζω (overrides ω when given)",
+        json_schema_extra=assumed("None: 2ζω"),
     )
-    kp_orient: float = Field(200.0, ge=0, description="pelvis and torso orientation K_P [1/s²]")
-    kv_orient: float = Field(28.0, ge=0, description="pelvis and torso orientation K_V [1/s]")
-    kp_posture: float = Field(100.0, ge=0, description="arm and waist joint K_P [1/s²]")
-    kv_posture: float = Field(20.0, ge=0, description="arm and waist joint K_V [1/s]")
-    k_h: float = Field(20.0, ge=0, description="linear momentum gain K_h [1/s]")
-    k_i: float = Field(100.0, ge=0, description="linear momentum integral gain K_I [1/s²]")
-    k_h_angular: float = Field(5.0, ge=0, description="angular momentum gain K_h [1/s]")
+    kp_orient: float = Field(
+        200.0,
+        ge=0,
+        description="pelvis and torso orientation K_P [1/s²]",
+        json_schema_extra=assumed("§III-D gives no gains; 200 1/s², critically damped with 28 1/s"),
+    )
+    kv_orient: float = Field(
+        28.0,
+        ge=0,
+        description="pelvis and torso orientation K_V [1/s]",
+        json_schema_extra=assumed("≈ 2√200, critical damping"),
+    )
+    kp_posture: float = Field(
+        100.0,
+        ge=0,
+        description="arm and waist joint K_P [1/s²]",
+        json_schema_extra=assumed("§III-D gives no gains; 100 1/s² (Paper I's task gains)"),
+    )
+    kv_posture: float = Field(
+        20.0,
+        ge=0,
+        description="arm and waist joint K_V [1/s]",
+        json_schema_extra=assumed("2√100, critical damping"),
+    )
+    k_h: float = Field(
+        20.0,
+        ge=0,
+        description="linear momentum gain K_h [1/s]",
+        json_schema_extra=assumed("§III-D gives no K_h; 20 1/s"),
+    )
+    k_i: float = Field(
+        100.0,
+        ge=0,
+        description="linear momentum integral gain K_I [1/s²]",
+        json_schema_extra=assumed("§III-D gives no K_I; 100 1/s²"),
+    )
+    k_h_angular: float = Field(
+        5.0,
+        ge=0,
+        description="angular momentum gain K_h [1/s]",
+        json_schema_extra=assumed("§III-D gives no K_h; 5 1/s on the angular rows"),
+    )
     # QP weights (§III-D: W_1 … W_4).
-    w_momentum_linear: float = Field(1.0, gt=0, description="W_1, force rows [1/N²]")
-    w_momentum_angular: float = Field(1.0, gt=0, description="W_1, moment rows [1/(N m)²]")
-    w_swing: float = Field(100.0, gt=0, description="W_t of the swing foot")
-    w_pelvis: float = Field(100.0, gt=0, description="W_t of the pelvis orientation")
-    w_torso: float = Field(10.0, gt=0, description="W_t of the torso orientation")
-    w_posture: float = Field(1.0, gt=0, description="W_t of the arm and waist joints")
-    w_accel: float = Field(1e-4, gt=0, description="W_3 regularisation of ξ̈")
-    w_force: float = Field(1e-6, gt=0, description="W_4 regularisation of β")
-    friction: float = Field(0.6, gt=0, description="friction coefficient μ of the pyramid (Eq. 8)")
-    pyramid_edges: int = Field(4, ge=3, description="edges m of each pyramid (Eq. 8)")
+    w_momentum_linear: float = Field(
+        1.0,
+        gt=0,
+        description="W_1, force rows [1/N²]",
+        json_schema_extra=assumed("§III-D: W_1 determined for the walking motion, no values; 1"),
+    )
+    w_momentum_angular: float = Field(
+        1.0,
+        gt=0,
+        description="W_1, moment rows [1/(N m)²]",
+        json_schema_extra=assumed("§III-D gives no W_1; 1"),
+    )
+    w_swing: float = Field(
+        100.0,
+        gt=0,
+        description="W_t of the swing foot",
+        json_schema_extra=assumed("§III-D gives no W_t; 100, the swing foot first"),
+    )
+    w_pelvis: float = Field(
+        100.0,
+        gt=0,
+        description="W_t of the pelvis orientation",
+        json_schema_extra=assumed("§III-D gives no W_t; 100"),
+    )
+    w_torso: float = Field(
+        10.0,
+        gt=0,
+        description="W_t of the torso orientation",
+        json_schema_extra=assumed("§III-D gives no W_t; 10"),
+    )
+    w_posture: float = Field(
+        1.0,
+        gt=0,
+        description="W_t of the arm and waist joints",
+        json_schema_extra=assumed("§III-D gives no W_t; 1"),
+    )
+    w_accel: float = Field(
+        1e-4,
+        gt=0,
+        description="W_3 regularisation of ξ̈",
+        json_schema_extra=assumed("§III-D gives no W_3; 1e-4, regularisation only"),
+    )
+    w_force: float = Field(
+        1e-6,
+        gt=0,
+        description="W_4 regularisation of β",
+        json_schema_extra=assumed("§III-D gives no W_4; 1e-6, regularisation only"),
+    )
+    friction: float = Field(
+        0.6,
+        gt=0,
+        description="friction coefficient μ of the pyramid (Eq. 8)",
+        json_schema_extra=assumed("§III-C gives no μ; 0.6, below the floor's 1.0"),
+    )
+    pyramid_edges: int = Field(
+        4,
+        ge=3,
+        description="edges m of each pyramid (Eq. 8)",
+        json_schema_extra=assumed("§III-C: an m-sided polygon, m not given; 4"),
+    )
 
     @property
     def swing_gains(self) -> tuple[float, float]:

@@ -28,6 +28,7 @@ import pinocchio as pin
 from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
+from walkrepro.origin import assumed, calibrated, paper
 from walkrepro.papers.lee2021 import kernels
 from walkrepro.papers.lee2021.fsm import Phase
 from walkrepro.robot import Robot, pin_state_into
@@ -59,37 +60,100 @@ def signal_layout(n_actuators: int) -> SignalLayout:
 class EfsmParams(ControllerParams):
     """Parameters of the E-FSM walking controller (Lee et al. 2021, §V-B unless noted)."""
 
-    zeta: float = Field(0.03, gt=0, description="margin ζ of law L1 [m] (§V-B)")
-    r: float = Field(0.08, gt=0, description="margin r of law L2 [m] (§V-B)")
-    dxp: float = Field(0.0007, gt=0, description="Δx_p^des per control period [m] (§V-B)")
-    d_thr: float = Field(0.01, gt=0, description="ε threshold d^thr [m] (§V-B)")
-    v_stop: float = Field(
-        0.005, ge=0, description="|ẋ_m| counted as ≈ 0 ending SSD [m/s] (assumed; Table I)"
+    zeta: float = Field(
+        0.03,
+        gt=0,
+        description="margin ζ of law L1 [m] (§V-B)",
+        json_schema_extra=paper("§V-B: ζ = 0.03 m"),
     )
-    use_epsilon: bool = Field(True, description="False: ε ≡ 1, the ablation of §VI-D1")
+    r: float = Field(
+        0.08,
+        gt=0,
+        description="margin r of law L2 [m] (§V-B)",
+        json_schema_extra=paper("§V-B: r = 0.08 m"),
+    )
+    dxp: float = Field(
+        0.0007,
+        gt=0,
+        description="Δx_p^des per control period [m] (§V-B)",
+        json_schema_extra=paper("§V-B: Δx_p^des = 0.0007 m per control period"),
+    )
+    d_thr: float = Field(
+        0.01,
+        gt=0,
+        description="ε threshold d^thr [m] (§V-B)",
+        json_schema_extra=paper("§V-B: d_thr = 0.01 m"),
+    )
+    v_stop: float = Field(
+        0.005,
+        ge=0,
+        description="|ẋ_m| counted as ≈ 0 ending SSD [m/s] (assumed; Table I)",
+        json_schema_extra=assumed(
+            "Table I ends SSD when ẋ_m ≈ 0; 5 mm/s, an order below the 0.11 m/s walk"
+        ),
+    )
+    use_epsilon: bool = Field(
+        True,
+        description="False: ε ≡ 1, the ablation of §VI-D1",
+        json_schema_extra=paper(
+            "§IV-B: the state-transition parameter ε", scenario="§VI-D1 ablation switch"
+        ),
+    )
     ds_onset_ramp: bool = Field(
         True,
         description="ε's ramp also at DS onset: the landing foot's wrench grows from 0 over "
         "the first d^thr of the x_p^des ramp (walkrepro extension of §IV-B; off without ε)",
+        json_schema_extra=assumed(
+            "walkrepro extension of §IV-B: the same ε ramp on the landing foot's wrench at DS onset"
+        ),
     )
-    kp: float = Field(100.0, gt=0, description="task stiffness k_p [1/s^2] (§V-B)")
-    kv: float = Field(20.0, gt=0, description="task damping k_v [1/s] (§V-B)")
-    raise_height: float = Field(0.05, description="swing-foot height in SSD [m] (Table II)")
-    land_height: float = Field(0.005, description="swing-foot height in SSA [m] (Table II)")
+    kp: float = Field(
+        100.0,
+        gt=0,
+        description="task stiffness k_p [1/s^2] (§V-B)",
+        json_schema_extra=paper("§V-B: k_p = 100"),
+    )
+    kv: float = Field(
+        20.0,
+        gt=0,
+        description="task damping k_v [1/s] (§V-B)",
+        json_schema_extra=paper("§V-B: k_v = 20"),
+    )
+    raise_height: float = Field(
+        0.05,
+        description="swing-foot height in SSD [m] (Table II)",
+        json_schema_extra=paper("§V-B, Table II: 0.05 m in SSD"),
+    )
+    land_height: float = Field(
+        0.005,
+        description="swing-foot height in SSA [m] (Table II)",
+        json_schema_extra=paper("§V-B, Table II: 0.005 m in SSA"),
+    )
     fs_max_force: float = Field(
         30.0,
         gt=0,
         description="saturation of each F_s force component [N]. §V-B gives no value; "
         "a completely blocked swing foot presses the obstacle with it, and §VI-B measured "
         "≈ 32 N there (27.8 N with this bound, experiments/obstacle_collision.yaml)",
+        json_schema_extra=calibrated(
+            "chosen on §VI-B / Fig. 10's ≈ 32 N on the completely blocked swing foot (obstacle_collision · the blocked foot's peak force); §V-B gives no value"
+        ),
     )
     fs_max_moment: float = Field(
-        10.0, gt=0, description="saturation of each F_s moment component [Nm] (assumed)"
+        10.0,
+        gt=0,
+        description="saturation of each F_s moment component [Nm] (assumed)",
+        json_schema_extra=assumed(
+            "§V-B bounds F_s without a value; 10 Nm, a third of the force bound times the 0.3 m foot"
+        ),
     )
     fs_decoupled_saturation: bool = Field(
         True,
         description="saturate F_s's force rows without disturbing the orientation "
         "acceleration (Λ_s couples them; see _task2_force)",
+        json_schema_extra=assumed(
+            "§V-B: each F_s component saturates; the orientation rows are not F_s's"
+        ),
     )
     fs_saturation: Literal["component", "uniform"] = Field(
         "uniform",
@@ -98,22 +162,61 @@ class EfsmParams(ControllerParams):
         "leave a far swing foot with no upward acceleration (it slides); 'uniform' scales "
         "the commanded linear swing acceleration by the largest factor ≤ 1 that keeps every "
         "force component within the bound, so the foot heads for its target",
+        json_schema_extra=calibrated(
+            "adopted over 'component' after forward_walk's first swings slid 4–13 cm (docs/analysis/lee2021.md); §V-B says only that each component saturates"
+        ),
     )
-    step_length: float = Field(0.1, description="forward step length [m] (§VI-A)")
+    step_length: float = Field(
+        0.1,
+        description="forward step length [m] (§VI-A)",
+        json_schema_extra=paper("§VI-A: 0.1 m steps", scenario="the experiment's step length"),
+    )
     step_width: float | None = Field(
-        None, description="lateral foot spacing [m]; None keeps the initial spacing"
+        None,
+        description="lateral foot spacing [m]; None keeps the initial spacing",
+        json_schema_extra=assumed(
+            "None keeps the initial foot spacing (the robot's hip spacing)",
+            scenario="the experiment's step width",
+        ),
     )
     n_steps: int | None = Field(
-        None, ge=0, description="footsteps of step_length, then in place; None: no limit"
+        None,
+        ge=0,
+        description="footsteps of step_length, then in place; None: no limit",
+        json_schema_extra=assumed(
+            "None: no limit", scenario="the experiment's number of footsteps"
+        ),
     )
     first_swing: Literal["left", "right"] = Field(
-        "right", description="foot that swings first (§VI-B: the right foot)"
+        "right",
+        description="foot that swings first (§VI-B: the right foot)",
+        json_schema_extra=paper(
+            "§VI-B: the right foot swings first", scenario="the experiment's first swing foot"
+        ),
     )
-    balance: bool = Field(True, description="F_3^bal when the expected CoP leaves the polygon")
+    balance: bool = Field(
+        True,
+        description="F_3^bal when the expected CoP leaves the polygon",
+        json_schema_extra=paper(
+            "§IV-C, Fig. 16: F_3^bal when the expected CoP leaves the support polygon"
+        ),
+    )
     cop_margin: float = Field(
-        0.03, ge=0, description="safety margin of the support polygon [m] (Fig. 16; assumed)"
+        0.03,
+        ge=0,
+        description="safety margin of the support polygon [m] (Fig. 16; assumed)",
+        json_schema_extra=assumed(
+            "Fig. 16 shows a margin inside the polygon without a value; 0.03 m, ζ"
+        ),
     )
-    torque_limit: float = Field(300.0, gt=0, description="actuator saturation [Nm] (robot)")
+    torque_limit: float = Field(
+        300.0,
+        gt=0,
+        description="actuator saturation [Nm] (robot)",
+        json_schema_extra=assumed(
+            "the reconstruction's actuator saturation, above every torque of a walk (robots/dyros_red)"
+        ),
+    )
 
 
 class _PoseViews:
