@@ -377,6 +377,29 @@ def experiment_numbers(loaded: LoadedSpec, raw: Any, scene_model: mujoco.MjModel
     return numbers
 
 
+def unused_entries(loaded: LoadedSpec, raw: Any) -> list[str]:
+    """Paths of the spec's ``provenance:`` block that name no value the spec sets (an entry
+    without a number)."""
+    paths = set(_set_paths(raw))
+    obstacles = {
+        f"world.obstacles.{o.name}.{field}"
+        for o in loaded.spec.world.obstacles
+        for field in ("friction", "solref")
+        if getattr(o, field) is not None
+    }
+    return sorted(p for p in loaded.spec.provenance if p not in paths and p not in obstacles)
+
+
+def unclassified_fields(model: type[BaseModel]) -> list[str]:
+    """Fields of a parameter model whose default has no class and that are not scenario."""
+    out = []
+    for name, info in model.model_fields.items():
+        origin, scenario = field_origin(info.json_schema_extra)
+        if origin is None and scenario is None:
+            out.append(name)
+    return out
+
+
 def counts(numbers: list[Number]) -> dict[str, int]:
     """How many numbers of each listed class (zeros included), in :data:`LISTED` order."""
     c = Counter(n.klass for n in numbers)

@@ -1,0 +1,184 @@
+"""The provenance ledger: every number a run uses has a class (walkrepro/ledger.py)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+from pydantic import Field
+
+from walkrepro import yamlload
+from walkrepro.controllers import controller_class, controller_names
+from walkrepro.controllers.base import ControllerParams
+from walkrepro.errors import SpecError, WalkreproError
+from walkrepro.ledger import (
+    OVERRIDE,
+    UNCLASSIFIED,
+    counts,
+    experiment_ledger,
+    experiment_numbers,
+    robot_ledger,
+    unclassified_fields,
+    unused_entries,
+)
+from walkrepro.origin import CLASSES, assumed, paper, scenario
+from walkrepro.robot import load_robot
+from walkrepro.specfiles import find_spec_file, load_spec, resolve_spec, shipped_experiment_names
+from walkrepro.world import build_scene
+
+
+@pytest.mark.parametrize("name", controller_names())
+def test_every_controller_parameter_has_a_class(name: str) -> None:
+    """Each registered controller's every parameter default carries a class or is scenario."""
+    assert unclassified_fields(controller_class(name).Params) == []
+
+
+def test_a_parameter_without_a_class_is_found() -> None:
+    """A parameter model with an unclassed field is reported, classed ones are not."""
+
+    class Params(ControllerParams):
+        a: float = Field(1.0, json_schema_extra=paper("§1"))
+        b: float = Field(2.0, json_schema_extra=scenario("the setup"))
+        c: float = Field(3.0)
+
+    assert unclassified_fields(Params) == ["c"]
+
+
+def test_origin_helpers_refuse_unknown_classes_and_empty_sources() -> None:
+    """A class outside the four and a provenance without its source are errors."""
+    from walkrepro.origin import _origin
+
+    with pytest.raises(ValueError, match="unknown provenance class"):
+        _origin("guessed", "x")
+    with pytest.raises(ValueError, match="needs its source"):
+        assumed("  ")
+    assert set(CLASSES) == {"paper", "source", "assumed", "calibrated"}
+
+
+def _numbers(text: str, overrides: tuple[str, ...] = (), tmp: Path | None = None):
+    assert tmp is not None
+    path = tmp / "spec.yaml"
+    path.write_text(text)
+    raw, _ = yamlload.load_with_node(text)
+    loaded = resolve_spec(load_spec(str(path), overrides))
+    scene = build_scene(load_robot(loaded.spec.robot), loaded.spec)
+    return (
+        {f"{n.group}.{n.name}": n for n in experiment_numbers(loaded, raw, scene.model)},
+        loaded,
+        raw,
+    )
+
+
+SPEC = """
+name: ledger_probe
+description: probe
+paper: {key: walkrepro}
+robot: dyros_red
+controller: {type: posture, params: {kp: 250.0}}
+sim: {timestep: 0.0005, control_period: 0.0005, duration: 0.1}
+sensors: {imu_gyro_noise: 0.01}
+"""
+
+
+def test_a_value_the_spec_sets_without_a_class_is_unclassified(tmp_path: Path) -> None:
+    """A controller gain and a sensor noise a spec sets with no class are unclassified."""
+    numbers, _, _ = _numbers(SPEC, tmp=tmp_path)
+    assert numbers["controller.params.kp"].klass == UNCLASSIFIED
+    assert numbers["sensors.imu_gyro_noise"].klass == UNCLASSIFIED
+    assert numbers["controller.params.kd"].klass == "assumed"  # a default keeps its class
+    assert numbers["sim.duration"].klass == "scenario"
+
+
+def test_the_spec_provenance_block_classes_its_values(tmp_path: Path) -> None:
+    """A spec's own provenance entries class its values; an entry with no value is found."""
+    text = (
+        SPEC
+        + "provenance:\n"
+        + "  controller.params.kp: {class: calibrated, source: chosen on the sway}\n"
+        + "  sensors.imu_gyro_noise: {class: source, source: a datasheet}\n"
+        + "  sensors.imu_acc_noise: {class: assumed, source: nothing sets it}\n"
+    )
+    numbers, loaded, raw = _numbers(text, tmp=tmp_path)
+    assert numbers["controller.params.kp"].klass == "calibrated"
+    assert numbers["sensors.imu_gyro_noise"].klass == "source"
+    assert unused_entries(loaded, raw) == ["sensors.imu_acc_noise"]
+
+
+def test_a_command_line_override_is_listed_as_such(tmp_path: Path) -> None:
+    """A --set value is the user's: listed as an override, not given the default's class."""
+    numbers, _, _ = _numbers(SPEC, ("controller.params.kd=5",), tmp=tmp_path)
+    assert numbers["controller.params.kd"].klass == OVERRIDE
+
+
+def test_scene_options_away_from_mujoco_defaults_need_a_declaration(tmp_path: Path) -> None:
+    """The elliptic cone is declared; MuJoCo's defaults are classed as such."""
+    numbers, _, _ = _numbers(SPEC, tmp=tmp_path)
+    assert numbers["scene.option.cone"].klass == "assumed"
+    assert "pyramidal" in numbers["scene.option.cone"].source
+    assert "MuJoCo's default" in numbers["scene.option.integrator"].source
+
+
+def test_a_robot_ledger_with_a_bad_class_names_file_and_entry(tmp_path: Path) -> None:
+    """A ledger entry with a class outside the four is an error naming the file and field."""
+    (tmp_path / "bot").mkdir()
+    (tmp_path / "bot" / "parameters.yaml").write_text(
+        yaml.safe_dump(
+            {
+                "robot": "bot",
+                "parameters": {"mass": {"value": 1, "unit": "kg", "class": "guess", "source": "x"}},
+            }
+        )
+    )
+    with pytest.raises(SpecError, match=r"parameters\.yaml, field parameters\.mass\.class"):
+        robot_ledger("bot", tmp_path)
+
+
+def test_a_variant_ledger_extends_the_one_it_inherits(tmp_path: Path) -> None:
+    """A variant's entries add to and replace those of the robot it inherits."""
+    for robot, inherits, params in (
+        ("base", None, {"a": 1.0, "b": 2.0}),
+        ("variant", "base", {"b": 3.0}),
+    ):
+        (tmp_path / robot).mkdir()
+        entries = {
+            k: {"value": v, "unit": "m", "class": "assumed", "source": "s"}
+            for k, v in params.items()
+        }
+        (tmp_path / robot / "parameters.yaml").write_text(
+            yaml.safe_dump({"robot": robot, "inherits": inherits, "parameters": entries})
+        )
+    ledger = robot_ledger("variant", tmp_path)
+    assert ledger is not None
+    assert {k: e.value for k, e in ledger.items()} == {"a": 1.0, "b": 3.0}
+
+
+@pytest.mark.parametrize("name", shipped_experiment_names())
+def test_every_number_of_every_shipped_experiment_has_a_class(name: str) -> None:
+    """No shipped experiment uses a number (robot, scene, spec, controller) without a class."""
+    numbers = experiment_ledger(name)
+    missing = [
+        f"{n.group} {n.name} = {n.value}: {n.source}" for n in numbers if n.klass == UNCLASSIFIED
+    ]
+    assert missing == []
+    assert counts(numbers)[OVERRIDE] == 0
+
+
+@pytest.mark.parametrize("name", shipped_experiment_names())
+def test_every_spec_provenance_entry_names_a_value(name: str) -> None:
+    """A spec's provenance block has no entry for a value the spec does not set."""
+    path = find_spec_file(name)
+    raw, _ = yamlload.load_with_node(path.read_text(encoding="utf-8"))
+    assert unused_entries(load_spec(name), raw) == []
+
+
+def test_update_reference_refuses_uncommitted_changes(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Writing references from a dirty tree is refused, unless --allow-dirty says so."""
+    from walkrepro import cli, provenance
+
+    monkeypatch.setattr(provenance, "dirty_paths", lambda folders: ["robots/build_models.py"])
+    with pytest.raises(WalkreproError, match="uncommitted changes.*build_models"):
+        cli._needs_clean_tree("check --update-reference", allow_dirty=False)
+    cli._needs_clean_tree("check --update-reference", allow_dirty=True)
+    monkeypatch.setattr(provenance, "dirty_paths", lambda folders: [])
+    cli._needs_clean_tree("check --update-reference", allow_dirty=False)
