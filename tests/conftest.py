@@ -36,3 +36,13 @@ def _kist_home_snapshot() -> SensorSnapshot:
 def kist_home_snapshot() -> Callable[[], SensorSnapshot]:
     """Makes a fresh kist_humanoid home snapshot per call (controllers may keep references)."""
     return _kist_home_snapshot
+
+
+@pytest.fixture(autouse=True)
+def _clean_tree_for_tests(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Commands that refuse to write references from uncommitted changes see a clean tree:
+    a test's outcome must not depend on the developer's uncommitted edits
+    (tests/test_ledger.py checks the refusal itself)."""
+    from walkrepro import provenance
+
+    monkeypatch.setattr(provenance, "dirty_paths", lambda folders: [])

@@ -57,11 +57,17 @@ class Criterion(_Strict):
     ``setup_statement``: a statement about the experiment's set-up ("the robot only bounces
     left and right without any forward or backward progression"). ``identification_procedure``:
     a procedure the paper describes for identifying its own robot ("set the threshold a to
-    their standard deviation"). Never a result the paper reports (speeds, push recovery,
-    boundaries): those stay predictions.
+    their standard deviation"). ``disturbance_description``: the paper's description of a
+    disturbance it applied (a force's magnitude, where or when a human held); it may pin only
+    that disturbance's own parameters (``set`` under ``disturbances.``), never the robot's or
+    the controller's. ``result``: a result the paper reports, on which walkrepro chose the
+    value by looking (a ``chosen`` search): declared so that the rows it was chosen on count
+    calibrated, never reproduced. Every other result the paper reports stays a prediction.
     """
 
-    kind: Literal["setup_statement", "identification_procedure"]
+    kind: Literal[
+        "setup_statement", "identification_procedure", "disturbance_description", "result"
+    ]
     quote: str = Field(min_length=1, description="the paper's words, verbatim")
     section: str = Field(min_length=1, description="where in the paper (section, figure)")
 
@@ -105,9 +111,23 @@ class MeasureSearch(_Strict):
     method: Literal["measure"]
 
 
-Search = Annotated[RootSearch | MeasureSearch, Field(discriminator="method")]
-#: A parameter's value: one number, or one per metric of a ``measure`` search.
-Value = Real | tuple[Real, ...]
+class ChosenSearch(_Strict):
+    """The value was chosen by walkrepro by looking at the criterion's result, not found by a
+    search: one run at ``value`` measures the criterion, which its rows then meet by
+    construction (so they count calibrated). Declared so that the choice is visible and
+    re-measured, never so that it counts as a prediction."""
+
+    method: Literal["chosen"]
+    value: Real | str | tuple[Real, ...] = Field(
+        description="the value chosen (a number, a named option, or a tuple such as a solref)"
+    )
+    how: str = Field(min_length=1, description="how it was chosen, and on which result")
+
+
+Search = Annotated[RootSearch | MeasureSearch | ChosenSearch, Field(discriminator="method")]
+#: A parameter's value: one number, one per metric of a ``measure`` search, or a ``chosen``
+#: option's name.
+Value = Real | tuple[Real, ...] | str
 
 
 class Provenance(_Strict):
@@ -132,7 +152,7 @@ class Result(_Strict):
     """
 
     value: Value
-    measured: Value
+    measured: Real | tuple[Real, ...]
     evaluations: list[tuple[Real, Real]] = Field(default_factory=list)
     provenance: Provenance
 
@@ -184,7 +204,22 @@ class Parameter(_Strict):
             if self.range is not None and not self.range[0] <= lo < hi <= self.range[1]:
                 raise ValueError("the search bracket must lie inside range")
         elif self.target is not None:
-            raise ValueError("a measure search takes the measured value itself; it has no target")
+            raise ValueError(
+                f"a {self.search.method} search takes no target: its value is "
+                + ("the measured one" if self.search.method == "measure" else "the chosen one")
+            )
+        if self.criterion.kind == "disturbance_description" and not self.set.startswith(
+            "disturbances."
+        ):
+            raise ValueError(
+                "a disturbance_description criterion pins only the disturbance's own "
+                "parameters (set: disturbances.N.FIELD), never the robot's or the controller's"
+            )
+        if (self.criterion.kind == "result") != isinstance(self.search, ChosenSearch):
+            raise ValueError(
+                "a value chosen by looking at a result (search method chosen) declares that "
+                "result as its criterion (kind: result), and only such a value does"
+            )
         return self
 
     @property

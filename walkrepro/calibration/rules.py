@@ -28,7 +28,7 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from walkrepro.calibration.model import LoadedCalibration, Parameter, RootSearch
+from walkrepro.calibration.model import ChosenSearch, LoadedCalibration, Parameter, RootSearch
 from walkrepro.errors import SpecError, UnknownNameError
 
 
@@ -44,6 +44,7 @@ def check_consistency(loaded: LoadedCalibration) -> None:
         _check_rows(loaded, i, parameter, data, where)
         _check_set_path(loaded, i, parameter, data)
         _check_reference(loaded, i, parameter, data)
+        _check_chosen(loaded, i, parameter, data)
 
 
 def _spec_of(loaded: LoadedCalibration, i: int, parameter: Parameter) -> tuple[Path, Any, Any]:
@@ -145,3 +146,35 @@ def _check_reference(loaded: LoadedCalibration, i: int, parameter: Parameter, da
                 f"{parameter.set}: {{calibrated: {parameter.name}}} in its spec (it has "
                 f"{node!r}), so that its rows check the value the calibration found."
             )
+
+
+def _check_chosen(loaded: LoadedCalibration, i: int, parameter: Parameter, data: Any) -> None:
+    """Rule 5: a chosen value is the one the criterion experiment runs with (its spec's value,
+    its ``{calibrated: NAME}`` mark, or the controller's default it leaves in place)."""
+    if not isinstance(parameter.search, ChosenSearch):
+        return
+    node: Any = data
+    for part in parameter.set.split("."):
+        if isinstance(node, dict):
+            node = node.get(part)
+        elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
+            node = node[int(part)]
+        else:
+            node = None
+    if node == {"calibrated": parameter.name}:
+        return
+    parts = parameter.set.split(".")
+    if node is None and parts[:2] == ["controller", "params"] and len(parts) == 3:
+        from walkrepro.controllers import controller_class
+
+        controller = (data.get("controller") or {}).get("type")
+        field = controller_class(controller).Params.model_fields[parts[2]]
+        node = field.get_default(call_default_factory=True)
+    if isinstance(node, list):
+        node = tuple(node)
+    if node != parameter.search.value:
+        raise SpecError(
+            f"{loaded.where(('parameters', i, 'search', 'value'))}: the chosen value "
+            f"{parameter.search.value!r} is not the one {parameter.experiment} runs with "
+            f"({parameter.set} = {node!r}); the declaration must describe the model in force."
+        )

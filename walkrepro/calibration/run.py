@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from walkrepro.calibration.model import (
+    ChosenSearch,
     LoadedCalibration,
     MeasureSearch,
     Parameter,
@@ -38,6 +39,7 @@ from walkrepro.calibration.search import (
     SearchResult,
     find_root,
     measure,
+    measure_at,
 )
 from walkrepro.errors import UnknownNameError
 from walkrepro.sweep.engines import Engine
@@ -159,6 +161,8 @@ def search(parameter: Parameter, evaluate: Evaluator) -> SearchResult:
         except CalibrationFailed as exc:
             raise CalibrationFailed(f"{parameter.name}: {exc}") from None
     try:
+        if isinstance(parameter.search, ChosenSearch):
+            return measure_at(parameter.search.value, parameter.criterion_metrics, evaluate)
         return measure(parameter.criterion_metrics, evaluate)
     except CalibrationFailed as exc:
         raise CalibrationFailed(f"{parameter.name}: {exc}") from None
@@ -169,6 +173,8 @@ def _check_range(
 ) -> None:
     if parameter.range is None:
         return
+    if isinstance(found.value, str):
+        return  # a chosen option has no range
     lo, hi = parameter.range
     values = found.value if isinstance(found.value, tuple) else (found.value,)
     outside = [v for v in values if not lo <= v <= hi]

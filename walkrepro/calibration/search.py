@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from walkrepro.errors import WalkreproError
 
@@ -62,7 +63,7 @@ class SearchResult:
         evaluations: ``(x, metric)`` of every run of a root search, in evaluation order.
     """
 
-    value: float | tuple[float, ...]
+    value: float | tuple[float, ...] | str
     measured: float | tuple[float, ...]
     evaluations: tuple[tuple[float, float], ...] = ()
 
@@ -131,6 +132,20 @@ def find_root(problem: RootProblem, evaluate: Evaluator) -> SearchResult:
 def _sign(r: float) -> int:
     """-1, 0 or 1 (a product of two tiny residuals could underflow to zero)."""
     return (r > 0) - (r < 0)
+
+
+def measure_at(value: Any, metrics: Sequence[str], evaluate: Evaluator) -> SearchResult:
+    """One run at a chosen ``value``; the measured criterion is recorded beside it.
+
+    Raises:
+        CalibrationFailed: a metric gives no value.
+    """
+    (row,) = evaluate([value])
+    values = tuple(float(row.get(m, math.nan)) for m in metrics)
+    bad = [m for m, v in zip(metrics, values, strict=True) if not math.isfinite(v)]
+    if bad:
+        raise CalibrationFailed(f"the run gives no value of {', '.join(bad)}.")
+    return SearchResult(value=value, measured=values[0] if len(values) == 1 else values)
 
 
 def measure(metrics: Sequence[str], evaluate: Evaluator) -> SearchResult:
