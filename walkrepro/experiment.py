@@ -123,15 +123,35 @@ def _latest_run_with(root: Path, experiment: str, overrides: Sequence[str]) -> P
 @functools.cache
 def partner_metric_names(experiment: str) -> tuple[str, ...]:
     """Metrics of ``experiment`` that other shipped experiments' relative expectations read,
-    so that its run (and its committed reference) holds them."""
-    from walkrepro.specfiles import all_experiment_names, load_spec
+    so that its run (and its committed reference) holds them.
+
+    Read from the specs' YAML alone: a partner's expectations need none of its values, so a
+    spec whose calibrated value has no result yet (``walkrepro calibrate`` writing the first)
+    does not stop another experiment's run.
+    """
+    import yaml
+
+    from walkrepro import yamlload
+    from walkrepro.errors import WalkreproError
+    from walkrepro.specfiles import all_experiment_names, find_spec_file
 
     names = []
     for other in all_experiment_names():
-        for e in load_spec(other).spec.expect:
-            if e.relative_to is not None and e.relative_to.experiment == experiment:
-                names.append(e.reference_metric)
-    return tuple(dict.fromkeys(names))
+        try:
+            data, _ = yamlload.load_with_node(find_spec_file(other).read_text(encoding="utf-8"))
+        except (
+            OSError,
+            UnicodeDecodeError,
+            yaml.YAMLError,
+            WalkreproError,
+        ):  # a broken spec is reported when it is loaded itself
+            continue
+        rows = data.get("expect") if isinstance(data, dict) else None
+        for e in rows if isinstance(rows, list) else []:
+            relative = e.get("relative_to") if isinstance(e, dict) else None
+            if isinstance(relative, dict) and relative.get("experiment") == experiment:
+                names.append(relative.get("metric") or e.get("metric"))
+    return tuple(dict.fromkeys(n for n in names if isinstance(n, str)))
 
 
 def metric_names(spec: ExperimentSpec) -> list[str]:
