@@ -996,7 +996,9 @@ def _calibration_table(loaded: Any, runs: list) -> Table:
     for run in runs:
         p = run.parameter
         target = (
-            f"{p.target.value:g} ± {p.target.tolerance:g}" if p.target is not None else "measure"
+            f"{p.target.value:g} ± {p.target.tolerance:g}"
+            if p.target is not None
+            else p.search.method
         )
         committed = p.result.value if p.result is not None else None
         table.add_row(

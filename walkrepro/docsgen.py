@@ -393,6 +393,11 @@ def calibration_page(loaded: Any, experiments_dir: Path) -> str:
             target = (
                 f"`{', '.join(p.criterion_metrics)}` = {p.target.value:g} ± {p.target.tolerance:g}"
             )
+        elif p.search.method == "chosen":
+            target = (
+                f"`{', '.join(p.criterion_metrics)}`, re-measured at the chosen value "
+                f"{p.search.value!r}: {p.search.how}"
+            )
         else:
             target = f"`{', '.join(p.criterion_metrics)}` (the value is the measurement)"
         search = p.search.method
