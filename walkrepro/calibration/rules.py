@@ -14,7 +14,8 @@ For each parameter of the file, in order:
    checked claim and is refused), and a criterion must be visible as a row;
 3. its ``set`` path exists (a field of the controller's parameter model for
    ``controller.params.X``; a field of the spec's models otherwise);
-4. a root search's experiment uses the calibrated value: ``{calibrated: NAME}`` at ``set``.
+4. a root search's experiment uses the calibrated value: ``{calibrated: NAME}`` at ``set``;
+5. a chosen value (kind ``result``) is the value its experiment runs with.
 
 A criterion run never sees a parameter calibrated after it, nor a ``measure`` the value it
 measures: ``walkrepro calibrate`` leaves those references out, so the fields take their
@@ -136,9 +137,7 @@ def _check_set_path(loaded: LoadedCalibration, i: int, parameter: Parameter, dat
 def _check_reference(loaded: LoadedCalibration, i: int, parameter: Parameter, data: Any) -> None:
     """Rule 4: a root search's experiment uses the value being found."""
     if isinstance(parameter.search, RootSearch):
-        node: Any = data
-        for part in parameter.set.split("."):
-            node = node.get(part) if isinstance(node, dict) else None
+        node = _at_path(data, parameter.set)
         if node != {"calibrated": parameter.name}:
             raise SpecError(
                 f"{loaded.where(('parameters', i, 'set'))}: the criterion experiment "
@@ -153,14 +152,7 @@ def _check_chosen(loaded: LoadedCalibration, i: int, parameter: Parameter, data:
     its ``{calibrated: NAME}`` mark, or the controller's default it leaves in place)."""
     if not isinstance(parameter.search, ChosenSearch):
         return
-    node: Any = data
-    for part in parameter.set.split("."):
-        if isinstance(node, dict):
-            node = node.get(part)
-        elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
-            node = node[int(part)]
-        else:
-            node = None
+    node = _at_path(data, parameter.set)
     if node == {"calibrated": parameter.name}:
         return
     parts = parameter.set.split(".")
@@ -178,3 +170,16 @@ def _check_chosen(loaded: LoadedCalibration, i: int, parameter: Parameter, data:
             f"{parameter.search.value!r} is not the one {parameter.experiment} runs with "
             f"({parameter.set} = {node!r}); the declaration must describe the model in force."
         )
+
+
+def _at_path(data: Any, dotted: str) -> Any:
+    """The raw spec's value at a ``set`` path (a list's items by index), or None."""
+    node: Any = data
+    for part in dotted.split("."):
+        if isinstance(node, dict):
+            node = node.get(part)
+        elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
+            node = node[int(part)]
+        else:
+            return None
+    return node
