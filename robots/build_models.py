@@ -1356,6 +1356,81 @@ def generate(robot: RobotDesign) -> str:
     return build_xml(robot, solve_home(robot, model))
 
 
+# --------------------------------------------------------------------------------------
+# README parameter tables, generated from the ledgers
+# --------------------------------------------------------------------------------------
+
+
+def format_ledger_value(value: LedgerValue) -> str:
+    """A ledger value as table text: a number, ``[a, b]``, or ``name value, …``."""
+    if isinstance(value, dict):
+        return ", ".join(f"{k} {fmt(float(v), 10)}" for k, v in value.items())
+    if isinstance(value, list):
+        return "[" + ", ".join(fmt(float(v), 10) for v in value) + "]"
+    return fmt(float(value), 10)
+
+
+def _cell(text: str) -> str:
+    return " ".join(text.split()).replace("|", "\\|")
+
+
+def class_counts(entries: dict[str, dict]) -> str:
+    counts = {c: sum(e["class"] == c for e in entries.values()) for c in LEDGER_CLASSES}
+    return ", ".join(f"{c} {n}" for c, n in counts.items())
+
+
+def readme_block(robot: str, robots_dir: Path = ROBOTS_DIR) -> str:
+    """The generated README block of ``robot``: its own ledger entries as a table, and the
+    count per class (of its own entries and, for a variant, of the resolved ledger)."""
+    data = read_ledger_file(ledger_path(robot, robots_dir))
+    own = data["parameters"]
+    lines = [
+        README_BEGIN,
+        "",
+        "| name | value | unit | class | source |",
+        "|---|---|---|---|---|",
+    ]
+    for name, e in own.items():
+        source = e["source"]
+        if "source_value" in e:
+            sv = e["source_value"]
+            source += (
+                f" **Source value not in force:** {format_ledger_value(sv['value'])}"
+                f" ({sv['source']})"
+            )
+        lines.append(
+            f"| `{name}` | {format_ledger_value(e['value'])} | {_cell(e['unit'])} | "
+            f"{e['class']} | {_cell(source)} |"
+        )
+    lines.append("")
+    entries = "1 entry" if len(own) == 1 else f"{len(own)} entries"
+    counts = f"{entries} in `robots/{robot}/parameters.yaml`: {class_counts(own)}."
+    parent = data["inherits"]
+    if parent is not None:
+        resolved = load_ledger(robot, robots_dir).entries
+        counts += (
+            f" It extends `{parent}` (`robots/{parent}/README.md`): the entries above add to or "
+            f"replace its ledger; the robot's {len(resolved)} entries: {class_counts(resolved)}."
+        )
+    lines += [counts, "", README_END]
+    return "\n".join(lines)
+
+
+def replace_readme_block(text: str, block: str, path: Path) -> str:
+    """``text`` with its generated parameter block replaced by ``block``."""
+    if text.count(README_BEGIN) != 1 or text.count(README_END) != 1:
+        raise LedgerError(f"{path}: needs exactly one {README_BEGIN} ... {README_END} block")
+    head, rest = text.split(README_BEGIN)
+    _, tail = rest.split(README_END)
+    return head + block + tail
+
+
+def readme_text(robot: str, robots_dir: Path = ROBOTS_DIR) -> tuple[Path, str]:
+    """The README's path and the text it must have."""
+    path = robots_dir / robot / "README.md"
+    return path, replace_readme_block(path.read_text(), readme_block(robot, robots_dir), path)
+
+
 BUILDERS = {
     "dyros_red": build_dyros_red,
     "dyros_red_actuated": build_dyros_actuated,
@@ -1369,22 +1444,38 @@ BUILDERS = {
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
-        "--check", action="store_true", help="only compare with the committed files"
+        "--check",
+        action="store_true",
+        help="only compare with the committed robot.xml files and README parameter blocks",
+    )
+    parser.add_argument(
+        "--readme",
+        action="store_true",
+        help="only rewrite the README parameter blocks from the ledgers (no robot.xml)",
     )
     args = parser.parse_args(argv)
     stale = []
     for name, build in BUILDERS.items():
+        path, text = readme_text(name)
+        if args.check:
+            if path.read_text() != text:
+                stale.append(f"{name}/README.md")
+        elif path.read_text() != text:
+            path.write_text(text)
+            print(f"wrote {path.relative_to(ROBOTS_DIR.parent)}")
+        if args.readme:
+            continue
         text = generate(build())
         path = ROBOTS_DIR / name / "robot.xml"
         if args.check:
             if not path.exists() or path.read_text() != text:
-                stale.append(name)
+                stale.append(f"{name}/robot.xml")
         else:
             path.parent.mkdir(exist_ok=True)
             path.write_text(text)
             print(f"wrote {path.relative_to(ROBOTS_DIR.parent)}")
     if stale:
-        print(f"stale robot.xml (run python robots/build_models.py): {', '.join(stale)}")
+        print(f"stale (run python robots/build_models.py): {', '.join(stale)}")
         return 1
     return 0
 
