@@ -3,12 +3,19 @@
 
 Usage::
 
-    python robots/build_models.py            # (re)write every robot.xml
-    python robots/build_models.py --check    # exit 1 if a committed robot.xml is stale
+    python robots/build_models.py            # (re)write every robot.xml and README block
+    python robots/build_models.py --readme   # only the README parameter blocks
+    python robots/build_models.py --check    # exit 1 if a committed file is stale
 
 The committed XML files are exactly this script's output (``tests/test_robot.py`` checks
-it), so every number that sets a mass, a length, a gain or a spring lives here, next to
-where it comes from; each robot's README has the full table.
+it). Every number that sets a mass, a length, a spring, a gain, a damping, a limit, a sensor
+or a contact parameter is an entry of the robot's provenance ledger
+``robots/<name>/parameters.yaml`` (value, unit, class ``paper``/``source``/``assumed``/
+``calibrated``, source), read by :func:`load_ledger`; this script holds only the structure
+(axes, joint names, mirroring, formatting, collision bit masks) and what is derived
+(inertias from shapes, masses that take what a total leaves, the home keyframe).
+``tests/test_robot_ledger.py`` checks that every entry is read and that no physical literal
+is left here. Each robot's README has the ledger as a generated table.
 
 What the script does for each robot:
 
@@ -1053,9 +1060,7 @@ def build_kist() -> RobotDesign:
     joints: dict[str, JointSpec] = {}
 
     def add(name: str, base: str, group: str) -> None:
-        joints[name] = JointSpec(
-            ranges[base], damping, armature[group], ctrl_limit=limit[group]
-        )
+        joints[name] = JointSpec(ranges[base], damping, armature[group], ctrl_limit=limit[group])
 
     for s in ("l", "r"):
         for j in LEG_JOINTS:
