@@ -37,7 +37,7 @@ import math
 import sys
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import mujoco
@@ -418,8 +418,10 @@ class SeaModel:
     Attributes:
         motor_armature: reflected motor inertia J_m [Nms^2/rad].
         motor_damping: back-EMF damping alpha / beta [Nms/rad].
-        spring_damping: damping of the spring element [Nms/rad] (assumed, small).
-        spring_range: deflection limit of the spring element [rad] (assumed).
+        spring_damping: damping of the spring element [Nms/rad].
+        spring_range: deflection limit of the spring element [rad].
+
+    Values, classes and sources: ``robots/coman/parameters.yaml``.
         beta: voltage-torque coefficient beta [V/Nm].
         supply: supply voltage limit [V].
     """
@@ -449,7 +451,7 @@ class DriveModel:
     gear ratio) and a spring DoF on the same axis (the harmonic drive's torsional
     compliance; link angle = motor + spring). The commanded joint torque acts on the motor
     DoF through a first-order lag (the drive's current/torque loop). See
-    robots/dyros_red_actuated/README.md for every value and its source.
+    robots/dyros_red_actuated/parameters.yaml for every value and its source.
 
     Attributes:
         armature: rotor inertia reflected to the link, J_rotor N² [kg m^2], per joint kind.
@@ -617,16 +619,16 @@ def leg(side: int, dims: LegDims, joint: Callable[[str, str], list[Joint]]) -> B
 # --------------------------------------------------------------------------------------
 
 
-def z_segment(kind: str, mass: float, dims: tuple[float, ...], **kw: object) -> Shape:
+def z_segment(kind: str, mass: float, dims: tuple[float, ...]) -> Shape:
     """A capsule or cylinder along the body's z: ``dims`` = (radius, z of one end, z of the other)."""
     r, z0, z1 = dims
-    return Shape(kind, mass, (r,), fromto=(0, 0, z0, 0, 0, z1), **kw)  # type: ignore[arg-type]
+    return Shape(kind, mass, (r,), fromto=(0, 0, z0, 0, 0, z1))
 
 
-def box_at_z(mass: float, dims: tuple[float, ...], **kw: object) -> Shape:
+def box_at_z(mass: float, dims: tuple[float, ...], collide: bool = True) -> Shape:
     """A box on the body's z axis: ``dims`` = (half x, half y, half z) or those and centre z."""
     z = dims[3] if len(dims) == 4 else 0
-    return Shape("box", mass, dims[:3], (0, 0, z), **kw)  # type: ignore[arg-type]
+    return Shape("box", mass, dims[:3], (0, 0, z), collide=collide)
 
 
 def joint_ranges(p: Ledger, joints: tuple[str, ...]) -> dict[str, tuple[float, float]]:
@@ -645,8 +647,15 @@ def home_arms(p: Ledger) -> dict[str, float]:
     return {"l_shoulder_roll": roll, "r_shoulder_roll": -roll, "l_elbow": elbow, "r_elbow": elbow}
 
 
-def leg_dims(p: Ledger, hip: tuple[float, float], shank_shapes: tuple[Shape, ...]) -> LegDims:
-    """The leg every robot builds the same way from its ledger (``shank_shapes`` aside)."""
+def leg_dims(
+    p: Ledger,
+    hip: tuple[float, float],
+    shank_shapes: tuple[Shape, ...],
+    foot_mass: float,
+    foot_size: tuple[float, float],
+) -> LegDims:
+    """The leg every robot builds the same way from its ledger; the caller gives the hip
+    position, the shank's shapes, the foot's mass and the sole's length and width."""
     masses = p.vec("leg_link_masses")
     return LegDims(
         hip=hip,
@@ -657,10 +666,10 @@ def leg_dims(p: Ledger, hip: tuple[float, float], shank_shapes: tuple[Shape, ...
         thigh_shapes=(z_segment("capsule", masses[2], p.vec("thigh_shape", 3)),),
         shank_shapes=shank_shapes,
         ankle_shapes=(box_at_z(masses[4], p.vec("ankle_link_shape")),),
-        foot_mass=0.0,  # set by the caller
+        foot_mass=foot_mass,
         ft_housing=box_at_z(p.num("ft_housing_mass"), p.vec("ft_housing_shape", 4), collide=False),
         ft_site_z=p.num("ft_site_z"),
-        foot_size=(0.0, 0.0),  # set by the caller
+        foot_size=foot_size,
         sole_half_thickness=p.num("sole_half_thickness"),
         ankle_height=p.num("ankle_height"),
         foot_ahead=p.num("foot_ahead"),
@@ -677,11 +686,8 @@ def dyros_leg_dims(p: Ledger) -> LegDims:
     masses = p.vec("leg_link_masses", 6)
     hip = p.vec("hip_position", 2)
     shank = (z_segment("capsule", masses[3], p.vec("shank_shape", 3)),)
-    return replace(
-        leg_dims(p, (hip[0], hip[1]), shank),
-        foot_mass=masses[5],
-        foot_size=p.vec("foot_size", 2),  # type: ignore[arg-type]
-    )
+    length, width = p.vec("foot_size", 2)
+    return leg_dims(p, (hip[0], hip[1]), shank, masses[5], (length, width))
 
 
 def dyros_leg(
@@ -970,11 +976,8 @@ def build_coman() -> RobotDesign:
         # The ankle motors sit on the shank, distal to the knee (paper).
         box_at_z(masses[3] - tube_mass, p.vec("ankle_motor_box_shape", 4)),
     )
-    dims = replace(
-        leg_dims(p, (p.num("hip_y"), 0), shank),
-        foot_mass=leg_mass - sum(masses),
-        foot_size=(p.num("foot_length"), p.num("foot_width")),
-    )
+    foot = (p.num("foot_length"), p.num("foot_width"))
+    dims = leg_dims(p, (p.num("hip_y"), 0), shank, leg_mass - sum(masses), foot)
     arms = arm_dims(p)
     m_arm = arms.shoulder_masses[0] + arms.shoulder_masses[1] + arms.upper_mass + arms.forearm_mass
     m_pelvis, m_waist_yaw, m_waist_roll = (
@@ -1045,11 +1048,8 @@ def build_kist() -> RobotDesign:
     masses = p.vec("leg_link_masses", 5)  # hip yaw to ankle [kg]; the foot takes the rest
     hip = p.vec("hip_position", 2)
     shank = (z_segment("capsule", masses[3], p.vec("shank_shape", 3)),)
-    dims = replace(
-        leg_dims(p, (hip[0], hip[1]), shank),
-        foot_mass=leg_total - sum(masses),
-        foot_size=p.vec("foot_size", 2),  # type: ignore[arg-type]
-    )
+    length, width = p.vec("foot_size", 2)
+    dims = leg_dims(p, (hip[0], hip[1]), shank, leg_total - sum(masses), (length, width))
     m_shoulders = p.vec("shoulder_link_masses", 2)
     # The forearm (with the hand) takes what the paper's arm mass leaves.
     forearm = p.num("arm_mass") - m_shoulders[0] - m_shoulders[1] - p.num("upper_arm_mass")
