@@ -3,12 +3,19 @@
 
 Usage::
 
-    python robots/build_models.py            # (re)write every robot.xml
-    python robots/build_models.py --check    # exit 1 if a committed robot.xml is stale
+    python robots/build_models.py            # (re)write every robot.xml and README block
+    python robots/build_models.py --readme   # only the README parameter blocks
+    python robots/build_models.py --check    # exit 1 if a committed file is stale
 
 The committed XML files are exactly this script's output (``tests/test_robot.py`` checks
-it), so every number that sets a mass, a length, a gain or a spring lives here, next to
-where it comes from; each robot's README has the full table.
+it). Every number that sets a mass, a length, a spring, a gain, a damping, a limit, a sensor
+or a contact parameter is an entry of the robot's provenance ledger
+``robots/<name>/parameters.yaml`` (value, unit, class ``paper``/``source``/``assumed``/
+``calibrated``, source), read by :func:`load_ledger`; this script holds only the structure
+(axes, joint names, mirroring, formatting, collision bit masks) and what is derived
+(inertias from shapes, masses that take what a total leaves, the home keyframe).
+``tests/test_robot_ledger.py`` checks that every entry is read and that no physical literal
+is left here. Each robot's README has the ledger as a generated table.
 
 What the script does for each robot:
 
@@ -30,12 +37,14 @@ import math
 import sys
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import mujoco
 import numpy as np
 from scipy.optimize import brentq
+
+from walkrepro.yamlload import load as load_yaml
 
 ROBOTS_DIR = Path(__file__).resolve().parent
 Vec3 = tuple[float, float, float]
@@ -44,7 +53,6 @@ Vec3 = tuple[float, float, float]
 # (contype=1, conaffinity=3) but never each other.
 ROBOT_CONTYPE = 2
 ROBOT_CONAFFINITY = 1
-SOLE_FRICTION = "1 0.005 0.0001"  # sliding 1.0 (project convention), MuJoCo default torsion/rolling
 
 LEG_JOINTS = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
 ARM_JOINTS = ("shoulder_pitch", "shoulder_roll", "shoulder_yaw", "elbow")
@@ -85,6 +93,175 @@ def fmt(x: float, digits: int = 6) -> str:
 
 def fvec(v: object, digits: int = 6) -> str:
     return " ".join(fmt(float(x), digits) for x in np.asarray(v, dtype=float).ravel())
+
+
+# --------------------------------------------------------------------------------------
+# The provenance ledger: robots/<robot>/parameters.yaml
+# --------------------------------------------------------------------------------------
+
+#: The four provenance classes (shared/GUIDE.md, "Models around the controller").
+LEDGER_CLASSES = ("paper", "source", "assumed", "calibrated")
+#: Fields every ledger entry must have, and the optional ones.
+LEDGER_REQUIRED = ("value", "unit", "class", "source")
+LEDGER_OPTIONAL = ("description", "source_value")
+#: The block of a robot README that ``--readme`` rewrites from the ledger.
+README_BEGIN = "<!-- parameters: generated from parameters.yaml; do not edit -->"
+README_END = "<!-- end of parameters -->"
+
+LedgerValue = float | list[float] | dict[str, float]
+
+
+class LedgerError(ValueError):
+    """A ledger file is malformed; the message names the file and the entry."""
+
+
+def _is_number(x: object) -> bool:
+    return isinstance(x, int | float) and not isinstance(x, bool)
+
+
+def _check_value(where: str, value: object) -> None:
+    """A number, a list of numbers, or a mapping name -> number (per-joint tables)."""
+    if _is_number(value):
+        return
+    if isinstance(value, list) and value and all(_is_number(v) for v in value):
+        return
+    if (
+        isinstance(value, dict)
+        and value
+        and all(isinstance(k, str) and _is_number(v) for k, v in value.items())
+    ):
+        return
+    raise LedgerError(
+        f"{where}: value must be a number, a list of numbers or a mapping name -> number, "
+        f"not {value!r}"
+    )
+
+
+def validate_entry(path: Path, name: object, entry: object) -> None:
+    """Raise :class:`LedgerError` naming ``path`` and ``name`` unless the entry is well formed."""
+    where = f"{path}: parameters.{name}"
+    if not isinstance(name, str) or not name:
+        raise LedgerError(f"{path}: parameter name {name!r} must be a non-empty string")
+    if not isinstance(entry, dict):
+        raise LedgerError(f"{where}: must be a mapping with {', '.join(LEDGER_REQUIRED)}")
+    missing = [k for k in LEDGER_REQUIRED if k not in entry]
+    if missing:
+        raise LedgerError(f"{where}: missing {', '.join(missing)}")
+    unknown = sorted(set(entry) - set(LEDGER_REQUIRED) - set(LEDGER_OPTIONAL))
+    if unknown:
+        raise LedgerError(f"{where}: unknown field(s) {', '.join(map(str, unknown))}")
+    if entry["class"] not in LEDGER_CLASSES:
+        raise LedgerError(
+            f"{where}: class {entry['class']!r} is not one of {', '.join(LEDGER_CLASSES)}"
+        )
+    for key in ("unit", "source"):
+        if not isinstance(entry[key], str):
+            raise LedgerError(f"{where}: {key} must be a string")
+    if not entry["source"].strip():
+        raise LedgerError(f"{where}: source is empty")
+    _check_value(where, entry["value"])
+    if "source_value" in entry:
+        sv = entry["source_value"]
+        if not (isinstance(sv, dict) and set(sv) == {"value", "source"}):
+            raise LedgerError(f"{where}: source_value must be a mapping with value and source")
+        _check_value(f"{where}.source_value", sv["value"])
+        if not isinstance(sv["source"], str) or not sv["source"].strip():
+            raise LedgerError(f"{where}: source_value.source is empty")
+
+
+def read_ledger_file(path: Path) -> dict:
+    """One ledger file, validated (its ``inherits`` is not followed here)."""
+    if not path.exists():
+        raise LedgerError(f"{path}: no such ledger")
+    data = load_yaml(path.read_text())
+    if not isinstance(data, dict) or set(data) != {"robot", "inherits", "parameters"}:
+        raise LedgerError(f"{path}: the top level must have exactly robot, inherits, parameters")
+    if data["robot"] != path.parent.name:
+        raise LedgerError(f"{path}: robot {data['robot']!r} is not its directory's name")
+    if data["inherits"] is not None and not isinstance(data["inherits"], str):
+        raise LedgerError(f"{path}: inherits must be null or a robot name")
+    params = data["parameters"]
+    if not isinstance(params, dict) or not params:
+        raise LedgerError(f"{path}: parameters must be a non-empty mapping")
+    for name, entry in params.items():
+        validate_entry(path, name, entry)
+    return data
+
+
+class Ledger:
+    """A robot's resolved ledger: its own entries over those it inherits.
+
+    Reading a value (``ledger["thigh"]``, :meth:`num`, :meth:`vec`, :meth:`table`) records
+    the entry as used, so a test can check that every entry sets some number.
+    """
+
+    def __init__(self, robot: str, entries: dict[str, dict], files: dict[str, Path]) -> None:
+        self.robot = robot
+        self.entries = entries  # name -> entry, inherited ones first
+        self.files = files  # name -> the ledger file that gives it
+        self.accessed: set[str] = set()
+
+    def __getitem__(self, name: str) -> LedgerValue:
+        if name not in self.entries:
+            raise LedgerError(f"{self.robot}: no ledger entry {name!r}")
+        self.accessed.add(name)
+        return self.entries[name]["value"]
+
+    def num(self, name: str) -> float:
+        """The entry's value as one number."""
+        value = self[name]
+        if not _is_number(value):
+            raise LedgerError(f"{self.files[name]}: parameters.{name}: expected one number")
+        return float(value)
+
+    def vec(self, name: str, n: int | None = None) -> tuple[float, ...]:
+        """The entry's value as a tuple of numbers (of length ``n`` if given)."""
+        value = self[name]
+        if not isinstance(value, list) or (n is not None and len(value) != n):
+            raise LedgerError(
+                f"{self.files[name]}: parameters.{name}: expected a list of {n or 'some'} numbers"
+            )
+        return tuple(float(v) for v in value)
+
+    def table(self, name: str) -> dict[str, float]:
+        """The entry's value as a mapping name -> number."""
+        value = self[name]
+        if not isinstance(value, dict):
+            raise LedgerError(f"{self.files[name]}: parameters.{name}: expected a mapping")
+        return {k: float(v) for k, v in value.items()}
+
+    def per_joint(self, name: str) -> PerJoint:
+        """The entry's value: one number for every joint, or a mapping per joint kind."""
+        value = self[name]
+        return self.table(name) if isinstance(value, dict) else self.num(name)
+
+    def unused(self) -> list[str]:
+        """Entries no number has read (yet)."""
+        return [name for name in self.entries if name not in self.accessed]
+
+
+def ledger_path(robot: str, robots_dir: Path = ROBOTS_DIR) -> Path:
+    return robots_dir / robot / "parameters.yaml"
+
+
+def load_ledger(robot: str, robots_dir: Path = ROBOTS_DIR) -> Ledger:
+    """The robot's ledger, following ``inherits`` (entries here add or replace)."""
+    chain: list[tuple[Path, dict]] = []
+    name: str | None = robot
+    while name is not None:
+        path = ledger_path(name, robots_dir)
+        if any(p == path for p, _ in chain):
+            raise LedgerError(f"{path}: inherits forms a cycle")
+        data = read_ledger_file(path)
+        chain.append((path, data))
+        name = data["inherits"]
+    entries: dict[str, dict] = {}
+    files: dict[str, Path] = {}
+    for path, data in reversed(chain):
+        for key, entry in data["parameters"].items():
+            entries[key] = entry
+            files[key] = path
+    return Ledger(robot, entries, files)
 
 
 # --------------------------------------------------------------------------------------
@@ -227,6 +404,9 @@ class RobotDesign:
     home_knee: float  # [rad]
     home_fixed: dict[str, float]  # other non-zero home joint angles [rad]
     rgba: str
+    friction: str  # every geom's friction attribute (sliding, torsional, rolling)
+    condim: str  # every geom's contact dimensionality
+    ledger: Ledger  # the provenance ledger the numbers came from
     sea: SeaModel | None = None
     drive: DriveModel | None = None
 
@@ -238,8 +418,10 @@ class SeaModel:
     Attributes:
         motor_armature: reflected motor inertia J_m [Nms^2/rad].
         motor_damping: back-EMF damping alpha / beta [Nms/rad].
-        spring_damping: damping of the spring element [Nms/rad] (assumed, small).
-        spring_range: deflection limit of the spring element [rad] (assumed).
+        spring_damping: damping of the spring element [Nms/rad].
+        spring_range: deflection limit of the spring element [rad].
+
+    Values, classes and sources: ``robots/coman/parameters.yaml``.
         beta: voltage-torque coefficient beta [V/Nm].
         supply: supply voltage limit [V].
     """
@@ -269,10 +451,9 @@ class DriveModel:
     gear ratio) and a spring DoF on the same axis (the harmonic drive's torsional
     compliance; link angle = motor + spring). The commanded joint torque acts on the motor
     DoF through a first-order lag (the drive's current/torque loop). See
-    robots/dyros_red_actuated/README.md for every value and its source.
+    robots/dyros_red_actuated/parameters.yaml for every value and its source.
 
     Attributes:
-        gear_ratio: N (paper §V-A: 100:1).
         armature: rotor inertia reflected to the link, J_rotor N² [kg m^2], per joint kind.
         motor_damping: viscous friction of motor and gear, link side [Nms/rad], per joint kind.
         friction: Coulomb friction of motor and gear, link side [Nm], per joint kind.
@@ -282,7 +463,6 @@ class DriveModel:
         spring_range: deflection limit of the gear [rad].
     """
 
-    gear_ratio: float
     armature: PerJoint
     motor_damping: PerJoint
     friction: PerJoint
@@ -435,48 +615,84 @@ def leg(side: int, dims: LegDims, joint: Callable[[str, str], list[Joint]]) -> B
 
 
 # --------------------------------------------------------------------------------------
-# DYROS RED (Paper I, Lee et al. 2021)
+# Shapes from ledger entries
 # --------------------------------------------------------------------------------------
 
-DYROS_HIP_Y = 0.1025  # notes: hips ±0.1025 m lateral ...
-DYROS_HIP_Z = -0.1225  # ... and 0.1225 m below the pelvis origin
-DYROS_THIGH = 0.35  # notes: hip pitch to knee
-DYROS_SHANK = 0.35  # notes: knee to ankle pitch
-DYROS_SOLE_DEPTH = 0.137  # notes: sole 0.137 m below the (intersecting) ankle axes
-DYROS_FOOT = (0.30, 0.15)  # paper §V-A: foot 0.30 m x 0.15 m
-DYROS_HEIGHT = 1.43  # paper §V-A
-DYROS_LEG_MASSES = (2.68, 2.67, 5.37, 3.88, 2.51, 3.46)  # notes: hip to foot [kg]
-DYROS_TOTAL_MASS = 89.6  # paper §V-A
-DYROS_WAIST_Z = 0.18  # notes: waist 0.18 m above the pelvis origin
 
-DYROS_LEG = LegDims(
-    hip=(DYROS_HIP_Y, DYROS_HIP_Z),
-    thigh_length=DYROS_THIGH,
-    shank_length=DYROS_SHANK,
-    # Link masses from DYROS_LEG_MASSES (hip yaw, hip roll, thigh, shank, ankle, foot).
-    hip_yaw_shapes=(
-        Shape("cylinder", DYROS_LEG_MASSES[0], (0.05,), fromto=(0, 0, 0.0, 0, 0, 0.08)),
-    ),
-    hip_roll_shapes=(Shape("box", DYROS_LEG_MASSES[1], (0.06, 0.045, 0.045), (0, 0, 0)),),
-    thigh_shapes=(
-        Shape("capsule", DYROS_LEG_MASSES[2], (0.06,), fromto=(0, 0, -0.06, 0, 0, -0.30)),
-    ),
-    shank_shapes=(
-        Shape("capsule", DYROS_LEG_MASSES[3], (0.05,), fromto=(0, 0, -0.05, 0, 0, -0.29)),
-    ),
-    ankle_shapes=(Shape("box", DYROS_LEG_MASSES[4], (0.045, 0.04, 0.035), (0, 0, 0)),),
-    foot_mass=DYROS_LEG_MASSES[5],
-    # F/T sensor and ankle roll housing.
-    ft_housing=Shape("box", 1.46, (0.05, 0.05, 0.03), (0, 0, -0.07), collide=False),
-    ft_site_z=-0.09,
-    foot_size=DYROS_FOOT,
-    sole_half_thickness=0.01,
-    ankle_height=DYROS_SOLE_DEPTH,
-    foot_ahead=0,
-)
+def z_segment(kind: str, mass: float, dims: tuple[float, ...]) -> Shape:
+    """A capsule or cylinder along the body's z: ``dims`` = (radius, z of one end, z of the other)."""
+    r, z0, z1 = dims
+    return Shape(kind, mass, (r,), fromto=(0, 0, z0, 0, 0, z1))
 
 
-def dyros_leg(side: int, joints: dict[str, JointSpec], drive: DriveModel | None = None) -> Body:
+def box_at_z(mass: float, dims: tuple[float, ...], collide: bool = True) -> Shape:
+    """A box on the body's z axis: ``dims`` = (half x, half y, half z) or those and centre z."""
+    z = dims[3] if len(dims) == 4 else 0
+    return Shape("box", mass, dims[:3], (0, 0, z), collide=collide)
+
+
+def joint_ranges(p: Ledger, joints: tuple[str, ...]) -> dict[str, tuple[float, float]]:
+    """Each joint kind's left-side range, from the ledger entries ``range_<joint>``."""
+    return {j: p.vec(f"range_{j}", 2) for j in joints}  # type: ignore[misc]
+
+
+def contact(p: Ledger) -> tuple[str, str]:
+    """Every geom's ``friction`` and ``condim`` attributes, from the ledger."""
+    return fvec(p.vec("geom_friction", 3)), str(int(p.num("condim")))
+
+
+def home_arms(p: Ledger) -> dict[str, float]:
+    """Home arm angles: shoulder roll outward on both sides (mirrored), elbows bent."""
+    roll, elbow = p.num("home_shoulder_roll"), p.num("home_elbow")
+    return {"l_shoulder_roll": roll, "r_shoulder_roll": -roll, "l_elbow": elbow, "r_elbow": elbow}
+
+
+def leg_dims(
+    p: Ledger,
+    hip: tuple[float, float],
+    shank_shapes: tuple[Shape, ...],
+    foot_mass: float,
+    foot_size: tuple[float, float],
+) -> LegDims:
+    """The leg every robot builds the same way from its ledger; the caller gives the hip
+    position, the shank's shapes, the foot's mass and the sole's length and width."""
+    masses = p.vec("leg_link_masses")
+    return LegDims(
+        hip=hip,
+        thigh_length=p.num("thigh"),
+        shank_length=p.num("shank"),
+        hip_yaw_shapes=(z_segment("cylinder", masses[0], p.vec("hip_yaw_link_shape", 3)),),
+        hip_roll_shapes=(box_at_z(masses[1], p.vec("hip_roll_link_shape")),),
+        thigh_shapes=(z_segment("capsule", masses[2], p.vec("thigh_shape", 3)),),
+        shank_shapes=shank_shapes,
+        ankle_shapes=(box_at_z(masses[4], p.vec("ankle_link_shape")),),
+        foot_mass=foot_mass,
+        ft_housing=box_at_z(p.num("ft_housing_mass"), p.vec("ft_housing_shape", 4), collide=False),
+        ft_site_z=p.num("ft_site_z"),
+        foot_size=foot_size,
+        sole_half_thickness=p.num("sole_half_thickness"),
+        ankle_height=p.num("ankle_height"),
+        foot_ahead=p.num("foot_ahead"),
+    )
+
+
+# --------------------------------------------------------------------------------------
+# DYROS RED (Paper I, Lee et al. 2021): robots/dyros_red*/parameters.yaml
+# --------------------------------------------------------------------------------------
+
+
+def dyros_leg_dims(p: Ledger) -> LegDims:
+    """DYROS RED's leg: link masses hip yaw, hip roll, thigh, shank, ankle, foot."""
+    masses = p.vec("leg_link_masses", 6)
+    hip = p.vec("hip_position", 2)
+    shank = (z_segment("capsule", masses[3], p.vec("shank_shape", 3)),)
+    length, width = p.vec("foot_size", 2)
+    return leg_dims(p, (hip[0], hip[1]), shank, masses[5], (length, width))
+
+
+def dyros_leg(
+    side: int, dims: LegDims, joints: dict[str, JointSpec], drive: DriveModel | None
+) -> Body:
     """One DYROS RED leg: rigid joints, or with ``drive`` motor and gear-compliance DoFs."""
 
     def joint(name: str, base: str) -> list[Joint]:
@@ -484,99 +700,104 @@ def dyros_leg(side: int, joints: dict[str, JointSpec], drive: DriveModel | None 
             return rigid_joint_for(joints, name, base, side)
         return drive_joint(joints, name, base, side, drive)
 
-    return leg(side, DYROS_LEG, joint)
+    return leg(side, dims, joint)
 
 
-def build_dyros(
-    drive: DriveModel | None = None,
-    armature: PerJoint = 0.1,
-    name: str = "",
-    description: str = "",
-) -> RobotDesign:
-    """DYROS RED: rigid torque-driven joints, or with ``drive`` each joint's drive model.
+def dyros_drive(p: Ledger) -> DriveModel:
+    """DYROS RED's drives (Lee et al. §V-A): the lab's published values and the catalogue's."""
+    return DriveModel(
+        armature=p.per_joint("armature"),
+        motor_damping=p.per_joint("joint_damping"),
+        friction=p.per_joint("friction"),
+        stiffness=p.num("gear_stiffness"),
+        gear_damping=p.num("gear_damping"),
+        torque_lag=p.num("torque_lag"),
+        spring_range=p.num("gear_range"),
+    )
 
-    Args:
-        drive: the joint drives (motor and gear DoFs); None for rigid joints.
-        armature: reflected rotor inertia of the rigid joints [kg m^2], per joint kind.
-        name: the robot's name (default ``dyros_red``, or ``dyros_red_actuated`` with a drive).
-        description: the robot's one-line description (default by the same rule).
+
+def build_dyros(robot: str = "dyros_red", description: str = "") -> RobotDesign:
+    """DYROS RED or one of its variants, from ``robots/<robot>/parameters.yaml``.
+
+    A ledger with a ``torque_lag`` entry has the joint drives (motor and gear DoFs); the
+    others have rigid joints with ideal torques.
     """
-    leg_mass = sum(DYROS_LEG_MASSES)
-    upper = DYROS_TOTAL_MASS - 2 * leg_mass  # rigid pelvis + torso + head + arms [kg]
-    straight_pelvis_z = DYROS_SOLE_DEPTH + DYROS_SHANK + DYROS_THIGH - DYROS_HIP_Z
-    head_r = 0.06
-    head_z = DYROS_HEIGHT - straight_pelvis_z - head_r  # head top at 1.43 m standing straight
-    arm_upper, arm_fore = 2.5, 2.23
+    p = load_ledger(robot)
+    drive = dyros_drive(p) if "torque_lag" in p.entries else None
+    dims = dyros_leg_dims(p)
+    leg_masses = p.vec("leg_link_masses", 6)
+    leg_mass = sum(leg_masses)
+    upper = p.num("total_mass") - 2 * leg_mass  # rigid pelvis + torso + head + arms [kg]
+    thigh, shank, sole_depth = p.num("thigh"), p.num("shank"), p.num("ankle_height")
+    hip_z = p.vec("hip_position", 2)[1]
+    waist_z = p.num("waist_height")
+    straight_pelvis_z = sole_depth + shank + thigh - hip_z
+    head_r = p.num("head_radius")
+    head_z = p.num("height") - straight_pelvis_z - head_r  # head top at the height, legs straight
+    arm_upper, arm_fore = p.num("upper_arm_mass"), p.num("forearm_mass")
+    m_pelvis, m_waist, m_head = (
+        p.num("pelvis_block_mass"),
+        p.num("waist_block_mass"),
+        p.num("head_mass"),
+    )
+    wx, wy, w_bottom = p.vec("waist_block_shape", 3)
     pelvis_shapes = [
-        Shape("box", 8.0, (0.10, 0.15, 0.06), (0, 0, -0.03)),  # pelvis frame and hip motors
-        # Waist block up to the waist (DYROS_WAIST_Z), then the torso above it.
-        Shape(
-            "box", 4.0, (0.07, 0.10, (DYROS_WAIST_Z - 0.03) / 2), (0, 0, (DYROS_WAIST_Z + 0.03) / 2)
+        box_at_z(m_pelvis, p.vec("pelvis_block_shape", 4)),  # pelvis frame and hip motors
+        # Waist block up to the waist (waist_height), then the torso above it.
+        Shape("box", m_waist, (wx, wy, (waist_z - w_bottom) / 2), (0, 0, (waist_z + w_bottom) / 2)),
+        box_at_z(
+            upper - m_pelvis - m_waist - m_head - 2 * (arm_upper + arm_fore),
+            p.vec("torso_shape", 4),
         ),
-        Shape(
-            "box",
-            upper - 8.0 - 4.0 - 3.0 - 2 * (arm_upper + arm_fore),
-            (0.11, 0.16, 0.10),
-            (0, 0, 0.26),
-        ),
-        Shape("sphere", 3.0, (head_r,), (0, 0, head_z)),
+        Shape("sphere", m_head, (head_r,), (0, 0, head_z)),
     ]
+    arm_y = p.num("arm_y")
+    r_u, top_u, bottom_u = p.vec("upper_arm_shape", 3)
+    r_f, x0_f, z0_f, x1_f, z1_f = p.vec("forearm_shape", 5)
     for side in (1, -1):
-        y = side * 0.21
+        y = side * arm_y
         pelvis_shapes += [
-            Shape("capsule", arm_upper, (0.045,), fromto=(0, y, 0.31, 0, y, 0.07)),
-            Shape("capsule", arm_fore, (0.04,), fromto=(0.01, y, 0.05, 0.04, y, -0.16)),
+            Shape("capsule", arm_upper, (r_u,), fromto=(0, y, top_u, 0, y, bottom_u)),
+            Shape("capsule", arm_fore, (r_f,), fromto=(x0_f, y, z0_f, x1_f, y, z1_f)),
         ]
     joints: dict[str, JointSpec] = {}
-    leg_ranges = {
-        "hip_yaw": (-0.75, 0.75),
-        "hip_roll": (-0.4, 0.6),
-        "hip_pitch": (-1.8, 0.6),
-        "knee": (0.0, 2.4),
-        "ankle_pitch": (-1.0, 0.8),
-        "ankle_roll": (-0.45, 0.45),
-    }
+    leg_ranges = joint_ranges(p, LEG_JOINTS)
+    armature = p.per_joint("armature")
+    damping = None if drive is not None else p.num("joint_damping")  # drives: motor_damping
     for s in ("l", "r"):
         for j in LEG_JOINTS:
-            # lab's model (robots/dyros_red/README.md): damping 2.0 Nms/rad, ±300 Nm;
-            # armature 0.1 kg m^2 assumed by default (the lab's model has none).
             joints[f"{s}_{j}"] = JointSpec(
-                leg_ranges[j], damping=2.0, armature=per_joint(armature, j), ctrl_limit=300.0
+                leg_ranges[j],
+                damping=damping or 0.0,
+                armature=per_joint(armature, j),
+                ctrl_limit=p.num("torque_limit"),
             )
     pelvis = Body(
         "pelvis",
         (0, 0, 0),
         pelvis_shapes,
-        sites=[Site("imu", (0, 0, 0.05))],
-        children=[dyros_leg(1, joints, drive), dyros_leg(-1, joints, drive)],
+        sites=[Site("imu", (0, 0, p.num("imu_z")))],
+        children=[dyros_leg(1, dims, joints, drive), dyros_leg(-1, dims, joints, drive)],
     )
-    if drive is not None:
-        return RobotDesign(
-            name or "dyros_red_actuated",
-            description
-            or "DYROS RED with its joint drives: rotor, harmonic-drive compliance, torque loop",
-            pelvis,
-            joints,
-            home_knee=0.4,
-            home_fixed={},
-            rgba="0.75 0.15 0.15 1",
-            drive=drive,
-        )
+    friction, condim = contact(p)
     return RobotDesign(
-        name or "dyros_red",
-        description or "DYROS RED (12-DoF legs, rigid upper body)",
+        robot,
+        description,
         pelvis,
         joints,
-        home_knee=0.4,
+        home_knee=p.num("home_knee"),
         home_fixed={},
         rgba="0.75 0.15 0.15 1",
+        drive=drive,
+        friction=friction,
+        condim=condim,
+        ledger=p,
     )
 
 
-# The lab's published drive values (facts with citations; repositories, paths and commits in
-# robots/dyros_red_actuated/README.md). DYROS RED's legs are TOCABI's: the lab's TOCABI model
-# repeats RED's leg link masses, and names each leg joint's Harmonic Drive unit (100:1):
-# SHG-20-100 at hip yaw, hip roll, hip pitch, knee and ankle pitch, SHD-20-100 at the ankle roll.
+# The lab's TOCABI model names each leg joint's Harmonic Drive unit (100:1): SHG-20-100 at hip
+# yaw, hip roll, hip pitch, knee and ankle pitch, SHD-20-100 at the ankle roll (sources:
+# robots/dyros_red_actuated/parameters.yaml).
 DYROS_SHG20 = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch")
 
 
@@ -585,145 +806,34 @@ def shg20_shd20(shg20: float, shd20: float) -> dict[str, float]:
     return {**dict.fromkeys(DYROS_SHG20, shg20), "ankle_roll": shd20}
 
 
-#: Reflected rotor inertia, link side [kg m^2]: the TOCABI Isaac Lab configuration's armature.
-DYROS_ARMATURE = {
-    "hip_yaw": 0.614,
-    "hip_roll": 0.862,
-    "hip_pitch": 1.09,
-    "knee": 1.09,
-    "ankle_pitch": 1.09,
-    "ankle_roll": 0.360,
-}
-
-#: DYROS RED's drives (Lee et al. §V-A; values and sources: robots/dyros_red_actuated/README.md).
-DYROS_DRIVE = DriveModel(
-    gear_ratio=100.0,  # paper §V-A: 100:1 harmonic gear
-    armature=DYROS_ARMATURE,  # TOCABI Isaac Lab armature (rotor through 100:1), link side
-    # TOCABI simulation scene, joint classes shg20_100_2so / shd20_100_2sh: damping [Nms/rad]
-    # and frictionloss [Nm] as the lab's model applies them, at the link-side joint.
-    motor_damping=shg20_shd20(0.0248, 0.0161),
-    friction=shg20_shd20(0.9, 22.0),
-    # Harmonic Drive size 32, ratio > 50 (CHA-32A data sheet, Harmonic Drive AG 1018854):
-    # K1 = 6.7e4 Nm/rad below T1 = 29 Nm (K2 = 1.1e5 to T2 = 108 Nm, K3 = 1.2e5 above);
-    # one linear spring, the low-torque K1 [Nm/rad].
-    stiffness=6.7e4,
-    gear_damping=7.0,  # assumed: light damping of the gear's compliance (README)
-    torque_lag=0.5e-3,  # assumed: torque-loop time constant (≈ 320 Hz bandwidth) [s]
-    spring_range=0.05,  # deflection limit [rad]: 3350 Nm at 6.7e4 Nm/rad, never reached
-)
-
-#: As DYROS_DRIVE with the SHG-20's friction of the other copies of the lab's scene (9.9 Nm).
-DYROS_DRIVE_FRICTION_9_9 = replace(DYROS_DRIVE, friction=shg20_shd20(9.9, 22.0))
+def build_dyros_red() -> RobotDesign:
+    return build_dyros("dyros_red", "DYROS RED (12-DoF legs, rigid upper body)")
 
 
 def build_dyros_actuated() -> RobotDesign:
-    return build_dyros(DYROS_DRIVE)
+    return build_dyros(
+        "dyros_red_actuated",
+        "DYROS RED with its joint drives: rotor, harmonic-drive compliance, torque loop",
+    )
 
 
 def build_dyros_actuated_9_9() -> RobotDesign:
     return build_dyros(
-        DYROS_DRIVE_FRICTION_9_9,
-        name="dyros_red_actuated_9_9",
-        description="dyros_red_actuated with 9.9 Nm of Coulomb friction at the SHG-20 joints",
+        "dyros_red_actuated_9_9",
+        "dyros_red_actuated with 9.9 Nm of Coulomb friction at the SHG-20 joints",
     )
 
 
 def build_dyros_armature() -> RobotDesign:
     return build_dyros(
-        armature=DYROS_ARMATURE,
-        name="dyros_red_armature",
-        description="dyros_red (ideal torques) with the lab's published reflected rotor inertia",
+        "dyros_red_armature",
+        "dyros_red (ideal torques) with the lab's published reflected rotor inertia",
     )
 
 
 # --------------------------------------------------------------------------------------
-# COMAN (Paper II, Faraji et al.)
+# Arms (COMAN and the KIST humanoid)
 # --------------------------------------------------------------------------------------
-
-COMAN_TOTAL_MASS = 30.0  # paper: ≈ 30 kg
-COMAN_LEG_SHARE = 0.225  # paper: each leg ≈ 22.5 % of the body mass (human: 17.3 %)
-COMAN_HIP_Y = 0.07  # paper: pelvis (hip-to-hip) width ≈ 0.14 m
-COMAN_THIGH = 0.22  # assumed
-COMAN_SHANK = 0.25  # paper: shank ≈ 0.25 m
-COMAN_ANKLE_H = 0.06  # assumed: ankle axis above the sole bottom
-COMAN_FOOT = (0.22, 0.10)  # assumed (see README: the Fig. 20 lean needs ≈ 8 cm of CoP travel)
-COMAN_FOOT_AHEAD = 0.03  # paper: foot centre 3 cm ahead of the ankle axis
-COMAN_HEIGHT = 0.90  # paper: ≈ 0.9 m
-COMAN_WAIST_Z = 0.08  # assumed: waist joints above the hip midpoint
-COMAN_SEA = SeaModel(
-    motor_armature=0.23,  # paper Eq. 19: J_m ≈ 0.23 Nms^2/rad
-    motor_damping=5.42 / 0.45,  # paper: alpha / beta = 5.42 / 0.45 ≈ 12.04 Nms/rad
-    spring_damping=3.0,  # assumed: small (a quarter of alpha/beta)
-    spring_range=0.35,  # assumed: spring deflection limit
-    beta=0.45,  # paper: beta ≈ 0.45 V/Nm
-    supply=15.0,  # paper: 15 V supply
-)
-# Spring constants [Nm/rad]. Published source for COMAN's joint springs: the COMAN Robotran
-# simulator of Van der Noot & Barrea (UCLouvain), github.com/NicolasVdN/CoManRobotran,
-# Standalone/src/project/simulation_files/init_actuator_model.c (commit 0207863b): 395.46 at
-# hip pitch, knee, ankle pitch, waist pitch and waist yaw; 120 at shoulder pitch and roll and
-# the elbow; 8400 (effectively rigid) at hip roll and yaw, ankle roll, waist roll and shoulder
-# yaw. IIT's CoMan simulator agrees on the leg SEA (github.com/HDallali/CoManRobotranSimulator,
-# Standalone/src/project/project_files/ActuatorStruct.c: Kollmorgen RBE1211 + CSD17, 390).
-# A sourced value replaced an assumption only if every coman expectation that reproduced
-# still reproduced with it (README, Known deviations, Paper II; robots/coman/README.md has
-# the measurements). Not adopted: ankle pitch (125 is derived from the paper's own Fig. 20
-# measurement: the paper's ≈ 31 Nm/rad per ankle is the apparent stiffness F·h / (2Δθ) of
-# the standing robot under a neck pull, which includes gravity's destabilising m g h_c);
-# knee (395.46 breaks the forward push's corrective-step count; the paper's knee springs were
-# worn, "lose their original stiffness"); the rigid 8400 joints (they break the pushes and
-# the drag, though a rigid ankle roll lets the paper's hip gain and delay walk).
-COMAN_SPRINGS = {
-    "hip_yaw": 400.0,  # assumed (source: 8400, not adopted)
-    "hip_roll": 400.0,  # assumed (source: 8400, not adopted)
-    "hip_pitch": 395.46,  # source
-    "knee": 300.0,  # assumed (source: 395.46, not adopted)
-    "ankle_pitch": 125.0,  # derived from paper Fig. 20 (source: 395.46, not adopted)
-    "ankle_roll": 125.0,  # assumed: as ankle pitch (source: 8400, not adopted)
-    "waist_yaw": 395.46,  # source
-    "waist_roll": 400.0,  # assumed (source: 8400, not adopted)
-    "waist_pitch": 395.46,  # source
-    "shoulder_pitch": 120.0,  # source
-    "shoulder_roll": 120.0,  # source
-    "shoulder_yaw": 100.0,  # assumed (source: 8400, not adopted)
-    "elbow": 120.0,  # source
-}
-# Position gains k_d [V/rad] (paper): 10 ankle roll, 100 hip pitch, 500 elsewhere.
-COMAN_KD = {"ankle_roll": 10.0, "hip_pitch": 100.0}
-COMAN_KD_DEFAULT = 500.0
-
-
-COMAN_LEG_LINK_MASSES = (0.9, 0.9, 2.0, 1.5, 0.55)  # assumed: hip yaw to ankle [kg]
-COMAN_LEG = LegDims(
-    hip=(COMAN_HIP_Y, 0),
-    thigh_length=COMAN_THIGH,
-    shank_length=COMAN_SHANK,
-    hip_yaw_shapes=(
-        Shape("cylinder", COMAN_LEG_LINK_MASSES[0], (0.035,), fromto=(0, 0, -0.01, 0, 0, 0.05)),
-    ),
-    hip_roll_shapes=(Shape("box", COMAN_LEG_LINK_MASSES[1], (0.04, 0.03, 0.03), (0, 0, -0.01)),),
-    thigh_shapes=(
-        Shape("capsule", COMAN_LEG_LINK_MASSES[2], (0.04,), fromto=(0, 0, -0.04, 0, 0, -0.18)),
-    ),
-    shank_shapes=(
-        Shape("capsule", 0.9, (0.035,), fromto=(0, 0, -0.035, 0, 0, -0.2)),
-        # The ankle motors sit on the shank, distal to the knee (paper).
-        Shape("box", COMAN_LEG_LINK_MASSES[3] - 0.9, (0.04, 0.035, 0.04), (0, 0, -0.17)),
-    ),
-    ankle_shapes=(Shape("box", COMAN_LEG_LINK_MASSES[4], (0.03, 0.03, 0.025)),),
-    foot_mass=COMAN_LEG_SHARE * COMAN_TOTAL_MASS - sum(COMAN_LEG_LINK_MASSES),
-    ft_housing=Shape("box", 0.3, (0.03, 0.03, 0.015), (0, 0, -0.03), collide=False),
-    ft_site_z=-0.04,
-    foot_size=COMAN_FOOT,
-    sole_half_thickness=0.0075,
-    ankle_height=COMAN_ANKLE_H,
-    foot_ahead=COMAN_FOOT_AHEAD,
-)
-
-
-def coman_leg(side: int, joints: dict[str, JointSpec]) -> Body:
-    """One COMAN leg, every joint series-elastic (:func:`sea_joint`)."""
-    return leg(side, COMAN_LEG, lambda name, base: sea_joint(joints, name, base, side))
 
 
 @dataclass(frozen=True)
@@ -742,6 +852,20 @@ class ArmDims:
     elbow_z: float
     forearm_mass: float
     forearm: tuple[float, float, float]  # radius, top offset, bottom offset (negative z)
+
+
+def arm_dims(p: Ledger, forearm_mass: float | None = None) -> ArmDims:
+    """The arm from the ledger; ``forearm_mass`` if the caller derives it from a total."""
+    return ArmDims(
+        shoulder=p.vec("shoulder_position", 2),  # type: ignore[arg-type]
+        shoulder_masses=p.vec("shoulder_link_masses", 2),  # type: ignore[arg-type]
+        shoulder_radii=p.vec("shoulder_link_radii", 2),  # type: ignore[arg-type]
+        upper_mass=p.num("upper_arm_mass"),
+        upper=p.vec("upper_arm_shape", 3),  # type: ignore[arg-type]
+        elbow_z=p.num("elbow_z"),
+        forearm_mass=p.num("forearm_mass") if forearm_mass is None else forearm_mass,
+        forearm=p.vec("forearm_shape", 3),  # type: ignore[arg-type]
+    )
 
 
 def arm(side: int, dims: ArmDims, joint: Callable[[str, str], list[Joint]]) -> Body:
@@ -779,26 +903,28 @@ def arm(side: int, dims: ArmDims, joint: Callable[[str, str], list[Joint]]) -> B
     )
 
 
-COMAN_ARM = ArmDims(
-    shoulder=(0.15, 0.17),
-    shoulder_masses=(0.4, 0.4),
-    shoulder_radii=(0.035, 0.03),
-    upper_mass=0.7,
-    upper=(0.03, -0.03, -0.15),
-    elbow_z=-0.17,
-    forearm_mass=0.7,
-    forearm=(0.025, -0.02, -0.17),
-)
+# --------------------------------------------------------------------------------------
+# COMAN (Paper II, Faraji et al.): robots/coman/parameters.yaml
+# --------------------------------------------------------------------------------------
 
 
-def coman_arm(side: int, joints: dict[str, JointSpec]) -> Body:
-    return arm(side, COMAN_ARM, lambda name, base: sea_joint(joints, name, base, side))
+def coman_sea(p: Ledger) -> SeaModel:
+    """COMAN's series-elastic actuation (Faraji et al., motor model Eqs. 19-20)."""
+    return SeaModel(
+        motor_armature=p.num("motor_armature"),
+        motor_damping=p.num("alpha") / p.num("beta"),  # back-EMF alpha / beta [Nms/rad]
+        spring_damping=p.num("spring_damping"),
+        spring_range=p.num("spring_range"),
+        beta=p.num("beta"),
+        supply=p.num("supply"),
+    )
 
 
-def sea_joint(joints: dict[str, JointSpec], name: str, base: str, side: int) -> list[Joint]:
+def sea_joint(
+    joints: dict[str, JointSpec], name: str, base: str, side: int, sea: SeaModel
+) -> list[Joint]:
     """Motor DoF then spring DoF on the same axis (link angle = motor + spring)."""
     spec = joints[name]
-    sea = COMAN_SEA
     rng = mirror_range(base, spec.range, side)
     return [
         Joint(f"{name}_motor", AXIS[base], rng, sea.motor_damping, sea.motor_armature),
@@ -814,237 +940,188 @@ def sea_joint(joints: dict[str, JointSpec], name: str, base: str, side: int) -> 
 
 
 def build_coman() -> RobotDesign:
-    leg_ranges = {
-        "hip_yaw": (-0.6, 0.6),
-        "hip_roll": (-0.35, 0.6),
-        "hip_pitch": (-1.8, 0.6),
-        "knee": (0.0, 2.2),
-        "ankle_pitch": (-1.0, 0.8),
-        "ankle_roll": (-0.45, 0.45),
-    }
-    trunk_ranges = {"waist_yaw": (-0.8, 0.8), "waist_roll": (-0.4, 0.4), "waist_pitch": (-0.4, 0.9)}
-    arm_ranges = {
-        "shoulder_pitch": (-2.5, 1.0),
-        "shoulder_roll": (-0.2, 1.8),
-        "shoulder_yaw": (-1.5, 1.5),
-        "elbow": (-2.3, 0.0),
-    }
+    p = load_ledger("coman")
+    sea = coman_sea(p)
+    total = p.num("total_mass")
+    leg_mass = p.num("leg_mass_share") * total
+    ranges = joint_ranges(p, LEG_JOINTS + ("waist_yaw", "waist_roll", "waist_pitch") + ARM_JOINTS)
+    gains = p.table("position_gain")
     joints: dict[str, JointSpec] = {}
 
-    def add(name: str, base: str, rng: tuple[float, float]) -> None:
+    def add(name: str, base: str) -> None:
         joints[name] = JointSpec(
-            rng,
-            COMAN_SEA.motor_damping,
-            COMAN_SEA.motor_armature,
-            spring=COMAN_SPRINGS[base],
-            kd=COMAN_KD.get(base, COMAN_KD_DEFAULT),
+            ranges[base],
+            sea.motor_damping,
+            sea.motor_armature,
+            spring=p.num(f"spring_{base}"),
+            kd=gains[base],
         )
 
     for s in ("l", "r"):
         for j in LEG_JOINTS:
-            add(f"{s}_{j}", j, leg_ranges[j])
-    for j, rng in trunk_ranges.items():
-        add(j, j, rng)
+            add(f"{s}_{j}", j)
+    for j in ("waist_yaw", "waist_roll", "waist_pitch"):
+        add(j, j)
     for s in ("l", "r"):
         for j in ARM_JOINTS:
-            add(f"{s}_{j}", j, arm_ranges[j])
+            add(f"{s}_{j}", j)
 
-    leg_mass = COMAN_LEG_SHARE * COMAN_TOTAL_MASS
-    m_pelvis, m_waist_yaw, m_waist_roll, m_arm = 3.5, 0.5, 0.5, 2.2
-    m_torso = COMAN_TOTAL_MASS - 2 * leg_mass - m_pelvis - m_waist_yaw - m_waist_roll - 2 * m_arm
-    straight_pelvis_z = COMAN_ANKLE_H + COMAN_SHANK + COMAN_THIGH
-    head_r = 0.06
-    head_z = COMAN_HEIGHT - straight_pelvis_z - COMAN_WAIST_Z - head_r  # in the torso frame
+    def joint(side: int) -> Callable[[str, str], list[Joint]]:
+        return lambda name, base: sea_joint(joints, name, base, side, sea)
+
+    masses = p.vec("leg_link_masses", 5)  # hip yaw to ankle [kg]; the foot takes the rest
+    tube_mass = p.num("shank_tube_mass")
+    shank = (
+        z_segment("capsule", tube_mass, p.vec("shank_tube_shape", 3)),
+        # The ankle motors sit on the shank, distal to the knee (paper).
+        box_at_z(masses[3] - tube_mass, p.vec("ankle_motor_box_shape", 4)),
+    )
+    foot = (p.num("foot_length"), p.num("foot_width"))
+    dims = leg_dims(p, (p.num("hip_y"), 0), shank, leg_mass - sum(masses), foot)
+    arms = arm_dims(p)
+    m_arm = arms.shoulder_masses[0] + arms.shoulder_masses[1] + arms.upper_mass + arms.forearm_mass
+    m_pelvis, m_waist_yaw, m_waist_roll = (
+        p.num("pelvis_mass"),
+        p.num("waist_yaw_link_mass"),
+        p.num("waist_roll_link_mass"),
+    )
+    m_torso = total - 2 * leg_mass - m_pelvis - m_waist_yaw - m_waist_roll - 2 * m_arm
+    waist_z = p.num("waist_z")
+    straight_pelvis_z = p.num("ankle_height") + p.num("shank") + p.num("thigh")
+    head_r, m_head = p.num("head_radius"), p.num("head_mass")
+    head_z = p.num("height") - straight_pelvis_z - waist_z - head_r  # in the torso frame
     torso = Body(
         "torso",
         (0, 0, 0),
         [
-            Shape("box", m_torso - 1.0, (0.07, 0.11, 0.09), (0, 0, 0.11)),
-            Shape("sphere", 1.0, (head_r,), (0, 0, head_z)),
+            box_at_z(m_torso - m_head, p.vec("torso_shape", 4)),
+            Shape("sphere", m_head, (head_r,), (0, 0, head_z)),
         ],
-        sea_joint(joints, "waist_pitch", "waist_pitch", 1),
-        children=[coman_arm(1, joints), coman_arm(-1, joints)],
+        sea_joint(joints, "waist_pitch", "waist_pitch", 1, sea),
+        children=[arm(1, arms, joint(1)), arm(-1, arms, joint(-1))],
     )
     waist_roll = Body(
         "waist_roll_link",
         (0, 0, 0),
-        [Shape("box", m_waist_roll, (0.035, 0.05, 0.02))],
-        sea_joint(joints, "waist_roll", "waist_roll", 1),
+        [box_at_z(m_waist_roll, p.vec("waist_roll_link_shape", 3))],
+        sea_joint(joints, "waist_roll", "waist_roll", 1, sea),
         children=[torso],
     )
     waist_yaw = Body(
         "waist_yaw_link",
-        (0, 0, COMAN_WAIST_Z),
-        [Shape("box", m_waist_yaw, (0.04, 0.05, 0.02), (0, 0, -0.02))],
-        sea_joint(joints, "waist_yaw", "waist_yaw", 1),
+        (0, 0, waist_z),
+        [box_at_z(m_waist_yaw, p.vec("waist_yaw_link_shape", 4))],
+        sea_joint(joints, "waist_yaw", "waist_yaw", 1, sea),
         children=[waist_roll],
     )
     pelvis = Body(
         "pelvis",
         (0, 0, 0),
-        [Shape("box", m_pelvis, (0.06, 0.10, 0.045), (0, 0, 0.03))],
-        sites=[Site("imu", (0, 0, 0.03))],  # paper: the IMU is on the pelvis
-        children=[coman_leg(1, joints), coman_leg(-1, joints), waist_yaw],
+        [box_at_z(m_pelvis, p.vec("pelvis_shape", 4))],
+        sites=[Site("imu", (0, 0, p.num("imu_z")))],
+        children=[leg(1, dims, joint(1)), leg(-1, dims, joint(-1)), waist_yaw],
     )
+    friction, condim = contact(p)
     return RobotDesign(
         "coman",
         "COMAN (series-elastic, motor-side position control)",
         pelvis,
         joints,
-        home_knee=0.4,  # paper: nominal knee angle ≈ 0.4 rad
-        home_fixed={
-            "l_shoulder_roll": 0.1,
-            "r_shoulder_roll": -0.1,
-            "l_elbow": -0.3,
-            "r_elbow": -0.3,
-        },
+        home_knee=p.num("home_knee"),
+        home_fixed=home_arms(p),
         rgba="0.2 0.35 0.7 1",
-        sea=COMAN_SEA,
+        sea=sea,
+        friction=friction,
+        condim=condim,
+        ledger=p,
     )
 
 
 # --------------------------------------------------------------------------------------
-# KIST humanoid (Paper III, Jo & Oh)
+# KIST humanoid (Paper III, Jo & Oh): robots/kist_humanoid/parameters.yaml
 # --------------------------------------------------------------------------------------
-
-KIST_HIP_Y = 0.09  # assumed
-KIST_HIP_Z = -0.08  # assumed
-KIST_THIGH = 0.32  # assumed (brief: leg links ≈ 0.3-0.35 m)
-KIST_SHANK = 0.32  # assumed
-KIST_ANKLE_H = 0.10  # assumed: ankle axis above the sole; the F/T sensor sits in between
-KIST_FOOT = (0.24, 0.13)  # assumed
-KIST_FOOT_AHEAD = 0.02  # assumed: sole centre ahead of the ankle axis
-KIST_HEIGHT = 1.55  # assumed: adult-size 1.5-1.6 m
-KIST_LEG_MASS = 10.0  # paper: each leg 10 kg
-KIST_ARM_MASS = 6.0  # paper: each arm 6 kg
-KIST_BODY_MASS = 20.0  # paper: body 20 kg (pelvis + waist + torso here)
-KIST_HEAD_MASS = 5.0  # paper: the remaining ≈ 5 kg (head)
-
-
-KIST_LEG_LINK_MASSES = (1.2, 1.3, 3.0, 2.3, 0.8)  # assumed: hip yaw to ankle [kg]
-KIST_LEG = LegDims(
-    hip=(KIST_HIP_Y, KIST_HIP_Z),
-    thigh_length=KIST_THIGH,
-    shank_length=KIST_SHANK,
-    hip_yaw_shapes=(
-        Shape("cylinder", KIST_LEG_LINK_MASSES[0], (0.045,), fromto=(0, 0, 0.0, 0, 0, 0.07)),
-    ),
-    hip_roll_shapes=(Shape("box", KIST_LEG_LINK_MASSES[1], (0.06, 0.045, 0.045)),),
-    thigh_shapes=(
-        Shape("capsule", KIST_LEG_LINK_MASSES[2], (0.06,), fromto=(0, 0, -0.05, 0, 0, -0.27)),
-    ),
-    shank_shapes=(
-        Shape("capsule", KIST_LEG_LINK_MASSES[3], (0.05,), fromto=(0, 0, -0.05, 0, 0, -0.27)),
-    ),
-    ankle_shapes=(Shape("box", KIST_LEG_LINK_MASSES[4], (0.04, 0.04, 0.035)),),
-    foot_mass=KIST_LEG_MASS - sum(KIST_LEG_LINK_MASSES),
-    # The 6-axis F/T sensor between ankle and sole (paper: below the ankles).
-    ft_housing=Shape("box", 0.4, (0.04, 0.04, 0.015), (0, 0, -0.06), collide=False),
-    ft_site_z=-0.06,
-    foot_size=KIST_FOOT,
-    sole_half_thickness=0.0125,
-    ankle_height=KIST_ANKLE_H,
-    foot_ahead=KIST_FOOT_AHEAD,
-)
-
-
-def kist_leg(side: int, joints: dict[str, JointSpec]) -> Body:
-    """One KIST humanoid leg, every joint a rigid torque-driven hinge."""
-    return leg(side, KIST_LEG, lambda name, base: joint_for(joints, name, base, side))
-
-
-KIST_ARM = ArmDims(
-    shoulder=(0.21, 0.34),
-    shoulder_masses=(0.8, 0.8),
-    shoulder_radii=(0.05, 0.045),
-    upper_mass=2.2,
-    upper=(0.045, -0.04, -0.22),
-    elbow_z=-0.26,
-    forearm_mass=2.2,
-    forearm=(0.04, -0.03, -0.26),
-)
-
-
-def kist_arm(side: int, joints: dict[str, JointSpec]) -> Body:
-    return arm(side, KIST_ARM, lambda name, base: joint_for(joints, name, base, side))
 
 
 def build_kist() -> RobotDesign:
-    leg_ranges = {
-        "hip_yaw": (-0.75, 0.75),
-        "hip_roll": (-0.4, 0.6),
-        "hip_pitch": (-1.8, 0.6),
-        "knee": (0.0, 2.4),
-        "ankle_pitch": (-1.0, 0.8),
-        "ankle_roll": (-0.45, 0.45),
-    }
-    trunk_ranges = {"waist_yaw": (-1.0, 1.0), "waist_pitch": (-0.4, 1.0)}
-    arm_ranges = {
-        "shoulder_pitch": (-3.0, 1.2),
-        "shoulder_roll": (-0.2, 2.0),
-        "shoulder_yaw": (-1.6, 1.6),
-        "elbow": (-2.4, 0.0),
-    }
-    # All assumed: damping 1 Nms/rad; reflected inertia 0.1 (legs, trunk) / 0.05 (arms)
-    # kg m^2; torque limits sized for a 57 kg robot.
+    p = load_ledger("kist_humanoid")
+    leg_total = p.num("leg_mass")
+    masses = p.vec("leg_link_masses", 5)  # hip yaw to ankle [kg]; the foot takes the rest
+    hip = p.vec("hip_position", 2)
+    shank = (z_segment("capsule", masses[3], p.vec("shank_shape", 3)),)
+    length, width = p.vec("foot_size", 2)
+    dims = leg_dims(p, (hip[0], hip[1]), shank, leg_total - sum(masses), (length, width))
+    m_shoulders = p.vec("shoulder_link_masses", 2)
+    # The forearm (with the hand) takes what the paper's arm mass leaves.
+    forearm = p.num("arm_mass") - m_shoulders[0] - m_shoulders[1] - p.num("upper_arm_mass")
+    arms = arm_dims(p, forearm_mass=forearm)
+    ranges = joint_ranges(p, LEG_JOINTS + ("waist_yaw", "waist_pitch") + ARM_JOINTS)
+    damping = p.num("joint_damping")
+    armature, limit = p.table("armature"), p.table("torque_limit")
     joints: dict[str, JointSpec] = {}
+
+    def add(name: str, base: str, group: str) -> None:
+        joints[name] = JointSpec(ranges[base], damping, armature[group], ctrl_limit=limit[group])
+
     for s in ("l", "r"):
         for j in LEG_JOINTS:
-            joints[f"{s}_{j}"] = JointSpec(leg_ranges[j], 1.0, 0.1, ctrl_limit=300.0)
-    for j, rng in trunk_ranges.items():
-        joints[j] = JointSpec(rng, 1.0, 0.1, ctrl_limit=200.0)
+            add(f"{s}_{j}", j, "leg")
+    for j in ("waist_yaw", "waist_pitch"):
+        add(j, j, "trunk")
     for s in ("l", "r"):
         for j in ARM_JOINTS:
-            joints[f"{s}_{j}"] = JointSpec(arm_ranges[j], 1.0, 0.05, ctrl_limit=100.0)
+            add(f"{s}_{j}", j, "arm")
 
-    m_pelvis, m_waist = 8.0, 2.0
-    m_torso = KIST_BODY_MASS - m_pelvis - m_waist
-    straight_pelvis_z = KIST_ANKLE_H + KIST_SHANK + KIST_THIGH - KIST_HIP_Z
-    # Trunk frames above the pelvis origin: waist yaw 0.10, waist pitch 0.16, head 0.58.
-    head_r = 0.10
-    head_center_z = KIST_HEIGHT - straight_pelvis_z - 0.58 - head_r  # in the head frame
+    def joint(side: int) -> Callable[[str, str], list[Joint]]:
+        return lambda name, base: joint_for(joints, name, base, side)
+
+    m_pelvis, m_waist = p.num("pelvis_mass"), p.num("waist_link_mass")
+    m_torso = p.num("body_mass") - m_pelvis - m_waist
+    straight_pelvis_z = p.num("ankle_height") + p.num("shank") + p.num("thigh") - hip[1]
+    # Trunk frames: waist yaw above the pelvis origin, waist pitch above it, head above that.
+    z_yaw, z_pitch, z_head = p.num("waist_yaw_z"), p.num("waist_pitch_z"), p.num("head_z")
+    head_r, m_neck = p.num("head_radius"), p.num("neck_mass")
+    head_center_z = p.num("height") - straight_pelvis_z - (z_yaw + z_pitch + z_head) - head_r
     head = Body(
         "head",
-        (0, 0, 0.42),
+        (0, 0, z_head),
         [
-            Shape("cylinder", 1.0, (0.04,), fromto=(0, 0, -0.04, 0, 0, 0.0)),
-            Shape("sphere", KIST_HEAD_MASS - 1.0, (head_r,), (0, 0, head_center_z)),
+            z_segment("cylinder", m_neck, p.vec("neck_shape", 3)),
+            Shape("sphere", p.num("head_mass") - m_neck, (head_r,), (0, 0, head_center_z)),
         ],
     )
     torso = Body(
         "torso",
-        (0, 0, 0.06),
-        [Shape("box", m_torso, (0.11, 0.16, 0.19), (0, 0, 0.21))],
+        (0, 0, z_pitch),
+        [box_at_z(m_torso, p.vec("torso_shape", 4))],
         joint_for(joints, "waist_pitch", "waist_pitch", 1),
-        sites=[Site("imu", (0, 0, 0.15))],
-        children=[head, kist_arm(1, joints), kist_arm(-1, joints)],
+        sites=[Site("imu", (0, 0, p.num("imu_z")))],
+        children=[head, arm(1, arms, joint(1)), arm(-1, arms, joint(-1))],
     )
     waist = Body(
         "waist_yaw_link",
-        (0, 0, 0.10),
-        [Shape("box", m_waist, (0.06, 0.08, 0.03), (0, 0, 0.03))],
+        (0, 0, z_yaw),
+        [box_at_z(m_waist, p.vec("waist_link_shape", 4))],
         joint_for(joints, "waist_yaw", "waist_yaw", 1),
         children=[torso],
     )
     pelvis = Body(
         "pelvis",
         (0, 0, 0),
-        [Shape("box", m_pelvis, (0.09, 0.14, 0.07))],
-        children=[kist_leg(1, joints), kist_leg(-1, joints), waist],
+        [box_at_z(m_pelvis, p.vec("pelvis_shape", 3))],
+        children=[leg(1, dims, joint(1)), leg(-1, dims, joint(-1)), waist],
     )
+    friction, condim = contact(p)
     return RobotDesign(
         "kist_humanoid",
         "KIST humanoid (22 joints, torque-controlled)",
         pelvis,
         joints,
-        home_knee=0.6,
-        home_fixed={
-            "l_shoulder_roll": 0.1,
-            "r_shoulder_roll": -0.1,
-            "l_elbow": -0.3,
-            "r_elbow": -0.3,
-        },
+        home_knee=p.num("home_knee"),
+        home_fixed=home_arms(p),
         rgba="0.25 0.55 0.3 1",
+        friction=friction,
+        condim=condim,
+        ledger=p,
     )
 
 
@@ -1053,7 +1130,7 @@ def build_kist() -> RobotDesign:
 # --------------------------------------------------------------------------------------
 
 
-def body_element(body: Body, rgba: str) -> ET.Element:
+def body_element(body: Body, robot: RobotDesign) -> ET.Element:
     el = ET.Element("body", {"name": body.name, "pos": fvec(body.pos)})
     mass, com, inertia = composite_inertia(body.shapes)
     ET.SubElement(
@@ -1102,14 +1179,14 @@ def body_element(body: Body, rgba: str) -> ET.Element:
         # with its own geoms, so nothing may rely on <default> classes leaking between them.
         attrs["contype"] = str(ROBOT_CONTYPE if s.collide else 0)
         attrs["conaffinity"] = str(ROBOT_CONAFFINITY if s.collide else 0)
-        attrs["condim"] = "3"
-        attrs["friction"] = SOLE_FRICTION
-        attrs["rgba"] = "0.15 0.15 0.15 1" if s.sole else rgba
+        attrs["condim"] = robot.condim
+        attrs["friction"] = robot.friction
+        attrs["rgba"] = "0.15 0.15 0.15 1" if s.sole else robot.rgba
         ET.SubElement(el, "geom", attrs)
     for site in body.sites:
         ET.SubElement(el, "site", {"name": site.name, "pos": fvec(site.pos), "size": "0.01"})
     for child in body.children:
-        el.append(body_element(child, rgba))
+        el.append(body_element(child, robot))
     return el
 
 
@@ -1122,7 +1199,7 @@ def build_xml(robot: RobotDesign, keyframe: tuple[np.ndarray, np.ndarray] | None
     )
     ET.SubElement(root, "compiler", {"angle": "radian", "autolimits": "true"})
     world = ET.SubElement(root, "worldbody")
-    pelvis = body_element(robot.pelvis, robot.rgba)
+    pelvis = body_element(robot.pelvis, robot)
     pelvis.insert(1, ET.Element("freejoint", {"name": "root"}))
     world.append(pelvis)
 
@@ -1284,8 +1361,83 @@ def generate(robot: RobotDesign) -> str:
     return build_xml(robot, solve_home(robot, model))
 
 
+# --------------------------------------------------------------------------------------
+# README parameter tables, generated from the ledgers
+# --------------------------------------------------------------------------------------
+
+
+def format_ledger_value(value: LedgerValue) -> str:
+    """A ledger value as table text: a number, ``[a, b]``, or ``name value, …``."""
+    if isinstance(value, dict):
+        return ", ".join(f"{k} {fmt(float(v), 10)}" for k, v in value.items())
+    if isinstance(value, list):
+        return "[" + ", ".join(fmt(float(v), 10) for v in value) + "]"
+    return fmt(float(value), 10)
+
+
+def _cell(text: str) -> str:
+    return " ".join(text.split()).replace("|", "\\|")
+
+
+def class_counts(entries: dict[str, dict]) -> str:
+    counts = {c: sum(e["class"] == c for e in entries.values()) for c in LEDGER_CLASSES}
+    return ", ".join(f"{c} {n}" for c, n in counts.items())
+
+
+def readme_block(robot: str, robots_dir: Path = ROBOTS_DIR) -> str:
+    """The generated README block of ``robot``: its own ledger entries as a table, and the
+    count per class (of its own entries and, for a variant, of the resolved ledger)."""
+    data = read_ledger_file(ledger_path(robot, robots_dir))
+    own = data["parameters"]
+    lines = [
+        README_BEGIN,
+        "",
+        "| name | value | unit | class | source |",
+        "|---|---|---|---|---|",
+    ]
+    for name, e in own.items():
+        source = e["source"]
+        if "source_value" in e:
+            sv = e["source_value"]
+            source += (
+                f" **Source value not in force:** {format_ledger_value(sv['value'])}"
+                f" ({sv['source']})"
+            )
+        lines.append(
+            f"| `{name}` | {format_ledger_value(e['value'])} | {_cell(e['unit'])} | "
+            f"{e['class']} | {_cell(source)} |"
+        )
+    lines.append("")
+    entries = "1 entry" if len(own) == 1 else f"{len(own)} entries"
+    counts = f"{entries} in `robots/{robot}/parameters.yaml`: {class_counts(own)}."
+    parent = data["inherits"]
+    if parent is not None:
+        resolved = load_ledger(robot, robots_dir).entries
+        counts += (
+            f" It extends `{parent}` (`robots/{parent}/README.md`): the entries above add to or "
+            f"replace its ledger; the robot's {len(resolved)} entries: {class_counts(resolved)}."
+        )
+    lines += [counts, "", README_END]
+    return "\n".join(lines)
+
+
+def replace_readme_block(text: str, block: str, path: Path) -> str:
+    """``text`` with its generated parameter block replaced by ``block``."""
+    if text.count(README_BEGIN) != 1 or text.count(README_END) != 1:
+        raise LedgerError(f"{path}: needs exactly one {README_BEGIN} ... {README_END} block")
+    head, rest = text.split(README_BEGIN)
+    _, tail = rest.split(README_END)
+    return head + block + tail
+
+
+def readme_text(robot: str, robots_dir: Path = ROBOTS_DIR) -> tuple[Path, str]:
+    """The README's path and the text it must have."""
+    path = robots_dir / robot / "README.md"
+    return path, replace_readme_block(path.read_text(), readme_block(robot, robots_dir), path)
+
+
 BUILDERS = {
-    "dyros_red": build_dyros,
+    "dyros_red": build_dyros_red,
     "dyros_red_actuated": build_dyros_actuated,
     "dyros_red_actuated_9_9": build_dyros_actuated_9_9,
     "dyros_red_armature": build_dyros_armature,
@@ -1297,22 +1449,38 @@ BUILDERS = {
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
-        "--check", action="store_true", help="only compare with the committed files"
+        "--check",
+        action="store_true",
+        help="only compare with the committed robot.xml files and README parameter blocks",
+    )
+    parser.add_argument(
+        "--readme",
+        action="store_true",
+        help="only rewrite the README parameter blocks from the ledgers (no robot.xml)",
     )
     args = parser.parse_args(argv)
     stale = []
     for name, build in BUILDERS.items():
+        path, text = readme_text(name)
+        if args.check:
+            if path.read_text() != text:
+                stale.append(f"{name}/README.md")
+        elif path.read_text() != text:
+            path.write_text(text)
+            print(f"wrote {path.relative_to(ROBOTS_DIR.parent)}")
+        if args.readme:
+            continue
         text = generate(build())
         path = ROBOTS_DIR / name / "robot.xml"
         if args.check:
             if not path.exists() or path.read_text() != text:
-                stale.append(name)
+                stale.append(f"{name}/robot.xml")
         else:
             path.parent.mkdir(exist_ok=True)
             path.write_text(text)
             print(f"wrote {path.relative_to(ROBOTS_DIR.parent)}")
     if stale:
-        print(f"stale robot.xml (run python robots/build_models.py): {', '.join(stale)}")
+        print(f"stale (run python robots/build_models.py): {', '.join(stale)}")
         return 1
     return 0
 
