@@ -982,6 +982,8 @@ def _value_text(value: Any) -> str:
     """A calibrated value as the file holds it (``repr``: every digit), or ``—``."""
     if value is None:
         return "—"
+    if isinstance(value, str):  # a chosen option
+        return value
     if isinstance(value, tuple | list):
         return "(" + ", ".join(repr(float(v)) for v in value) + ")"
     return repr(float(value))

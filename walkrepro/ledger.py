@@ -79,6 +79,13 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
 
 
+class SourceValue(_Strict):
+    """A lab's value that is not in force, with its citation."""
+
+    value: Any
+    source: str = Field(min_length=1)
+
+
 class RobotEntry(_Strict):
     """One number of a robot's ledger (``robots/<robot>/parameters.yaml``)."""
 
@@ -87,7 +94,7 @@ class RobotEntry(_Strict):
     klass: Literal["paper", "source", "assumed", "calibrated"] = Field(alias="class")
     source: str = Field(min_length=1)
     description: str = ""
-    source_value: Any = Field(None, description="a lab's value that is not in force, cited")
+    source_value: SourceValue | None = Field(None, description="a lab's value not in force")
 
 
 class RobotLedger(_Strict):
@@ -279,7 +286,10 @@ def _robot_numbers(robot: str) -> Iterator[Number]:
         value = f"{_text(entry.value)} {entry.unit}".strip()
         source = entry.source
         if entry.source_value is not None:
-            source += f" (a lab's value not in force: {_text(entry.source_value)})"
+            source += (
+                f" [a lab's value NOT in force: {_text(entry.source_value.value)}, "
+                f"{entry.source_value.source}]"
+            )
         yield Number("robot", name, value, entry.klass, source)
 
 

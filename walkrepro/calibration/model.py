@@ -404,7 +404,10 @@ def write_calibration(path: Path, model: CalibrationFile) -> None:
 
 
 def same_value(a: Any, b: Any) -> bool:
-    """Bit-exact equality of two values (numbers or tuples of numbers; NaN never equal)."""
+    """Bit-exact equality of two values (numbers or tuples of numbers; NaN never equal; a
+    chosen option's name by equality)."""
+    if isinstance(a, str) or isinstance(b, str):
+        return a == b
     xa, xb = _elements(a), _elements(b)
     if isinstance(a, tuple | list) != isinstance(b, tuple | list) or len(xa) != len(xb):
         return False

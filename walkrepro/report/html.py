@@ -6,8 +6,9 @@ from ``file://``. All text from specs and verdicts is escaped here.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from html import escape
+from typing import Any
 
 from walkrepro.report.claims import Claim, Tally
 
@@ -122,6 +123,36 @@ def tally_cells(t: Tally) -> str:
 
 
 TALLY_HEAD = "<th>reproduced</th><th>calibrated</th><th>known deviation</th><th>failed</th>"
+#: The provenance classes' column heads (walkrepro provenance: the numbers a run uses).
+PROVENANCE_HEAD = (
+    '<th title="numbers the run uses, by provenance class (walkrepro provenance)">'
+    "numbers: paper · source · assumed · calibrated</th>"
+)
+
+
+def provenance_cell(counts: Mapping[str, int] | None) -> str:
+    """One cell: how many numbers of the run are paper, source, assumed, calibrated (and
+    unclassified, in red, if any)."""
+    if counts is None:
+        return '<td class="num">—</td>'
+    text = " · ".join(str(counts[k]) for k in ("paper", "source", "assumed", "calibrated"))
+    if counts.get("unclassified"):
+        text += f' · <span class="fail">{counts["unclassified"]} unclassified</span>'
+    return f'<td class="num">{text}</td>'
+
+
+def provenance_table(numbers: Sequence[Any]) -> str:
+    """Every number a run uses with its class and source, folded under a summary line."""
+    rows = [
+        f"<tr><td>{escape(n.group)}</td><td>{escape(n.name)}</td><td>{escape(n.value)}</td>"
+        f"<td>{escape(n.klass)}</td><td>{escape(n.source)}</td></tr>"
+        for n in numbers
+    ]
+    return (
+        f"<details><summary>Every number this run uses ({len(numbers)}), with its provenance "
+        "(walkrepro provenance)</summary><table><tr><th>group</th><th>parameter</th>"
+        "<th>value</th><th>class</th><th>source</th></tr>" + "".join(rows) + "</table></details>"
+    )
 
 
 def figure_gallery(figures: Iterable[tuple[str, str]]) -> str:

@@ -21,6 +21,7 @@ from pathlib import Path
 
 from walkrepro import IS_CHECKOUT, REFERENCES_DIR, RESULTS_DIR
 from walkrepro.errors import WalkreproError
+from walkrepro.ledger import counts
 from walkrepro.report import html
 from walkrepro.report.claims import Tally, experiment_claims, tally
 from walkrepro.report.maps import MapResult, experiment_maps
@@ -145,15 +146,17 @@ def _paper_page(
     for r in experiments:
         claims = experiment_claims(r.check)
         maps = experiment_maps(r.spec, maps_root)
+        numbers = _numbers_of(r.name)
         counted = tally(claims)
         for m in maps:
             counted = counted + tally(m.claims)
         total = total + counted
         toc.append(
             f'<tr><td><a href="#{escape(r.name)}">{escape(r.name)}</a></td>'
-            f"<td>{escape(_where(r))}</td>{html.tally_cells(counted)}</tr>"
+            f"<td>{escape(_where(r))}</td>{html.tally_cells(counted)}"
+            f"{html.provenance_cell(counts(numbers) if numbers is not None else None)}</tr>"
         )
-        sections.append(_experiment_section(site, r, claims, maps))
+        sections.append(_experiment_section(site, r, claims, maps, numbers))
     robots = sorted({r.spec.robot for r in experiments})
     robot_links = ", ".join(
         f'<a href="robots/{escape(robot)}.html">{escape(robot)}</a>' for robot in robots
@@ -164,18 +167,27 @@ def _paper_page(
         f'<p class="muted">{len(experiments)} experiments · robot model and sources: '
         f"{robot_links} · claims: {total.reproduced} reproduced, {total.calibrated} calibrated, "
         f"{total.known} known deviations, {total.failed} failed</p>\n"
-        f"<table>\n<tr><th>experiment</th><th>paper</th>{html.TALLY_HEAD}</tr>\n"
-        + "\n".join(toc)
-        + "\n</table>\n"
-        + "\n".join(sections)
+        f"<table>\n<tr><th>experiment</th><th>paper</th>{html.TALLY_HEAD}"
+        f"{html.PROVENANCE_HEAD}</tr>\n" + "\n".join(toc) + "\n</table>\n" + "\n".join(sections)
     )
     page = site / f"{key}.html"
     page.write_text(html.page(paper_title(key), body))
     return page, total
 
 
+def _numbers_of(name: str) -> list | None:
+    """The provenance ledger of experiment ``name`` (walkrepro provenance), or None where it
+    cannot be built (a run of a spec that is no longer shipped)."""
+    from walkrepro.ledger import experiment_ledger
+
+    try:
+        return experiment_ledger(name)
+    except WalkreproError:
+        return None
+
+
 def _experiment_section(
-    site: Path, r: ExperimentResult, claims: list, maps: list[MapResult]
+    site: Path, r: ExperimentResult, claims: list, maps: list[MapResult], numbers: list | None
 ) -> str:
     """An experiment: what it reproduces, the claims table beside the redrawn figures, the
     video, and its maps."""
@@ -196,6 +208,7 @@ def _experiment_section(
         f'<h2 id="{escape(r.name)}">{escape(r.name)}</h2>',
         f'<p class="muted">{meta}</p>',
         f"<p>{escape(r.spec.description.strip())}</p>",
+        html.provenance_table(numbers) if numbers is not None else "",
         '<div class="experiment">',
         f"<div>{html.claims_table(claims)}</div>",
         f"<div>{media}{html.figure_gallery(figures)}</div>",
