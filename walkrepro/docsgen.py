@@ -343,7 +343,10 @@ def deviations_page(paper: str, deviations: list[Deviation], experiments: list[E
 
 
 def _value(value: Any) -> str:
-    """A calibrated value with every digit (``repr``), a tuple in parentheses."""
+    """A calibrated value with every digit (``repr``), a tuple in parentheses, a chosen
+    option by its name."""
+    if isinstance(value, str):
+        return value
     if isinstance(value, list | tuple):
         return "(" + ", ".join(repr(float(v)) for v in value) + ")"
     return repr(float(value))
