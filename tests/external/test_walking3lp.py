@@ -148,9 +148,13 @@ class Walkrepro:
     """walkrepro's 3LP, DLQR and tables for one parameter set."""
 
     model: ThreeLP
+    """The 3LP model on the set's parameters."""
     conv: Conventions
+    """Walking3LP's conventions for these parameters (:func:`walking3lp_conventions`)."""
     dlqr: Dlqr
+    """The DLQR with the paper's weights (Eq. 17)."""
     tp: TimeProjection
+    """The time-projection tables on the fixture's phase grid (Fig. 13)."""
 
 
 @cache
