@@ -21,4 +21,5 @@ PLUGIN = Plugin(
     controllers={"timeprojection": "walkrepro.papers.faraji.controller:TimeProjectionController"},
     metric_modules=("walkrepro.papers.faraji.metrics",),
     figures={"faraji": "walkrepro.papers.faraji.figures"},
+    plots={"timeprojection": "walkrepro.papers.faraji.plots:PLOTS"},
 )

@@ -15,4 +15,5 @@ PLUGIN = Plugin(
     controllers={"qpimpedance": "walkrepro.papers.jo_oh.controller:QPImpedanceController"},
     metric_modules=("walkrepro.papers.jo_oh.metrics",),
     figures={"jo_oh": "walkrepro.papers.jo_oh.figures"},
+    plots={"qpimpedance": "walkrepro.papers.jo_oh.plots:PLOTS"},
 )

@@ -13,4 +13,5 @@ PLUGIN = Plugin(
     controllers={"efsm": "walkrepro.papers.lee2021.controller:EfsmController"},
     metric_modules=("walkrepro.papers.lee2021.metrics",),
     figures={"lee2021": "walkrepro.papers.lee2021.figures"},
+    plots={"efsm": "walkrepro.papers.lee2021.plots:PLOTS"},
 )
