@@ -43,8 +43,6 @@ from walkrepro.metrics import FOOT_BODIES
 from walkrepro.plots import Plot, Series, read_series, signal_plots
 from walkrepro.spec import spec_from_yaml_text
 
-#: The recording's file name in a run directory.
-RRD_FILE = "log.rrd"
 #: The timeline: simulated time.
 TIMELINE = "sim_time"
 #: Simulated time between two poses of the robot [s]: 60 Hz, smooth playback.
