@@ -174,3 +174,32 @@ def test_the_centre_of_pressure_is_where_the_force_acts() -> None:
     cop = centre_of_pressure(wrench, np.array([p[2], 0.0]))
     np.testing.assert_allclose(cop[0], p, atol=1e-12)
     assert not np.isfinite(cop[1, :2]).any()
+
+
+def test_a_declared_line_the_log_lacks_is_left_out_and_said(
+    run_dir: Path, recording: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A declared line whose signal the log does not have (an older log) is left out with a
+    note; the rest of the recording is written."""
+    from walkrepro import rerun_export
+    from walkrepro.plots import Plot, Series
+
+    plot = Plot("p", "a plot", "m", (Series("/controller/signals.gone", "gone"),))
+    monkeypatch.setattr(rerun_export, "_controller_plots", lambda log, controller: (plot,))
+    result = runner.invoke(
+        app, ["export", str(run_dir), "--rerun", "--out", str(run_dir / "older.rrd")]
+    )
+    assert result.exit_code == 0, result.output
+    assert "skipped:" in result.output and "gone" in result.output
+    assert (run_dir / "older.rrd").stat().st_size > 0
+
+
+def test_an_older_rerun_sdk_is_named_with_the_upgrade(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A Rerun SDK older than the export's API (0.41) exits 2 naming the upgrade."""
+    rerun = pytest.importorskip("rerun", reason="the Rerun SDK is not installed")
+    monkeypatch.setattr(rerun, "__version__", "0.30.1")
+    result = runner.invoke(app, ["export", str(tmp_path), "--rerun"])
+    assert result.exit_code == 2
+    assert "0.30.1" in result.output and f"{INSTALL} --upgrade" in result.output

@@ -666,6 +666,8 @@ def export(
     check = directory / results.CHECK_FILE  # the verdict of a run directory's log
     verdict = check if log.name == results.LOG_FILE and check.is_file() else None
     done = export_rerun(log, out or log.with_suffix(".rrd"), verdict, force)
+    for note in done.skipped:
+        _console(stderr=True).print(f"[yellow]skipped:[/] {escape(note)}", highlight=False)
     size = done.path.stat().st_size / 1e6
     _console().print(
         f"wrote {done.path} ({size:.1f} MB: {done.n_poses} poses over {done.duration:.2f} s, "

@@ -52,6 +52,8 @@ FORCE_SCALE = 1e-3
 #: Smallest normal force that draws a foot's contact arrow [N]; below, the foot is in the air
 #: and its centre of pressure is not defined.
 MIN_CONTACT_FORCE = 1.0
+#: The oldest Rerun SDK whose API the export uses (the ``rerun`` extra's lower bound).
+MIN_RERUN = (0, 41)
 #: What installs the Rerun SDK with walkrepro.
 INSTALL = 'pip install "walkrepro[rerun]"'
 #: The body a view follows, when the scene has it.
@@ -71,7 +73,8 @@ def import_rerun() -> Any:
     """The ``rerun`` module.
 
     Raises:
-        WalkreproError: the Rerun SDK is not installed; the message names the install.
+        WalkreproError: the Rerun SDK is not installed, or older than :data:`MIN_RERUN`;
+            the message names the install.
     """
     try:
         import rerun
@@ -79,6 +82,12 @@ def import_rerun() -> Any:
         raise WalkreproError(
             f"walkrepro export --rerun needs the Rerun SDK, which is not installed: {INSTALL}"
         ) from None
+    version = tuple(int(x) for x in re.findall(r"\d+", rerun.__version__)[:2])
+    if version < MIN_RERUN:
+        raise WalkreproError(
+            f"walkrepro export --rerun needs Rerun SDK {'.'.join(map(str, MIN_RERUN))} or "
+            f"newer, and {rerun.__version__} is installed: {INSTALL} --upgrade"
+        )
     return rerun
 
 
@@ -92,6 +101,8 @@ class RerunExport:
         duration: simulated time covered [s].
         plots: the plots' names, with their units, in the blueprint's order.
         seconds: wall time of the export [s].
+        skipped: why each declared line the log does not have was left out (a log older
+            than the controller's declarations).
     """
 
     path: Path
@@ -99,6 +110,7 @@ class RerunExport:
     duration: float
     plots: tuple[str, ...]
     seconds: float
+    skipped: tuple[str, ...] = ()
 
 
 def export_rerun(log_path: Path, out: Path, check_file: Path | None, force: bool) -> RerunExport:
@@ -115,8 +127,9 @@ def export_rerun(log_path: Path, out: Path, check_file: Path | None, force: bool
         force: replace ``out`` if it exists.
 
     Raises:
-        WalkreproError: the Rerun SDK is missing, ``out`` exists and ``force`` is off, the
-            log cannot be read, or a declared plot names a value the log does not have.
+        WalkreproError: the Rerun SDK is missing, ``out`` exists and ``force`` is off, or
+            the log cannot be read or has no state. A declared line the log does not have
+            is left out, and said so in :attr:`RerunExport.skipped`.
     """
     rr = import_rerun()
     start = time.perf_counter()
@@ -146,7 +159,7 @@ def export_rerun(log_path: Path, out: Path, check_file: Path | None, force: bool
         _send_scene(rr, rec, model, poses)
         _send_contact_arrows(rr, rec, contacts, model, poses)
         _send_disturbance_arrows(rr, rec, pushes, model, poses)
-        _send_plots(rr, rec, log, plots, _derived_series(contacts, pushes))
+        skipped = _send_plots(rr, rec, log, plots, _derived_series(contacts, pushes))
         _send_events(rr, rec, log)
         if check_file is not None:
             verdict = rr.TextDocument(_verdict_text(check_file), media_type="text/markdown")
@@ -162,6 +175,7 @@ def export_rerun(log_path: Path, out: Path, check_file: Path | None, force: bool
         float(poses.t[-1] - poses.t[0]),
         tuple(p.name for _, p in plots),
         time.perf_counter() - start,
+        tuple(skipped),
     )
 
 
@@ -473,16 +487,22 @@ def _send_plots(
     log: record.Log,
     plots: list[tuple[str, Plot]],
     derived: dict[str, tuple[np.ndarray, np.ndarray, tuple[int, int, int] | None]],
-) -> None:
+) -> list[str]:
     """Every line of ``plots`` (group, plot), each at the ticks where it is defined, named
-    with its unit; a line of ``derived`` from there, the others from the log."""
+    with its unit; a line of ``derived`` from there, the others from the log. Returns why
+    each line the log does not have was left out."""
     cache: dict[str, dict[str, np.ndarray]] = {}
+    skipped: list[str] = []
     for group, plot in plots:
         for series in plot.series:
             if series.path in derived:
                 t, values, colour = derived[series.path]
             else:
-                (t, values), colour = read_series(log, series, cache), None
+                try:
+                    (t, values), colour = read_series(log, series, cache), None
+                except WalkreproError as exc:  # e.g. a log older than the declaration
+                    skipped.append(str(exc))
+                    continue
             entity = plot_entity(group, plot, series)
             style = rr.SeriesLines(
                 names=f"{series.label} [{plot.unit}]", colors=None if colour is None else [colour]
@@ -493,6 +513,7 @@ def _send_plots(
                 indexes=[rr.TimeColumn(TIMELINE, duration=t)],
                 columns=rr.Scalars.columns(scalars=values),
             )
+    return skipped
 
 
 def _send_events(rr: Any, rec: Any, log: record.Log) -> None:
