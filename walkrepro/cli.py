@@ -635,7 +635,7 @@ def export(
         typer.Option(
             "--rerun",
             help="A Rerun recording (.rrd): the robot, contact and disturbance arrows, the "
-            'paper\'s plots, on simulated time. Needs pip install "walkrepro[rerun]".',
+            'paper\'s plots, on simulated time. Needs pip install "walkrepro\\[rerun]".',
         ),
     ] = False,
     out: Annotated[
