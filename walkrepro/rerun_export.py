@@ -13,9 +13,10 @@ simulated time):
 - ``world/forces/contact/<foot>``: each foot's net contact force as an arrow at its centre of
   pressure; ``world/forces/disturbance/<body>``: an applied disturbance while it acts, an
   arrow ending at the body's centre of mass. Arrows are :data:`FORCE_SCALE` m per newton;
-- ``plots/<plot>/<line>``: the feet's normal forces and the pelvis height for every run, then
-  the controller's declared plots (:mod:`walkrepro.plots`, ``Plugin.plots``) at every logged
-  tick, each line named with its unit;
+- ``plots/run/<plot>/<line>``: every run's feet's normal forces, pelvis height and
+  disturbance magnitudes; ``plots/<controller>/<plot>/<line>``: the controller's declared
+  plots (:mod:`walkrepro.plots`, ``Plugin.plots``), at every logged tick, each line named
+  with its unit;
 - ``events``: the ``/events`` as text; ``verdict``: the run's ``check.json`` as a table;
 - a default blueprint: the 3D view following the pelvis, the plots, the verdict.
 
