@@ -43,12 +43,14 @@ def _row(status: str, note: str = "", measured: float | None = 1.0) -> dict:
 
 
 def _fake_results(root: Path, rows: list[dict], outcome: str = "complete") -> Path:
-    """A results tree with forward_walk's reference: check.json, one figure and a video."""
+    """A results tree with forward_walk's reference: check.json, one figure, a video and a
+    Rerun recording."""
     exp = root / "forward_walk"
     (exp / "figures").mkdir(parents=True)
     (exp / "check.json").write_text(json.dumps({"outcome": outcome, "rows": rows}))
     shutil.copy(next((RESULTS_DIR / "forward_walk" / "figures").glob("*.png")), exp / "figures")
     (exp / "video.mp4").write_bytes(b"\x00\x00\x00\x18ftypmp42")
+    (exp / "log.rrd").write_bytes(b"RRF2")
     (root / "maps").mkdir()  # no reference maps: each declared map is a failed claim
     return root
 
@@ -77,7 +79,8 @@ def test_tally_counts_each_verdict_and_unknown_statuses_as_failed() -> None:
 
 def test_report_from_a_results_tree_links_only_relative_copied_files(tmp_path: Path) -> None:
     """A paper page shows the claim, the paper's value, the measured value, the verdict and
-    the reason, with its figure and video copied into the site and linked relatively."""
+    the reason, with its figure, video and Rerun recording copied into the site and linked
+    relatively."""
     source = _fake_results(
         tmp_path / "results", [_row("pass"), _row("known deviation", "x. Known deviation: slow")]
     )
@@ -89,6 +92,7 @@ def test_report_from_a_results_tree_links_only_relative_copied_files(tmp_path: P
     for text in ("walk_speed", "§VI-A: approximately 0.11 m/s", "[0.088, 0.132]", "slow", "VI-A"):
         assert text in page
     assert 'src="assets/forward_walk/video.mp4"' in page
+    assert 'href="assets/forward_walk/log.rrd"' in page
     links = re.findall(r'(?:href|src)="([^"]+)"', page)
     assert links and all(not urlparse(x).scheme and not x.startswith("/") for x in links)
     for link in links:

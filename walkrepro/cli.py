@@ -1,4 +1,4 @@
-"""The ``walkrepro`` command line: list, run, check, plot, verify, render, calibrate.
+"""The ``walkrepro`` command line: list, run, check, plot, verify, render, export, calibrate.
 
 Thin by design: parse arguments, call the library, print. A user error (bad spec, unknown
 name, unwritable directory) prints one paragraph and exits with code 2, no traceback.
@@ -175,7 +175,7 @@ def friendly_errors(fn: F) -> F:
             return fn(*args, **kwargs)
         except WalkreproError as exc:
             _console(stderr=True).print(
-                f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True
+                f"[bold red]error:[/] {escape(str(exc))}", highlight=False, soft_wrap=True
             )
             raise typer.Exit(code=exc.exit_code) from None
         except KeyboardInterrupt:  # Ctrl-C outside a run (a run keeps its own directory)
@@ -690,6 +690,56 @@ def render(
         height or 640,
     )
     _console().print(f"wrote {path}")
+
+
+@app.command()
+@friendly_errors
+def export(
+    run_path: Annotated[Path, typer.Argument(help="Run directory or log.")],
+    rerun: Annotated[
+        bool,
+        typer.Option(
+            "--rerun",
+            help="A Rerun recording (.rrd): the robot, contact and disturbance arrows, the "
+            'paper\'s plots, on simulated time. Needs pip install "walkrepro\\[rerun]".',
+        ),
+    ] = False,
+    out: Annotated[
+        Path | None,
+        typer.Option(help="Output file (default: the log's name with .rrd: RUN/log.rrd)."),
+    ] = None,
+    force: Annotated[
+        bool, typer.Option("--force", help="Replace the output file if it exists.")
+    ] = False,
+) -> None:
+    """Export a run's log for another viewer, from the log alone (no re-simulation).
+
+    With --rerun, writes a recording that opens in Rerun (`rerun RUN/log.rrd`) on a 3D view
+    of the robot and the plots of its controller; the run's verdict comes along if the run
+    directory has one.
+    """
+    if not rerun:
+        raise WalkreproError("export: choose a format: --rerun (the only one so far).")
+    from walkrepro.rerun_export import export_rerun, import_rerun
+
+    import_rerun()  # the missing SDK is the first thing to say
+    directory, log = results.resolve_run(run_path)
+    if not log.is_file():
+        raise WalkreproError(
+            f"{directory}: this run has no {results.LOG_FILE} (see its {results.RUN_FILE}); "
+            "there is nothing to export."
+        )
+    check = directory / results.CHECK_FILE  # the verdict of a run directory's log
+    verdict = check if log.name == results.LOG_FILE and check.is_file() else None
+    done = export_rerun(log, out or log.with_suffix(".rrd"), verdict, force)
+    for note in done.skipped:
+        _console(stderr=True).print(f"[yellow]skipped:[/] {escape(note)}", highlight=False)
+    size = done.path.stat().st_size / 1e6
+    _console().print(
+        f"wrote {done.path} ({size:.1f} MB: {done.n_poses} poses over {done.duration:.2f} s, "
+        f"{len(done.plots)} plots, in {done.seconds:.1f} s); open it with: rerun {done.path}",
+        highlight=False,
+    )
 
 
 @app.command()

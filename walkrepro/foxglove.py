@@ -17,6 +17,7 @@ published classes.
 from __future__ import annotations
 
 import struct
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -157,6 +158,53 @@ def scene_update(model: mujoco.MjModel, stamp_ns: int) -> bytes:
     return SceneUpdate(entities=list(entities.values())).SerializeToString()
 
 
+class GeomShape(NamedTuple):
+    """A geom as a primitive in its body's frame, for viewers that draw primitives (this
+    module's ``/scene``, :mod:`walkrepro.rerun_export`).
+
+    Attributes:
+        kind: ``box``, ``ellipsoid`` (a sphere too), ``cylinder`` or ``capsule``; a plane
+            is a ``box``: a :data:`FLOOR_SIZE` slab :data:`FLOOR_THICKNESS` thick whose top
+            face is the plane.
+        pos: centre in the body's frame [m], shape (3,).
+        quat: orientation in the body's frame (w, x, y, z), shape (4,).
+        size: full extents along the geom's axes [m], shape (3,); a cylinder or a capsule:
+            (2 r, 2 r, length of its cylindrical part), its axis along z.
+        rgba: colour, each in [0, 1], shape (4,).
+    """
+
+    kind: str
+    pos: np.ndarray
+    quat: np.ndarray
+    size: np.ndarray
+    rgba: np.ndarray
+
+
+def geom_shape(model: mujoco.MjModel, g: int) -> GeomShape | None:
+    """Geom ``g`` as a :class:`GeomShape`; None for meshes, height fields and SDFs, which
+    have no primitive (walkrepro's robots use none)."""
+    kind = mujoco.mjtGeom(int(model.geom_type[g]))  # numpy ints do not match enums in `in`
+    size = model.geom_size[g]
+    pos, quat = model.geom_pos[g].astype(float), model.geom_quat[g].astype(float)
+    rgba = model.geom_rgba[g].astype(float)
+    geom = mujoco.mjtGeom
+    if kind == geom.mjGEOM_PLANE:
+        offset = np.zeros(3)
+        mujoco.mju_rotVecQuat(offset, np.array([0.0, 0.0, -FLOOR_THICKNESS / 2]), quat)
+        extents = np.array([FLOOR_SIZE, FLOOR_SIZE, FLOOR_THICKNESS])
+        return GeomShape("box", pos + offset, quat, extents, rgba)
+    if kind == geom.mjGEOM_BOX:
+        return GeomShape("box", pos, quat, 2 * size.astype(float), rgba)
+    if kind in (geom.mjGEOM_SPHERE, geom.mjGEOM_ELLIPSOID):
+        radii = size if kind == geom.mjGEOM_ELLIPSOID else np.repeat(size[0], 3)
+        return GeomShape("ellipsoid", pos, quat, 2 * radii.astype(float), rgba)
+    if kind in (geom.mjGEOM_CYLINDER, geom.mjGEOM_CAPSULE):
+        radius, half = float(size[0]), float(size[1])
+        name = "cylinder" if kind == geom.mjGEOM_CYLINDER else "capsule"
+        return GeomShape(name, pos, quat, np.array([2 * radius, 2 * radius, 2 * half]), rgba)
+    return None
+
+
 def _pose(pos: np.ndarray, quat: np.ndarray) -> Pose:
     return Pose(
         position=Vector3(x=pos[0], y=pos[1], z=pos[2]),
@@ -164,61 +212,38 @@ def _pose(pos: np.ndarray, quat: np.ndarray) -> Pose:
     )
 
 
+def _vector3(v: np.ndarray) -> Vector3:
+    return Vector3(x=v[0], y=v[1], z=v[2])
+
+
 def _add_geom(entity: SceneEntity, model: mujoco.MjModel, g: int) -> None:
-    """Appends geom ``g`` to ``entity`` as primitives in its body's frame."""
-    kind = mujoco.mjtGeom(int(model.geom_type[g]))  # numpy ints do not match enums in `in`
-    size = model.geom_size[g]
-    pos, quat = model.geom_pos[g].astype(float), model.geom_quat[g].astype(float)
-    r, gr, b, a = (float(c) for c in model.geom_rgba[g])
+    """Appends geom ``g`` to ``entity`` as primitives in its body's frame (a capsule as a
+    cylinder and a sphere at each end)."""
+    shape = geom_shape(model, g)
+    if shape is None:
+        return
+    r, gr, b, a = (float(c) for c in shape.rgba)
     color = Color(r=r, g=gr, b=b, a=a)
-    geom = mujoco.mjtGeom
-    if kind == geom.mjGEOM_PLANE:
-        offset = np.zeros(3)
-        mujoco.mju_rotVecQuat(offset, np.array([0.0, 0.0, -FLOOR_THICKNESS / 2]), quat)
-        entity.cubes.append(
-            CubePrimitive(
-                pose=_pose(pos + offset, quat),
-                size=Vector3(x=FLOOR_SIZE, y=FLOOR_SIZE, z=FLOOR_THICKNESS),
-                color=color,
-            )
-        )
-    elif kind == geom.mjGEOM_BOX:
-        entity.cubes.append(
-            CubePrimitive(
-                pose=_pose(pos, quat),
-                size=Vector3(x=2 * size[0], y=2 * size[1], z=2 * size[2]),
-                color=color,
-            )
-        )
-    elif kind in (geom.mjGEOM_SPHERE, geom.mjGEOM_ELLIPSOID):
-        radii = size if kind == geom.mjGEOM_ELLIPSOID else np.repeat(size[0], 3)
-        entity.spheres.append(
-            SpherePrimitive(
-                pose=_pose(pos, quat),
-                size=Vector3(x=2 * radii[0], y=2 * radii[1], z=2 * radii[2]),
-                color=color,
-            )
-        )
-    elif kind in (geom.mjGEOM_CYLINDER, geom.mjGEOM_CAPSULE):
-        radius, half = float(size[0]), float(size[1])
+    pose = _pose(shape.pos, shape.quat)
+    if shape.kind == "box":
+        entity.cubes.append(CubePrimitive(pose=pose, size=_vector3(shape.size), color=color))
+    elif shape.kind == "ellipsoid":
+        entity.spheres.append(SpherePrimitive(pose=pose, size=_vector3(shape.size), color=color))
+    else:
         entity.cylinders.append(
             CylinderPrimitive(
-                pose=_pose(pos, quat),
-                size=Vector3(x=2 * radius, y=2 * radius, z=2 * half),
-                bottom_scale=1.0,
-                top_scale=1.0,
-                color=color,
+                pose=pose, size=_vector3(shape.size), bottom_scale=1.0, top_scale=1.0, color=color
             )
         )
-        if kind == geom.mjGEOM_CAPSULE:
-            for end in (-half, half):
-                centre = np.zeros(3)
-                mujoco.mju_rotVecQuat(centre, np.array([0.0, 0.0, end]), quat)
-                entity.spheres.append(
-                    SpherePrimitive(
-                        pose=_pose(pos + centre, quat),
-                        size=Vector3(x=2 * radius, y=2 * radius, z=2 * radius),
-                        color=color,
-                    )
+    if shape.kind == "capsule":
+        diameter, half = shape.size[0], shape.size[2] / 2
+        for end in (-half, half):
+            centre = np.zeros(3)
+            mujoco.mju_rotVecQuat(centre, np.array([0.0, 0.0, end]), shape.quat)
+            entity.spheres.append(
+                SpherePrimitive(
+                    pose=_pose(shape.pos + centre, shape.quat),
+                    size=Vector3(x=diameter, y=diameter, z=diameter),
+                    color=color,
                 )
-    # Meshes, height fields and SDFs have no primitive; walkrepro's robots use none.
+            )

@@ -16,7 +16,9 @@ Declarations are strings, so that nothing is imported before it is needed:
   when a spec names it;
 - the metric modules are imported on the first metric lookup (a spec's validation needs
   every metric name), and register their metrics with :func:`walkrepro.metrics.metric`;
-- a paper's figure module is imported when a run of that paper draws its figures.
+- a paper's figure module is imported when a run of that paper draws its figures;
+- a controller's plot declarations are imported when a viewer export draws them
+  (``walkrepro export --rerun``).
 """
 
 from __future__ import annotations
@@ -46,11 +48,15 @@ class Plugin:
         figures: paper key (a spec's ``paper.key``) -> a module holding ``FIGURES`` (functions
             ``(LogData, out_dir) -> [paths]``) and optionally ``COMPARE`` (functions
             ``(LogData, LogData, out_dir) -> [paths]``).
+        plots: ``controller.type`` name -> ``"module:ATTR"``, a tuple of
+            :class:`walkrepro.plots.Plot`: the controller's key signals with their units,
+            which viewers of a run draw (``walkrepro export --rerun``).
     """
 
     controllers: Mapping[str, str] = field(default_factory=dict)
     metric_modules: tuple[str, ...] = ()
     figures: Mapping[str, str] = field(default_factory=dict)
+    plots: Mapping[str, str] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -122,6 +128,12 @@ def controllers() -> dict[str, str]:
 def figure_modules() -> dict[str, str]:
     """Every paper key with figures -> its figure module."""
     return _merged("figures", "the figures of paper")
+
+
+@functools.cache
+def plot_declarations() -> dict[str, str]:
+    """Every controller type with declared plots -> ``"module:ATTR"``."""
+    return _merged("plots", "the plots of controller")
 
 
 def load(target: str) -> object:

@@ -172,3 +172,12 @@ def video_player(href: str, caption: str) -> str:
         f'<source src="{escape(href)}" type="video/mp4"></video>'
         f'<figcaption>{escape(caption)} (<a href="{escape(href)}">MP4</a>)</figcaption></figure>'
     )
+
+
+def recording_link(href: str) -> str:
+    """A link to a run's Rerun recording, with the command that opens it."""
+    return (
+        f'<p>Rerun recording: <a href="{escape(href)}">{escape(href.rsplit("/", 1)[-1])}</a> '
+        f"(the robot, contact forces and the paper's plots on simulated time; open with "
+        f"<code>rerun {escape(href.rsplit('/', 1)[-1])}</code>)</p>"
+    )

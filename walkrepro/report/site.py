@@ -198,6 +198,8 @@ def _experiment_section(
         media = html.video_player(
             _copy(r.video, site, f"{assets}/{r.video.name}"), f"{r.name}, simulated time"
         )
+    if r.recording is not None:
+        media += html.recording_link(_copy(r.recording, site, f"{assets}/{r.recording.name}"))
     outcome = r.check.get("outcome", "")
     meta = (
         f"{escape(_where(r))} · robot "

@@ -2,7 +2,8 @@
 
 Two layouts are recognised under the source directory:
 
-- references (``results/``): ``<experiment>/check.json``, ``figures/``, ``video.mp4``;
+- references (``results/``): ``<experiment>/check.json``, ``figures/``, ``video.mp4``,
+  ``log.rrd`` (a Rerun recording, where ``walkrepro export --rerun`` wrote one);
 - a ``walkrepro check --out DIR`` tree: ``<experiment>/<run>/check.json`` (the latest run
   of each experiment is used), with the run's ``spec.yaml``.
 """
@@ -23,6 +24,8 @@ FIGURE_SUFFIXES = (".png", ".svg")
 #: The video's file name in a run directory or a reference (as :data:`walkrepro.video.VIDEO_FILE`,
 #: repeated so that building a report never imports MuJoCo's renderer).
 VIDEO_FILE = "video.mp4"
+#: The Rerun recording's file name, as ``walkrepro export --rerun`` writes it in a run directory.
+RECORDING_FILE = "log.rrd"
 
 
 @dataclass(frozen=True)
@@ -37,6 +40,7 @@ class ExperimentResult:
         figures: the figure images (PNG), sorted by name.
         video: the run's MP4, if any.
         run: the parsed ``run.json`` (``{}`` if absent).
+        recording: the run's Rerun recording (``log.rrd``), if one was exported.
     """
 
     name: str
@@ -46,6 +50,7 @@ class ExperimentResult:
     figures: tuple[Path, ...]
     video: Path | None
     run: dict
+    recording: Path | None = None
 
 
 def find_results(source: Path) -> tuple[list[ExperimentResult], list[str]]:
@@ -101,7 +106,14 @@ def _read(name: str, directory: Path) -> ExperimentResult:
     run = json.loads(run_file.read_text()) if run_file.is_file() else {}
     figure_dir = directory / results.FIGURES_DIR
     figures = tuple(sorted(figure_dir.glob("*.png"))) if figure_dir.is_dir() else ()
-    video = directory / VIDEO_FILE
+    video, recording = directory / VIDEO_FILE, directory / RECORDING_FILE
     return ExperimentResult(
-        name, spec, check, directory, figures, video if video.is_file() else None, run
+        name,
+        spec,
+        check,
+        directory,
+        figures,
+        video if video.is_file() else None,
+        run,
+        recording if recording.is_file() else None,
     )

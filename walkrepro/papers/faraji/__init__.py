@@ -9,7 +9,8 @@ control* (``coman``), declared as a plugin (:data:`PLUGIN`).
   gains over the phase (Fig. 13);
 - :mod:`.controller` (registered as ``timeprojection``) with :mod:`.estimation`,
   :mod:`.openloop`, :mod:`.ik` and :mod:`.lift` around them;
-- :mod:`.metrics` and :mod:`.figures`: the paper's metrics and figures, from the log.
+- :mod:`.metrics` and :mod:`.figures`: the paper's metrics and figures, from the log;
+  :mod:`.plots`: its key signals, for viewers of a run.
 
 The pure-math modules know nothing about MuJoCo or a particular robot: model parameters come
 in through :class:`~.threelp.ThreeLPParams`.
@@ -21,4 +22,5 @@ PLUGIN = Plugin(
     controllers={"timeprojection": "walkrepro.papers.faraji.controller:TimeProjectionController"},
     metric_modules=("walkrepro.papers.faraji.metrics",),
     figures={"faraji": "walkrepro.papers.faraji.figures"},
+    plots={"timeprojection": "walkrepro.papers.faraji.plots:PLOTS"},
 )

@@ -6,7 +6,8 @@ Modules: :mod:`.footsteps` (footstep plan, ZMP reference, swing trajectory),
 :mod:`.preview` (LIPM CoM–ZMP preview control, the paper's ref. [23]), :mod:`.impedance`
 (Eqs. 1–3), :mod:`.centroidal_qp`, :mod:`.condensed` and :mod:`.tasks` (Eqs. 5–9 and the QP
 of §III-D), :mod:`.controller` (registered as ``qpimpedance``), :mod:`.metrics` and
-:mod:`.figures` (the paper's metrics and figures, from the log).
+:mod:`.figures` (the paper's metrics and figures, from the log), :mod:`.plots` (its key
+signals, for viewers of a run).
 """
 
 from walkrepro.plugins import Plugin
@@ -15,4 +16,5 @@ PLUGIN = Plugin(
     controllers={"qpimpedance": "walkrepro.papers.jo_oh.controller:QPImpedanceController"},
     metric_modules=("walkrepro.papers.jo_oh.metrics",),
     figures={"jo_oh": "walkrepro.papers.jo_oh.figures"},
+    plots={"qpimpedance": "walkrepro.papers.jo_oh.plots:PLOTS"},
 )

@@ -3,8 +3,9 @@ with an operational-space whole-body controller, declared as a plugin (:data:`PL
 
 Modules: :mod:`.controller` (the controller registered as ``efsm``), :mod:`.kernels` (its
 compiled per-tick arithmetic: the E-FSM, capture point, OS-WBC, Appendix C), :mod:`.fsm`
-(the E-FSM's states), :mod:`.metrics` (the paper's metrics, from the log) and
-:mod:`.figures` (its figures redrawn from a run).
+(the E-FSM's states), :mod:`.metrics` (the paper's metrics, from the log),
+:mod:`.figures` (its figures redrawn from a run) and :mod:`.plots` (its key signals, for
+viewers of a run).
 """
 
 from walkrepro.plugins import Plugin
@@ -13,4 +14,5 @@ PLUGIN = Plugin(
     controllers={"efsm": "walkrepro.papers.lee2021.controller:EfsmController"},
     metric_modules=("walkrepro.papers.lee2021.metrics",),
     figures={"lee2021": "walkrepro.papers.lee2021.figures"},
+    plots={"efsm": "walkrepro.papers.lee2021.plots:PLOTS"},
 )
