@@ -406,3 +406,60 @@ def test_the_shipped_paper_ii_calibration_reproduces_exactly() -> None:
     result = CliRunner().invoke(app, ["calibrate", "faraji", "--jobs", "2"])
     assert result.exit_code == 0, result.output
     assert "reproduces the committed calibration exactly" in result.output
+
+
+# --------------------------------------------------------------------------------------
+# Criterion kinds: a disturbance's description, a result a value was chosen on
+
+CHOSEN = """\
+paper: walkrepro
+description: a value chosen by looking at a result
+parameters:
+- name: gain
+  set: controller.params.kp
+  unit: Nm/rad
+  criterion: {kind: result, quote: the robot stands still, section: test}
+  experiment: tiny
+  metric: "mean_forward_speed:0.1-0.3"
+  search: {method: chosen, value: VALUE, how: looked at the sway}
+  result: RESULT
+"""
+
+
+def test_a_chosen_value_is_declared_with_the_result_it_was_chosen_on(tmp_path: Path) -> None:
+    """A chosen value whose spec runs with it passes the rules; its row counts calibrated."""
+    write_tree(tmp_path, calibration=CHOSEN.replace("VALUE", "321.5"))
+    check_consistency(load_calibration(tmp_path / "calibration" / "walkrepro.yaml"))
+
+
+def test_a_chosen_value_that_is_not_the_model_in_force_is_refused(tmp_path: Path) -> None:
+    """A declaration whose chosen value differs from the spec's value fails rule 5."""
+    spec = SPEC.replace("kp: {calibrated: gain}", "kp: 250.0")
+    write_tree(tmp_path, spec=spec, calibration=CHOSEN.replace("VALUE", "321.5"))
+    with pytest.raises(SpecError, match=r"chosen value 321.5 is not the one tiny runs with"):
+        check_consistency(load_calibration(tmp_path / "calibration" / "walkrepro.yaml"))
+
+
+@pytest.mark.parametrize(
+    ("criterion", "search", "message"),
+    [
+        ("result", "{method: measure}", "chosen"),
+        ("setup_statement", "{method: chosen, value: 1.0, how: x}", "chosen"),
+        ("disturbance_description", "{method: measure}", "disturbance"),
+    ],
+)
+def test_criterion_kinds_keep_to_their_searches_and_targets(
+    tmp_path: Path, criterion: str, search: str, message: str
+) -> None:
+    """Only a result criterion has a chosen value, and a disturbance's description may set
+    only that disturbance (never a controller gain)."""
+    text = (
+        CHOSEN.replace("kind: result", f"kind: {criterion}")
+        .replace("{method: chosen, value: VALUE, how: looked at the sway}", search)
+        .replace("RESULT", "null")
+    )
+    path = tmp_path / "calibration" / "walkrepro.yaml"
+    path.parent.mkdir(parents=True)
+    path.write_text(text)
+    with pytest.raises(SpecError, match=message):
+        load_calibration(path)
