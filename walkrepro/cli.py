@@ -154,13 +154,13 @@ def _needs_clean_tree(what: str, allow_dirty: bool) -> None:
     ``robots/`` or ``experiments/``: a reference must come from a commit a reader can check
     out. ``--allow-dirty`` lets local work go on; its results' provenance then says
     ``+dirty``."""
-    from walkrepro.provenance import dirty_paths
+    from walkrepro.provenance import RESULT_INPUTS, dirty_paths
 
-    changed = dirty_paths(("walkrepro", "robots", "experiments"))
+    changed = dirty_paths(RESULT_INPUTS)
     if changed and not allow_dirty:
         shown = ", ".join(changed[:5]) + (" …" if len(changed) > 5 else "")
         raise WalkreproError(
-            f"{what} writes committed results, and walkrepro/, robots/ or experiments/ have "
+            f"{what} writes committed results, and the files that decide them (walkrepro/, robots/, experiments/, pyproject.toml, setup.py) have "
             f"uncommitted changes ({shown}); commit them first, or pass --allow-dirty for "
             "local work (the results' provenance then says +dirty)."
         )

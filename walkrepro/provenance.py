@@ -17,8 +17,10 @@ if TYPE_CHECKING:
 
 @lru_cache(maxsize=1)
 def git_commit() -> str:
-    """Commit of the checkout walkrepro runs from (``+dirty`` if modified), or ``unknown``
-    (an installed copy has no commit; the version says which walkrepro it is)."""
+    """Commit of the checkout walkrepro runs from, ``+dirty`` when the files that decide a
+    run's numbers (:data:`RESULT_INPUTS`: the package, the robots, the specs, the build) have
+    uncommitted changes, or ``unknown`` (an installed copy has no commit; the version says
+    which walkrepro it is). Uncommitted results (``results/``) or docs do not make it dirty."""
     if not IS_CHECKOUT:
         return "unknown"
     try:
@@ -29,18 +31,22 @@ def git_commit() -> str:
             text=True,
             timeout=5,
         ).stdout.strip()
-        dirty = subprocess.run(
-            ["git", "status", "--porcelain", "--untracked-files=no"],
-            cwd=PROJECT_ROOT,
-            capture_output=True,
-            text=True,
-            timeout=5,
-        ).stdout.strip()
     except (OSError, subprocess.SubprocessError):
         return "unknown"
     if not commit:
         return "unknown"
-    return commit + ("+dirty" if dirty else "")
+    return commit + ("+dirty" if dirty_paths(RESULT_INPUTS) else "")
+
+
+#: The files whose uncommitted changes make a run's provenance ``+dirty`` and make the
+#: commands that write committed results refuse (``--allow-dirty`` overrides).
+RESULT_INPUTS: tuple[str, ...] = (
+    "walkrepro",
+    "robots",
+    "experiments",
+    "pyproject.toml",
+    "setup.py",
+)
 
 
 def dirty_paths(folders: tuple[str, ...]) -> list[str]:
