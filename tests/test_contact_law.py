@@ -1,0 +1,171 @@
+"""The point-contact ground law of COMAN's lab's simulator (walkrepro/contact_law.py)."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from walkrepro.contact_law import GroundContact, PointContactLaw, applied, sole_grid
+
+#: The lab's parameters (NicolasVdN/CoManRobotran @ 0207863b: simu_def.h, user_ExtForces.c).
+LAB = PointContactLaw(
+    stiffness=27818.0,
+    velocity_scale=0.3,
+    tangential_stiffness=1e4,
+    tangential_damping=10.0,
+    friction=0.9,
+)
+#: A COMAN-sized sole on the lab's 1 cm grid: 20 × 10 = 200 points.
+POINTS = sole_grid((-0.095, 0.095), (-0.045, 0.045), -0.02, 0.01)
+G = 9.81
+
+
+def block(mass: float, timestep: float = 0.0005, height: float = 0.0201) -> mujoco.MjModel:
+    """A free box with the sole's footprint, its own MuJoCo contact off (the law holds it)."""
+    xml = f"""<mujoco><option timestep="{timestep}" gravity="0 0 -{G}"/>
+    <size nuserdata="{GroundContact.userdata_size({"foot": POINTS})}"/>
+    <worldbody><geom type="plane" size="1 1 1" contype="0" conaffinity="0"/>
+    <body name="foot" pos="0 0 {height}"><freejoint/>
+    <geom type="box" size="0.095 0.045 0.02" mass="{mass}" contype="0" conaffinity="0"/>
+    </body></worldbody></mujoco>"""
+    return mujoco.MjModel.from_xml_string(xml)
+
+
+def run(model: mujoco.MjModel, seconds: float, pull: float = 0.0) -> mujoco.MjData:
+    """Settle ``model`` on the ground under the law for 0.5 s, then step it ``seconds`` more,
+    pulled along +x by ``pull`` [N]."""
+    data = mujoco.MjData(model)
+    steps = int(round(seconds / model.opt.timestep))
+    with applied(GroundContact(model, LAB, {"foot": POINTS})):
+        for _ in range(int(round(0.5 / model.opt.timestep))):
+            mujoco.mj_step(model, data)
+        data.xfrc_applied[model.body("foot").id, 0] = pull
+        for _ in range(steps):
+            mujoco.mj_step(model, data)
+    return data
+
+
+def test_a_resting_body_sinks_by_its_weight_over_the_points_stiffness() -> None:
+    """At rest the sole sinks δ = m g / (n k): every point carries its share of the weight."""
+    mass = 14.0
+    data = run(block(mass), 1.0)
+    depth = -(data.qpos[2] - 0.02)
+    assert depth == pytest.approx(mass * G / (len(POINTS) * LAB.stiffness), rel=1e-4)
+    assert np.abs(data.qvel).max() < 1e-4
+
+
+def test_the_normal_force_is_the_hunt_crossley_law_during_an_impact() -> None:
+    """While a flat sole lands, the ground pushes n k δ (1 − ż / v₀): zero at touchdown, more
+    while the sole still moves down."""
+    model = block(14.0, height=0.021)  # lands from 1 mm
+    data = mujoco.MjData(model)
+    seen = 0
+    with applied(GroundContact(model, LAB, {"foot": POINTS})):
+        for _ in range(400):
+            mujoco.mj_step1(model, data)  # positions, velocities, passive forces
+            depth = -(data.qpos[2] - 0.02)
+            if depth > 0:
+                expected = len(POINTS) * LAB.stiffness * depth * max(0.0, 1 - data.qvel[2] / 0.3)
+                assert data.qfrc_passive[2] == pytest.approx(expected, rel=1e-9)
+                seen += 1
+            else:
+                assert data.qfrc_passive[2] == 0.0
+            mujoco.mj_step2(model, data)
+    assert seen > 100
+
+
+def test_a_pull_below_mu_m_g_holds_the_block_and_above_it_slides() -> None:
+    """Below Coulomb's bound the anchors hold (the block creeps by F / (n k_t) only); above
+    it the block accelerates at (F − μ m g) / m."""
+    mass = 14.0
+    settle = run(block(mass), 1.0)
+    held = run(block(mass), 1.0, pull=0.5 * LAB.friction * mass * G)
+    creep = held.qpos[0] - settle.qpos[0]
+    assert (
+        0 < creep < 1.5 * 0.5 * LAB.friction * mass * G / (len(POINTS) * LAB.tangential_stiffness)
+    )
+    pull = 1.5 * LAB.friction * mass * G
+    model = block(mass)
+    data = mujoco.MjData(model)
+    with applied(GroundContact(model, LAB, {"foot": POINTS})):
+        for _ in range(1000):  # settle on the ground
+            mujoco.mj_step(model, data)
+        data.xfrc_applied[model.body("foot").id, 0] = pull
+        for _ in range(400):  # start sliding
+            mujoco.mj_step(model, data)
+        v0, t0 = data.qvel[0], data.time
+        for _ in range(1000):
+            mujoco.mj_step(model, data)
+        acceleration = (data.qvel[0] - v0) / (data.time - t0)
+    assert acceleration == pytest.approx((pull - LAB.friction * mass * G) / mass, rel=0.02)
+
+
+def test_split_steps_and_a_replay_with_mj_step_are_bit_identical() -> None:
+    """The runner's mj_step1 + mj_step2 and verify's mj_step give the same states bit for bit,
+    and the anchors kept in userdata survive a copy of the data mid-run."""
+    model = block(14.0)
+    foot = model.body("foot").id
+    pull = 1.2 * LAB.friction * 14.0 * G
+    runner = mujoco.MjData(model)
+    replay = mujoco.MjData(model)
+    with applied(GroundContact(model, LAB, {"foot": POINTS})):
+        for step in range(1500):
+            for data in (runner, replay):
+                data.xfrc_applied[foot, 0] = pull if step > 600 else 0.0
+            mujoco.mj_step1(model, runner)
+            mujoco.mj_step2(model, runner)
+            mujoco.mj_step(model, replay)
+            assert np.array_equal(runner.qpos, replay.qpos)
+            assert np.array_equal(runner.userdata, replay.userdata)
+            if step == 800:  # save mid-slide, continue from the copy
+                saved = mujoco.MjData(model)
+                mujoco.mj_copyData(saved, model, replay)
+                replay = saved
+    assert runner.userdata[2::3].sum() == len(POINTS)  # every point touches, anchored
+
+
+@pytest.mark.parametrize(("mass", "stable_up_to"), [(1.0, 0.0005), (6.4, 0.001), (14.0, 0.001)])
+def test_the_explicit_law_is_stable_up_to_a_measured_timestep(
+    mass: float, stable_up_to: float
+) -> None:
+    """Landing from 1 cm (0.44 m/s), the lab's law settles at its own 0.5 ms step on a 1 kg
+    sole and at 1 ms under a COMAN leg's 6.4 kg or more; at twice those steps it diverges
+    (the forces are explicit, as the lab's are)."""
+    for timestep, stable in ((stable_up_to, True), (2 * stable_up_to, False)):
+        model = block(mass, timestep, height=0.03)
+        data = mujoco.MjData(model)
+        with applied(GroundContact(model, LAB, {"foot": POINTS})):
+            for _ in range(int(round(1.5 / timestep))):
+                mujoco.mj_step(model, data)
+        settled = (
+            np.isfinite(data.qpos).all()
+            and abs(data.qpos[2] - 0.02) < 0.01
+            and abs(data.qvel[2]) < 0.05
+        )
+        assert settled == stable, (mass, timestep, data.qpos[2], data.qvel[2])
+
+
+def test_models_compile_again_once_the_law_is_no_longer_applied() -> None:
+    """MuJoCo's passive callback is set only while a law is applied."""
+    run(block(1.0), 0.01)
+    assert mujoco.get_mjcb_passive() is None
+    block(1.0)  # compiles
+
+
+def test_a_model_without_room_for_the_anchors_is_refused() -> None:
+    """The law's state needs 3 userdata slots per point; fewer is an error that says so."""
+    model = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><body name="foot"><freejoint/><geom size="0.1"/></body>'
+        "</worldbody></mujoco>"
+    )
+    with pytest.raises(ValueError, match="600 userdata slots"):
+        GroundContact(model, LAB, {"foot": POINTS})
+
+
+def test_the_law_refuses_non_physical_parameters() -> None:
+    """A zero stiffness or friction, or a negative damping, is refused."""
+    with pytest.raises(ValueError, match="stiffness"):
+        PointContactLaw(0.0, 0.3, 1e4, 10.0, 0.9)
+    with pytest.raises(ValueError, match="tangential_damping"):
+        PointContactLaw(1.0, 0.3, 1e4, -1.0, 0.9)
