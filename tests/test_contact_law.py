@@ -169,3 +169,56 @@ def test_the_law_refuses_non_physical_parameters() -> None:
         PointContactLaw(0.0, 0.3, 1e4, 10.0, 0.9)
     with pytest.raises(ValueError, match="tangential_damping"):
         PointContactLaw(1.0, 0.3, 1e4, -1.0, 0.9)
+
+
+def test_a_model_carries_its_law_in_its_mjcf() -> None:
+    """mjcf() writes the law and its soles into a model; from_model() reads back the same."""
+    from walkrepro.contact_law import from_model, mjcf
+
+    xml = f"""<mujoco>{mjcf(LAB, {"foot": POINTS})}
+    <worldbody><body name="foot"><freejoint/><geom size="0.1"/></body></worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    contact = from_model(model)
+    assert contact is not None and contact.law == LAB
+    assert np.array_equal(contact.points["foot"], POINTS)
+    assert model.nuserdata == 3 * len(POINTS)
+    assert from_model(mujoco.MjModel.from_xml_string("<mujoco/>")) is None
+
+
+def test_coman_stands_on_the_lab_law_and_its_log_replays_bit_for_bit(
+    tmp_path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A robot whose model carries the law runs under it (MuJoCo's own sole contact
+    excluded), and walkrepro verify replays its log with the law to zero deviation."""
+    from pathlib import Path
+
+    import walkrepro.robot as robot_module
+    from walkrepro.contact_law import mjcf
+    from walkrepro.record import read_log
+    from walkrepro.replay import verify_log
+    from walkrepro.runner import run
+    from walkrepro.specfiles import load_spec
+
+    # COMAN's sole (0.22 × 0.10 m, 3 cm ahead of the ankle, 6 cm below it) on a 1 cm grid.
+    sole = sole_grid((-0.08, 0.14), (-0.05, 0.05), -0.06, 0.01)
+    source = Path(robot_module.ROBOTS_DIR) / "coman" / "robot.xml"
+    law = mjcf(LAB, {"left_foot": sole, "right_foot": sole})
+    exclude = (
+        '<contact><exclude body1="world" body2="left_foot"/>'
+        '<exclude body1="world" body2="right_foot"/></contact>'
+    )
+    (tmp_path / "coman_law").mkdir()
+    (tmp_path / "coman_law" / "robot.xml").write_text(
+        source.read_text().replace("</mujoco>", f"{law}\n{exclude}\n</mujoco>")
+    )
+    monkeypatch.setattr(robot_module, "ROBOTS_DIR", tmp_path)
+    spec = load_spec("stand_coman").spec
+    spec = spec.model_copy(
+        update={"robot": "coman_law", "sim": spec.sim.model_copy(update={"duration": 1.0})}
+    )
+    result = run(spec, tmp_path / "log.mcap")
+    assert result.outcome == "complete", result.message
+    report = verify_log(tmp_path / "log.mcap")
+    assert report.ok and report.max_deviation == 0.0 and report.n_states_compared > 100
+    log = read_log(tmp_path / "log.mcap")
+    assert "walkrepro_ground_law" in log.scene_xml  # the log carries its own law

@@ -271,6 +271,49 @@ def _passive(model: mujoco.MjModel, data: mujoco.MjData) -> None:
         contact.apply(data)
 
 
+#: The MJCF ``<custom><numeric>`` that carries a model's law: (k, v₀, k_t, b_t, μ). A robot
+#: whose lab's simulator used this law writes it into its ``robot.xml`` (build_models.py),
+#: with one ``SOLE_PREFIX + body`` numeric per sole (its points, x y z each, in the body frame)
+#: and ``<size nuserdata>`` for the anchors; the logged scene carries it, so a log replays
+#: with its own law.
+LAW_NUMERIC = "walkrepro_ground_law"
+SOLE_PREFIX = "walkrepro_ground_sole:"
+
+
+def from_model(model: mujoco.MjModel) -> GroundContact | None:
+    """The law a compiled model carries in its custom numerics, or None."""
+    names = [model.numeric(i).name for i in range(model.nnumeric)]
+    if LAW_NUMERIC not in names:
+        return None
+    k, v0, kt, bt, mu = (float(x) for x in model.numeric(LAW_NUMERIC).data[:5])
+    soles = {
+        name[len(SOLE_PREFIX) :]: np.asarray(model.numeric(name).data, dtype=float).reshape(-1, 3)
+        for name in names
+        if name.startswith(SOLE_PREFIX)
+    }
+    return GroundContact(model, PointContactLaw(k, v0, kt, bt, mu), soles)
+
+
+def mjcf(law: PointContactLaw, soles: Mapping[str, np.ndarray]) -> str:
+    """The ``<custom>`` element that declares ``law`` on ``soles`` in a model's MJCF (and
+    the ``<size nuserdata>`` its anchors need), for a robot's build."""
+    numerics = [
+        f'<numeric name="{LAW_NUMERIC}" data="{law.stiffness!r} {law.velocity_scale!r} '
+        f'{law.tangential_stiffness!r} {law.tangential_damping!r} {law.friction!r}"/>'
+    ]
+    for body, points in soles.items():
+        data = " ".join(repr(float(x)) for x in np.asarray(points, dtype=float).ravel())
+        numerics.append(f'<numeric name="{SOLE_PREFIX}{body}" data="{data}"/>')
+    size = GroundContact.userdata_size(soles)
+    return f'<size nuserdata="{size}"/>\n<custom>\n' + "\n".join(numerics) + "\n</custom>"
+
+
+def applied_to(model: mujoco.MjModel) -> contextlib.AbstractContextManager[None]:
+    """:func:`applied` for the law ``model`` carries, or a context that does nothing."""
+    contact = from_model(model)
+    return applied(contact) if contact is not None else contextlib.nullcontext()
+
+
 @contextlib.contextmanager
 def applied(contact: GroundContact) -> Iterator[None]:
     """Apply ``contact`` in every MuJoCo step of its model (``mj_step``, ``mj_step1``,

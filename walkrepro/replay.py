@@ -18,6 +18,7 @@ from typing import Any, NamedTuple
 import mujoco
 import numpy as np
 
+from walkrepro import contact_law
 from walkrepro.errors import UnknownNameError, WalkreproError
 from walkrepro.record import TOPIC_INPUTS, TOPIC_STATE, Log, read_log
 
@@ -200,33 +201,36 @@ def verify_log(path: Path, tolerance: float = DEFAULT_TOLERANCE) -> VerifyReport
     worst_step = -1
     worst_field = ""
     n_compared = 0
-    for step, (ctrl, xfrc) in enumerate(zip(inputs.ctrl, inputs.xfrc, strict=True)):
-        data.ctrl[:] = ctrl
-        if xfrc is not None:
-            data.xfrc_applied[:] = xfrc
-        mujoco.mj_step(model, data)
-        row = states.rows.get(step + 1)
-        if row is None:
-            continue
-        n_compared += 1
-        for name in _STATE_FIELDS:
-            replayed = getattr(data, name)
-            expected = states.fields[name][row]
-            if expected.shape != replayed.shape:
-                raise WalkreproError(
-                    f"{path}: {TOPIC_STATE} step {step + 1} {name} has {expected.size} "
-                    f"entries, the scene has {replayed.size}"
-                )
-            if expected.size == 0:
+    # The scene's own ground law, if it carries one (walkrepro/contact_law.py), acts in the
+    # replayed steps as it did in the run's.
+    with contact_law.applied_to(model):
+        for step, (ctrl, xfrc) in enumerate(zip(inputs.ctrl, inputs.xfrc, strict=True)):
+            data.ctrl[:] = ctrl
+            if xfrc is not None:
+                data.xfrc_applied[:] = xfrc
+            mujoco.mj_step(model, data)
+            row = states.rows.get(step + 1)
+            if row is None:
                 continue
-            error = np.abs(replayed - expected)
-            i = int(np.argmax(error))  # the first NaN, if any
-            # A diverged (NaN) replay counts as infinitely far, never as "no deviation".
-            deviation = math.inf if math.isnan(error[i]) else float(error[i])
-            if deviation > max_deviation or worst_step == -1:
-                max_deviation = deviation
-                worst_step = step + 1
-                worst_field = f"{name}[{i}]"
+            n_compared += 1
+            for name in _STATE_FIELDS:
+                replayed = getattr(data, name)
+                expected = states.fields[name][row]
+                if expected.shape != replayed.shape:
+                    raise WalkreproError(
+                        f"{path}: {TOPIC_STATE} step {step + 1} {name} has {expected.size} "
+                        f"entries, the scene has {replayed.size}"
+                    )
+                if expected.size == 0:
+                    continue
+                error = np.abs(replayed - expected)
+                i = int(np.argmax(error))  # the first NaN, if any
+                # A diverged (NaN) replay counts as infinitely far, never as "no deviation".
+                deviation = math.inf if math.isnan(error[i]) else float(error[i])
+                if deviation > max_deviation or worst_step == -1:
+                    max_deviation = deviation
+                    worst_step = step + 1
+                    worst_field = f"{name}[{i}]"
 
     return VerifyReport(
         n_steps=len(inputs.ctrl),

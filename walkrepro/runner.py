@@ -13,6 +13,7 @@ forward pass per step: the controller never costs the physics a second one.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import sys
@@ -25,7 +26,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from walkrepro import record
+from walkrepro import contact_law, record
 from walkrepro.contacts import ContactReader, FallDetector
 from walkrepro.controllers import controller_class, controller_params
 from walkrepro.disturbances import DisturbanceSchedule
@@ -233,6 +234,10 @@ def run(
     xpos, xquat = data.xpos, data.xquat
     lap = clock.lap
     timestep = spec.sim.timestep
+    # A robot whose lab's simulator computed its ground contact carries that law in its
+    # model (walkrepro/contact_law.py); it acts in the steps below, as it does in a replay.
+    ground = contextlib.ExitStack()
+    ground.enter_context(contact_law.applied_to(model))
     try:
         for step in range(n_steps):
             if interrupt.requested:  # also a Ctrl-C during set-up: stop before step 0
@@ -331,6 +336,8 @@ def run(
     except BaseException as exc:
         writer.close("error", {"error": "".join(traceback.format_exception_only(exc)).strip()})
         raise
+    finally:
+        ground.close()
     wall = time.perf_counter() - wall_start
     # Steps completed (a fall or Ctrl-C stops at the top of a step, whose state is the last).
     sim_time = step * timestep
