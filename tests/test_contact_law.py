@@ -6,7 +6,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from walkrepro.contact_law import GroundContact, PointContactLaw, applied, sole_grid
+from walkrepro.contact_law import GroundContact, PointContactLaw, applied, applied_to, sole_grid
 
 #: The lab's parameters (NicolasVdN/CoManRobotran @ 0207863b: simu_def.h, user_ExtForces.c).
 LAB = PointContactLaw(
@@ -222,3 +222,27 @@ def test_coman_stands_on_the_lab_law_and_its_log_replays_bit_for_bit(
     assert report.ok and report.max_deviation == 0.0 and report.n_states_compared > 100
     log = read_log(tmp_path / "log.mcap")
     assert "walkrepro_ground_law" in log.scene_xml  # the log carries its own law
+    # The law's forces are in the logged contact pairs and in the feet's F/T sensors: once
+    # settled, the feet carry the robot's weight.
+    from walkrepro.metrics import LogData
+    from walkrepro.sensors import SensorModel
+
+    logged = LogData(log)
+    weight = logged.robot_mass * 9.81
+    feet = logged.foot_normal_force("left_foot") + logged.foot_normal_force("right_foot")
+    assert feet[-1] == pytest.approx(weight, rel=0.01)
+    model = mujoco.MjModel.from_xml_string(log.scene_xml)
+    data = mujoco.MjData(model)
+    data.qpos[:] = log.messages("/sim/state")[-1]["qpos"]
+    robot = robot_module.load_robot("coman_law")
+    sensors = SensorModel(robot, model, spec.sensors, spec.sim.control_period, 0)
+    with applied_to(model):
+        for _ in range(2000):  # settle again from the logged posture, servos at home
+            data.ctrl[:] = robot.home_ctrl if hasattr(robot, "home_ctrl") else data.ctrl
+            mujoco.mj_step(model, data)
+        mujoco.mj_step1(model, data)
+        mujoco.mj_step2(model, data)
+    snapshot = sensors.read(model, data)
+    feet_mass = sum(model.body_subtreemass[model.body(f).id] for f in ("left_foot", "right_foot"))
+    vertical = snapshot.left_ft[2] + snapshot.right_ft[2]
+    assert vertical == pytest.approx((logged.robot_mass - feet_mass) * 9.81, rel=0.02)

@@ -92,6 +92,10 @@ def sole_grid(
     return np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, z)])
 
 
+#: ``userdata`` slots after a sole's points: its wrench of the last step (force, torque).
+WRENCH_SLOTS = 6
+
+
 @dataclass
 class _Sole:
     body: int
@@ -123,7 +127,7 @@ class GroundContact:
         for name, pts in self.points.items():
             pts = np.asarray(pts, dtype=float).reshape(-1, 3)
             self.soles.append(_Sole(self.model.body(name).id, pts, slot))
-            slot += 3 * len(pts)
+            slot += 3 * len(pts) + WRENCH_SLOTS
         if slot > self.model.nuserdata:
             raise ValueError(
                 f"the contact law needs {slot} userdata slots; the model has "
@@ -132,8 +136,24 @@ class GroundContact:
 
     @staticmethod
     def userdata_size(points: Mapping[str, np.ndarray]) -> int:
-        """``userdata`` slots the law's state needs: 3 per point (anchor x, y; contact flag)."""
-        return sum(3 * len(np.asarray(p).reshape(-1, 3)) for p in points.values())
+        """``userdata`` slots the law's state needs: 3 per point (anchor x, y; contact flag)
+        and the sole's last wrench (6)."""
+        return sum(3 * len(np.asarray(p).reshape(-1, 3)) + WRENCH_SLOTS for p in points.values())
+
+    @property
+    def bodies(self) -> tuple[int, ...]:
+        """The ids of the bodies that carry soles."""
+        return tuple(sole.body for sole in self.soles)
+
+    def wrench(self, data: mujoco.MjData, body: int) -> np.ndarray:
+        """The ground's wrench on ``body`` in the last step: (force [N], torque about the world
+        origin [N m]), world frame, as :class:`walkrepro.contacts.ContactReader` reports a
+        contact pair; zero when the sole is in the air."""
+        for sole in self.soles:
+            if sole.body == body:
+                start = sole.offset + 3 * len(sole.points)
+                return np.array(data.userdata[start : start + WRENCH_SLOTS])
+        raise KeyError(f"body {body} carries no sole of the ground law")
 
     def apply(self, data: mujoco.MjData) -> None:
         """Add every sole's contact force to ``data.qfrc_passive`` and advance the anchors.
@@ -168,10 +188,16 @@ class GroundContact:
                 params,
                 wrench,
             )
+            recorded = data.userdata[sole.offset + 3 * n : sole.offset + 3 * n + WRENCH_SLOTS]
             if touching:
                 mujoco.mj_applyFT(
                     self.model, data, wrench[:3], wrench[3:], com, sole.body, data.qfrc_passive
                 )
+                # The torque about the world origin: τ_o = τ_c + c × f.
+                recorded[:3] = wrench[:3]
+                recorded[3:] = wrench[3:] + np.cross(com, wrench[:3])
+            else:
+                recorded[:] = 0.0
 
 
 class SoleKinematics(NamedTuple):

@@ -16,6 +16,7 @@ import mujoco
 import numba
 import numpy as np
 
+from walkrepro import contact_law
 from walkrepro.robot import Robot
 from walkrepro.spec import ExperimentSpec
 from walkrepro.world import FLOOR_NAME
@@ -118,6 +119,10 @@ class ContactReader:
         self._elliptic = model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
         self._plans: dict[bytes, _PairPlan | None] = {}
         self._force = np.zeros(6)
+        # A ground law computed by walkrepro (contact_law.py) is no MuJoCo contact: its soles'
+        # wrenches join the pairs as "<sole body>/floor".
+        self._ground = contact_law.from_model(model)
+        self._ground_keys: dict[tuple[tuple[str, ...], tuple[int, ...]], tuple[str, ...]] = {}
 
     def read(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
         """``{"<robot body>/<world geom>": [fx, fy, fz, tx, ty, tz]}`` in the world frame.
@@ -131,6 +136,22 @@ class ContactReader:
     def read_pairs(self, data: mujoco.MjData) -> tuple[tuple[str, ...], np.ndarray]:
         """:meth:`read` as the pairs' names (one tuple object per contact set, so a caller
         can tell a set it has seen by identity) and their wrenches, shape (pairs, 6)."""
+        keys, wrenches = self._mujoco_pairs(data)
+        if self._ground is None:
+            return keys, wrenches
+        law = [(b, self._ground.wrench(data, b)) for b in self._ground.bodies]
+        law = [(b, w) for b, w in law if w[2] != 0.0]  # soles on the ground
+        if not law:
+            return keys, wrenches
+        bodies = tuple(b for b, _ in law)
+        combined = self._ground_keys.get((keys, bodies))
+        if combined is None:
+            names = tuple(f"{self._model.body(b).name}/{FLOOR_NAME}" for b in bodies)
+            combined = self._ground_keys[(keys, bodies)] = keys + names
+        return combined, np.vstack([wrenches.reshape(-1, 6), np.array([w for _, w in law])])
+
+    def _mujoco_pairs(self, data: mujoco.MjData) -> tuple[tuple[str, ...], np.ndarray]:
+        """The robot-world pairs of MuJoCo's own contacts."""
         n = data.ncon
         if n == 0:
             return (), _NO_WRENCHES

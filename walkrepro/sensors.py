@@ -17,6 +17,7 @@ import mujoco
 import numba
 import numpy as np
 
+from walkrepro import contact_law
 from walkrepro.robot import SENSOR_NAMES, LinkAddresses, _motor_only
 
 if TYPE_CHECKING:
@@ -200,6 +201,16 @@ class SensorModel:
     ) -> None:
         self._spec = spec
         self._rng = np.random.default_rng(seed)
+        # A ground law computed by walkrepro (contact_law.py) is a force MuJoCo's F/T sensors
+        # do not see: (reading slot, sensor site, foot body) of each foot that carries one.
+        self._ground = contact_law.from_model(model)
+        self._ground_sites: list[tuple[int, int, int]] = []
+        if self._ground is not None:
+            for k, side in enumerate(FOOT_SIDES):
+                site = model.site(f"{side}_foot_ft").id
+                body = int(model.site_bodyid[site])
+                if body in self._ground.bodies:
+                    self._ground_sites.append((k, site, body))
         # The joint encoders: link angles, or the motor DoF where they sit before the gear.
         sensor = {name: _sensor_slice(model, name) for name in SENSOR_NAMES}
         self._quat = sensor["imu_quat"]
@@ -263,6 +274,21 @@ class SensorModel:
         self._delay_ticks = int(round(spec.delay / control_period))
         self._buffer: deque[SensorSnapshot] = deque(maxlen=self._delay_ticks + 1)
 
+    def _add_ground_law(self, data: mujoco.MjData, ft: np.ndarray) -> None:
+        """Add the ground law's wrench to the F/T readings (left F, T, right F, T) of the feet
+        that carry it: MuJoCo's sensors read the parent's force on the foot from the forces
+        it knows, which leave out a generalized (passive) force. The sensor reads the foot on
+        the leg, so the ground's force f at the sole adds f and its moment about the sensor,
+        in the sensor's frame."""
+        assert self._ground is not None
+        for k, site, body in self._ground_sites:
+            wrench = self._ground.wrench(data, body)
+            rot = data.site_xmat[site].reshape(3, 3)
+            force = wrench[:3]
+            torque = wrench[3:] - np.cross(data.site_xpos[site], force)  # about the sensor
+            ft[6 * k : 6 * k + 3] += rot.T @ force
+            ft[6 * k + 3 : 6 * k + 6] += rot.T @ torque
+
     def read(self, model: mujoco.MjModel, data: mujoco.MjData) -> SensorSnapshot:
         """Read the sensors now (after ``mj_step1``) and return the delayed snapshot.
 
@@ -280,6 +306,8 @@ class SensorModel:
         # MuJoCo's force/torque sensors give the wrench the parent applies to the foot
         # subtree; the F/T convention here is the reaction (foot on leg), hence the sign.
         _gather_reading(data.qpos, data.qvel, data.sensordata, self._plan, reading)
+        if self._ground is not None:
+            self._add_ground_law(data, reading[2 * n + 6 : 2 * n + 18])
         joint_pos = reading[:n]
         if self._has_play:
             joint_pos[:] = self._through_play(joint_pos)
