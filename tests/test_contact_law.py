@@ -122,7 +122,7 @@ def test_split_steps_and_a_replay_with_mj_step_are_bit_identical() -> None:
                 saved = mujoco.MjData(model)
                 mujoco.mj_copyData(saved, model, replay)
                 replay = saved
-    assert runner.userdata[2::3].sum() == len(POINTS)  # every point touches, anchored
+    assert runner.userdata[2 : 3 * len(POINTS) : 3].sum() == len(POINTS)  # every point anchored
 
 
 @pytest.mark.parametrize(("mass", "stable_up_to"), [(1.0, 0.0005), (6.4, 0.001), (14.0, 0.001)])
@@ -159,7 +159,7 @@ def test_a_model_without_room_for_the_anchors_is_refused() -> None:
         '<mujoco><worldbody><body name="foot"><freejoint/><geom size="0.1"/></body>'
         "</worldbody></mujoco>"
     )
-    with pytest.raises(ValueError, match="600 userdata slots"):
+    with pytest.raises(ValueError, match="606 userdata slots"):
         GroundContact(model, LAB, {"foot": POINTS})
 
 
@@ -181,7 +181,7 @@ def test_a_model_carries_its_law_in_its_mjcf() -> None:
     contact = from_model(model)
     assert contact is not None and contact.law == LAB
     assert np.array_equal(contact.points["foot"], POINTS)
-    assert model.nuserdata == 3 * len(POINTS)
+    assert model.nuserdata == 3 * len(POINTS) + 6  # anchors, then the wrench
     assert from_model(mujoco.MjModel.from_xml_string("<mujoco/>")) is None
 
 
