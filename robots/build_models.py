@@ -44,6 +44,8 @@ import mujoco
 import numpy as np
 from scipy.optimize import brentq
 
+from walkrepro import contact_law
+from walkrepro.contact_law import PointContactLaw
 from walkrepro.yamlload import load as load_yaml
 
 ROBOTS_DIR = Path(__file__).resolve().parent
@@ -358,7 +360,7 @@ class Joint:
 
     name: str
     axis: tuple[int, int, int]
-    range: tuple[float, float]
+    range: tuple[float, float] | None  # None: unlimited
     damping: float
     armature: float
     stiffness: float = 0.0
@@ -371,14 +373,34 @@ class Site:
     pos: Vec3
 
 
+@dataclass(frozen=True)
+class Inertial:
+    """A body's mass properties given by a source (not derived from its shapes).
+
+    Attributes:
+        mass: [kg].
+        com: centre of mass in the body frame (3,) [m].
+        inertia: inertia about the centre of mass in the body frame, MuJoCo's
+            ``fullinertia`` order (ixx, iyy, izz, ixy, ixz, iyz) [kg m^2].
+    """
+
+    mass: float
+    com: tuple[float, ...]
+    inertia: tuple[float, ...]
+
+
 @dataclass
 class Body:
+    """A body; its ``<inertial>`` is ``inertial`` if given, else derived from ``shapes``
+    (which are then drawn only: a shape's mass counts only when ``inertial`` is None)."""
+
     name: str
     pos: Vec3
     shapes: list[Shape]
     joints: list[Joint] = field(default_factory=list)
     sites: list[Site] = field(default_factory=list)
     children: list[Body] = field(default_factory=list)
+    inertial: Inertial | None = None
 
 
 @dataclass(frozen=True)
@@ -391,6 +413,9 @@ class JointSpec:
     ctrl_limit: float = 0.0  # |torque| limit of the <motor> [Nm] (torque robots)
     spring: float = 0.0  # spring constant of the series elastic element [Nm/rad] (COMAN)
     kd: float = 0.0  # COMAN position gain k_d [V/rad]
+    spring_damping: float | None = (
+        None  # this joint's spring damping [Nms/rad], else the SeaModel's
+    )
 
 
 @dataclass
@@ -409,6 +434,20 @@ class RobotDesign:
     ledger: Ledger  # the provenance ledger the numbers came from
     sea: SeaModel | None = None
     drive: DriveModel | None = None
+    ground: GroundLaw | None = None  # a point-contact ground law on the soles (coman_lab)
+
+
+@dataclass(frozen=True)
+class GroundLaw:
+    """The lab's point-contact ground law (walkrepro.contact_law) and each sole's points.
+
+    Attributes:
+        law: the law's parameters.
+        points: foot body name -> (n, 3) contact points in that body's frame [m].
+    """
+
+    law: PointContactLaw
+    points: dict[str, np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -418,8 +457,9 @@ class SeaModel:
     Attributes:
         motor_armature: reflected motor inertia J_m [Nms^2/rad].
         motor_damping: back-EMF damping alpha / beta [Nms/rad].
-        spring_damping: damping of the spring element [Nms/rad].
-        spring_range: deflection limit of the spring element [rad].
+        spring_damping: damping of the spring element [Nms/rad] (a joint's
+            ``JointSpec.spring_damping`` overrides it).
+        spring_range: deflection limit of the spring element [rad], None for none.
 
     Values, classes and sources: ``robots/coman/parameters.yaml``.
         beta: voltage-torque coefficient beta [V/Nm].
@@ -429,7 +469,7 @@ class SeaModel:
     motor_armature: float
     motor_damping: float
     spring_damping: float
-    spring_range: float
+    spring_range: float | None
     beta: float
     supply: float
 
@@ -926,13 +966,14 @@ def sea_joint(
     """Motor DoF then spring DoF on the same axis (link angle = motor + spring)."""
     spec = joints[name]
     rng = mirror_range(base, spec.range, side)
+    limit = sea.spring_range
     return [
         Joint(f"{name}_motor", AXIS[base], rng, sea.motor_damping, sea.motor_armature),
         Joint(
             name,
             AXIS[base],
-            (-sea.spring_range, sea.spring_range),
-            sea.spring_damping,
+            None if limit is None else (-limit, limit),
+            sea.spring_damping if spec.spring_damping is None else spec.spring_damping,
             0.0,
             spec.spring,
         ),
@@ -1038,6 +1079,198 @@ def build_coman() -> RobotDesign:
 
 
 # --------------------------------------------------------------------------------------
+# COMAN from its lab's Robotran model (Paper II; issue 42): robots/coman_lab/parameters.yaml
+# --------------------------------------------------------------------------------------
+
+#: The lab model's chains, root to tip, as (MJCF body, joint kind that moves it); the
+#: Robotran order (hip pitch, roll, yaw; ankle roll then pitch; waist roll, pitch, yaw),
+#: not robots/coman's. ``{s}`` is the side letter, ``{side}`` the side word.
+LAB_LEG = (
+    ("{s}_hip_pitch_link", "hip_pitch"),
+    ("{s}_hip_roll_link", "hip_roll"),
+    ("{s}_thigh", "hip_yaw"),
+    ("{s}_shank", "knee"),
+    ("{s}_ankle_roll_link", "ankle_roll"),
+    ("{side}_foot", "ankle_pitch"),
+)
+LAB_WAIST = (
+    ("waist_roll_link", "waist_roll"),
+    ("waist_pitch_link", "waist_pitch"),
+    ("torso", "waist_yaw"),
+)
+LAB_ARM = (
+    ("{s}_shoulder_pitch_link", "shoulder_pitch"),
+    ("{s}_shoulder_roll_link", "shoulder_roll"),
+    ("{s}_upper_arm", "shoulder_yaw"),
+    ("{s}_forearm", "elbow"),
+)
+
+
+def lab_inertial(p: Ledger, body: str) -> Inertial:
+    """The lab's mass, centre of mass and inertia of ``body`` (ledger ``<body>_mass`` …)."""
+    return Inertial(p.num(f"{body}_mass"), p.vec(f"{body}_com", 3), p.vec(f"{body}_inertia", 6))
+
+
+def lab_links(shapes_to: list[Vec3], radius: float) -> list[Shape]:
+    """Massless capsules from the body origin to each of ``shapes_to`` (its children's
+    anchors), or a sphere at the origin when none is apart from it: drawn, and touching
+    the ground only for the fall detector."""
+    ends = [end for end in shapes_to if np.linalg.norm(end) > 0]
+    if not ends:
+        return [Shape("sphere", 0.0, (radius,))]
+    return [Shape("capsule", 0.0, (radius,), fromto=(0, 0, 0, *end)) for end in ends]
+
+
+def lab_chain(
+    p: Ledger,
+    links: tuple[tuple[str, str], ...],
+    side: int,
+    joint: Callable[[str, str], list[Joint]],
+    tip: Body | None,
+    tip_extent: Vec3 | None = None,
+) -> Body:
+    """A chain of the lab's bodies (``links`` root to tip), each at its anchor in its
+    parent's frame, moved by its joint; ``tip`` hangs from the last body (the ledger's
+    anchor of ``tip`` places it) and ``tip_extent`` is drawn from the last body when it
+    has no child."""
+    s, word = side_name(side), "left" if side > 0 else "right"
+    radius = p.num("link_radius")
+    child, child_pos = tip, None if tip is None else tip.pos
+    for body_name, base in reversed(links):
+        name = body_name.format(s=s, side=word)
+        joint_name = base if base.startswith("waist") else f"{s}_{base}"
+        ends = [child_pos] if child_pos is not None else [tip_extent] if tip_extent else []
+        body = Body(
+            name,
+            p.vec(f"{name}_anchor", 3),  # type: ignore[arg-type]
+            lab_links(ends, radius),  # type: ignore[arg-type]
+            joint(joint_name, base),
+            children=[] if child is None else [child],
+            inertial=lab_inertial(p, name),
+        )
+        child, child_pos = body, body.pos
+    assert child is not None
+    return child
+
+
+def lab_foot(p: Ledger, side: int, joint: Callable[[str, str], list[Joint]]) -> Body:
+    """The rigid foot: the lab's inertial, a drawn sole box, the F/T and sole sites."""
+    word = "left" if side > 0 else "right"
+    (x0, x1), (y0, y1) = p.vec("sole_x_range", 2), p.vec("sole_y_range", 2)
+    z, half_t = p.num("sole_z"), p.num("sole_half_thickness")
+    centre = ((x0 + x1) / 2, (y0 + y1) / 2, z)
+    sole = Shape(
+        "box",
+        0.0,
+        ((x1 - x0) / 2, (y1 - y0) / 2, half_t),
+        (centre[0], centre[1], z + half_t),
+        collide=False,  # drawn only: the ground law's points hold the foot
+        name=f"{word}_foot_sole",
+        sole=True,
+    )
+    return Body(
+        f"{word}_foot",
+        p.vec(f"{word}_foot_anchor", 3),  # type: ignore[arg-type]
+        [sole],
+        joint(f"{side_name(side)}_ankle_pitch", "ankle_pitch"),
+        # The lab's foot force sensor is on the sole (point Foots), so is the F/T site.
+        [Site(f"{word}_foot_ft", (0, 0, z)), Site(f"{word}_sole", centre)],
+        inertial=lab_inertial(p, f"{word}_foot"),
+    )
+
+
+def build_coman_lab() -> RobotDesign:
+    """COMAN from its lab's Robotran model (rigid feet), the paper's drives and gains, and
+    the lab's ground law on the soles (robots/coman_lab/README.md)."""
+    p = load_ledger("coman_lab")
+    sea = SeaModel(
+        motor_armature=p.num("motor_armature"),
+        motor_damping=p.num("alpha") / p.num("beta"),  # back-EMF alpha / beta [Nms/rad]
+        spring_damping=0.0,  # unused: every joint has its own (JointSpec.spring_damping)
+        spring_range=None,  # the lab's springs have no deflection stop
+        beta=p.num("beta"),
+        supply=p.num("supply"),
+    )
+    springs, spring_damping = p.table("spring"), p.table("spring_damping")
+    gains = p.table("position_gain")
+    kinds = LEG_JOINTS + ("waist_yaw", "waist_roll", "waist_pitch") + ARM_JOINTS
+    ranges = {j: tuple(math.radians(a) for a in p.vec(f"range_{j}", 2)) for j in kinds}
+    joints: dict[str, JointSpec] = {}
+
+    def add(name: str, base: str) -> None:
+        joints[name] = JointSpec(
+            ranges[base],  # type: ignore[arg-type]
+            sea.motor_damping,
+            sea.motor_armature,
+            spring=springs[base],
+            kd=gains[base],
+            spring_damping=spring_damping[base],
+        )
+
+    # Actuators in robots/coman's order (the controllers address them by name).
+    for s in ("l", "r"):
+        for j in LEG_JOINTS:
+            add(f"{s}_{j}", j)
+    for j in ("waist_yaw", "waist_roll", "waist_pitch"):
+        add(j, j)
+    for s in ("l", "r"):
+        for j in ARM_JOINTS:
+            add(f"{s}_{j}", j)
+
+    def joint(side: int) -> Callable[[str, str], list[Joint]]:
+        return lambda name, base: sea_joint(joints, name, base, side, sea)
+
+    legs = [
+        lab_chain(p, LAB_LEG[:-1], side, joint(side), lab_foot(p, side, joint(side)))
+        for side in (1, -1)
+    ]
+    wrist = p.vec("wrist_anchor", 3)
+    arms = [lab_chain(p, LAB_ARM, side, joint(side), None, wrist) for side in (1, -1)]  # type: ignore[arg-type]
+    torso_radius = p.num("link_radius")
+    waist = lab_chain(p, LAB_WAIST, 1, joint(1), None)
+    torso = waist.children[0].children[0]
+    torso.children = arms
+    torso.shapes = lab_links([arm.pos for arm in arms], torso_radius)
+    pelvis = Body(
+        "pelvis",
+        (0, 0, 0),
+        lab_links([leg.pos for leg in legs] + [waist.pos], torso_radius),
+        sites=[Site("imu", (0, 0, 0))],  # the lab's base sensor MidWaist, at the origin
+        children=[*legs, waist],
+        inertial=lab_inertial(p, "pelvis"),
+    )
+    spacing = p.num("contact_grid_spacing")
+    points = contact_law.sole_grid(
+        p.vec("sole_x_range", 2),  # type: ignore[arg-type]
+        p.vec("sole_y_range", 2),  # type: ignore[arg-type]
+        p.num("sole_z"),
+        spacing,
+    )
+    law = PointContactLaw(
+        stiffness=p.num("ground_stiffness"),
+        velocity_scale=p.num("ground_velocity_scale"),
+        tangential_stiffness=p.num("ground_tangential_stiffness"),
+        tangential_damping=p.num("ground_tangential_damping"),
+        friction=p.num("ground_friction"),
+    )
+    friction, condim = contact(p)
+    return RobotDesign(
+        "coman_lab",
+        "COMAN from its lab's Robotran model (series-elastic, motor-side position control)",
+        pelvis,
+        joints,
+        home_knee=p.num("home_knee"),
+        home_fixed={},  # every other joint at the lab's q = 0
+        rgba="0.2 0.35 0.7 1",
+        sea=sea,
+        friction=friction,
+        condim=condim,
+        ledger=p,
+        ground=GroundLaw(law, {"left_foot": points, "right_foot": points}),
+    )
+
+
+# --------------------------------------------------------------------------------------
 # KIST humanoid (Paper III, Jo & Oh): robots/kist_humanoid/parameters.yaml
 # --------------------------------------------------------------------------------------
 
@@ -1131,35 +1364,36 @@ def build_kist() -> RobotDesign:
 
 
 def body_element(body: Body, robot: RobotDesign) -> ET.Element:
-    el = ET.Element("body", {"name": body.name, "pos": fvec(body.pos)})
-    mass, com, inertia = composite_inertia(body.shapes)
+    if body.inertial is not None:
+        # A source's values, written at full precision (they are the model).
+        mass, com, full = body.inertial.mass, body.inertial.com, body.inertial.inertia
+        digits = 10
+    else:
+        mass, com, inertia = composite_inertia(body.shapes)
+        full = (
+            inertia[0, 0],
+            inertia[1, 1],
+            inertia[2, 2],
+            inertia[0, 1],
+            inertia[0, 2],
+            inertia[1, 2],
+        )
+        digits = 6
+    el = ET.Element("body", {"name": body.name, "pos": fvec(body.pos, digits)})
     ET.SubElement(
         el,
         "inertial",
         {
-            "pos": fvec(com),
-            "mass": fmt(mass),
-            "fullinertia": fvec(
-                [
-                    inertia[0, 0],
-                    inertia[1, 1],
-                    inertia[2, 2],
-                    inertia[0, 1],
-                    inertia[0, 2],
-                    inertia[1, 2],
-                ]
-            ),
+            "pos": fvec(com, digits),
+            "mass": fmt(mass, digits),
+            "fullinertia": fvec(full, digits),
         },
     )
     for j in body.joints:
-        attrs = {
-            "name": j.name,
-            "type": "hinge",
-            "axis": fvec(j.axis),
-            "range": fvec(j.range),
-            "damping": fmt(j.damping),
-            "armature": fmt(j.armature),
-        }
+        attrs = {"name": j.name, "type": "hinge", "axis": fvec(j.axis)}
+        if j.range is not None:
+            attrs["range"] = fvec(j.range)
+        attrs |= {"damping": fmt(j.damping), "armature": fmt(j.armature)}
         if j.stiffness:
             attrs["stiffness"] = fmt(j.stiffness)
         if j.frictionloss:
@@ -1255,6 +1489,15 @@ def build_xml(robot: RobotDesign, keyframe: tuple[np.ndarray, np.ndarray] | None
     for side in ("left", "right"):
         ET.SubElement(sensor, "force", {"name": f"{side}_foot_force", "site": f"{side}_foot_ft"})
         ET.SubElement(sensor, "torque", {"name": f"{side}_foot_torque", "site": f"{side}_foot_ft"})
+    if robot.ground is not None:
+        # The lab's ground law on the soles (walkrepro.contact_law): its numerics, the
+        # userdata its anchors need, and MuJoCo's own contact between the soles and the
+        # floor switched off (the law alone holds them).
+        law = ET.fromstring(f"<law>{contact_law.mjcf(robot.ground.law, robot.ground.points)}</law>")
+        root.extend(list(law))
+        excludes = ET.SubElement(root, "contact")
+        for body in robot.ground.points:
+            ET.SubElement(excludes, "exclude", {"body1": "world", "body2": body})
     if keyframe is not None:
         qpos, ctrl = keyframe
         keys = ET.SubElement(root, "keyframe")
@@ -1319,8 +1562,9 @@ def preload_springs(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Spring deflections and servo targets that hold the home posture at rest.
 
-    Each foot carries half the weight as a pure vertical force at its sole centre (the CoM
-    is above their midpoint, so this satisfies the floating base's equilibrium). At rest the
+    Each foot carries a pure vertical force at its sole centre, their sum the weight and
+    their centre of pressure under the CoM (which is above the soles' midpoint in x), so
+    the floating base is in equilibrium. At rest the
     link-side torque each joint must supply is τ = g(q) − J_cᵀ f (MuJoCo's qfrc_bias minus
     the contact generalized forces). The spring DoF supplies it, −k q_s = τ, and the motor
     DoF, which sees the same τ, is held by its servo, kp (ctrl − q_m) = τ. With the link
@@ -1331,11 +1575,16 @@ def preload_springs(
     data.qpos[:] = q
     mujoco.mj_forward(model, data)
     weight = float(np.sum(model.body_mass)) * float(np.linalg.norm(model.opt.gravity))
+    # Each foot's share: the one that puts the feet's centre of pressure under the CoM
+    # (half each for a left/right symmetric robot; the lab's COMAN is off by 0.13 mm in y).
+    y_com = float(data.subtree_com[model.body("pelvis").id][1])
+    y_left, y_right = (float(data.site(f"{s}_sole").xpos[1]) for s in ("left", "right"))
+    share_left = (y_com - y_right) / (y_left - y_right)
     tau = data.qfrc_bias.copy()
-    for side in ("left", "right"):
+    for side, share in (("left", share_left), ("right", 1 - share_left)):
         jacp = np.zeros((3, model.nv))
         mujoco.mj_jacSite(model, data, jacp, None, model.site(f"{side}_sole").id)
-        tau -= jacp.T @ np.array([0.0, 0.0, weight / 2])
+        tau -= jacp.T @ np.array([0.0, 0.0, weight * share])
     assert np.max(np.abs(tau[:6])) < 1e-6, f"floating base not in equilibrium: {tau[:6]}"
     ctrl = np.zeros(model.nu)
     for i, name in enumerate(robot.joints):
@@ -1442,6 +1691,7 @@ BUILDERS = {
     "dyros_red_actuated_9_9": build_dyros_actuated_9_9,
     "dyros_red_armature": build_dyros_armature,
     "coman": build_coman,
+    "coman_lab": build_coman_lab,
     "kist_humanoid": build_kist,
 }
 

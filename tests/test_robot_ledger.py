@@ -28,6 +28,7 @@ ALLOWED_IN = {
     "fmt": {6, 1e-12},  # significant digits; round-off of zero
     "fvec": {6},  # significant digits
     "build_xml": {10},  # keyframe digits
+    "body_element": {6, 10},  # digits of derived inertials; of a source's (written in full)
     "format_ledger_value": {10},  # README table digits
 }
 #: Strings made only of numbers that build_models.py may hold: colours, the site marker size,
