@@ -618,13 +618,13 @@ def test_coman_lab_springs_are_the_labs() -> None:
         assert not model.jnt_limited[spring.id]  # the lab's springs have no stop
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="the ground law's force enters qfrc_passive, which MuJoCo's force/torque sensors "
-    "(cfrc_int) do not see: under the law the F/T sensors read only the foot's own weight",
-)
 def test_coman_lab_ft_sensors_see_the_ground_law() -> None:
-    """Standing on the lab's law, the two F/T sensors carry the robot's weight above the feet."""
+    """Standing on the lab's law, the two F/T sensors of walkrepro's sensor model carry the
+    robot's weight above the feet (MuJoCo's own force sensors leave out the law's force, a
+    generalized force; the sensor model adds it)."""
+    from walkrepro.sensors import SensorModel
+    from walkrepro.spec import SensorsSpec
+
     robot = load_robot("coman_lab")
     model = scene_model(robot)
     data = mujoco.MjData(model)
@@ -633,9 +633,10 @@ def test_coman_lab_ft_sensors_see_the_ground_law() -> None:
     with contact_law.applied_to(model):
         for _ in range(400):
             mujoco.mj_step(model, data)
+    snapshot = SensorModel(robot, model, SensorsSpec(), model.opt.timestep, 0).read(model, data)
     foot_weight = model.body("left_foot").mass[0] * GRAVITY
-    fz = data.sensor("left_foot_force").data[2] + data.sensor("right_foot_force").data[2]
-    assert fz == pytest.approx(-(robot.total_mass * GRAVITY - 2 * foot_weight), rel=0.02)
+    fz = snapshot.left_ft[2] + snapshot.right_ft[2]
+    assert fz == pytest.approx(robot.total_mass * GRAVITY - 2 * foot_weight, rel=0.02)
 
 
 def test_kist_humanoid_matches_published_figures() -> None:
@@ -749,7 +750,7 @@ def test_robot_holds_home_for_one_second(name: str) -> None:
         other = c.geom2 if c.geom1 == floor else c.geom1
         assert model.geom_bodyid[other] in feet
     if contact_law.from_model(model) is not None:
-        return  # the F/T sensors do not see the law's force (the xfail test below)
+        return  # MuJoCo's raw F/T sensors leave out the law's force (the sensor model adds it)
     # F/T: MuJoCo reports the force the leg exerts on the foot: fz ≈ −(load − foot weight).
     foot_weight = model.body("left_foot").mass[0] * GRAVITY
     fz = data.sensor("left_foot_force").data[2] + data.sensor("right_foot_force").data[2]
