@@ -110,7 +110,11 @@ LEDGER_OPTIONAL = ("description", "source_value")
 README_BEGIN = "<!-- parameters: generated from parameters.yaml; do not edit -->"
 README_END = "<!-- end of parameters -->"
 
-LedgerValue = float | list[float] | dict[str, float]
+LedgerValue = float | list[float] | dict[str, float] | str
+#: Ledger entries named ``option_<attribute>`` set the robot's MJCF ``<option>`` attribute
+#: (the scene's solver and friction cone, which the robot's lab's simulator decided); their
+#: value may be the attribute's MuJoCo keyword (``elliptic``), not only a number.
+OPTION_PREFIX = "option_"
 
 
 class LedgerError(ValueError):
@@ -161,7 +165,8 @@ def validate_entry(path: Path, name: object, entry: object) -> None:
             raise LedgerError(f"{where}: {key} must be a string")
     if not entry["source"].strip():
         raise LedgerError(f"{where}: source is empty")
-    _check_value(where, entry["value"])
+    if not (name.startswith(OPTION_PREFIX) and isinstance(entry["value"], str)):
+        _check_value(where, entry["value"])
     if "source_value" in entry:
         sv = entry["source_value"]
         if not (isinstance(sv, dict) and set(sv) == {"value", "source"}):
@@ -435,6 +440,10 @@ class RobotDesign:
     sea: SeaModel | None = None
     drive: DriveModel | None = None
     ground: GroundLaw | None = None  # a point-contact ground law on the soles (coman_lab)
+    options: dict[str, str] = field(default_factory=dict)  # the MJCF <option> attributes
+
+    def __post_init__(self) -> None:
+        self.options = mjcf_options(self.ledger)
 
 
 @dataclass(frozen=True)
@@ -1424,6 +1433,16 @@ def body_element(body: Body, robot: RobotDesign) -> ET.Element:
     return el
 
 
+def mjcf_options(p: Ledger) -> dict[str, str]:
+    """The ``<option>`` attributes the ledger's ``option_*`` entries set (keyword or number)."""
+    out = {}
+    for name in p.entries:
+        if name.startswith(OPTION_PREFIX):
+            value = p[name]
+            out[name[len(OPTION_PREFIX) :]] = value if isinstance(value, str) else fvec(value)
+    return out
+
+
 def build_xml(robot: RobotDesign, keyframe: tuple[np.ndarray, np.ndarray] | None) -> str:
     root = ET.Element("mujoco", {"model": robot.name})
     root.append(
@@ -1432,6 +1451,8 @@ def build_xml(robot: RobotDesign, keyframe: tuple[np.ndarray, np.ndarray] | None
         )
     )
     ET.SubElement(root, "compiler", {"angle": "radian", "autolimits": "true"})
+    if robot.options:
+        ET.SubElement(root, "option", robot.options)
     world = ET.SubElement(root, "worldbody")
     pelvis = body_element(robot.pelvis, robot)
     pelvis.insert(1, ET.Element("freejoint", {"name": "root"}))
@@ -1616,7 +1637,9 @@ def generate(robot: RobotDesign) -> str:
 
 
 def format_ledger_value(value: LedgerValue) -> str:
-    """A ledger value as table text: a number, ``[a, b]``, or ``name value, …``."""
+    """A ledger value as table text: a number, ``[a, b]``, ``name value, …`` or a keyword."""
+    if isinstance(value, str):
+        return value
     if isinstance(value, dict):
         return ", ".join(f"{k} {fmt(float(v), 10)}" for k, v in value.items())
     if isinstance(value, list):

@@ -120,10 +120,16 @@ def test_a_reference_without_a_result_is_an_error(tmp_path: Path) -> None:
         load_spec(path)
 
 
-def test_a_reference_without_a_calibration_file_is_an_error(tmp_path: Path) -> None:
-    """A paper without a calibration file gives no calibrated values."""
+def test_a_reference_without_a_calibration_file_is_an_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A paper without a calibration file (beside the spec or shipped) gives no calibrated
+    values."""
     path = write_tree(tmp_path)
     (tmp_path / "calibration" / "walkrepro.yaml").unlink()
+    from walkrepro.calibration import references
+
+    monkeypatch.setattr(references, "CALIBRATION_DIR", tmp_path / "none")
     with pytest.raises(SpecError, match=r"line 8, field controller.params.kp.*no calibration file"):
         load_spec(path)
 

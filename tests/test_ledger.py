@@ -112,11 +112,39 @@ def test_a_command_line_override_is_listed_as_such(tmp_path: Path) -> None:
 
 
 def test_scene_options_away_from_mujoco_defaults_need_a_declaration(tmp_path: Path) -> None:
-    """The elliptic cone is declared; MuJoCo's defaults are classed as such."""
+    """The robot's ledger declares its elliptic cone; MuJoCo's defaults are classed as such."""
     numbers, _, _ = _numbers(SPEC, tmp=tmp_path)
-    assert numbers["scene.option.cone"].klass == "assumed"
-    assert "pyramidal" in numbers["scene.option.cone"].source
+    assert numbers["scene.option.cone"].value == "1"  # elliptic, DYROS RED's lab's file
+    assert numbers["scene.option.cone"].klass == "source"
+    assert "option_cone" in numbers["scene.option.cone"].source
     assert "MuJoCo's default" in numbers["scene.option.integrator"].source
+    assert "robot.option_cone" not in numbers  # listed once, with the scene
+
+
+def test_paper_iii_scene_is_the_papers_simulators_default() -> None:
+    """Every KIST scene option and floor or obstacle contact value is MuJoCo's default,
+    classed as the paper's simulator's default (Paper III ran in MuJoCo), cone included."""
+    scene = [n for n in experiment_ledger("obstacle_4cm") if n.group == "scene"]
+    by_name = {n.name: n for n in scene}
+    assert by_name["option.cone"].value == "0"  # pyramidal
+    assert by_name["obstacle_block.solref"].value == "[0.02, 1]"
+    for number in scene:
+        assert number.klass == "assumed", number
+        assert "the paper's simulator's default" in number.source, number
+
+
+@pytest.mark.parametrize(("field", "value"), [("cone", "elliptic"), ("condim", "6")])
+def test_a_spec_contact_setting_is_listed_under_its_field(field: str, value: str) -> None:
+    """world.cone / world.condim set the scene's cone or every contact's condim, and the
+    scene rows name the spec field instead of calling them undeclared departures."""
+    numbers = experiment_ledger("obstacle_4cm", (f"world.{field}={value}",))
+    scene = {n.name: n for n in numbers if n.group == "scene"}
+    rows = ["option.cone"] if field == "cone" else ["floor.condim", "obstacle_block.condim"]
+    for row in rows:
+        assert scene[row].klass == "scenario"
+        assert scene[row].value == ("1" if field == "cone" else "6")
+    world = {n.name: n for n in numbers if n.group == "world"}
+    assert world[field].klass == OVERRIDE
 
 
 def test_a_robot_ledger_with_a_bad_class_names_file_and_entry(tmp_path: Path) -> None:

@@ -257,3 +257,131 @@ def test_obstacles_crossed_counts_obstacles_stepped_onto_and_off(
     assert measured(_right_foot(poser, tmp_path, onto_second, 2.0), "obstacles_crossed") == 0
     fell = _right_foot(poser, tmp_path, ON_AND_OFF[:1], 0.9, outcome="fell")
     assert measured(fell, "obstacles_crossed") == 0
+
+
+# ---- the 4 cm task's comparisons: interference, tracking error, energy (Figs. 4, 5a) --------
+
+
+#: swing_foot of the synthetic step: the right foot swings 0.2-0.8 s, double support to
+#: 0.9 s, then the left foot swings.
+def _swing_foot(t: float) -> float:
+    if 0.2 <= t < 0.8:
+        return 1.0
+    return 0.0 if t >= 0.9 else -1.0
+
+
+def _support_log(tmp_path: Path, peak: float, late_peak: float = 0.0) -> LogData:
+    """The right foot meets the block at 0.5 s; the left foot carries 300 N, ``peak`` [N]
+    50 ms after the contact, and ``late_peak`` at 0.9 s (outside the 0.3 s landing window)."""
+    ticks = []
+    for k in range(int(round(1.5 / DT))):
+        t = round(k * DT, 6)
+        pairs = standing_pairs(ROBOT, ["left_foot"] if t >= T_CONTACT else FEET)
+        if t >= T_CONTACT:
+            pairs["right_foot/obstacle_block"] = [0.0, 0.0, 300.0, 0.0, 0.0, 0.0]
+            left = peak if abs(t - T_CONTACT - 0.05) < 1e-9 else 300.0
+            left = late_peak if late_peak and abs(t - 0.9) < 1e-9 else left
+            pairs["left_foot/floor"] = [0.0, 0.0, left, 0.0, 0.0, 0.0]
+        ticks.append(Tick(t, pairs=pairs))
+    return write_log(tmp_path / "sp.mcap", ticks, _spec(1.5))
+
+
+def test_support_foot_force_is_lower_with_impedance(tmp_path: Path) -> None:
+    """The left foot's peak during the right foot's landing: 520 N with < 600 N without (Fig. 4)."""
+    with_imp = measured(_support_log(tmp_path, 520.0), "support_peak_force:left_foot")
+    without = measured(_support_log(tmp_path, 600.0), "support_peak_force:left_foot")
+    assert with_imp == pytest.approx(520.0) and without == pytest.approx(600.0)
+    assert with_imp < without
+
+
+def test_support_foot_force_no_lower_is_no_reduction(tmp_path: Path) -> None:
+    """A larger left-foot peak with impedance fails the claim; a later peak is not in it."""
+    with_imp = measured(_support_log(tmp_path, 650.0, late_peak=2000.0), "support_peak_force")
+    without = measured(_support_log(tmp_path, 600.0), "support_peak_force:left_foot")
+    assert with_imp == pytest.approx(650.0)
+    assert not with_imp < without
+
+
+def _tracking_log(tmp_path: Path, gap: float, gap_outside: float = 0.0) -> LogData:
+    """The right foot swings 0.2-0.8 s and meets the block at 0.5 s; after the contact its
+    height stays ``gap`` [m] above the tracked reference; ``gap_outside`` before the contact
+    and in the support after the swing."""
+    ticks = []
+    for k in range(int(round(1.5 / DT))):
+        t = round(k * DT, 6)
+        swing = _swing_foot(t)
+        pairs = standing_pairs(ROBOT, ["left_foot"] if 0.2 <= t < 0.8 else FEET)
+        if t >= T_CONTACT:
+            pairs["right_foot/obstacle_block"] = [0.0, 0.0, 300.0, 0.0, 0.0, 0.0]
+        z_m = 0.02
+        inside = T_CONTACT <= t and swing == 1.0
+        signals = {
+            "swing_foot": swing,
+            "right_z": z_m + (gap if inside else gap_outside),
+            "right_z_m": z_m,
+            "left_z": 0.0,
+            "left_z_m": 0.0,
+        }
+        ticks.append(Tick(t, pairs=pairs, signals=signals))
+    return write_log(tmp_path / "tr.mcap", ticks, _spec(1.5))
+
+
+def test_tracking_error_after_contact_is_smaller_with_impedance(tmp_path: Path) -> None:
+    """A foot 5 mm off its reference after contact tracks better than one 40 mm off (Fig. 5a);
+    the gap before the contact and in support does not count."""
+    name = "swing_z_error_after_contact:right_foot"
+    with_imp = measured(_tracking_log(tmp_path, 0.005, gap_outside=0.1), name)
+    without = measured(_tracking_log(tmp_path, 0.04), name)
+    assert with_imp == pytest.approx(0.005) and without == pytest.approx(0.04)
+    assert with_imp < without
+
+
+def test_equal_tracking_error_is_no_improvement(tmp_path: Path) -> None:
+    """Two feet equally far from their references show no smaller error."""
+    name = "swing_z_error_after_contact:right_foot"
+    assert not measured(_tracking_log(tmp_path, 0.04), name) < measured(
+        _tracking_log(tmp_path, 0.04), name
+    )
+
+
+def _work_log(tmp_path: Path, torque: float, speed: float, t_end: float = 1.5) -> LogData:
+    """The right foot swings 0.2-0.8 s onto the block (contact at 0.5 s), the left swings from
+    0.9 s; the first actuator commands ``torque`` [Nm] while its joint turns at ``speed``
+    [rad/s] from 0.3 s to 0.6 s; 100 Nm at 1 rad/s outside the step (0.1 s and from 1.0 s)."""
+    scene_model = _robot(ROBOT).mj_model
+    dof = int(scene_model.jnt_dofadr[scene_model.actuator_trnid[0, 0]])
+    nv, nu = scene_model.nv, scene_model.nu
+    ticks = []
+    for k in range(int(round(t_end / DT))):
+        t = round(k * DT, 6)
+        qvel, ctrl = np.zeros(nv), np.zeros(nu)
+        if 0.3 <= t < 0.6:
+            qvel[dof], ctrl[0] = speed, torque
+        elif t < 0.15 or t >= 1.0:
+            qvel[dof], ctrl[0] = 1.0, 100.0
+        pairs = standing_pairs(ROBOT, ["left_foot"] if 0.2 <= t < 0.8 else FEET)
+        if t >= T_CONTACT:
+            pairs["right_foot/obstacle_block"] = [0.0, 0.0, 300.0, 0.0, 0.0, 0.0]
+        signals = {"swing_foot": _swing_foot(t)}
+        ticks.append(Tick(t, qvel=qvel, pairs=pairs, signals=signals, ctrl=ctrl))
+    return write_log(tmp_path / "w.mcap", ticks, _spec(t_end))
+
+
+def test_positive_work_of_the_obstacle_step(tmp_path: Path) -> None:
+    """20 Nm at 0.5 rad/s for 0.3 s is 3 J; outside the step (0.2-0.9 s) nothing counts, and
+    less work with impedance (1.5 J) is lower energy."""
+    name = "positive_work_obstacle_step:right_foot"
+    without = measured(_work_log(tmp_path, 20.0, 0.5), name)
+    with_imp = measured(_work_log(tmp_path, 10.0, 0.5), name)
+    assert without == pytest.approx(3.0, rel=1e-6) and with_imp == pytest.approx(1.5, rel=1e-6)
+    assert with_imp < without
+
+
+def test_negative_power_is_not_work_done(tmp_path: Path) -> None:
+    """A motor braking its joint (τ q̇ < 0) does no positive work: 0 J, so no claim of lower
+    energy can rest on it; a step that never ends is not measurable."""
+    name = "positive_work_obstacle_step:right_foot"
+    assert measured(_work_log(tmp_path, -20.0, 0.5), name) == 0.0
+    assert not measured(_work_log(tmp_path, 20.0, 0.5), name) < 3.0
+    reason = unmeasurable_reason(_work_log(tmp_path, 20.0, 0.5, t_end=0.85), name)
+    assert "the next swing after right_foot's obstacle step did not start" in reason

@@ -218,7 +218,11 @@ def test_names_and_order_follow_the_conventions(name: str) -> None:
     assert model.body(model.site_bodyid[model.site("imu").id]).name == imu_body
     text = robot.xml_path.read_text()
     assert '<compiler angle="radian" autolimits="true" />' in text
-    assert "<option" not in text and "<light" not in text and "floor" not in text
+    assert "<light" not in text and "floor" not in text
+    # The only <option> is the robot's ledger's (option_cone): its lab's simulator's cone.
+    options = [line.strip() for line in text.splitlines() if "<option" in line]
+    cone = "pyramidal" if name == "kist_humanoid" else "elliptic"
+    assert options == [f'<option cone="{cone}" />']
 
 
 @pytest.mark.parametrize("name", ROBOTS)

@@ -149,3 +149,22 @@ def test_obstacle_solref_sets_its_contacts_stiffness() -> None:
     m = build_scene(load_robot("coman"), make_spec(world={"obstacles": [{**box, **own}]})).model
     assert np.allclose(m.geom_solref[m.geom("obstacle_hard").id], [0.005, 1.0])
     assert np.allclose(m.geom_solref[m.geom("floor").id], [0.02, 1.0])
+
+
+def test_the_cone_is_the_robots_unless_the_spec_sets_it() -> None:
+    """Each robot's MJCF carries its cone (COMAN elliptic, KIST MuJoCo's pyramidal default);
+    world.cone overrides it and world.condim sets the floor's and the obstacles' condim."""
+    coman = build_scene(load_robot("coman"), make_spec()).model
+    assert coman.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
+    kist_spec = {"robot": "kist_humanoid", "controller": {"type": "qpimpedance"}}
+    kist = build_scene(load_robot("kist_humanoid"), make_spec(**kist_spec)).model
+    assert kist.opt.cone == mujoco.mjtCone.mjCONE_PYRAMIDAL
+    assert kist.opt.solver == mujoco.mjtSolver.mjSOL_NEWTON  # MuJoCo's default
+    block = {"name": "obstacle_block", "size": [0.3, 0.16, 0.04], "position": [0.5, 0, 0.02]}
+    spec = make_spec(world={"cone": "elliptic", "condim": 6, "obstacles": [block]})
+    m = build_scene(load_robot("coman"), spec).model
+    assert m.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
+    assert m.geom("floor").condim == 6 and m.geom("obstacle_block").condim == 6
+    m = build_scene(load_robot("coman"), make_spec(world={"cone": "pyramidal"})).model
+    assert m.opt.cone == mujoco.mjtCone.mjCONE_PYRAMIDAL
+    assert m.geom("floor").condim == 3

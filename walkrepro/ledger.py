@@ -4,9 +4,12 @@ Four places hold the classes (:mod:`walkrepro.origin` defines them):
 
 - the robot: ``robots/<robot>/parameters.yaml``, the ledger ``robots/build_models.py``
   builds ``robot.xml`` from (``inherits`` names the robot a variant extends);
-- the scene: MuJoCo's options and the floor's contact, read from the compiled scene. A value
-  equal to MuJoCo's own default is ``assumed: MuJoCo's default``; any other is declared in
-  :data:`walkrepro.world.SCENE_ORIGINS` or comes from a spec field;
+- the scene: MuJoCo's options and the contact of the floor and of every obstacle, read from
+  the compiled scene. An option the robot's ledger sets (``option_<attribute>``, written into
+  its MJCF by ``robots/build_models.py``) takes that entry's class; a value equal to MuJoCo's
+  own default is ``assumed: MuJoCo's default`` (with the paper's ``scene_default`` reason
+  when ``experiments/provenance/<paper>.yaml`` gives one: Paper III's simulator was MuJoCo);
+  a value a spec field sets (``world.cone``, ``world.condim``) is listed under that field;
 - the spec's sections (``sim``, ``world``, ``sensors``, ``actuators``) and the controller's
   parameters: each field's default carries its class (``json_schema_extra``); a value a spec
   sets is the experiment's scenario (fields marked so), a declared calibration's result
@@ -115,6 +118,9 @@ class PaperValues(_Strict):
     """The classes of the values a paper's specs share, by dotted spec path."""
 
     paper: str
+    scene_default: str | None = Field(
+        None, description="why MuJoCo's defaults are this paper's scene (its own simulator)"
+    )
     values: dict[str, list[SharedValue]]
 
 
@@ -283,6 +289,8 @@ def _robot_numbers(robot: str) -> Iterator[Number]:
         )
         return
     for name, entry in entries.items():
+        if name.startswith(OPTION_PREFIX):
+            continue  # listed with the scene's options (scene_origins)
         value = f"{_text(entry.value)} {entry.unit}".strip()
         source = entry.source
         if entry.source_value is not None:
@@ -291,6 +299,24 @@ def _robot_numbers(robot: str) -> Iterator[Number]:
                 f"{entry.source_value.source}]"
             )
         yield Number("robot", name, value, entry.klass, source)
+
+
+#: Robot ledger entries ``option_<attribute>`` set the robot's MJCF ``<option>``.
+OPTION_PREFIX = "option_"
+
+
+def scene_origins(robot: str) -> dict[str, dict[str, str]]:
+    """``option.<attribute>`` -> ``{"class", "source"}`` of every option the robot's ledger
+    sets (``robots/<robot>/parameters.yaml``, entries ``option_<attribute>``)."""
+    entries = robot_ledger(robot) or {}
+    return {
+        f"option.{name[len(OPTION_PREFIX) :]}": {
+            "class": entry.klass,
+            "source": f"{entry.source} (robots/{robot}/parameters.yaml: {name})",
+        }
+        for name, entry in entries.items()
+        if name.startswith(OPTION_PREFIX)
+    }
 
 
 #: MuJoCo's default options and floor-plane geom, for comparison.
@@ -325,13 +351,24 @@ OPTIONS = (
 )
 #: Contact fields of the floor geom listed (friction's sliding part is world.floor_friction).
 FLOOR_FIELDS = ("friction", "solref", "solimp", "solmix", "condim", "margin", "gap")
+#: Contact fields of an obstacle's geom listed (its sliding friction is the floor's,
+#: ``world.floor_friction``, or its own ``friction``: spec fields, listed there; so is its own
+#: ``solref`` when the spec sets one).
+OBSTACLE_FIELDS = ("friction", "solref", "solimp", "solmix", "condim", "margin", "gap")
 
 
 def _scene_numbers(
-    model: mujoco.MjModel, origins: Mapping[str, dict[str, str]]
+    model: mujoco.MjModel,
+    origins: Mapping[str, dict[str, str]],
+    obstacles: tuple[str, ...] = (),
+    default_reason: str | None = None,
+    own_solref: frozenset[str] = frozenset(),
 ) -> Iterator[Number]:
-    """MuJoCo's options and the floor's contact as compiled: MuJoCo's default, or declared."""
+    """MuJoCo's options and the contact of the floor and the obstacles as compiled: MuJoCo's
+    default, or declared."""
     default_note = f"MuJoCo's default (mujoco {mujoco.__version__})"
+    if default_reason:
+        default_note = f"{default_reason}: {default_note}"
 
     def classed(name: str, value: Any, default: Any) -> Number:
         if name in origins:
@@ -353,6 +390,17 @@ def _scene_numbers(
             value, default = value[1:], default[1:]
             name = "friction.torsional_rolling"
         yield classed(f"floor.{name}", value, default)
+    for obstacle in obstacles:
+        geom = model.geom(obstacle).id
+        for name in OBSTACLE_FIELDS:
+            if name == "solref" and obstacle in own_solref:
+                continue  # the spec's own solref, listed under world.obstacles
+            value = np.copy(getattr(model, f"geom_{name}")[geom])
+            default = getattr(_DEFAULT_MODEL, f"geom_{name}")[0]
+            if name == "friction":
+                value, default = value[1:], default[1:]
+                name = "friction.torsional_rolling"
+            yield classed(f"{obstacle}.{name}", value, default)
 
 
 def experiment_numbers(loaded: LoadedSpec, raw: Any, scene_model: mujoco.MjModel) -> list[Number]:
@@ -365,12 +413,23 @@ def experiment_numbers(loaded: LoadedSpec, raw: Any, scene_model: mujoco.MjModel
         scene_model: the run's compiled scene (:func:`walkrepro.world.build_scene`).
     """
     from walkrepro.controllers import controller_params
-    from walkrepro.world import SCENE_ORIGINS
 
     spec = loaded.spec
     classifier = _Classifier(loaded, raw)
     numbers = list(_robot_numbers(spec.robot))
-    numbers += _scene_numbers(scene_model, SCENE_ORIGINS)
+    origins = scene_origins(spec.robot)
+    obstacles = tuple(o.name for o in spec.world.obstacles)
+    for field, scene_names in (
+        ("cone", ("option.cone",)),
+        ("condim", ("floor.condim", *(f"{o}.condim" for o in obstacles))),
+    ):
+        if getattr(spec.world, field) is not None:
+            for name in scene_names:
+                origins[name] = {"class": SCENARIO, "source": f"the spec's world.{field}"}
+    shared = paper_values(spec.paper.key)
+    default_reason = shared.scene_default if shared is not None else None
+    own_solref = frozenset(o.name for o in spec.world.obstacles if o.solref is not None)
+    numbers += _scene_numbers(scene_model, origins, obstacles, default_reason, own_solref)
     for section in SPEC_SECTIONS:
         numbers += _model_numbers(getattr(spec, section), section, section, classifier)
     for obstacle in spec.world.obstacles:

@@ -319,6 +319,19 @@ class WorldSpec(_Strict):
     )
     obstacles: list[ObstacleSpec] = Field(default_factory=list)
     contact: ContactSpec | None = None
+    cone: Literal["pyramidal", "elliptic"] | None = Field(
+        None,
+        description="MuJoCo's friction cone of the scene; None keeps the robot's own",
+        json_schema_extra=assumed(
+            "None: the robot's own cone (robots/<robot>/parameters.yaml, option_cone)"
+        ),
+    )
+    condim: Literal[1, 3, 4, 6] | None = Field(
+        None,
+        description="contact dimensionality of the floor and obstacles (which set every "
+        "robot contact's, by their priority); None keeps MuJoCo's default 3",
+        json_schema_extra=assumed("None: MuJoCo's default condim 3 on the floor and obstacles"),
+    )
 
     @field_validator("obstacles")
     @classmethod

@@ -18,7 +18,6 @@ import numpy as np
 
 from walkrepro.contact import ContactModel, contact_model
 from walkrepro.errors import SpecError
-from walkrepro.origin import assumed
 from walkrepro.robot import Robot
 from walkrepro.spec import ExperimentSpec, ObstacleSpec
 
@@ -35,14 +34,14 @@ FLOOR_PRIORITY = 1
 OVERLAP_TOLERANCE = 1e-3
 #: The robot's root body (robot.py's conventions); its subtree is the robot.
 ROBOT_ROOT = "pelvis"
-#: The class of every scene option :func:`build_scene` sets away from MuJoCo's default
-#: (:mod:`walkrepro.ledger` lists the others as MuJoCo's default, and an undeclared
-#: departure as unclassified).
-SCENE_ORIGINS: dict[str, dict[str, str]] = {
-    "option.cone": assumed(
-        "elliptic friction cones (MuJoCo's default is pyramidal): the exact Coulomb cone, "
-        "chosen for accurate foot friction before the runs"
-    )["provenance"],
+#: Scene options are the robot's: ``robots/<robot>/parameters.yaml`` sets them (entries
+#: ``option_<attribute>``, written into the robot's MJCF ``<option>`` by
+#: ``robots/build_models.py``) with their class, and the scene keeps them; every other option
+#: is MuJoCo's default (:mod:`walkrepro.ledger` lists both). A spec's ``world.cone`` and
+#: ``world.condim`` override them for a sensitivity map.
+CONE_KEYWORDS: dict[str, int] = {
+    "pyramidal": int(mujoco.mjtCone.mjCONE_PYRAMIDAL),
+    "elliptic": int(mujoco.mjtCone.mjCONE_ELLIPTIC),
 }
 
 
@@ -64,10 +63,10 @@ def build_scene(robot: Robot, spec: ExperimentSpec) -> Scene:
     mjspec = mujoco.MjSpec.from_file(str(robot.xml_path))
     mjspec.modelname = f"{spec.name}-{robot.name}"
     mjspec.option.timestep = spec.sim.timestep
-    # Elliptic cones and the Newton solver: accurate foot friction at the price of a few
-    # more solver iterations; noslip stays off (it would add a non-physical projection).
-    mjspec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
-    mjspec.option.solver = mujoco.mjtSolver.mjSOL_NEWTON
+    # The friction cone and the solver are the robot's MJCF <option> (its ledger), unless a
+    # sensitivity map sets the cone.
+    if spec.world.cone is not None:
+        mjspec.option.cone = CONE_KEYWORDS[spec.world.cone]
     _add_visuals(mjspec)
     floor = mjspec.worldbody.add_geom()
     floor.name = FLOOR_NAME
@@ -81,11 +80,14 @@ def build_scene(robot: Robot, spec: ExperimentSpec) -> Scene:
     contact = contact_model(robot, spec.world.contact, spec.sim.timestep)
     floor.solref = list(contact.solref)
     floor.solimp = list(contact.solimp)
+    if spec.world.condim is not None:
+        # With its higher priority the floor's condim is the one of every robot-floor contact.
+        floor.condim = spec.world.condim
     floor.contype = WORLD_CONTYPE
     floor.conaffinity = WORLD_CONAFFINITY
     floor.material = "grid"
     for obstacle in spec.world.obstacles:
-        _add_obstacle(mjspec, obstacle, spec.world.floor_friction, contact)
+        _add_obstacle(mjspec, obstacle, spec.world.floor_friction, contact, spec.world.condim)
     _set_position_gains(mjspec, spec.actuators.position_gain)
     _set_drives(mjspec, spec.actuators.friction_loss, spec.actuators.torque_lag)
     mjspec.compile()  # to_xml() writes the compiled spec
@@ -125,7 +127,11 @@ def home_overlaps(robot: Robot, spec: ExperimentSpec) -> dict[str, dict[str, flo
 
 
 def _add_obstacle(
-    mjspec: mujoco.MjSpec, obstacle: ObstacleSpec, floor_friction: float, contact: ContactModel
+    mjspec: mujoco.MjSpec,
+    obstacle: ObstacleSpec,
+    floor_friction: float,
+    contact: ContactModel,
+    condim: int | None = None,
 ) -> None:
     """A box with its centre (or, ``anchor: top``, its top face's centre) at ``position``,
     tilted about that point, about x then y (degrees)."""
@@ -156,6 +162,8 @@ def _add_obstacle(
     # the floor's material (docs/contact.md) unless the spec departs, with its reason.
     geom.solref = list(obstacle.solref if obstacle.solref is not None else contact.solref)
     geom.solimp = list(contact.solimp)
+    if condim is not None:
+        geom.condim = condim
     geom.contype = WORLD_CONTYPE
     geom.conaffinity = WORLD_CONAFFINITY
     geom.rgba = [0.85, 0.45, 0.2, 1.0]

@@ -7,6 +7,8 @@ geom carries a foot (``/sim/contacts``) and the foot's motion (``/sim/state``).
 
 from __future__ import annotations
 
+import math
+
 import mujoco
 import numpy as np
 
@@ -262,3 +264,107 @@ def _obstacles_crossed(d: LogData, arg: str) -> float:
                 crossed.add(standing_on)
             standing_on = carrying[0] if carrying else None
     return float(len(crossed))
+
+
+def _other_foot(foot: str) -> str:
+    return "right_foot" if foot == "left_foot" else "left_foot"
+
+
+@metric(
+    "support_peak_force",
+    "largest contact force norm on the foot (arg, default left_foot) within 0.3 s of the "
+    'other foot\'s first obstacle contact [N] (Fig. 4: "interference from the left leg")',
+    arg=choice_check("left_foot", "right_foot"),
+)
+def _support_peak_force(d: LogData, arg: str) -> float:
+    """Window: LANDING_WINDOW after the other (landing) foot's first obstacle contact, as for
+    ``peak_landing_force``; the force is the support foot's whole contact force, whatever
+    carries it (a fall within the window makes the metric not measurable)."""
+    foot = arg or "left_foot"
+    t0 = _contact_time(d, _other_foot(foot))
+    d.require_until(t0 + LANDING_WINDOW, "the landing window after the obstacle contact ended")
+    window = (d.contact_t >= t0) & (d.contact_t <= t0 + LANDING_WINDOW)
+    force = np.linalg.norm(d.contact_wrench(f"{foot}/*")[window, :3], axis=1)
+    return float(force.max()) if force.size else 0.0
+
+
+def _swing_after_contact(d: LogData, foot: str) -> tuple[np.ndarray, np.ndarray, float]:
+    """The ``swing_foot`` signal's times and values, and the foot's first obstacle contact
+    time [s]; the data must cover the end of the swing in which that contact happened."""
+    t0 = _contact_time(d, foot)
+    t, swing = d.require_signal("swing_foot")
+    after = (t >= t0) & (swing != _SIDE_INDEX[foot])
+    if not after.any():
+        d.require_until(math.inf, f"{foot}'s swing onto the obstacle ended")
+        raise NotMeasurable(f"{foot}'s swing onto the obstacle did not end{d.stopped_note()}")
+    return t, swing, t0
+
+
+@metric(
+    "swing_z_error_after_contact",
+    "largest |z_m − z| of the foot's (arg, default right_foot) sole from its first obstacle "
+    "contact to the end of that swing: the reference it tracks (modified by the impedance, or "
+    "the plan without it) against the measured height [m] (Fig. 5a)",
+    arg=choice_check("left_foot", "right_foot"),
+)
+def _swing_z_error_after_contact(d: LogData, arg: str) -> float:
+    """Window: from the first obstacle contact (> 10 N) until ``swing_foot`` stops naming the
+    foot (its support begins); the data must cover it. From the controller's signals: the
+    tracked reference ``<side>_z_m`` (Eq. 3's x_m, equal to the plan's z_d without impedance)
+    and the sole's ``<side>_z``."""
+    foot = _foot_arg(arg)
+    side = foot.split("_")[0]
+    t, swing, t0 = _swing_after_contact(d, foot)
+    _, z = d.require_signal(f"{side}_z")
+    _, z_m = d.require_signal(f"{side}_z_m")
+    t_end = float(t[(t >= t0) & (swing != _SIDE_INDEX[foot])][0])
+    window = (t >= t0) & (t < t_end)
+    if not window.any():
+        raise NotMeasurable(f"no signal logged between the obstacle contact and {foot}'s support")
+    return float(np.max(np.abs(z_m[window] - z[window])))
+
+
+@metric(
+    "positive_work_obstacle_step",
+    "the actuators' positive mechanical work Σ_i Σ_t max(0, τ_i q̇_i) Δt over the step onto "
+    "the obstacle: from the start of the foot's (arg, default right_foot) swing that first "
+    "touches an obstacle* to the start of the next swing [J] (§IV-A: energy consumption)",
+    arg=choice_check("left_foot", "right_foot"),
+)
+def _positive_work_obstacle_step(d: LogData, arg: str) -> float:
+    """Window: the swing of the foot in which it first touches an obstacle (> 10 N), from its
+    start (``swing_foot`` turns to the foot) to the next swing's start (``swing_foot`` turns to
+    the other foot), so the double support after the landing is in it; the data must cover it.
+    τ is each actuator's logged ``ctrl`` times its gear (torque-controlled motors) and q̇ its
+    joint's logged velocity, at every logged state; each actuator's power counts only where it
+    is positive (work done by the motor; none is recovered)."""
+    foot = _foot_arg(arg)
+    t_sig, swing, t0 = _swing_after_contact(d, foot)
+    mine, other = _SIDE_INDEX[foot], _SIDE_INDEX[_other_foot(foot)]
+    before = np.flatnonzero((t_sig <= t0) & (swing != mine))
+    t_start = float(t_sig[before[-1] + 1]) if before.size else float(t_sig[0])
+    nxt = np.flatnonzero((t_sig > t0) & (swing == other))
+    if not nxt.size:
+        raise NotMeasurable(
+            f"the next swing after {foot}'s obstacle step did not start{d.stopped_note()}"
+        )
+    t_end = float(t_sig[nxt[0]])
+    model = d.model
+    if model.nu == 0 or np.any(model.actuator_trntype != mujoco.mjtTrn.mjTRN_JOINT):
+        raise NotMeasurable("the actuators are not all joint actuators")
+    if np.any(model.actuator_gaintype != mujoco.mjtGain.mjGAIN_FIXED) or np.any(
+        model.actuator_biastype != mujoco.mjtBias.mjBIAS_NONE
+    ):
+        raise NotMeasurable("ctrl is not a torque for these actuators (position servos)")
+    dofs = model.jnt_dofadr[model.actuator_trnid[:, 0]]
+    gain = model.actuator_gainprm[:, 0] * model.actuator_gear[:, 0]
+    t_ctrl, ctrl = d.inputs_ctrl
+    i0, i1 = np.searchsorted(d.t, [t_start, t_end])
+    if i1 - i0 < 2 or t_ctrl.size == 0:
+        raise NotMeasurable("no state logged over the obstacle step")
+    t = d.t[i0:i1]
+    # The ctrl in force at each logged state (zero-order hold of the physics steps' inputs).
+    k = np.clip(np.searchsorted(t_ctrl, t, side="right") - 1, 0, t_ctrl.size - 1)
+    power = gain * ctrl[k] * d.qvel[i0:i1][:, dofs]  # [W] per actuator
+    dt = np.diff(t, append=t_end)
+    return float(np.sum(np.maximum(power, 0.0) * dt[:, None]))
