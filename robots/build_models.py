@@ -989,6 +989,15 @@ def sea_joint(
     ]
 
 
+def coman_actuator_order() -> list[tuple[str, str]]:
+    """(joint name, its base name) of COMAN's 23 actuated joints in actuator order: legs,
+    waist, arms (the controllers address them by name; both COMAN models share it)."""
+    legs = [(f"{s}_{j}", j) for s in ("l", "r") for j in LEG_JOINTS]
+    waist = [(j, j) for j in ("waist_yaw", "waist_roll", "waist_pitch")]
+    arms = [(f"{s}_{j}", j) for s in ("l", "r") for j in ARM_JOINTS]
+    return legs + waist + arms
+
+
 def build_coman() -> RobotDesign:
     p = load_ledger("coman")
     sea = coman_sea(p)
@@ -1007,14 +1016,8 @@ def build_coman() -> RobotDesign:
             kd=gains[base],
         )
 
-    for s in ("l", "r"):
-        for j in LEG_JOINTS:
-            add(f"{s}_{j}", j)
-    for j in ("waist_yaw", "waist_roll", "waist_pitch"):
-        add(j, j)
-    for s in ("l", "r"):
-        for j in ARM_JOINTS:
-            add(f"{s}_{j}", j)
+    for name, base in coman_actuator_order():
+        add(name, base)
 
     def joint(side: int) -> Callable[[str, str], list[Joint]]:
         return lambda name, base: sea_joint(joints, name, base, side, sea)
@@ -1217,14 +1220,8 @@ def build_coman_lab() -> RobotDesign:
         )
 
     # Actuators in robots/coman's order (the controllers address them by name).
-    for s in ("l", "r"):
-        for j in LEG_JOINTS:
-            add(f"{s}_{j}", j)
-    for j in ("waist_yaw", "waist_roll", "waist_pitch"):
-        add(j, j)
-    for s in ("l", "r"):
-        for j in ARM_JOINTS:
-            add(f"{s}_{j}", j)
+    for name, base in coman_actuator_order():
+        add(name, base)
 
     def joint(side: int) -> Callable[[str, str], list[Joint]]:
         return lambda name, base: sea_joint(joints, name, base, side, sea)

@@ -307,7 +307,12 @@ def test_completion_offers_commands_and_experiment_names() -> None:
         text=True,
         timeout=120,
     )
-    assert done.stdout.split() == ["stand_coman", "stand_dyros_red", "stand_kist_humanoid"], done
+    assert done.stdout.split() == [
+        "stand_coman",
+        "stand_coman_lab",
+        "stand_dyros_red",
+        "stand_kist_humanoid",
+    ], done
     done = subprocess.run(
         COMPLETE,
         env={**env, "COMP_WORDS": "walkrepro ch", "COMP_CWORD": "1"},

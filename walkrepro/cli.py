@@ -100,6 +100,15 @@ SetOption = Annotated[
     list[str] | None,
     typer.Option("--set", help="Override a spec field, e.g. --set controller.params.zeta=0.04"),
 ]
+#: Lets --update-reference write from uncommitted changes (local work; marked +dirty).
+AllowDirtyOption = Annotated[
+    bool,
+    typer.Option(
+        "--allow-dirty",
+        help="With --update-reference: write references from uncommitted changes "
+        "(local work; their provenance says +dirty).",
+    ),
+]
 OutOption = Annotated[
     Path, typer.Option("--out", help="Root directory for run outputs.", show_default=True)
 ]
@@ -298,14 +307,7 @@ class CheckOptions:
             "(implies --figures: a reference's figures are drawn from its own run).",
         ),
     ] = False
-    allow_dirty: Annotated[
-        bool,
-        typer.Option(
-            "--allow-dirty",
-            help="With --update-reference: write references from uncommitted changes "
-            "(local work; their provenance says +dirty).",
-        ),
-    ] = False
+    allow_dirty: AllowDirtyOption = False
     sweeps: Annotated[
         bool,
         typer.Option(
@@ -812,14 +814,7 @@ class SweepOptions:
         bool,
         typer.Option("--update-reference", help="Copy the finished map to results/maps/<map>/."),
     ] = False
-    allow_dirty: Annotated[
-        bool,
-        typer.Option(
-            "--allow-dirty",
-            help="With --update-reference: write references from uncommitted changes "
-            "(local work; their provenance says +dirty).",
-        ),
-    ] = False
+    allow_dirty: AllowDirtyOption = False
 
 
 @app.command()

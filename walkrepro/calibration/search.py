@@ -140,12 +140,7 @@ def measure_at(value: Any, metrics: Sequence[str], evaluate: Evaluator) -> Searc
     Raises:
         CalibrationFailed: a metric gives no value.
     """
-    (row,) = evaluate([value])
-    values = tuple(float(row.get(m, math.nan)) for m in metrics)
-    bad = [m for m, v in zip(metrics, values, strict=True) if not math.isfinite(v)]
-    if bad:
-        raise CalibrationFailed(f"the run gives no value of {', '.join(bad)}.")
-    return SearchResult(value=value, measured=values[0] if len(values) == 1 else values)
+    return SearchResult(value=value, measured=_measured(metrics, evaluate, value))
 
 
 def measure(metrics: Sequence[str], evaluate: Evaluator) -> SearchResult:
@@ -154,10 +149,16 @@ def measure(metrics: Sequence[str], evaluate: Evaluator) -> SearchResult:
     Raises:
         CalibrationFailed: a metric gives no value.
     """
-    (row,) = evaluate([None])
+    value = _measured(metrics, evaluate, None)
+    return SearchResult(value=value, measured=value)
+
+
+def _measured(metrics: Sequence[str], evaluate: Evaluator, value: Any) -> float | tuple[float, ...]:
+    """The criterion metric (or the tuple of several) of one run at ``value`` (None: the
+    spec's own)."""
+    (row,) = evaluate([value])
     values = tuple(float(row.get(m, math.nan)) for m in metrics)
     bad = [m for m, v in zip(metrics, values, strict=True) if not math.isfinite(v)]
     if bad:
         raise CalibrationFailed(f"the run gives no value of {', '.join(bad)}.")
-    value = values[0] if len(values) == 1 else values
-    return SearchResult(value=value, measured=value)
+    return values[0] if len(values) == 1 else values
