@@ -343,7 +343,11 @@ def applied_to(model: mujoco.MjModel) -> contextlib.AbstractContextManager[None]
 @contextlib.contextmanager
 def applied(contact: GroundContact) -> Iterator[None]:
     """Apply ``contact`` in every MuJoCo step of its model (``mj_step``, ``mj_step1``,
-    ``mj_forward``) while the block runs; compile no model inside it."""
+    ``mj_forward``) while the block runs; compile no model inside it.
+
+    The law's passive stage also advances its anchors, so each physics step must run it
+    exactly once: a ``mj_forward`` inside the block would advance them a second time (the
+    runner and the replay call only ``mj_step1``/``mj_step2`` or ``mj_step`` in it)."""
     key = id(contact.model)
     previous = mujoco.get_mjcb_passive()
     if previous is not None and previous is not _passive:
