@@ -1091,7 +1091,7 @@ def build_coman() -> RobotDesign:
 
 
 # --------------------------------------------------------------------------------------
-# COMAN from its lab's Robotran model (Paper II; issue 42): robots/coman_lab/parameters.yaml
+# COMAN from its lab's Robotran model (Paper II): robots/coman_lab/parameters.yaml
 # --------------------------------------------------------------------------------------
 
 #: The lab model's chains, root to tip, as (MJCF body, joint kind that moves it); the
