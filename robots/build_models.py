@@ -280,8 +280,12 @@ def load_ledger(robot: str, robots_dir: Path = ROBOTS_DIR) -> Ledger:
 class Shape:
     """A primitive solid of uniform density: drawn as a geom and counted in the inertia.
 
+    The kind ``"inertial"`` is not drawn: a source's mass at ``pos`` with the source's inertia
+    ``inertia`` about that point, for a body whose mass distribution a source gives (the
+    drawn shapes then have mass 0).
+
     Attributes:
-        kind: "box", "sphere", "capsule" or "cylinder".
+        kind: "box", "sphere", "capsule", "cylinder" or "inertial".
         mass: mass of this solid [kg].
         size: box half-extents (3,), sphere radius (1,), capsule/cylinder radius (1,) [m].
         pos: centre in the body frame (box, sphere) [m].
@@ -289,6 +293,8 @@ class Shape:
         collide: collision geom against the world (else visual only).
         name: geom name, or None.
         sole: a foot sole (condim 3, friction 1.0).
+        inertia: "inertial" only: inertia about ``pos`` in the body frame, (Ixx, Iyy, Izz,
+            Ixy, Ixz, Iyz) [kg m^2].
     """
 
     kind: str
@@ -299,6 +305,7 @@ class Shape:
     collide: bool = True
     name: str | None = None
     sole: bool = False
+    inertia: tuple[float, ...] | None = None
 
     def centre(self) -> np.ndarray:
         if self.fromto is not None:
@@ -320,6 +327,10 @@ class Shape:
     def own_inertia(self) -> np.ndarray:
         """Inertia about the shape's centre in its own frame [kg m^2]."""
         m = self.mass
+        if self.kind == "inertial":
+            assert self.inertia is not None
+            xx, yy, zz, xy, xz, yz = self.inertia
+            return np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
         if self.kind == "box":
             a, b, c = (2 * s for s in self.size)  # full edge lengths
             return m / 12 * np.diag([b * b + c * c, a * a + c * c, a * a + b * b])
@@ -593,6 +604,7 @@ class LegDims:
     sole_half_thickness: float
     ankle_height: float  # ankle axes above the sole bottom
     foot_ahead: float  # sole centre ahead (x) of the ankle axes
+    foot_shapes: tuple[Shape, ...] = ()  # further shapes of the foot (a source's inertial)
 
 
 def leg(side: int, dims: LegDims, joint: Callable[[str, str], list[Joint]]) -> Body:
@@ -618,6 +630,7 @@ def leg(side: int, dims: LegDims, joint: Callable[[str, str], list[Joint]]) -> B
                 name=f"{lr}_foot_sole",
                 sole=True,
             ),
+            *dims.foot_shapes,
         ],
         joint(f"{s}_ankle_roll", "ankle_roll"),
         [
@@ -730,18 +743,45 @@ def leg_dims(
 # --------------------------------------------------------------------------------------
 
 
-def dyros_leg_dims(p: Ledger) -> LegDims:
-    """DYROS RED's leg: link masses hip yaw, hip roll, thigh, shank, ankle, foot."""
+def isotropic_inertial(mass: float, com: tuple[float, ...], inertia: float) -> Shape:
+    """A source's link inertial: ``mass`` at ``com`` with the isotropic moment ``inertia``."""
+    return Shape("inertial", mass, (), com, inertia=(inertia, inertia, inertia, 0, 0, 0))
+
+
+def dyros_leg_dims(p: Ledger, side: int) -> LegDims:
+    """DYROS RED's leg (``side`` 1 left, -1 right): the lab model's link masses, centres of
+    mass (left side; y mirrored on the right) and isotropic inertias, hip yaw, hip roll,
+    thigh, shank, ankle, foot; the drawn shapes have no mass."""
     masses = p.vec("leg_link_masses", 6)
+    coms = p.vec("leg_link_coms", 18)
+    moments = p.vec("leg_link_inertias", 6)
+    inertials = [
+        isotropic_inertial(m, (coms[3 * i], side * coms[3 * i + 1], coms[3 * i + 2]), moments[i])
+        for i, m in enumerate(masses)
+    ]
     hip = p.vec("hip_position", 2)
-    shank = (z_segment("capsule", masses[3], p.vec("shank_shape", 3)),)
     length, width = p.vec("foot_size", 2)
-    return leg_dims(p, (hip[0], hip[1]), shank, masses[5], (length, width))
+    return LegDims(
+        hip=(hip[0], hip[1]),
+        thigh_length=p.num("thigh"),
+        shank_length=p.num("shank"),
+        hip_yaw_shapes=(z_segment("cylinder", 0, p.vec("hip_yaw_link_shape", 3)), inertials[0]),
+        hip_roll_shapes=(box_at_z(0, p.vec("hip_roll_link_shape")), inertials[1]),
+        thigh_shapes=(z_segment("capsule", 0, p.vec("thigh_shape", 3)), inertials[2]),
+        shank_shapes=(z_segment("capsule", 0, p.vec("shank_shape", 3)), inertials[3]),
+        ankle_shapes=(box_at_z(0, p.vec("ankle_link_shape")), inertials[4]),
+        foot_mass=0,
+        ft_housing=box_at_z(0, p.vec("ft_housing_shape", 4), collide=False),
+        ft_site_z=p.num("ft_site_z"),
+        foot_size=(length, width),
+        sole_half_thickness=p.num("sole_half_thickness"),
+        ankle_height=p.num("ankle_height"),
+        foot_ahead=p.num("foot_ahead"),
+        foot_shapes=(inertials[5],),
+    )
 
 
-def dyros_leg(
-    side: int, dims: LegDims, joints: dict[str, JointSpec], drive: DriveModel | None
-) -> Body:
+def dyros_leg(side: int, p: Ledger, joints: dict[str, JointSpec], drive: DriveModel | None) -> Body:
     """One DYROS RED leg: rigid joints, or with ``drive`` motor and gear-compliance DoFs."""
 
     def joint(name: str, base: str) -> list[Joint]:
@@ -749,7 +789,7 @@ def dyros_leg(
             return rigid_joint_for(joints, name, base, side)
         return drive_joint(joints, name, base, side, drive)
 
-    return leg(side, dims, joint)
+    return leg(side, dyros_leg_dims(p, side), joint)
 
 
 def dyros_drive(p: Ledger) -> DriveModel:
@@ -773,32 +813,33 @@ def build_dyros(robot: str = "dyros_red", description: str = "") -> RobotDesign:
     """
     p = load_ledger(robot)
     drive = dyros_drive(p) if "torque_lag" in p.entries else None
-    dims = dyros_leg_dims(p)
-    leg_masses = p.vec("leg_link_masses", 6)
-    leg_mass = sum(leg_masses)
+    leg_mass = sum(p.vec("leg_link_masses", 6))
     upper = p.num("total_mass") - 2 * leg_mass  # rigid pelvis + torso + head + arms [kg]
+    # The lab model's bodies above the hips lumped into one inertial, scaled (mass and
+    # inertia, same centre of mass) to make up the paper's total.
+    scale = upper / p.num("upper_body_lab_mass")
+    upper_inertial = Shape(
+        "inertial",
+        upper,
+        (),
+        p.vec("upper_body_com", 3),  # type: ignore[arg-type]
+        inertia=tuple(scale * i for i in p.vec("upper_body_inertia", 6)),
+    )
     thigh, shank, sole_depth = p.num("thigh"), p.num("shank"), p.num("ankle_height")
     hip_z = p.vec("hip_position", 2)[1]
     waist_z = p.num("waist_height")
     straight_pelvis_z = sole_depth + shank + thigh - hip_z
     head_r = p.num("head_radius")
     head_z = p.num("height") - straight_pelvis_z - head_r  # head top at the height, legs straight
-    arm_upper, arm_fore = p.num("upper_arm_mass"), p.num("forearm_mass")
-    m_pelvis, m_waist, m_head = (
-        p.num("pelvis_block_mass"),
-        p.num("waist_block_mass"),
-        p.num("head_mass"),
-    )
     wx, wy, w_bottom = p.vec("waist_block_shape", 3)
+    # The drawn shapes have no mass: the upper body's mass is the lab's (upper_inertial).
     pelvis_shapes = [
-        box_at_z(m_pelvis, p.vec("pelvis_block_shape", 4)),  # pelvis frame and hip motors
+        box_at_z(0, p.vec("pelvis_block_shape", 4)),  # pelvis frame and hip motors
         # Waist block up to the waist (waist_height), then the torso above it.
-        Shape("box", m_waist, (wx, wy, (waist_z - w_bottom) / 2), (0, 0, (waist_z + w_bottom) / 2)),
-        box_at_z(
-            upper - m_pelvis - m_waist - m_head - 2 * (arm_upper + arm_fore),
-            p.vec("torso_shape", 4),
-        ),
-        Shape("sphere", m_head, (head_r,), (0, 0, head_z)),
+        Shape("box", 0, (wx, wy, (waist_z - w_bottom) / 2), (0, 0, (waist_z + w_bottom) / 2)),
+        box_at_z(0, p.vec("torso_shape", 4)),
+        Shape("sphere", 0, (head_r,), (0, 0, head_z)),
+        upper_inertial,
     ]
     arm_y = p.num("arm_y")
     r_u, top_u, bottom_u = p.vec("upper_arm_shape", 3)
@@ -806,8 +847,8 @@ def build_dyros(robot: str = "dyros_red", description: str = "") -> RobotDesign:
     for side in (1, -1):
         y = side * arm_y
         pelvis_shapes += [
-            Shape("capsule", arm_upper, (r_u,), fromto=(0, y, top_u, 0, y, bottom_u)),
-            Shape("capsule", arm_fore, (r_f,), fromto=(x0_f, y, z0_f, x1_f, y, z1_f)),
+            Shape("capsule", 0, (r_u,), fromto=(0, y, top_u, 0, y, bottom_u)),
+            Shape("capsule", 0, (r_f,), fromto=(x0_f, y, z0_f, x1_f, y, z1_f)),
         ]
     joints: dict[str, JointSpec] = {}
     leg_ranges = joint_ranges(p, LEG_JOINTS)
@@ -826,7 +867,7 @@ def build_dyros(robot: str = "dyros_red", description: str = "") -> RobotDesign:
         (0, 0, 0),
         pelvis_shapes,
         sites=[Site("imu", (0, 0, p.num("imu_z")))],
-        children=[dyros_leg(1, dims, joints, drive), dyros_leg(-1, dims, joints, drive)],
+        children=[dyros_leg(1, p, joints, drive), dyros_leg(-1, p, joints, drive)],
     )
     friction, condim = contact(p)
     return RobotDesign(
@@ -1406,6 +1447,8 @@ def body_element(body: Body, robot: RobotDesign) -> ET.Element:
             attrs["frictionloss"] = fmt(j.frictionloss)
         ET.SubElement(el, "joint", attrs)
     for s in body.shapes:
+        if s.kind == "inertial":
+            continue  # counted in <inertial> above, not drawn
         attrs: dict[str, str] = {}
         if s.name:
             attrs["name"] = s.name

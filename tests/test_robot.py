@@ -485,7 +485,7 @@ def straight_standing(robot: Robot) -> tuple[mujoco.MjModel, mujoco.MjData]:
 
 
 def test_dyros_red_matches_published_figures() -> None:
-    """DYROS RED: 89.6 kg, 1.43 m, 0.30 x 0.15 m feet, the lab's leg lengths and link masses."""
+    """DYROS RED: 89.6 kg, 1.43 m, 0.30 x 0.15 m feet, the lab model's leg lengths, link masses and centres of mass."""
     robot = load_robot("dyros_red")
     model, data = straight_standing(robot)
     assert robot.total_mass == pytest.approx(89.6)
@@ -499,7 +499,8 @@ def test_dyros_red_matches_published_figures() -> None:
         assert np.linalg.norm(knee - anchor(model, data, f"{s}_hip_pitch")) == pytest.approx(0.35)
         assert np.linalg.norm(ankle - knee) == pytest.approx(0.35)
         sole = data.site("left_sole" if s == "l" else "right_sole").xpos
-        assert ankle[2] - sole[2] == pytest.approx(0.137)
+        assert ankle[2] - sole[2] == pytest.approx(0.1368)
+        assert sole[0] - ankle[0] == pytest.approx(0.0317)
         masses = [
             model.body(b).mass[0]
             for b in (
@@ -511,7 +512,11 @@ def test_dyros_red_matches_published_figures() -> None:
             )
         ]
         foot = model.body("left_foot" if s == "l" else "right_foot").mass[0]
-        np.testing.assert_allclose([*masses, foot], [2.68, 2.67, 5.37, 3.88, 2.51, 3.46])
+        np.testing.assert_allclose([*masses, foot], [2.679, 2.67, 5.366, 3.883, 2.51, 3.464])
+        thigh_com = model.body(f"{s}_thigh").ipos
+        np.testing.assert_allclose(
+            thigh_com, [-0.00042, 0.00032 if s == "l" else -0.00032, -0.18904]
+        )
     for j in robot.joint_names:
         dof = model.joint(j).dofadr[0]
         assert model.dof_damping[dof] == pytest.approx(2.0)
