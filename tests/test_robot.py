@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib.util
 import sys
+import xml.etree.ElementTree as ET
 from types import ModuleType
 
 import mujoco
@@ -18,6 +19,7 @@ import pytest
 
 from walkrepro import ROBOTS_DIR, contact_law
 from walkrepro.errors import UnknownNameError
+from walkrepro.ledger import robot_ledger
 from walkrepro.robot import (
     FRAME_NAMES,
     SENSOR_NAMES,
@@ -219,10 +221,25 @@ def test_names_and_order_follow_the_conventions(name: str) -> None:
     text = robot.xml_path.read_text()
     assert '<compiler angle="radian" autolimits="true" />' in text
     assert "<light" not in text and "floor" not in text
-    # The only <option> is the robot's ledger's (option_cone): its lab's simulator's cone.
+    # The only <option> is the robot's ledger's (option_<attribute>): its lab's simulator's
+    # cone (and, for DYROS RED, its lab's solver settings), each attribute as the ledger gives it.
     options = [line.strip() for line in text.splitlines() if "<option" in line]
+    assert len(options) == 1
+    ledger = robot_ledger(name) or {}
+    in_ledger = {
+        key.removeprefix("option_"): entry.value
+        for key, entry in ledger.items()
+        if key.startswith("option_")
+    }
+    in_xml = ET.fromstring(options[0]).attrib
+    assert set(in_xml) == set(in_ledger)
+    for attribute, value in in_ledger.items():
+        if isinstance(value, str):
+            assert in_xml[attribute] == value
+        else:
+            assert float(in_xml[attribute]) == pytest.approx(float(value), rel=1e-6)
     cone = "pyramidal" if name == "kist_humanoid" else "elliptic"
-    assert options == [f'<option cone="{cone}" />']
+    assert in_xml["cone"] == cone
 
 
 @pytest.mark.parametrize("name", ROBOTS)
