@@ -185,3 +185,48 @@ def test_spec_rejects_hold_fields_on_a_push() -> None:
     with pytest.raises(ValidationError, match="belong to a hold"):
         DisturbanceSpec(name="p", body="pelvis", force=(1, 0, 0), stiffness=100.0, start=0,
                         duration=1)  # fmt: skip
+
+
+def test_hold_offset_moves_where_the_hand_holds_in_its_frozen_frame() -> None:
+    """With hold_offset the anchor is the grab's centre of mass plus the offset along the
+    frame (frozen at the grab): a body that stays put is pulled toward it with k · offset, a
+    body that moved onto it feels nothing, and the grab event logs the anchor."""
+    rot90 = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    body = _Body()
+    grabbed = body.pos.copy()
+    schedule = DisturbanceSchedule([_hold(hold_offset=(-0.01, 0.0, 0.0))])
+    _, events = schedule.wrenches(1.001, lambda n: rot90, body)  # frame x = world y
+    assert np.allclose(events[0]["anchor"], grabbed + [0.0, -0.01, 0.0])
+    w, _ = schedule.wrenches(2.0, lambda n: np.eye(3), body)  # frame moved: ignored
+    assert np.allclose(w["pelvis"], [0.0, -20.0, 0.0, 0, 0, 0])  # 2 kN/m · 1 cm toward −y
+    body.pos = grabbed + [0.0, -0.01, 0.0]
+    w, _ = schedule.wrenches(2.0, lambda n: np.eye(3), body)
+    assert w == {}
+
+
+def test_hold_without_offset_holds_where_it_grabbed() -> None:
+    """The default offset is zero: the anchor is the centre of mass at the grab, exactly."""
+    body = _Body()
+    _, events = DisturbanceSchedule([_hold()]).wrenches(1.001, lambda n: np.eye(3), body)
+    assert events[0]["anchor"] == body.pos.tolist()
+
+
+@pytest.mark.parametrize(
+    "update, message",
+    [
+        ({"hold_offset": (0.0, 0.01, 0.0)}, "does not hold"),
+        ({"hold_offset": (0.6, 0.0, 0.0)}, "norm must be <= 0.5"),
+    ],
+)
+def test_spec_rejects_an_offset_the_hand_cannot_hold(update: dict, message: str) -> None:
+    """An offset along an axis the hand leaves free would do nothing, and one beyond an arm's
+    reach is no hand: both are refused with the reason."""
+    with pytest.raises(ValidationError, match=message):
+        _hold(**update)
+
+
+def test_spec_rejects_a_hold_offset_on_a_push() -> None:
+    """A push has no anchor: a hold_offset on it is refused."""
+    with pytest.raises(ValidationError, match="belong to a hold"):
+        DisturbanceSpec(name="p", body="pelvis", force=(1, 0, 0), hold_offset=(0.01, 0, 0),
+                        start=0, duration=1)  # fmt: skip

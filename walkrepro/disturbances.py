@@ -38,8 +38,9 @@ class HandHold:
 
         f_F = −s(t) · S (k · Rᵀ(p − p₀) + b · Rᵀ ṗ),   f_W = R f_F,   |f_W| ≤ f_max
 
-    with p, ṗ the body's centre of mass and its velocity in the world, p₀ the centre of mass
-    at the grab. The cap is applied to the norm (the direction is kept).
+    with p, ṗ the body's centre of mass and its velocity in the world, p₀ where the hand
+    holds: the centre of mass at the grab plus the spec's ``hold_offset`` o_F along the held
+    axes of F, p₀ = p_grab + R o_F. The cap is applied to the norm (the direction is kept).
 
     Attributes:
         stiffness: k [N/m].
@@ -141,9 +142,11 @@ class DisturbanceSchedule:
                 item.wrench = np.concatenate(
                     [rot @ np.asarray(s.force), rot @ np.asarray(s.torque)]
                 )
+                event = {"kind": "disturbance_on", "name": s.name, "body": s.body}
                 if s.kind == "hold":
                     item.hold = self._grab(s, rot, body_state)
-                events.append({"kind": "disturbance_on", "name": s.name, "body": s.body})
+                    event["anchor"] = item.hold.anchor.tolist()  # where the hand holds [m], world
+                events.append(event)
             elif scale == 0 and item.on:
                 item.on = False
                 item.hold = None  # the hand let go
@@ -163,17 +166,21 @@ class DisturbanceSchedule:
 
     @staticmethod
     def _grab(s: DisturbanceSpec, rotation: np.ndarray, body_state: BodyState | None) -> HandHold:
-        """The hand at the grab: it holds the body's centre of mass where it is now."""
+        """The hand at the grab: it holds the body's centre of mass where it is now, moved by
+        the spec's ``hold_offset`` (in the hold's frame, frozen now)."""
         if body_state is None:
             raise RuntimeError(f"disturbance {s.name!r}: a hold needs the body's state")
-        anchor, _ = body_state(s.body)
+        grabbed, _ = body_state(s.body)
+        anchor = np.array(grabbed, dtype=float)
+        if any(s.hold_offset):  # p₀ = p_grab + R o_F; no arithmetic when there is no offset
+            anchor = anchor + rotation @ np.asarray(s.hold_offset, dtype=float)
         return HandHold(
             stiffness=s.stiffness,
             damping=s.damping,
             max_force=s.max_force,
             axes=tuple(_AXIS_INDEX[a] for a in s.axes),
             rotation=rotation,
-            anchor=np.array(anchor, dtype=float),
+            anchor=anchor,
         )
 
     @staticmethod

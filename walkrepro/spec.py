@@ -64,6 +64,9 @@ MAX_RUN_MEMORY = 2**30
 BYTES_PER_TICK = 8
 #: Largest disturbance force [N] and torque [Nm] (norms): ten times a 100 kg robot's weight.
 MAX_FORCE, MAX_TORQUE = 1e4, 1e3
+#: Largest distance [m] of a hold's anchor from the held body's centre of mass at the grab
+#: (``hold_offset``): an arm's reach.
+MAX_HOLD_OFFSET = 0.5
 #: Largest Coulomb friction coefficient (floor and obstacles).
 MAX_FRICTION = 10.0
 #: Longest contact time constant 1/ω [s] a spec may set (MuJoCo's default contact is 0.02 s).
@@ -357,7 +360,9 @@ class DisturbanceSpec(_Strict):
     still), acting only along ``axes`` of ``frame``, engaged over the ramp and let go by
     ramping it down ("reduces the pushing force"), its force capped at ``max_force``. The
     force is an outcome of the hand's impedance and the robot's motion; it is logged every
-    physics step like any disturbance, so a log replays exactly.
+    physics step like any disturbance, so a log replays exactly. ``hold_offset`` says where
+    the hand holds: its anchor is the body's centre of mass at the grab plus this offset,
+    along the held axes of ``frame`` (frozen at the grab) [m]; 0 holds the body where it was.
     """
 
     name: str
@@ -377,6 +382,14 @@ class DisturbanceSpec(_Strict):
     )
     axes: list[Literal["x", "y", "z"]] = Field(
         default_factory=list, description="hold: the axes of ``frame`` the hand holds"
+    )
+    hold_offset: Vec3 = Field(
+        (0.0, 0.0, 0.0),
+        description=(
+            "hold: where the hand holds, along x, y, z of ``frame`` (frozen at the grab) from "
+            "the body's centre of mass at the grab [m]; non-zero only on held axes, norm at "
+            f"most {MAX_HOLD_OFFSET:g} m"
+        ),
     )
 
     @field_validator("force", "torque")
@@ -400,6 +413,7 @@ class DisturbanceSpec(_Strict):
             "damping": self.damping,
             "max_force": self.max_force,
             "axes": self.axes,
+            "hold_offset": any(self.hold_offset),
         }
         if self.kind == "push":
             given = [k for k, v in hold_fields.items() if v]
@@ -414,6 +428,17 @@ class DisturbanceSpec(_Strict):
             raise ValueError("a hold's axes must not repeat")
         if self.profile != "ramp":
             raise ValueError("a hand grabs and lets go over a ramp: a hold needs profile: ramp")
+        free = [a for a, v in zip("xyz", self.hold_offset, strict=True) if v and a not in self.axes]
+        if free:
+            raise ValueError(
+                f"hold_offset is non-zero along {', '.join(free)}, which the hand does not hold "
+                f"(axes: {', '.join(self.axes)}): an offset along a free axis would do nothing"
+            )
+        if math.hypot(*self.hold_offset) > MAX_HOLD_OFFSET:
+            raise ValueError(
+                f"hold_offset's norm must be <= {MAX_HOLD_OFFSET:g} m (an arm's reach from the "
+                "held body's centre of mass)"
+            )
         return self
 
 
