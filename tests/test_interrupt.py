@@ -245,7 +245,8 @@ def test_a_run_without_log_is_rechecked_from_its_record(tmp_path: Path) -> None:
 HOLD = """
 import os, signal, sys, time
 sys.argv[0] = "walkrepro"  # as the console script
-from walkrepro import interrupt  # as the command, importing walkrepro holds the signals
+from walkrepro import interrupt
+interrupt.hold_stop_signals_if_command()  # as the command's set-up does
 interrupt.hold_stop_signals_if_command()  # a second call keeps the one hold
 os.kill(os.getpid(), signal.{signal})  # while "importing"
 time.sleep(0.05)

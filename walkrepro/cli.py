@@ -21,13 +21,48 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from walkrepro import REFERENCES_DIR, results
+from walkrepro import results
 from walkrepro.errors import WalkreproError
+from walkrepro.locations import REFERENCES_DIR
 
 if TYPE_CHECKING:
     from walkrepro.spec import ExperimentSpec
 
-app = typer.Typer(
+
+def command_setup() -> None:
+    """The ``walkrepro`` command's process set-up, done when the command starts (importing
+    walkrepro does none of it, so a program that uses the library keeps its own):
+
+    - stop signals (Ctrl-C, SIGTERM) that come during the start-up imports are held and
+      handed to the run or sweep that follows (:mod:`walkrepro.interrupt`);
+    - ``OPENBLAS_NUM_THREADS=1`` unless the user set it: a run is one simulation loop on one
+      core with matrices of at most 60 x 60, where OpenBLAS's worker threads only add
+      hand-offs (≈ 2.5 µs on Paper I's 12 x 12 eigh at 2 kHz) and ``check --jobs N`` would
+      oversubscribe the cores; OpenBLAS reads it when numpy loads, so before that;
+    - MuJoCo imported with no GL backend bound (:func:`walkrepro.gl.import_mujoco`);
+    - numba's cache in walkrepro's source-keyed directory, through ``NUMBA_CACHE_DIR`` so
+      that worker processes inherit it (:mod:`walkrepro.numbacache`).
+    """
+    from walkrepro.interrupt import hold_stop_signals_if_command
+
+    hold_stop_signals_if_command()
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    from walkrepro import gl, numbacache
+
+    gl.import_mujoco()
+    numbacache.install()
+
+
+class _Command(typer.Typer):
+    """The typer app whose call (the console script, ``python -m walkrepro``) first does the
+    command's set-up; tests invoke its commands without it."""
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        command_setup()
+        return super().__call__(*args, **kwargs)
+
+
+app = _Command(
     help="Reproduce published biped-walking controllers in MuJoCo and check the reproduction.",
     no_args_is_help=True,
     add_completion=True,
@@ -40,7 +75,7 @@ def version_text() -> str:
     """walkrepro's version and git commit, and the MuJoCo and Pinocchio versions."""
     import mujoco
 
-    from walkrepro import __version__
+    from walkrepro._version import __version__
     from walkrepro.provenance import git_commit, pinocchio_version
 
     return (
@@ -149,7 +184,7 @@ def options_from(record: type) -> Callable[[Callable[[Any], None]], Callable[...
 def _needs_checkout(what: str) -> None:
     """Refuse to write the repository's own files (references, calibration, docs) from an
     installed walkrepro: they live in a clone (walkrepro/locations.py)."""
-    from walkrepro import IS_CHECKOUT
+    from walkrepro.locations import IS_CHECKOUT
 
     if not IS_CHECKOUT:
         raise WalkreproError(
@@ -338,7 +373,7 @@ def check(options: CheckOptions) -> None:
 
     The claims of each experiment's declared maps (spec ``sweeps:``) are checked too.
     """
-    from walkrepro import checks
+    from walkrepro import api, checks
     from walkrepro.experiment import References, evaluate_log
     from walkrepro.specfiles import experiment_names
 
@@ -354,12 +389,7 @@ def check(options: CheckOptions) -> None:
         _needs_clean_tree("check --update-reference", options.allow_dirty)
     verdicts: list[checks.Verdict] = []
     for path in options.run_dir or []:
-        directory, log = results.resolve_run(path)
-        made_with = _recorded_overrides(directory)
-        # A run lives in <root>/<experiment>/<run>: partners with the same overrides are
-        # looked for under <root>.
-        lookup = References(overrides=made_with, search_root=directory.parent.parent)
-        verdicts.append(evaluate_log(log, directory, lookup)[1])
+        verdicts.append(api.evaluate(path))
     names = list(options.experiments or [])
     if not names and not options.run_dir:
         names = experiment_names()
@@ -416,16 +446,6 @@ def _update_docs() -> None:
 
     for path in write_docs(generated_files()):
         _console().print(f"docs updated: {path}", highlight=False)
-
-
-def _recorded_overrides(run_dir: Path) -> list[str]:
-    """The ``--set`` overrides a run was made with (its ``run.json``; none if unrecorded)."""
-    import json
-
-    record = run_dir / results.RUN_FILE
-    if not record.is_file():
-        return []
-    return list(json.loads(record.read_text()).get("overrides", []))
 
 
 def _paired_partners(
@@ -1118,7 +1138,7 @@ def _resolved(name: str, overrides: list[str]):  # noqa: ANN202 - returns Experi
 
 def _with_reference_video(names: list[str]) -> frozenset[str]:
     """The experiments among ``names`` whose committed reference keeps a video."""
-    from walkrepro import REFERENCES_DIR
+    from walkrepro.locations import REFERENCES_DIR
     from walkrepro.video import VIDEO_FILE
 
     return frozenset(n for n in names if (REFERENCES_DIR / n / VIDEO_FILE).is_file())

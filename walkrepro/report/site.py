@@ -19,9 +19,9 @@ from dataclasses import dataclass
 from html import escape
 from pathlib import Path
 
-from walkrepro import IS_CHECKOUT, REFERENCES_DIR, RESULTS_DIR
 from walkrepro.errors import WalkreproError
 from walkrepro.ledger import counts
+from walkrepro.locations import IS_CHECKOUT, REFERENCES_DIR, RESULTS_DIR
 from walkrepro.report import html
 from walkrepro.report.claims import Tally, experiment_claims, tally
 from walkrepro.report.maps import MapResult, experiment_maps

@@ -161,8 +161,8 @@ def map_verdicts(
     other overrides than the spec now declares is reported as stale (fail). With ``rerun``
     each map is swept again under ``out`` and evaluated on the new cells.
     """
-    from walkrepro import REFERENCES_DIR
     from walkrepro.checks import FAIL, CheckRow, Verdict
+    from walkrepro.locations import REFERENCES_DIR
     from walkrepro.specfiles import load_spec
     from walkrepro.sweep.claims import evaluate_sweep
     from walkrepro.sweep.engines import ProcessEngine

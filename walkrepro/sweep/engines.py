@@ -243,7 +243,5 @@ def _pythonpath() -> list[str]:
     """The directory holding this ``walkrepro`` package, plus any PYTHONPATH already set."""
     from pathlib import Path
 
-    import walkrepro
-
-    here = str(Path(walkrepro.__file__).resolve().parent.parent)
+    here = str(Path(__file__).resolve().parents[2])
     return [here, *os.environ.get("PYTHONPATH", "").split(os.pathsep)]
