@@ -296,10 +296,18 @@ def run(
     set_: SetOption = None,
     out: OutOption = results.DEFAULT_ROOT,
     figures: Annotated[bool, typer.Option(help="Draw the paper's figures after the run.")] = True,
+    details: Annotated[
+        bool,
+        typer.Option(
+            "--details",
+            help="Print every row in full (paper value, measured, observed band, source and "
+            "note); default: one line per claim, failing rows in full.",
+        ),
+    ] = False,
 ) -> None:
     """Run one experiment headless: log, metrics, verdict and figures in a new run directory."""
     summary = _run_one(experiment, set_ or [], out, (figures, figures), show_progress=True)
-    _print_verdicts([summary.verdict])
+    _print_verdicts([summary.verdict], details, per_claim=True)
     _console().print(f"run directory: [bold]{summary.run_dir}[/]")
     for what, name in (("figures", results.FIGURES_DIR), ("video", "video.mp4")):
         if (summary.run_dir / name).exists():
@@ -1207,19 +1215,32 @@ def _plot_comparisons(summaries: list) -> None:  # list[RunSummary]
             plot_compare(s.result.log_path, logs[other], s.run_dir / results.FIGURES_DIR)
 
 
-def _print_verdicts(verdicts: list, details: bool = True) -> None:  # list[checks.Verdict]
+def _print_verdicts(
+    verdicts: list,  # list[checks.Verdict]
+    details: bool = True,
+    per_claim: bool = False,
+) -> None:
     """Print a batch's verdicts and the count line ``N reproduced, C calibrated, M known
     deviations, K failed``.
 
     With ``details``, the table of every row (paper value, measured value and a known
-    deviation's observed band side by side). Without, one line per experiment, then the
-    failing rows in full: a failure is never hidden.
+    deviation's observed band side by side). Without, one line per experiment (with
+    ``per_claim``, one line per claim: ``walkrepro run``), then the failing rows in full: a
+    failure is never hidden.
     """
-    from walkrepro.checks import count, failing_row_text, summary_line
+    from walkrepro.checks import FAIL, claim_lines, count, failing_row_text, summary_line
 
     console = _console()
     if details:
         console.print(_verdict_table(verdicts))
+    elif per_claim:
+        for v in verdicts:
+            for row, text in zip(v.rows, claim_lines(v), strict=True):
+                colour = "red" if row.status == FAIL else "default"
+                console.print(f"[{colour}]{escape(text)}[/]", highlight=False, soft_wrap=True)
+        for v in verdicts:
+            for text in failing_row_text(v):
+                console.print(f"[red]{escape(text)}[/]", highlight=False, soft_wrap=True)
     else:
         width = max((len(v.experiment) for v in verdicts), default=0)
         for v in verdicts:
