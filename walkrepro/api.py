@@ -62,7 +62,7 @@ class Experiment:
     """
 
     spec: ExperimentSpec
-    robot: Robot
+    robot: Robot = field(repr=False)
     scene: Scene = field(repr=False)
     params: ControllerParams
     overrides: tuple[str, ...] = ()
