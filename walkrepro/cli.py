@@ -11,7 +11,6 @@ import functools
 import os
 import sys
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 
@@ -494,8 +493,6 @@ def _run_batch(
     Ctrl-C stops the runs under way (each keeps a complete, interrupted run directory) and
     starts no more.
     """
-    from concurrent.futures import as_completed
-
     from walkrepro.checks import count
     from walkrepro.interrupt import InterruptFlag
 
@@ -523,24 +520,62 @@ def _run_batch(
             if summary.interrupted:
                 break
         return done
-    with InterruptFlag() as flag, ProcessPoolExecutor(workers, initializer=_ignore_sigint) as pool:
-        futures = {
-            pool.submit(_run_one, n, overrides, out, _outputs_of(n, outputs), False): n
-            for n in names
-        }
-        for future in as_completed(futures):
-            report(future.result())
-            if flag.requested:
-                for pending in futures:
-                    pending.cancel()
+    # The sweep's process pool: workers reused across runs, a dead worker named, and a stop
+    # (Ctrl-C or SIGTERM here) passed on to the runs under way, whose results still come.
+    from walkrepro.sweep.engines import ProcessEngine
+
+    tasks = [
+        _BatchTask(i, n, tuple(overrides), out, _outputs_of(n, outputs))
+        for i, n in enumerate(names)
+    ]
+    engine = ProcessEngine(workers, _run_task, _BatchResult.crashed)
+    engine.start(len(tasks))
+    with InterruptFlag() as flag:
+        for result in engine.run(tasks, stop=lambda: flag.signum if flag.requested else None):
+            if result.error is not None:
+                raise result.error
+            if result.summary is None:  # its worker died
+                raise WalkreproError(f"{names[result.index]}: {result.message}.")
+            report(result.summary)
     return done
 
 
-def _ignore_sigint() -> None:
-    """Pool workers ignore Ctrl-C between runs; during a run, the run's own flag takes it."""
-    import signal
+@dataclasses.dataclass(frozen=True)
+class _BatchTask:
+    """One experiment of a ``check --jobs`` batch, as a pool worker runs it."""
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    index: int
+    name: str
+    overrides: tuple[str, ...]
+    out: Path
+    outputs: tuple[bool, bool]
+
+
+@dataclasses.dataclass(frozen=True)
+class _BatchResult:
+    """What a pool worker returns for a :class:`_BatchTask`: the run's summary, or the
+    exception the run raised (re-raised here, as a run in this process would), or, when the
+    worker died, neither and a message."""
+
+    index: int
+    summary: Any = None
+    error: BaseException | None = None
+    message: str = ""
+    engine_time: float = float("nan")
+
+    @staticmethod
+    def crashed(index: int, message: str, engine_time: float) -> _BatchResult:
+        """The result of a task whose worker died."""
+        return _BatchResult(index, message=message, engine_time=engine_time)
+
+
+def _run_task(task: _BatchTask) -> _BatchResult:
+    """Run one experiment of a batch in a pool worker (module-level: the pool pickles it)."""
+    try:
+        summary = _run_one(task.name, list(task.overrides), task.out, task.outputs, False)
+    except Exception as exc:  # noqa: BLE001 - handed to the parent, which raises it
+        return _BatchResult(task.index, error=exc)
+    return _BatchResult(task.index, summary)
 
 
 def _update_references(summaries: list) -> None:
