@@ -401,3 +401,26 @@ def test_check_with_jobs_runs_on_the_sweep_pool_and_reports_each_run(
     for name in ("tiny_a", "tiny_b"):
         assert any(line.split()[:3] == ["ok", name, "complete"] for line in text.splitlines()), text
         assert len(list((out / name).iterdir())) == 1
+
+
+def test_check_on_local_ray_reports_each_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`check --engine ray` runs the experiments as Ray tasks, with the same verdicts."""
+    pytest.importorskip("ray")
+    specs = tmp_path / "specs"
+    specs.mkdir()
+    for name in ("tiny_a", "tiny_b"):
+        (specs / f"{name}.yaml").write_text(SPEC.replace("tiny_stand", name))
+    monkeypatch.setenv("WALKREPRO_EXPERIMENTS", str(specs))
+    out = tmp_path / "runs"
+    code, text = invoke("check", "--jobs", "2", "--engine", "ray", "--out", str(out))
+    assert code == 0, text
+    assert "with Ray (2 CPUs)" in text and "[2/2]" in text
+    assert "2 reproduced, 0 calibrated, 0 known deviations, 0 failed" in text
+
+
+def test_check_engine_options_are_checked() -> None:
+    """An unknown engine, or --address without Ray, is a one-paragraph error."""
+    assert_friendly(*invoke("check", "stand_coman", "--engine", "dask"), "Valid engines")
+    assert_friendly(*invoke("check", "stand_coman", "--address", "auto"), "--engine ray only")

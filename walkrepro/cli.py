@@ -339,6 +339,12 @@ class CheckOptions:
     set_: SetOption = None
     out: OutOption = results.DEFAULT_ROOT
     jobs: Annotated[int, typer.Option(help="Parallel runs (processes).")] = os.cpu_count() or 1
+    engine: Annotated[
+        str, typer.Option(help="Where parallel runs go: process or ray (as walkrepro sweep).")
+    ] = "process"
+    address: Annotated[
+        str | None, typer.Option(help="An existing Ray cluster (with --engine ray).")
+    ] = None
     junit: Annotated[Path | None, typer.Option(help="Also write a JUnit XML report.")] = None
     figures: Annotated[bool, typer.Option(help="Draw figures for each run.")] = False
     update_reference: Annotated[
@@ -383,7 +389,15 @@ def check(options: CheckOptions) -> None:
     from walkrepro import api, checks
     from walkrepro.experiment import References, evaluate_log
     from walkrepro.specfiles import experiment_names
+    from walkrepro.sweep.command import EngineChoice
+    from walkrepro.sweep.engines import ENGINES
 
+    if options.engine not in ENGINES:
+        raise WalkreproError(
+            f"unknown engine {options.engine!r}. Valid engines: {', '.join(ENGINES)}."
+        )
+    if options.address is not None and options.engine != "ray":
+        raise WalkreproError("--address applies to --engine ray only.")
     overrides = list(options.set_ or [])
     figures = options.figures or options.update_reference
     if options.update_reference and overrides:
@@ -406,7 +420,13 @@ def check(options: CheckOptions) -> None:
     # Videos only where a reference keeps one (a video per run would cost a check minutes).
     video = _with_reference_video(batch_names) if options.update_reference else frozenset()
     summaries = (
-        _run_batch(batch_names, overrides, options.out, (figures, video), options.jobs)
+        _run_batch(
+            batch_names,
+            overrides,
+            options.out,
+            (figures, video),
+            EngineChoice(options.engine, options.jobs, options.address),
+        )
         if batch_names
         else []
     )
@@ -429,7 +449,12 @@ def check(options: CheckOptions) -> None:
         from walkrepro.sweep.command import map_verdicts
 
         verdicts += map_verdicts(
-            names, options.sweeps, options.out, options.jobs, _console(stderr=True)
+            names,
+            options.sweeps,
+            options.out,
+            options.jobs,
+            _console(stderr=True),
+            EngineChoice(options.engine, options.jobs, options.address),
         )
     _print_verdicts(verdicts, options.details)
     interrupted = any(s.interrupted for s in summaries)
@@ -484,9 +509,10 @@ def _run_batch(
     overrides: list[str],
     out: Path,
     outputs: tuple[bool, frozenset[str]],
-    jobs: int,
+    engine: Any,  # sweep.command.EngineChoice
 ) -> list:
-    """Run ``names`` over ``jobs`` processes, printing a line as each finishes.
+    """Run ``names`` on ``engine`` (``jobs`` processes, or Ray), printing a line as each
+    finishes.
 
     ``outputs`` is (figures, the experiments whose runs render a video).
 
@@ -495,9 +521,11 @@ def _run_batch(
     """
     from walkrepro.checks import count
     from walkrepro.interrupt import InterruptFlag
+    from walkrepro.sweep.engines import make_engine
 
-    workers = max(1, min(jobs, len(names)))
-    _console().print(f"running {len(names)} experiment(s) with {workers} process(es)…")
+    workers = max(1, min(engine.jobs, len(names)))
+    where = f"{workers} process(es)" if engine.name == "process" else f"Ray ({workers} CPUs)"
+    _console().print(f"running {len(names)} experiment(s) with {where}…")
     done: list = []
 
     def report(summary: Any) -> None:
@@ -513,25 +541,26 @@ def _run_batch(
             highlight=False,
         )
 
-    if workers == 1:
+    if workers == 1 and engine.name == "process":
         for name in names:
             summary = _run_one(name, overrides, out, _outputs_of(name, outputs), False)
             report(summary)
             if summary.interrupted:
                 break
         return done
-    # The sweep's process pool: workers reused across runs, a dead worker named, and a stop
-    # (Ctrl-C or SIGTERM here) passed on to the runs under way, whose results still come.
-    from walkrepro.sweep.engines import ProcessEngine
-
+    # The sweep's engines: workers reused across runs, a dead worker named, and a stop
+    # (Ctrl-C or SIGTERM here) passed on to the runs under way, whose results still come
+    # (with Ray: cancelled, their run directories kept but not reported).
     tasks = [
         _BatchTask(i, n, tuple(overrides), out, _outputs_of(n, outputs))
         for i, n in enumerate(names)
     ]
-    engine = ProcessEngine(workers, _run_task, _BatchResult.crashed)
-    engine.start(len(tasks))
+    runner = make_engine(engine.name, workers, engine.address, _run_task, _BatchResult.crashed)
+    start = getattr(runner, "start", None)
+    if start is not None:
+        start(len(tasks))
     with InterruptFlag() as flag:
-        for result in engine.run(tasks, stop=lambda: flag.signum if flag.requested else None):
+        for result in runner.run(tasks, stop=lambda: flag.signum if flag.requested else None):
             if result.error is not None:
                 raise result.error
             if result.summary is None:  # its worker died

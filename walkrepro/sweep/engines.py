@@ -17,6 +17,7 @@ what they return.
 
 from __future__ import annotations
 
+import math
 import multiprocessing as mp
 import os
 import signal
@@ -52,8 +53,15 @@ class Engine(Protocol):
         ...
 
 
-def make_engine(name: str, jobs: int, address: str | None = None) -> Engine:
-    """The engine called ``name`` (``process`` or ``ray``).
+def make_engine(
+    name: str,
+    jobs: int,
+    address: str | None = None,
+    fn: Callable = run_cell,
+    crashed: CrashedFn = crashed_cell,
+) -> Engine:
+    """The engine called ``name`` (``process`` or ``ray``), running ``fn`` on each task
+    (a sweep cell's by default) and ``crashed`` for a task whose worker died.
 
     Raises:
         WalkreproError: unknown engine, ``--address`` without Ray, or Ray not installed.
@@ -61,9 +69,9 @@ def make_engine(name: str, jobs: int, address: str | None = None) -> Engine:
     if name == "process":
         if address is not None:
             raise WalkreproError("--address applies to --engine ray only.")
-        return ProcessEngine(jobs)
+        return ProcessEngine(jobs, fn, crashed)
     if name == "ray":
-        return RayEngine(jobs, address)
+        return RayEngine(jobs, address, fn, crashed)
     raise WalkreproError(f"unknown engine {name!r}. Valid engines: {', '.join(ENGINES)}.")
 
 
@@ -215,19 +223,37 @@ class RayEngine:
     Args:
         jobs: CPUs of the local Ray started for the sweep (ignored with ``address``).
         address: an existing cluster (``ray://…`` or ``host:port``, or ``auto``).
-        fn: the cell function.
+        fn: the task function (a sweep cell's by default), as for :class:`ProcessEngine`.
+        crashed: the result of a task that failed in Ray (:func:`crashed_cell` for cells).
     """
 
-    def __init__(self, jobs: int, address: str | None = None, fn: CellFn = run_cell) -> None:
+    def __init__(
+        self,
+        jobs: int,
+        address: str | None = None,
+        fn: Callable = run_cell,
+        crashed: CrashedFn = crashed_cell,
+    ) -> None:
         if jobs < 1:
             raise WalkreproError(f"--jobs {jobs}: need at least one process.")
         self.ray = import_ray()
         self.jobs = jobs
         self.address = address
         self.fn = fn
+        self.crashed = crashed
 
-    def run(self, tasks: Sequence[CellTask]) -> Iterator[CellResult]:
-        """Submit every task; yield results as they complete."""
+    def run(
+        self, tasks: Sequence[CellTask], stop: Callable[[], bool | int | None] | None = None
+    ) -> Iterator[CellResult]:
+        """Submit every task; yield results as they complete.
+
+        Args:
+            tasks: what to run.
+            stop: polled while waiting (every :data:`STOP_POLL` s); once it returns true,
+                the unfinished tasks are cancelled (Ray interrupts a running one) and not
+                yielded: a run directory so stopped is kept, marked interrupted, but its
+                result does not come back, unlike the process pool's.
+        """
         ray = self.ray
         started = not ray.is_initialized()
         if started:
@@ -237,16 +263,24 @@ class RayEngine:
         try:
             for task in tasks:
                 refs[remote.remote(task)] = task
+            stopping = False
             while refs:
-                done, _ = ray.wait(list(refs), num_returns=1)
+                if stop is not None and not stopping and stop():
+                    stopping = True
+                    for ref in refs:
+                        ray.cancel(ref)
+                timeout = None if stop is None or stopping else STOP_POLL
+                done, _ = ray.wait(list(refs), num_returns=1, timeout=timeout)
                 for ref in done:
                     task = refs.pop(ref)
                     try:
                         result = ray.get(ref)
+                    except ray.exceptions.TaskCancelledError:
+                        continue  # stopped on request: no result
                     except ray.exceptions.RayError as exc:
                         first = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
-                        result = CellResult(
-                            task.index, CRASHED, f"Ray task failed: {type(exc).__name__}: {first}"
+                        result = self.crashed(
+                            task.index, f"Ray task failed: {type(exc).__name__}: {first}", math.nan
                         )
                     yield result
         finally:
