@@ -36,6 +36,29 @@ def test_importing_walkrepro_changes_no_environment_and_no_signal_handler(argv0:
     assert done.returncode == 0, done.stderr
 
 
+def test_using_the_library_leaves_the_environment_and_handlers_alone(tmp_path: Path) -> None:
+    """load() and run() change no environment variable and leave the signal handlers as they
+    found them; numba's cache is walkrepro's source-keyed directory, through numba.config."""
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR",)}
+    env.pop("OPENBLAS_NUM_THREADS", None)
+    code = (
+        "import os, signal, sys\n"
+        "e = dict(os.environ); h = signal.getsignal(signal.SIGINT)\n"
+        "import walkrepro\n"
+        "exp = walkrepro.load('stand_dyros_red', {'sim.duration': 0.05})\n"
+        "done = walkrepro.run(exp, out=sys.argv[1])\n"
+        "assert done.outcome == 'complete', done.result.message\n"
+        "assert dict(os.environ) == e, set(os.environ.items()) ^ set(e.items())\n"
+        "assert signal.getsignal(signal.SIGINT) is h\n"
+        "from numba.core import config\n"
+        "assert os.path.basename(config.CACHE_DIR).startswith('walkrepro-'), config.CACHE_DIR\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code, str(tmp_path)], env=env, capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+
+
 def test_the_command_does_its_own_set_up() -> None:
     """The command's set-up sets OPENBLAS_NUM_THREADS (unless the user did) and numba's cache
     directory, which child processes inherit."""

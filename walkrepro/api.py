@@ -27,6 +27,7 @@ Example::
 
 from __future__ import annotations
 
+import functools
 import json
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -74,6 +75,19 @@ class Experiment:
         return self.spec.name
 
 
+@functools.cache
+def _library_setup() -> None:
+    """What the library needs before MuJoCo and the first kernel load, once per process:
+    MuJoCo imported with no GL backend bound (physics needs none, and a ``MUJOCO_GL`` naming
+    a missing library must not stop it), numba's cache in walkrepro's source-keyed directory
+    through ``numba.config`` (a kernel that inlines an edited helper recompiles). The
+    environment is left as it was."""
+    from walkrepro import gl, numbacache
+
+    gl.import_mujoco()
+    numbacache.install(environ=False)
+
+
 def _override_strings(overrides: Overrides) -> tuple[str, ...]:
     """``overrides`` as ``--set`` strings; a mapping's values are written as JSON (which is
     YAML, what ``--set`` parses), so ``{"sim.duration": 0.5}`` is ``sim.duration=0.5``."""
@@ -98,10 +112,7 @@ def load(name_or_path: str | Path, overrides: Overrides = None) -> Experiment:
         walkrepro.errors.WalkreproError: an unknown name, or a spec error naming the file,
             line and field (a ``SpecError``).
     """
-    from walkrepro import gl, numbacache
-
-    gl.import_mujoco()  # physics needs no GL: a broken MUJOCO_GL must not stop it
-    numbacache.install(environ=False)  # before any kernel module compiles
+    _library_setup()
     from walkrepro.controllers import controller_params
     from walkrepro.robot import load_robot
     from walkrepro.specfiles import load_spec, resolve_spec
@@ -125,7 +136,7 @@ def run(
     experiment: Experiment | str | Path,
     overrides: Overrides = None,
     *,
-    out: Path | None = None,
+    out: str | Path | None = None,
     figures: bool = False,
     progress: Callable[[float, float, float], None] | None = None,
 ) -> RunSummary:
@@ -158,7 +169,7 @@ def run(
         raise TypeError("run(experiment, overrides): give the overrides to load() instead.")
     return execute(
         experiment.spec,
-        out if out is not None else results.DEFAULT_ROOT,
+        Path(out) if out is not None else results.DEFAULT_ROOT,
         progress,
         figures,
         experiment.overrides,
@@ -180,10 +191,10 @@ def evaluate(run_or_log: RunSummary | str | Path) -> Verdict:
     Raises:
         walkrepro.errors.WalkreproError: not a run directory or log.
     """
-    from walkrepro import numbacache, results
+    _library_setup()  # a metric may compile a kernel
+    from walkrepro import results
     from walkrepro.experiment import References, RunSummary, evaluate_log
 
-    numbacache.install(environ=False)  # a metric may compile a kernel
     path = run_or_log.run_dir if isinstance(run_or_log, RunSummary) else Path(run_or_log)
     directory, log = results.resolve_run(path)
     # Partners of relative expectations: runs with the same overrides beside this one
