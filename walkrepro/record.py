@@ -363,9 +363,7 @@ class LogWriter:
             self._file = open(self.path, "wb")  # noqa: SIM115 - closed in close()
         except OSError as exc:
             raise WalkreproError(f"cannot write log {self.path}: {exc.strerror}") from exc
-        self._writer = McapFile(
-            self._file, chunk_size, library=f"walkrepro/{__version__}"
-        )
+        self._writer = McapFile(self._file, chunk_size, library=f"walkrepro/{__version__}")
         # Attachments first: they then survive any truncation of the file.
         for name, media_type, text in (
             (SCENE_ATTACHMENT, "application/xml", scene_xml),
