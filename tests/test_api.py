@@ -126,3 +126,23 @@ def test_evaluate_of_a_missing_run_is_a_clear_error(tmp_path: Path) -> None:
     """evaluate() of a path that is no run is a walkrepro error, not a traceback's."""
     with pytest.raises(walkrepro.errors.WalkreproError):
         walkrepro.evaluate(tmp_path / "nothing")
+
+
+def test_the_readmes_library_tour_runs(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture
+) -> None:
+    """The README's library tour runs as written (its runs go to a temporary root) and
+    prints each claim of the run."""
+    import re
+
+    from walkrepro import results
+    from walkrepro.locations import PROJECT_ROOT
+
+    readme = (PROJECT_ROOT / "README.md").read_text()
+    tour = readme.split("## Library tour", 1)[1]
+    (code,) = re.findall(r"```python\n(.*?)```", tour.split("\n## ", 1)[0], re.S)
+    monkeypatch.setattr(results, "DEFAULT_ROOT", tmp_path)
+    exec(compile(code, "README.md", "exec"), {})  # noqa: S102 - the README's own example
+    printed = capsys.readouterr().out.splitlines()
+    assert printed == ["fell == 0 0 pass", printed[1]] and printed[1].startswith("pelvis_drift <")
+    assert list((tmp_path / "stand_dyros_red").iterdir())
