@@ -603,6 +603,10 @@ def _run_task(task: _BatchTask) -> _BatchResult:
     try:
         summary = _run_one(task.name, list(task.overrides), task.out, task.outputs, False)
     except Exception as exc:  # noqa: BLE001 - handed to the parent, which raises it
+        if hasattr(exc, "add_note"):  # Python >= 3.11: the worker's traceback comes along
+            import traceback
+
+            exc.add_note("in the worker:\n" + "".join(traceback.format_tb(exc.__traceback__)))
         return _BatchResult(task.index, error=exc)
     return _BatchResult(task.index, summary)
 
