@@ -7,8 +7,15 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from walkrepro.robot import load_robot
-from walkrepro.sensors import SensorSnapshot
+from walkrepro import numbacache
+
+# Importing walkrepro sets up nothing; the tests compile kernels as the command does, in the
+# source-keyed cache (an edit to a helper a kernel inlines recompiles it), and the commands
+# they start in child processes inherit it. Before anything below compiles a kernel.
+numbacache.install()
+
+from walkrepro.robot import load_robot  # noqa: E402
+from walkrepro.sensors import SensorSnapshot  # noqa: E402
 
 
 def _kist_home_snapshot() -> SensorSnapshot:

@@ -321,3 +321,106 @@ def test_completion_offers_commands_and_experiment_names() -> None:
         timeout=120,
     )
     assert done.stdout.split() == ["check"], done
+
+
+TWO_CLAIMS = SPEC + (
+    '  - {metric: pelvis_drift, op: "<", value: 0.0, source: "test: an impossible claim"}\n'
+)
+
+
+def test_run_prints_one_line_per_claim_and_failing_rows_in_full(tmp_path: Path) -> None:
+    """`walkrepro run` prints a line per claim (status, claim, paper value, measured), the
+    failing row again in full with its source, the count line and the run directory;
+    --details prints the full table instead."""
+    path = tmp_path / "claims.yaml"
+    path.write_text(TWO_CLAIMS)
+    out = tmp_path / "runs"
+    code, text = invoke("run", str(path), "--out", str(out), "--no-figures")
+    assert code == 0, text  # a failing claim is a verdict, not a failed command
+    lines = text.strip().splitlines()
+    claims = [line for line in lines if " paper " in line and " measured " in line]
+    assert len(claims) == 2
+    assert claims[0].split()[:5] == ["reproduced", "fell", "paper", "==", "0"]
+    assert claims[1].split()[:5] == ["fail", "pelvis_drift", "paper", "<", "0"]
+    assert "source: test: an impossible claim" in text  # the failing row in full
+    assert "test: an impossible claim" not in "\n".join(claims)
+    assert "1 reproduced, 0 calibrated, 0 known deviations, 1 failed" in text
+    assert lines[-1].startswith("run directory: ")
+    assert len(lines) == 2 + 3 + 1 + 1  # claims, the failing row's 3 lines, count, directory
+    code, details = invoke("run", str(path), "--out", str(out), "--no-figures", "--details")
+    assert code == 0 and "source / note" in details and "paper expectations" in details
+
+
+def test_forward_walks_verdict_fits_in_thirty_lines(capsys: pytest.CaptureFixture) -> None:
+    """The verdict `walkrepro run forward_walk` prints for its committed reference, with the
+    run directory, figures, video and progress lines around it, stays within 30 lines."""
+    import math
+
+    from walkrepro import REFERENCES_DIR
+    from walkrepro.checks import CheckRow, Verdict
+    from walkrepro.cli import _print_verdicts
+
+    saved = json.loads((REFERENCES_DIR / "forward_walk" / "check.json").read_text())
+
+    def row(r: dict) -> CheckRow:
+        observed = r["observed"]
+        return CheckRow(
+            metric=r["metric"],
+            op=r["op"],
+            paper=tuple(r["paper"]) if isinstance(r["paper"], list) else r["paper"],
+            measured=math.nan if r["measured"] is None else r["measured"],
+            status=r["status"],
+            source=r["source"],
+            note=r["note"],
+            observed=tuple(observed) if isinstance(observed, list) else observed,
+        )
+
+    verdict = Verdict("forward_walk", saved["outcome"], tuple(row(r) for r in saved["rows"]))
+    _print_verdicts([verdict], details=False, per_claim=True)
+    printed = capsys.readouterr().out.strip().splitlines()
+    assert len(printed) == len(verdict.rows) + 1 + sum(
+        3 if r.note else 2 for r in verdict.rows if r.status == "fail"
+    )
+    assert len(printed) + 4 <= 30  # + run directory, figures, video, the progress bar
+
+
+def test_check_with_jobs_runs_on_the_sweep_pool_and_reports_each_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`check --jobs 2` runs its experiments on the sweep's process pool: each run is
+    reported as it finishes and checked, as with one job."""
+    specs = tmp_path / "specs"
+    specs.mkdir()
+    for name in ("tiny_a", "tiny_b"):
+        (specs / f"{name}.yaml").write_text(SPEC.replace("tiny_stand", name))
+    out = tmp_path / "runs"
+    monkeypatch.setenv("WALKREPRO_EXPERIMENTS", str(specs))  # what --experiments sets
+    code, text = invoke("check", "--jobs", "2", "--out", str(out))
+    assert code == 0, text
+    assert "with 2 process(es)" in text and "[1/2]" in text and "[2/2]" in text
+    for name in ("tiny_a", "tiny_b"):
+        assert any(line.split()[:3] == ["ok", name, "complete"] for line in text.splitlines()), text
+        assert len(list((out / name).iterdir())) == 1
+
+
+def test_check_on_local_ray_reports_each_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`check --engine ray` runs the experiments as Ray tasks, with the same verdicts."""
+    pytest.importorskip("ray")
+    specs = tmp_path / "specs"
+    specs.mkdir()
+    for name in ("tiny_a", "tiny_b"):
+        (specs / f"{name}.yaml").write_text(SPEC.replace("tiny_stand", name))
+    monkeypatch.setenv("WALKREPRO_EXPERIMENTS", str(specs))
+    out = tmp_path / "runs"
+    code, text = invoke("check", "--jobs", "2", "--engine", "ray", "--out", str(out))
+    assert code == 0, text
+    assert "with Ray (2 CPUs)" in text and "[2/2]" in text
+    assert "2 reproduced, 0 calibrated, 0 known deviations, 0 failed" in text
+
+
+def test_check_engine_options_are_checked() -> None:
+    """An unknown engine, or --address without Ray, is a one-paragraph error."""
+    assert_friendly(*invoke("check", "stand_coman", "--engine", "dask"), "Valid engines")
+    assert_friendly(*invoke("check", "stand_coman", "--address", "auto"), "--engine ray only")

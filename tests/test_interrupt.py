@@ -245,7 +245,8 @@ def test_a_run_without_log_is_rechecked_from_its_record(tmp_path: Path) -> None:
 HOLD = """
 import os, signal, sys, time
 sys.argv[0] = "walkrepro"  # as the console script
-from walkrepro import interrupt  # as the command, importing walkrepro holds the signals
+from walkrepro import interrupt
+interrupt.hold_stop_signals_if_command()  # as the command's set-up does
 interrupt.hold_stop_signals_if_command()  # a second call keeps the one hold
 os.kill(os.getpid(), signal.{signal})  # while "importing"
 time.sleep(0.05)
@@ -350,3 +351,41 @@ def test_check_stopped_by_sigterm_exits_143(tmp_path: Path) -> None:
     assert "Traceback" not in text
     record = json.loads((only_run(out) / "run.json").read_text())
     assert record["outcome"] == "interrupted"
+
+
+def test_check_with_jobs_passes_a_stop_to_its_runs_and_reports_them(tmp_path: Path) -> None:
+    """`walkrepro check --jobs 2` runs on the sweep's process pool, whose workers sit in their
+    own process group: a Ctrl-C to the command alone reaches both runs under way, each keeps
+    an interrupted run directory (stopped by SIGINT) and is reported; the command exits 130."""
+    specs = tmp_path / "specs"
+    specs.mkdir()
+    for name in ("stand_one", "stand_two"):
+        (specs / f"{name}.yaml").write_text(SPEC.replace("tiny_walk_stand", name))
+    out = tmp_path / "runs"
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "walkrepro", "--experiments", str(specs), "check"]
+        + ["--jobs", "2", "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        env=env,
+        start_new_session=True,
+    )
+    deadline = time.monotonic() + 600
+    while time.monotonic() < deadline and len(list(out.glob("*/.*.partial/log.mcap"))) < 2:
+        time.sleep(0.05)
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGINT)  # the command alone, not its workers' group
+    text = proc.communicate(timeout=300)[0].decode()
+    assert proc.returncode == 130, text  # the runs' own code: SIGINT reached them (143: SIGTERM)
+    assert "Traceback" not in text
+    for name in ("stand_one", "stand_two"):
+        record = json.loads(only_run_of(out, name))
+        assert record["outcome"] == "interrupted", record
+        assert f"{name}: interrupted" in text, text
+
+
+def only_run_of(out: Path, name: str) -> str:
+    """The run.json text of the one run of ``name`` under ``out``."""
+    (run,) = (out / name).iterdir()
+    return (run / "run.json").read_text()

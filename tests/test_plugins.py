@@ -22,7 +22,7 @@ EXAMPLE = ROOT / "examples" / "walkrepro-example-plugin"
 @pytest.fixture
 def fresh_registry():
     """Forget the cached plugins before and after a test that fakes the entry points."""
-    caches = (plugins.registered, plugins.controllers, plugins.figure_modules)
+    caches = (plugins.registered, plugins.controllers, plugins.figure_modules, plugins.papers)
     for cache in caches:
         cache.cache_clear()
     yield
@@ -40,17 +40,27 @@ def fake_entry_points(monkeypatch: pytest.MonkeyPatch, *extra: metadata.EntryPoi
     )
 
 
-def install_fake_plugin(monkeypatch: pytest.MonkeyPatch, controllers: dict[str, str]) -> None:
-    """An outside plugin ``lab`` (module ``fake_lab``) declaring ``controllers``."""
+def install_fake_plugin(
+    monkeypatch: pytest.MonkeyPatch,
+    controllers: dict[str, str],
+    papers: tuple[plugins.Paper, ...] = (),
+) -> None:
+    """An outside plugin ``lab`` (module ``fake_lab``) declaring ``controllers`` and
+    ``papers``."""
     module = type(sys)("fake_lab")
-    module.PLUGIN = plugins.Plugin(controllers=controllers)
+    module.PLUGIN = plugins.Plugin(controllers=controllers, papers=papers)
     monkeypatch.setitem(sys.modules, "fake_lab", module)
     fake_entry_points(monkeypatch, metadata.EntryPoint("lab", "fake_lab:PLUGIN", plugins.GROUP))
 
 
 def test_walkrepro_own_papers_come_through_the_entry_points() -> None:
-    names = {r.name: r.distribution for r in plugins.registered()}
-    assert {n: names[n] for n in plugins.OWN} == dict.fromkeys(plugins.OWN, "walkrepro")
+    """walkrepro's core and its three papers are plugins of its own distribution, listed
+    first, and declare the papers in the README's order, the sanity experiments last."""
+    own = [r.name for r in plugins.registered() if r.own]
+    assert sorted(own) == ["faraji", "jo_oh", "lee2021", "walkrepro"]
+    assert [r.name for r in plugins.registered()][: len(own)] == own
+    assert list(plugins.papers()) == ["lee2021", "faraji", "jo_oh", "walkrepro"]
+    assert plugins.papers()["lee2021"].title == "Lee et al. 2021"
     assert controller_names() == ["efsm", "posture", "qpimpedance", "timeprojection"]
     assert set(plugins.figure_modules()) == {"lee2021", "faraji", "jo_oh"}
     # a metric of each paper, registered by its module on the first lookup
@@ -90,6 +100,42 @@ def test_a_broken_plugin_is_named(
     fake_entry_points(monkeypatch, metadata.EntryPoint("broken", value, plugins.GROUP))
     with pytest.raises(WalkreproError, match=f"plugin 'broken'.*{message}"):
         plugins.registered()
+
+
+LAB_PAPER = plugins.Paper(
+    key="lab2025", citation="Lab et al., A walker", label="Lab et al. 2025", title="Lab 2025"
+)
+
+
+def test_an_outside_plugin_adds_a_paper_its_specs_can_name(
+    monkeypatch: pytest.MonkeyPatch, fresh_registry: None, tmp_path: Path
+) -> None:
+    """A paper an outside plugin declares is a valid paper.key, named in figures and listed
+    after walkrepro's papers, before the sanity experiments; an undeclared key lists the
+    declared ones."""
+    from walkrepro.figures.style import paper_name
+    from walkrepro.specfiles import load_spec
+
+    install_fake_plugin(monkeypatch, {}, (LAB_PAPER,))
+    assert list(plugins.papers()) == ["lee2021", "faraji", "jo_oh", "lab2025", "walkrepro"]
+    assert paper_name("lab2025") == "Lab 2025"
+    spec = (ROOT / "experiments" / "stand_dyros_red.yaml").read_text()
+    assert "key: walkrepro" in spec
+    (tmp_path / "mine.yaml").write_text(spec.replace("key: walkrepro", "key: lab2025"))
+    assert load_spec(tmp_path / "mine.yaml").spec.paper.key == "lab2025"
+    (tmp_path / "other.yaml").write_text(spec.replace("key: walkrepro", "key: lab2026"))
+    with pytest.raises(WalkreproError, match="unknown paper 'lab2026'.*lab2025"):
+        load_spec(tmp_path / "other.yaml")
+
+
+def test_two_plugins_declaring_one_paper_is_an_error(
+    monkeypatch: pytest.MonkeyPatch, fresh_registry: None
+) -> None:
+    """A paper key declared differently by two plugins is an error naming both."""
+    clash = plugins.Paper(key="lee2021", citation="another", label="another", title="another")
+    install_fake_plugin(monkeypatch, {}, (clash,))
+    with pytest.raises(WalkreproError, match="paper 'lee2021' is declared by two plugins.*lab"):
+        plugins.papers()
 
 
 def test_stale_install_metadata_says_to_reinstall(

@@ -164,6 +164,37 @@ def summary_line(verdict: Verdict, name_width: int = 0) -> str:
     return f"{mark}  {verdict.experiment:<{name_width}}  {verdict.outcome:<11} {count([verdict])}"
 
 
+#: How a one-line row names each status (the words of the count line).
+STATUS_WORDS = {
+    PASS: "reproduced",
+    CALIBRATED: "calibrated",
+    KNOWN: "known deviation",
+    FAIL: "fail",
+}
+
+
+def claim_lines(verdict: Verdict) -> list[str]:
+    """One line per row of ``verdict``: status, claim (the metric), the paper's value, the
+    measured value, and a known deviation's observed band; columns aligned.
+
+    E.g. ``known deviation  walk_speed  paper [0.2, 0.3]  measured 0.18  observed [0.17, 0.19]``.
+    The source and the note are left to the full rows (``--details``, and every failing row).
+    """
+    rows = verdict.rows
+    status_w = max((len(STATUS_WORDS[r.status]) for r in rows), default=0)
+    metric_w = max((len(r.metric) for r in rows), default=0)
+    band_w = max((len(r.band) for r in rows), default=0)
+    lines = []
+    for r in rows:
+        measured = f"{r.measured:.4g}"
+        observed = f"  observed {r.observed_band}" if r.observed else ""
+        lines.append(
+            f"  {STATUS_WORDS[r.status]:<{status_w}}  {r.metric:<{metric_w}}  paper "
+            f"{r.band:<{band_w}}  measured {measured:<10}{observed}".rstrip()
+        )
+    return lines
+
+
 def failing_row_text(verdict: Verdict) -> list[str]:
     """Each failing row of ``verdict`` in full, as plain text: what was expected, what was
     measured (with a known deviation's observed band), the source and the note, never cut.

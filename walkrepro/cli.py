@@ -11,7 +11,6 @@ import functools
 import os
 import sys
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 
@@ -21,13 +20,48 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from walkrepro import REFERENCES_DIR, results
+from walkrepro import results
 from walkrepro.errors import WalkreproError
+from walkrepro.locations import REFERENCES_DIR
 
 if TYPE_CHECKING:
     from walkrepro.spec import ExperimentSpec
 
-app = typer.Typer(
+
+def command_setup() -> None:
+    """The ``walkrepro`` command's process set-up, done when the command starts (importing
+    walkrepro does none of it, so a program that uses the library keeps its own):
+
+    - stop signals (Ctrl-C, SIGTERM) that come during the start-up imports are held and
+      handed to the run or sweep that follows (:mod:`walkrepro.interrupt`);
+    - ``OPENBLAS_NUM_THREADS=1`` unless the user set it: a run is one simulation loop on one
+      core with matrices of at most 60 x 60, where OpenBLAS's worker threads only add
+      hand-offs (≈ 2.5 µs on Paper I's 12 x 12 eigh at 2 kHz) and ``check --jobs N`` would
+      oversubscribe the cores; OpenBLAS reads it when numpy loads, so before that;
+    - MuJoCo imported with no GL backend bound (:func:`walkrepro.gl.import_mujoco`);
+    - numba's cache in walkrepro's source-keyed directory, through ``NUMBA_CACHE_DIR`` so
+      that worker processes inherit it (:mod:`walkrepro.numbacache`).
+    """
+    from walkrepro.interrupt import hold_stop_signals_if_command
+
+    hold_stop_signals_if_command()
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    from walkrepro import gl, numbacache
+
+    gl.import_mujoco()
+    numbacache.install()
+
+
+class _Command(typer.Typer):
+    """The typer app whose call (the console script, ``python -m walkrepro``) first does the
+    command's set-up; tests invoke its commands without it."""
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        command_setup()
+        return super().__call__(*args, **kwargs)
+
+
+app = _Command(
     help="Reproduce published biped-walking controllers in MuJoCo and check the reproduction.",
     no_args_is_help=True,
     add_completion=True,
@@ -40,7 +74,7 @@ def version_text() -> str:
     """walkrepro's version and git commit, and the MuJoCo and Pinocchio versions."""
     import mujoco
 
-    from walkrepro import __version__
+    from walkrepro._version import __version__
     from walkrepro.provenance import git_commit, pinocchio_version
 
     return (
@@ -149,7 +183,7 @@ def options_from(record: type) -> Callable[[Callable[[Any], None]], Callable[...
 def _needs_checkout(what: str) -> None:
     """Refuse to write the repository's own files (references, calibration, docs) from an
     installed walkrepro: they live in a clone (walkrepro/locations.py)."""
-    from walkrepro import IS_CHECKOUT
+    from walkrepro.locations import IS_CHECKOUT
 
     if not IS_CHECKOUT:
         raise WalkreproError(
@@ -261,10 +295,18 @@ def run(
     set_: SetOption = None,
     out: OutOption = results.DEFAULT_ROOT,
     figures: Annotated[bool, typer.Option(help="Draw the paper's figures after the run.")] = True,
+    details: Annotated[
+        bool,
+        typer.Option(
+            "--details",
+            help="Print every row in full (paper value, measured, observed band, source and "
+            "note); default: one line per claim, failing rows in full.",
+        ),
+    ] = False,
 ) -> None:
     """Run one experiment headless: log, metrics, verdict and figures in a new run directory."""
     summary = _run_one(experiment, set_ or [], out, (figures, figures), show_progress=True)
-    _print_verdicts([summary.verdict])
+    _print_verdicts([summary.verdict], details, per_claim=True)
     _console().print(f"run directory: [bold]{summary.run_dir}[/]")
     for what, name in (("figures", results.FIGURES_DIR), ("video", "video.mp4")):
         if (summary.run_dir / name).exists():
@@ -297,6 +339,12 @@ class CheckOptions:
     set_: SetOption = None
     out: OutOption = results.DEFAULT_ROOT
     jobs: Annotated[int, typer.Option(help="Parallel runs (processes).")] = os.cpu_count() or 1
+    engine: Annotated[
+        str, typer.Option(help="Where parallel runs go: process or ray (as walkrepro sweep).")
+    ] = "process"
+    address: Annotated[
+        str | None, typer.Option(help="An existing Ray cluster (with --engine ray).")
+    ] = None
     junit: Annotated[Path | None, typer.Option(help="Also write a JUnit XML report.")] = None
     figures: Annotated[bool, typer.Option(help="Draw figures for each run.")] = False
     update_reference: Annotated[
@@ -338,10 +386,18 @@ def check(options: CheckOptions) -> None:
 
     The claims of each experiment's declared maps (spec ``sweeps:``) are checked too.
     """
-    from walkrepro import checks
+    from walkrepro import api, checks
     from walkrepro.experiment import References, evaluate_log
     from walkrepro.specfiles import experiment_names
+    from walkrepro.sweep.command import EngineChoice
+    from walkrepro.sweep.engines import ENGINES
 
+    if options.engine not in ENGINES:
+        raise WalkreproError(
+            f"unknown engine {options.engine!r}. Valid engines: {', '.join(ENGINES)}."
+        )
+    if options.address is not None and options.engine != "ray":
+        raise WalkreproError("--address applies to --engine ray only.")
     overrides = list(options.set_ or [])
     figures = options.figures or options.update_reference
     if options.update_reference and overrides:
@@ -354,12 +410,7 @@ def check(options: CheckOptions) -> None:
         _needs_clean_tree("check --update-reference", options.allow_dirty)
     verdicts: list[checks.Verdict] = []
     for path in options.run_dir or []:
-        directory, log = results.resolve_run(path)
-        made_with = _recorded_overrides(directory)
-        # A run lives in <root>/<experiment>/<run>: partners with the same overrides are
-        # looked for under <root>.
-        lookup = References(overrides=made_with, search_root=directory.parent.parent)
-        verdicts.append(evaluate_log(log, directory, lookup)[1])
+        verdicts.append(api.evaluate(path))
     names = list(options.experiments or [])
     if not names and not options.run_dir:
         names = experiment_names()
@@ -369,7 +420,13 @@ def check(options: CheckOptions) -> None:
     # Videos only where a reference keeps one (a video per run would cost a check minutes).
     video = _with_reference_video(batch_names) if options.update_reference else frozenset()
     summaries = (
-        _run_batch(batch_names, overrides, options.out, (figures, video), options.jobs)
+        _run_batch(
+            batch_names,
+            overrides,
+            options.out,
+            (figures, video),
+            EngineChoice(options.engine, options.jobs, options.address),
+        )
         if batch_names
         else []
     )
@@ -392,7 +449,12 @@ def check(options: CheckOptions) -> None:
         from walkrepro.sweep.command import map_verdicts
 
         verdicts += map_verdicts(
-            names, options.sweeps, options.out, options.jobs, _console(stderr=True)
+            names,
+            options.sweeps,
+            options.out,
+            options.jobs,
+            _console(stderr=True),
+            EngineChoice(options.engine, options.jobs, options.address),
         )
     _print_verdicts(verdicts, options.details)
     interrupted = any(s.interrupted for s in summaries)
@@ -416,16 +478,6 @@ def _update_docs() -> None:
 
     for path in write_docs(generated_files()):
         _console().print(f"docs updated: {path}", highlight=False)
-
-
-def _recorded_overrides(run_dir: Path) -> list[str]:
-    """The ``--set`` overrides a run was made with (its ``run.json``; none if unrecorded)."""
-    import json
-
-    record = run_dir / results.RUN_FILE
-    if not record.is_file():
-        return []
-    return list(json.loads(record.read_text()).get("overrides", []))
 
 
 def _paired_partners(
@@ -457,22 +509,23 @@ def _run_batch(
     overrides: list[str],
     out: Path,
     outputs: tuple[bool, frozenset[str]],
-    jobs: int,
+    engine: Any,  # sweep.command.EngineChoice
 ) -> list:
-    """Run ``names`` over ``jobs`` processes, printing a line as each finishes.
+    """Run ``names`` on ``engine`` (``jobs`` processes, or Ray), printing a line as each
+    finishes.
 
     ``outputs`` is (figures, the experiments whose runs render a video).
 
     Ctrl-C stops the runs under way (each keeps a complete, interrupted run directory) and
     starts no more.
     """
-    from concurrent.futures import as_completed
-
     from walkrepro.checks import count
     from walkrepro.interrupt import InterruptFlag
+    from walkrepro.sweep.engines import make_engine
 
-    workers = max(1, min(jobs, len(names)))
-    _console().print(f"running {len(names)} experiment(s) with {workers} process(es)…")
+    workers = max(1, min(engine.jobs, len(names)))
+    where = f"{workers} process(es)" if engine.name == "process" else f"Ray ({workers} CPUs)"
+    _console().print(f"running {len(names)} experiment(s) with {where}…")
     done: list = []
 
     def report(summary: Any) -> None:
@@ -488,31 +541,74 @@ def _run_batch(
             highlight=False,
         )
 
-    if workers == 1:
+    if workers == 1 and engine.name == "process":
         for name in names:
             summary = _run_one(name, overrides, out, _outputs_of(name, outputs), False)
             report(summary)
             if summary.interrupted:
                 break
         return done
-    with InterruptFlag() as flag, ProcessPoolExecutor(workers, initializer=_ignore_sigint) as pool:
-        futures = {
-            pool.submit(_run_one, n, overrides, out, _outputs_of(n, outputs), False): n
-            for n in names
-        }
-        for future in as_completed(futures):
-            report(future.result())
-            if flag.requested:
-                for pending in futures:
-                    pending.cancel()
+    # The sweep's engines: workers reused across runs, a dead worker named, and a stop
+    # (Ctrl-C or SIGTERM here) passed on to the runs under way, whose results still come
+    # (with Ray: cancelled, their run directories kept but not reported).
+    tasks = [
+        _BatchTask(i, n, tuple(overrides), out, _outputs_of(n, outputs))
+        for i, n in enumerate(names)
+    ]
+    runner = make_engine(engine.name, workers, engine.address, _run_task, _BatchResult.crashed)
+    start = getattr(runner, "start", None)
+    if start is not None:
+        start(len(tasks))
+    with InterruptFlag() as flag:
+        for result in runner.run(tasks, stop=lambda: flag.signum if flag.requested else None):
+            if result.error is not None:
+                raise result.error
+            if result.summary is None:  # its worker died
+                raise WalkreproError(f"{names[result.index]}: {result.message}.")
+            report(result.summary)
     return done
 
 
-def _ignore_sigint() -> None:
-    """Pool workers ignore Ctrl-C between runs; during a run, the run's own flag takes it."""
-    import signal
+@dataclasses.dataclass(frozen=True)
+class _BatchTask:
+    """One experiment of a ``check --jobs`` batch, as a pool worker runs it."""
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    index: int
+    name: str
+    overrides: tuple[str, ...]
+    out: Path
+    outputs: tuple[bool, bool]
+
+
+@dataclasses.dataclass(frozen=True)
+class _BatchResult:
+    """What a pool worker returns for a :class:`_BatchTask`: the run's summary, or the
+    exception the run raised (re-raised here, as a run in this process would), or, when the
+    worker died, neither and a message."""
+
+    index: int
+    summary: Any = None
+    error: BaseException | None = None
+    message: str = ""
+    engine_time: float = float("nan")
+
+    @staticmethod
+    def crashed(index: int, message: str, engine_time: float) -> _BatchResult:
+        """The result of a task whose worker died."""
+        return _BatchResult(index, message=message, engine_time=engine_time)
+
+
+def _run_task(task: _BatchTask) -> _BatchResult:
+    """Run one experiment of a batch in a pool worker (module-level: the pool pickles it)."""
+    try:
+        summary = _run_one(task.name, list(task.overrides), task.out, task.outputs, False)
+    except Exception as exc:  # noqa: BLE001 - handed to the parent, which raises it
+        if hasattr(exc, "add_note"):  # Python >= 3.11: the worker's traceback comes along
+            import traceback
+
+            exc.add_note("in the worker:\n" + "".join(traceback.format_tb(exc.__traceback__)))
+        return _BatchResult(task.index, error=exc)
+    return _BatchResult(task.index, summary)
 
 
 def _update_references(summaries: list) -> None:
@@ -1118,7 +1214,7 @@ def _resolved(name: str, overrides: list[str]):  # noqa: ANN202 - returns Experi
 
 def _with_reference_video(names: list[str]) -> frozenset[str]:
     """The experiments among ``names`` whose committed reference keeps a video."""
-    from walkrepro import REFERENCES_DIR
+    from walkrepro.locations import REFERENCES_DIR
     from walkrepro.video import VIDEO_FILE
 
     return frozenset(n for n in names if (REFERENCES_DIR / n / VIDEO_FILE).is_file())
@@ -1187,19 +1283,32 @@ def _plot_comparisons(summaries: list) -> None:  # list[RunSummary]
             plot_compare(s.result.log_path, logs[other], s.run_dir / results.FIGURES_DIR)
 
 
-def _print_verdicts(verdicts: list, details: bool = True) -> None:  # list[checks.Verdict]
+def _print_verdicts(
+    verdicts: list,  # list[checks.Verdict]
+    details: bool = True,
+    per_claim: bool = False,
+) -> None:
     """Print a batch's verdicts and the count line ``N reproduced, C calibrated, M known
     deviations, K failed``.
 
     With ``details``, the table of every row (paper value, measured value and a known
-    deviation's observed band side by side). Without, one line per experiment, then the
-    failing rows in full: a failure is never hidden.
+    deviation's observed band side by side). Without, one line per experiment (with
+    ``per_claim``, one line per claim: ``walkrepro run``), then the failing rows in full: a
+    failure is never hidden.
     """
-    from walkrepro.checks import count, failing_row_text, summary_line
+    from walkrepro.checks import FAIL, claim_lines, count, failing_row_text, summary_line
 
     console = _console()
     if details:
         console.print(_verdict_table(verdicts))
+    elif per_claim:
+        for v in verdicts:
+            for row, text in zip(v.rows, claim_lines(v), strict=True):
+                colour = "red" if row.status == FAIL else "default"
+                console.print(f"[{colour}]{escape(text)}[/]", highlight=False, soft_wrap=True)
+        for v in verdicts:
+            for text in failing_row_text(v):
+                console.print(f"[red]{escape(text)}[/]", highlight=False, soft_wrap=True)
     else:
         width = max((len(v.experiment) for v in verdicts), default=0)
         for v in verdicts:

@@ -13,11 +13,13 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from walkrepro import REFERENCES_DIR, checks, metrics, provenance, results
+from walkrepro import checks, metrics, provenance, results
 from walkrepro.errors import WalkreproError
 from walkrepro.interrupt import InterruptFlag
+from walkrepro.locations import REFERENCES_DIR
 from walkrepro.runner import ProgressCallback, RunResult, run
 from walkrepro.spec import ExperimentSpec
+from walkrepro.world import Scene
 
 
 @dataclass(frozen=True)
@@ -37,6 +39,16 @@ class RunSummary:
     relative: bool = False
     interrupted: bool = False
     signum: int | None = None
+
+    @property
+    def log_path(self) -> Path:
+        """The run's MCAP log (``run_dir/log.mcap``; absent if it stopped before logging)."""
+        return self.result.log_path
+
+    @property
+    def outcome(self) -> str:
+        """How the simulation ended: ``complete``, ``fell``, ``interrupted`` or ``error``."""
+        return self.result.outcome
 
     @property
     def exit_code(self) -> int:
@@ -169,6 +181,7 @@ def execute(
     overrides: Sequence[str] = (),
     interrupt: InterruptFlag | None = None,
     run_dir: results.RunDir | None = None,
+    scene: Scene | None = None,
 ) -> RunSummary:
     """Run ``spec`` (already resolved) and write the complete run directory.
 
@@ -192,10 +205,12 @@ def execute(
             here.
         run_dir: a run directory the caller created (under ``out_root``); by default a new
             one.
+        scene: the scene already compiled from ``spec`` (:func:`walkrepro.load`); by
+            default the run compiles it.
     """
     if interrupt is None:
         with InterruptFlag() as own:
-            return execute(spec, out_root, progress, outputs, overrides, own, run_dir)
+            return execute(spec, out_root, progress, outputs, overrides, own, run_dir, scene)
     flag = interrupt
     # The flag is installed before the run directory exists: a stop from the moment the
     # directory appears is a request, and the directory is always finished.
@@ -214,7 +229,7 @@ def execute(
         else:
             stage = "running the simulation"
             try:
-                result = run(spec, log_path, progress, flag)
+                result = run(spec, log_path, progress, flag, scene)
             except KeyboardInterrupt:  # a second Ctrl-C in set-up, before the log was opened
                 result = RunResult(
                     spec.name, log_path, "interrupted", 0.0, 0.0, None, "interrupted in set-up"

@@ -103,6 +103,28 @@ def available() -> bool:
     return True
 
 
+def import_mujoco() -> None:
+    """Import MuJoCo with no OpenGL backend bound, whatever ``MUJOCO_GL`` says.
+
+    MuJoCo binds a backend on its first import and fails to import at all if that backend's
+    library is missing (``MUJOCO_GL=osmesa`` without libosmesa6), though physics needs no
+    GL. So it is first imported with GL disabled, and the user's setting is put back for
+    :func:`gl_context_class` to honour; the environment is as it was. Called by the
+    command's set-up and by :func:`walkrepro.load`; a no-op once MuJoCo is imported.
+    """
+    if "mujoco" in sys.modules:
+        return
+    user = os.environ.get("MUJOCO_GL")
+    os.environ["MUJOCO_GL"] = "disable"
+    try:
+        import mujoco  # noqa: F401
+    finally:
+        if user is None:
+            del os.environ["MUJOCO_GL"]
+        else:
+            os.environ["MUJOCO_GL"] = user
+
+
 def _context_class(name: str) -> type:
     """Import a backend's ``GLContext`` in this process (after its probe succeeded).
 

@@ -9,10 +9,12 @@ soon. A command stopped this way exits with ``128 + signal number``: 130 after C
 after SIGTERM, as a shell reports a process killed by that signal.
 
 Before any of that is installed, the process spends 0.6-1.5 s importing MuJoCo and numba.
-:func:`hold_stop_signals_if_command`, called before those imports when walkrepro runs as
-its command, holds a stop signal of that time: the first :class:`InterruptFlag` or
-:func:`stop_signals_raise` takes it over as if it had just come, and one that nothing takes
-over is delivered when the process exits, so a stop is never lost.
+:func:`hold_stop_signals_if_command`, called by the command's set-up
+(:func:`walkrepro.cli.command_setup`) before those imports, holds a stop signal of that
+time: the first :class:`InterruptFlag` or :func:`stop_signals_raise` takes it over as if it
+had just come, and one that nothing takes over is delivered when the process exits, so a
+stop is never lost. Importing walkrepro installs nothing: a program that uses the library
+keeps its own handlers, except while a run is under way (its :class:`InterruptFlag`).
 """
 
 from __future__ import annotations
@@ -150,7 +152,7 @@ def hold_stop_signals_if_command() -> bool:
     """When this process is the ``walkrepro`` command, hold SIGINT and SIGTERM from now on
     (main thread only); returns whether it did.
 
-    Meant to run first in ``walkrepro/__init__.py``, before the slow imports: the first
+    Meant to run first in the command's set-up, before the slow imports: the first
     stop signal is held (a second raises ``KeyboardInterrupt``, as usual), the first
     :class:`InterruptFlag` or :func:`stop_signals_raise` takes it over and puts the
     original handlers back, and a signal still held when the process exits is delivered

@@ -16,7 +16,10 @@ afresh; an edit elsewhere (the CLI, a figure) keeps the compiled kernels. The ca
 ``$XDG_CACHE_HOME`` or ``~/.cache``, or, when the user set ``NUMBA_CACHE_DIR``, that
 directory. Keys unused for :data:`KEEP_DAYS` days are removed.
 
-:func:`install` runs when walkrepro is imported, before anything imports numba.
+:func:`install` runs before the first kernel compiles: in the ``walkrepro`` command's
+set-up (:func:`walkrepro.cli.command_setup`, through the environment, which its worker
+processes inherit) and in :func:`walkrepro.load` (through ``numba.config``, leaving a
+library user's environment alone). Importing walkrepro does neither.
 """
 
 from __future__ import annotations
@@ -230,8 +233,15 @@ def _prune(home: Path, keep: Path) -> None:
             shutil.rmtree(old, ignore_errors=True)
 
 
-def install() -> Path | None:
+def install(environ: bool = True) -> Path | None:
     """Point numba's cache at the directory of the current :func:`cache_key` (idempotent).
+
+    Args:
+        environ: also set ``NUMBA_CACHE_DIR`` in the environment, so that child processes
+            (``--jobs`` workers, a local Ray) inherit it: the command's set-up does. The
+            library (:func:`walkrepro.load`) leaves the environment alone and sets numba's
+            own setting, ``numba.config.CACHE_DIR``, which numba reads at each
+            ``cache=True`` decoration and keeps while no ``NUMBA_*`` variable changes.
 
     Returns the directory, or None if it cannot be created (numba's own default applies).
     """
@@ -243,8 +253,13 @@ def install() -> Path | None:
     except OSError:
         return None
     _prune(home, directory)
-    os.environ[CACHE_DIR_ENV] = str(directory)  # read when numba is imported
-    config = sys.modules.get("numba.core.config")
-    if config is not None:  # numba already imported: its setting, read at each compile
+    if environ:
+        os.environ[CACHE_DIR_ENV] = str(directory)  # read when numba is imported
+        config = sys.modules.get("numba.core.config")
+        if config is not None:  # numba already imported: its setting, read at each compile
+            config.CACHE_DIR = str(directory)
+    else:
+        from numba.core import config
+
         config.CACHE_DIR = str(directory)
     return directory

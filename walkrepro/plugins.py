@@ -32,13 +32,39 @@ from walkrepro.errors import WalkreproError
 
 #: The entry-point group plugins register under.
 GROUP = "walkrepro.plugins"
-#: walkrepro's own plugins (in its pyproject.toml); missing means stale install metadata.
-OWN = ("walkrepro", "lee2021", "faraji", "jo_oh")
+#: The distribution whose plugins are walkrepro's own (listed first; their documentation is
+#: generated here, an outside plugin documents its own).
+DISTRIBUTION = "walkrepro"
+
+
+@dataclass(frozen=True)
+class Paper:
+    """A paper a plugin reproduces: the key its specs name and how walkrepro names it.
+
+    Attributes:
+        key: a spec's ``paper.key``; also the name of the paper's deviations page
+            (``docs/deviations/<key>.md``) and calibration file
+            (``experiments/calibration/<key>.yaml``).
+        citation: the paper as the spec reference and the report cite it, e.g. ``Lee et al.,
+            Toward Reactive Walking (E-FSM + OS-WBC)``.
+        label: the paper as the README's status table and the generated documents head it,
+            e.g. ``Paper I — Lee et al., Toward Reactive Walking (E-FSM, `dyros_red`)``.
+        title: the paper as a figure's title names it, e.g. ``Lee et al. 2021``.
+        order: where lists of papers put it, ascending (then by key): walkrepro's papers
+            are 1-3 and its sanity experiments last; an outside paper's default puts it
+            after walkrepro's papers, before the sanity experiments.
+    """
+
+    key: str
+    citation: str
+    label: str
+    title: str
+    order: int = 100
 
 
 @dataclass(frozen=True)
 class Plugin:
-    """What a plugin adds, as import paths.
+    """What a plugin adds, as import paths, and the papers it reproduces.
 
     Attributes:
         controllers: ``controller.type`` name -> ``"module:Class"``, a subclass of
@@ -51,21 +77,42 @@ class Plugin:
         plots: ``controller.type`` name -> ``"module:ATTR"``, a tuple of
             :class:`walkrepro.plots.Plot`: the controller's key signals with their units,
             which viewers of a run draw (``walkrepro export --rerun``).
+        papers: the papers this plugin reproduces (:class:`Paper`): a spec's ``paper.key``
+            must name one.
     """
 
     controllers: Mapping[str, str] = field(default_factory=dict)
     metric_modules: tuple[str, ...] = ()
     figures: Mapping[str, str] = field(default_factory=dict)
     plots: Mapping[str, str] = field(default_factory=dict)
+    papers: tuple[Paper, ...] = ()
 
 
 @dataclass(frozen=True)
 class Registered:
-    """A loaded plugin: its entry-point name, the distribution that installed it, and it."""
+    """A loaded plugin: its entry-point name and target, the distribution that installed
+    it, and it."""
 
     name: str
     distribution: str
     plugin: Plugin
+    target: str = ""
+
+    @property
+    def own(self) -> bool:
+        """One of walkrepro's own plugins (installed by walkrepro's distribution)."""
+        return self.distribution == DISTRIBUTION
+
+
+def _own_modules() -> set[str]:
+    """The modules of walkrepro's own plugins, from the package's files (not the install's
+    metadata): the core's, and each paper folder's under ``walkrepro/papers/``."""
+    import pkgutil
+    from pathlib import Path
+
+    papers = Path(__file__).resolve().parent / "papers"
+    folders = {m.name for m in pkgutil.iter_modules([str(papers)]) if m.ispkg}
+    return {__name__} | {f"walkrepro.papers.{name}" for name in folders}
 
 
 @functools.cache
@@ -91,14 +138,15 @@ def registered() -> tuple[Registered, ...]:
                 f"{where}, from {dist}) is a {type(plugin).__name__}, not a "
                 "walkrepro.plugins.Plugin."
             )
-        found.append(Registered(ep.name, dist, plugin))
-    missing = [name for name in OWN if name not in {r.name for r in found}]
+        found.append(Registered(ep.name, dist, plugin, ep.value))
+    declared = {r.target.partition(":")[0] for r in found}
+    missing = sorted(_own_modules() - declared)
     if missing:
         raise WalkreproError(
             f"walkrepro's own plugins ({', '.join(missing)}) are not registered: the install's "
             "metadata is older than this code. Reinstall: pip install -e . (from the clone)."
         )
-    return tuple(sorted(found, key=lambda r: (r.name not in OWN, r.name)))
+    return tuple(sorted(found, key=lambda r: (not r.own, r.name)))
 
 
 def _merged(kind: str, label: str) -> dict[str, str]:
@@ -116,6 +164,26 @@ def _merged(kind: str, label: str) -> dict[str, str]:
                 )
             merged[name], owner[name] = target, f"{reg.name} from {reg.distribution}"
     return merged
+
+
+@functools.cache
+def papers() -> dict[str, Paper]:
+    """Every declared paper by key, in their :attr:`Paper.order` (then by key).
+
+    Raises:
+        WalkreproError: two plugins declare one key.
+    """
+    found: dict[str, Paper] = {}
+    owner: dict[str, str] = {}
+    for reg in registered():
+        for paper in reg.plugin.papers:
+            if paper.key in found and found[paper.key] != paper:
+                raise WalkreproError(
+                    f"paper {paper.key!r} is declared by two plugins: {owner[paper.key]} and "
+                    f"{reg.name} from {reg.distribution}; uninstall one."
+                )
+            found[paper.key], owner[paper.key] = paper, f"{reg.name} from {reg.distribution}"
+    return {p.key: p for p in sorted(found.values(), key=lambda p: (p.order, p.key))}
 
 
 @functools.cache
@@ -151,6 +219,18 @@ def load_metric_modules() -> None:
             import_module(module)
 
 
-#: walkrepro's core plugin: the posture controller of the ``stand_*`` sanity checks. The core
-#: metrics register in :mod:`walkrepro.metrics` itself, the overview figure is every run's.
-CORE = Plugin(controllers={"posture": "walkrepro.controllers.posture:PostureController"})
+#: walkrepro's core plugin: its sanity experiments (``paper.key: walkrepro``) and their posture
+#: controller. The core metrics register in :mod:`walkrepro.metrics` itself, the overview
+#: figure is every run's.
+CORE = Plugin(
+    papers=(
+        Paper(
+            key="walkrepro",
+            citation="walkrepro sanity experiment (no paper figure)",
+            label="walkrepro's own sanity checks (standing still)",
+            title="walkrepro",
+            order=1000,
+        ),
+    ),
+    controllers={"posture": "walkrepro.controllers.posture:PostureController"},
+)

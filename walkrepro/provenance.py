@@ -7,9 +7,8 @@ from datetime import datetime, timezone
 from functools import lru_cache
 from typing import TYPE_CHECKING
 
-import mujoco
-
-from walkrepro import IS_CHECKOUT, PROJECT_ROOT, __version__
+from walkrepro._version import __version__
+from walkrepro.locations import IS_CHECKOUT, PROJECT_ROOT
 
 if TYPE_CHECKING:
     from walkrepro.spec import ExperimentSpec
@@ -80,6 +79,7 @@ def library_versions() -> dict[str, str]:
     last digits, which contact chaos can grow."""
     import platform
 
+    import mujoco
     import numba
     import numpy
 
@@ -99,6 +99,8 @@ def utc_now() -> datetime:
 
 def run_metadata(spec: ExperimentSpec) -> dict[str, str]:
     """The ``walkrepro`` metadata record of a log (outcome is added when the log closes)."""
+    import mujoco
+
     return {
         "version": __version__,
         "git_commit": git_commit(),

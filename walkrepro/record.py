@@ -54,8 +54,8 @@ from typing import Any, NamedTuple, NoReturn
 import mujoco
 import numpy as np
 
-import walkrepro
 from walkrepro import foxglove, protolog
+from walkrepro._version import __version__
 from walkrepro.errors import UnknownNameError, WalkreproError
 from walkrepro.mcapfile import ChannelWriter, McapFile, McapSummary, read_mcap, read_summary
 from walkrepro.signals import SignalLayout, Signals, dict_layout
@@ -363,9 +363,7 @@ class LogWriter:
             self._file = open(self.path, "wb")  # noqa: SIM115 - closed in close()
         except OSError as exc:
             raise WalkreproError(f"cannot write log {self.path}: {exc.strerror}") from exc
-        self._writer = McapFile(
-            self._file, chunk_size, library=f"walkrepro/{walkrepro.__version__}"
-        )
+        self._writer = McapFile(self._file, chunk_size, library=f"walkrepro/{__version__}")
         # Attachments first: they then survive any truncation of the file.
         for name, media_type, text in (
             (SCENE_ATTACHMENT, "application/xml", scene_xml),
@@ -914,7 +912,7 @@ def _base_metadata(given: Mapping[str, str]) -> dict[str, str]:
     if missing:
         raise ValueError(f"metadata lacks key(s): {', '.join(missing)}")
     defaults = {
-        "version": walkrepro.__version__,
+        "version": __version__,
         "mujoco_version": mujoco.__version__,
         "pinocchio_version": _package_version("pin"),
         "start_time": datetime.now(timezone.utc).isoformat(timespec="seconds"),

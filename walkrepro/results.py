@@ -15,8 +15,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
 
-from walkrepro import RESULTS_DIR
 from walkrepro.errors import WalkreproError
+from walkrepro.locations import RESULTS_DIR
 from walkrepro.provenance import utc_now
 
 DEFAULT_ROOT = RESULTS_DIR / "runs"
@@ -178,3 +178,11 @@ def latest_run(root: Path, experiment: str) -> Path | None:
     """The most recent finished run of ``experiment`` under ``root``, if any."""
     found = runs(root, experiment)
     return found[-1] if found else None
+
+
+def recorded_overrides(run_dir: Path) -> list[str]:
+    """The ``--set`` overrides a run was made with (its ``run.json``; none if unrecorded)."""
+    record = run_dir / RUN_FILE
+    if not record.is_file():
+        return []
+    return list(json.loads(record.read_text()).get("overrides", []))

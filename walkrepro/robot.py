@@ -55,8 +55,8 @@ import numba
 import numpy as np
 import pinocchio as pin
 
-from walkrepro import ROBOTS_DIR
 from walkrepro.errors import UnknownNameError
+from walkrepro.locations import ROBOTS_DIR
 
 ControlMode = Literal["torque", "position"]
 

@@ -36,7 +36,7 @@ from walkrepro.provenance import run_metadata
 from walkrepro.robot import Robot, load_robot, with_servo_gains
 from walkrepro.sensors import SensorModel
 from walkrepro.spec import ExperimentSpec
-from walkrepro.world import build_scene
+from walkrepro.world import Scene, build_scene
 
 #: Called as ``progress(sim_time, duration, real_time_factor)`` a few times per second.
 ProgressCallback = Callable[[float, float, float], None]
@@ -174,6 +174,7 @@ def run(
     log_path: Path,
     progress: ProgressCallback | None = None,
     interrupt: InterruptFlag | None = None,
+    scene: Scene | None = None,
 ) -> RunResult:
     """Simulate ``spec`` and write its log to ``log_path``.
 
@@ -181,13 +182,14 @@ def run(
     ``interrupted`` (with no state at all if it came before the first step). ``interrupt``
     is the caller's flag (``walkrepro.experiment`` holds one over the whole run); without
     one, the run installs its own. Any other exception marks the log ``error`` and is
-    re-raised after the log is closed.
+    re-raised after the log is closed. ``scene`` is the scene compiled from ``spec``, when
+    the caller has it (:func:`walkrepro.load`); by default it is compiled here.
     """
     if interrupt is None:
         with InterruptFlag() as own:
-            return run(spec, log_path, progress, own)
+            return run(spec, log_path, progress, own, scene)
     robot = load_robot(spec.robot)
-    scene = build_scene(robot, spec)
+    scene = scene if scene is not None else build_scene(robot, spec)
     model = scene.model
     data = mujoco.MjData(model)
     _set_home(robot, model, data)

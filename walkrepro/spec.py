@@ -81,14 +81,6 @@ MAX_OBSTACLE_SIZE, MAX_OBSTACLE_DISTANCE, MAX_TILT_DEG, MAX_OBSTACLE_MASS = 100.
 #: Nesting depth and value count of a spec's YAML beyond which it is refused unread.
 MAX_NESTING, MAX_VALUES = 32, 100_000
 
-#: Papers walkrepro reproduces (key -> citation); ``walkrepro`` marks our own sanity experiments.
-PAPERS: dict[str, str] = {
-    "lee2021": "Lee et al., Toward Reactive Walking (E-FSM + OS-WBC)",
-    "faraji": "Faraji et al., Push recovery with stepping strategy based on time-projection control",
-    "jo_oh": "Jo & Oh, Impedance control of humanoid walking on uneven terrain with CMD and QP",
-    "walkrepro": "walkrepro sanity experiment (no paper figure)",
-}
-
 
 class _Strict(BaseModel):
     """Unknown fields are errors: a typo must never be silently ignored."""
@@ -99,7 +91,7 @@ class _Strict(BaseModel):
 class PaperRef(_Strict):
     """Which paper, section and figure an experiment reproduces."""
 
-    key: str = Field(description="paper key, one of PAPERS")
+    key: str = Field(description="paper key: a paper an installed plugin declares")
     section: str = ""
     figure: str = ""
 
@@ -110,10 +102,13 @@ class PaperRef(_Strict):
 
 
 def known_paper(key: str) -> str:
-    """``key`` if it names a paper of :data:`PAPERS`, else a ``ValueError`` (a pydantic
-    validator's error) listing them."""
-    if key not in PAPERS:
-        raise ValueError(f"unknown paper {key!r}; valid papers: {', '.join(sorted(PAPERS))}")
+    """``key`` if an installed plugin declares that paper (:func:`walkrepro.plugins.papers`),
+    else a ``ValueError`` (a pydantic validator's error) listing them."""
+    from walkrepro import plugins
+
+    papers = plugins.papers()
+    if key not in papers:
+        raise ValueError(f"unknown paper {key!r}; valid papers: {', '.join(sorted(papers))}")
     return key
 
 

@@ -22,8 +22,8 @@ from typing import Annotated, Any, Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from walkrepro import EXPERIMENTS_DIR
 from walkrepro.errors import SpecError, UnknownNameError
+from walkrepro.locations import EXPERIMENTS_DIR
 from walkrepro.spec import (
     Count,
     Real,

@@ -136,14 +136,14 @@ def committed_value(calibration: LoadedCalibration, name: str, at: str) -> Any:
 
 def _calibration_of(data: dict[str, Any], spec_path: Path, at: str) -> LoadedCalibration:
     """The calibration file of the spec's paper, or an error at the reference ``at``."""
-    from walkrepro.spec import PAPERS
+    from walkrepro.plugins import papers
 
     paper = data.get("paper")
     key = paper.get("key") if isinstance(paper, dict) else None
-    if not isinstance(key, str) or key not in PAPERS:
+    if not isinstance(key, str) or key not in papers():
         raise SpecError(
             f"{at}: a calibrated value is looked up in the calibration file of the spec's "
-            f"paper, but paper.key is {key!r}; valid papers: {', '.join(sorted(PAPERS))}."
+            f"paper, but paper.key is {key!r}; valid papers: {', '.join(sorted(papers()))}."
         )
     path = calibration_for(spec_path, key)
     if not path.is_file():

@@ -23,13 +23,6 @@ import numpy as np
 if TYPE_CHECKING:
     from walkrepro.metrics import LogData
 
-#: How a figure title names each paper (spec ``paper.key``).
-PAPER_NAMES: Mapping[str, str] = {
-    "lee2021": "Lee et al. 2021",
-    "faraji": "Faraji et al.",
-    "jo_oh": "Jo & Oh",
-    "walkrepro": "walkrepro",
-}
 #: Okabe-Ito colours (colour-blind safe), in the order lines take them.
 PALETTE = (
     "#0072B2",  # blue
@@ -75,8 +68,12 @@ def use() -> None:
 
 
 def paper_name(key: str) -> str:
-    """The paper as a figure title names it, e.g. ``Lee et al. 2021``."""
-    return PAPER_NAMES.get(key, key)
+    """The paper as a figure title names it, e.g. ``Lee et al. 2021`` (its plugin's
+    :attr:`walkrepro.plugins.Paper.title`; the key itself for an undeclared one)."""
+    from walkrepro import plugins
+
+    paper = plugins.papers().get(key)
+    return paper.title if paper is not None else key
 
 
 def title(fig: plt.Figure, paper: str, figure: str, what: str, experiment: str = "") -> None:

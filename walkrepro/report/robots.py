@@ -9,7 +9,7 @@ from __future__ import annotations
 import html
 from pathlib import Path
 
-from walkrepro import ROBOTS_DIR
+from walkrepro.locations import ROBOTS_DIR
 
 
 def robot_readme(robot: str) -> Path | None:

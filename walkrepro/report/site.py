@@ -19,15 +19,15 @@ from dataclasses import dataclass
 from html import escape
 from pathlib import Path
 
-from walkrepro import IS_CHECKOUT, REFERENCES_DIR, RESULTS_DIR
+from walkrepro import plugins
 from walkrepro.errors import WalkreproError
 from walkrepro.ledger import counts
+from walkrepro.locations import IS_CHECKOUT, REFERENCES_DIR, RESULTS_DIR
 from walkrepro.report import html
 from walkrepro.report.claims import Tally, experiment_claims, tally
 from walkrepro.report.maps import MapResult, experiment_maps
 from walkrepro.report.robots import markdown_to_html, robot_readme
 from walkrepro.report.sources import ExperimentResult, find_results
-from walkrepro.spec import PAPERS
 
 #: The maps' directory inside a results tree.
 MAPS_DIR = "maps"
@@ -77,7 +77,7 @@ def build_report(source: Path = REFERENCES_DIR, out: Path | None = None) -> Repo
     by_paper: dict[str, list[ExperimentResult]] = defaultdict(list)
     for r in found:
         by_paper[r.spec.paper.key].append(r)
-    keys = [k for k in PAPERS if k in by_paper and k != SANITY] + (
+    keys = [k for k in plugins.papers() if k in by_paper and k != SANITY] + (
         [SANITY] if SANITY in by_paper else []
     )
 
@@ -117,7 +117,8 @@ def paper_title(key: str) -> str:
     """The paper's citation as the report shows it."""
     if key == SANITY:
         return "Sanity experiments (no paper figure)"
-    return PAPERS.get(key, key)
+    paper = plugins.papers().get(key)
+    return paper.citation if paper is not None else key
 
 
 def _where(r: ExperimentResult) -> str:

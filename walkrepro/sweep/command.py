@@ -152,21 +152,28 @@ def _declared(info: dict) -> Any:
 
 
 def map_verdicts(
-    names: Sequence[str], rerun: bool, out: Path, jobs: int, console: Any = None
+    names: Sequence[str],
+    rerun: bool,
+    out: Path,
+    jobs: int,
+    console: Any = None,
+    engine: EngineChoice | None = None,
 ) -> list:  # list[checks.Verdict]
     """One verdict per declared map of the named experiments.
 
     Without ``rerun`` the claims are evaluated on the committed reference
     ``results/maps/<map>/cells.csv`` (no simulation); a reference made with another grid or
     other overrides than the spec now declares is reported as stale (fail). With ``rerun``
-    each map is swept again under ``out`` and evaluated on the new cells.
+    each map is swept again under ``out`` on ``engine`` (default: ``jobs`` processes) and
+    evaluated on the new cells.
     """
-    from walkrepro import REFERENCES_DIR
     from walkrepro.checks import FAIL, CheckRow, Verdict
+    from walkrepro.locations import REFERENCES_DIR
     from walkrepro.specfiles import load_spec
     from walkrepro.sweep.claims import evaluate_sweep
-    from walkrepro.sweep.engines import ProcessEngine
+    from walkrepro.sweep.engines import make_engine
 
+    engine = engine or EngineChoice("process", jobs)
     verdicts = []
     for name in names:
         spec = load_spec(name).spec
@@ -174,7 +181,9 @@ def map_verdicts(
             label = f"{spec.name} · map {declared.name}"
             if rerun:
                 plan = plan_new(name, [], [], out, (), declared.name)
-                run_plan(plan, ProcessEngine(jobs), False, console)
+                run_plan(
+                    plan, make_engine(engine.name, engine.jobs, engine.address), False, console
+                )
                 from walkrepro.sweep.maps import plot_sweep
 
                 plot_sweep(plan.directory)

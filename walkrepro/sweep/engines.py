@@ -8,11 +8,16 @@
 - :class:`RayEngine` (``--engine ray``): the same cells as Ray tasks, on a local Ray started
   for the sweep or an existing cluster (``address``). Optional: ``pip install -e ".[ray]"``.
 
-Both yield :class:`~walkrepro.sweep.cells.CellResult` in the order cells finish.
+Both yield :class:`~walkrepro.sweep.cells.CellResult` in the order cells finish. The
+process pool also runs ``walkrepro check --jobs``'s experiments (another task function, and
+its own result for a dead worker), and can be asked to stop: it then starts no more tasks and
+asks the running ones to stop (SIGTERM, which a run takes as a request), and still yields
+what they return.
 """
 
 from __future__ import annotations
 
+import math
 import multiprocessing as mp
 import os
 import signal
@@ -28,7 +33,16 @@ from walkrepro.locations import USER_EXPERIMENTS_ENV
 from walkrepro.sweep.cells import CRASHED, CellResult, CellTask, run_cell
 
 CellFn = Callable[[CellTask], CellResult]
+#: The result of a task whose worker died: ``crashed(task index, message, engine time [s])``.
+CrashedFn = Callable[[int, str, float], object]
 ENGINES = ("process", "ray")
+#: How often a waiting pool looks at its ``stop`` request [s].
+STOP_POLL = 0.2
+
+
+def crashed_cell(index: int, message: str, engine_time: float) -> CellResult:
+    """The result of a cell whose worker died."""
+    return CellResult(index, CRASHED, message, engine_time=engine_time)
 
 
 class Engine(Protocol):
@@ -39,8 +53,15 @@ class Engine(Protocol):
         ...
 
 
-def make_engine(name: str, jobs: int, address: str | None = None) -> Engine:
-    """The engine called ``name`` (``process`` or ``ray``).
+def make_engine(
+    name: str,
+    jobs: int,
+    address: str | None = None,
+    fn: Callable = run_cell,
+    crashed: CrashedFn = crashed_cell,
+) -> Engine:
+    """The engine called ``name`` (``process`` or ``ray``), running ``fn`` on each task
+    (a sweep cell's by default) and ``crashed`` for a task whose worker died.
 
     Raises:
         WalkreproError: unknown engine, ``--address`` without Ray, or Ray not installed.
@@ -48,25 +69,31 @@ def make_engine(name: str, jobs: int, address: str | None = None) -> Engine:
     if name == "process":
         if address is not None:
             raise WalkreproError("--address applies to --engine ray only.")
-        return ProcessEngine(jobs)
+        return ProcessEngine(jobs, fn, crashed)
     if name == "ray":
-        return RayEngine(jobs, address)
+        return RayEngine(jobs, address, fn, crashed)
     raise WalkreproError(f"unknown engine {name!r}. Valid engines: {', '.join(ENGINES)}.")
 
 
 class ProcessEngine:
-    """A pool of ``jobs`` reused worker processes, one cell per task.
+    """A pool of ``jobs`` reused worker processes, one task per worker at a time.
 
     Args:
         jobs: number of worker processes (>= 1).
-        fn: the cell function (tests substitute one that crashes).
+        fn: the task function, module-level (picklable): a sweep cell's by default (tests
+            substitute one that crashes); ``walkrepro check --jobs`` gives its own. A task
+            has an ``index``; a result is a dataclass with an ``engine_time`` field.
+        crashed: the result of a task whose worker died (:func:`crashed_cell` for cells).
     """
 
-    def __init__(self, jobs: int, fn: CellFn = run_cell) -> None:
+    def __init__(
+        self, jobs: int, fn: Callable = run_cell, crashed: CrashedFn = crashed_cell
+    ) -> None:
         if jobs < 1:
             raise WalkreproError(f"--jobs {jobs}: need at least one process.")
         self.jobs = jobs
         self.fn = fn
+        self.crashed = crashed
         self._started: list[tuple[Connection, mp.process.BaseProcess]] = []
 
     def start(self, n_tasks: int) -> None:
@@ -76,9 +103,20 @@ class ProcessEngine:
         while len(self._started) < min(self.jobs, n_tasks):
             self._started.append(self._spawn(ctx))
 
-    def run(self, tasks: Sequence[CellTask]) -> Iterator[CellResult]:
-        """Run every task; a dead worker's cell is ``crashed`` and the worker is replaced."""
+    def run(
+        self, tasks: Sequence[CellTask], stop: Callable[[], bool | int | None] | None = None
+    ) -> Iterator[CellResult]:
+        """Run every task; a dead worker's task is ``crashed`` and the worker is replaced.
+
+        Args:
+            tasks: what to run.
+            stop: polled while waiting (every :data:`STOP_POLL` s); once it returns true or
+                a signal number, no more tasks start, the running ones are sent that signal
+                (SIGTERM for true; a run takes SIGINT or SIGTERM as a stop request and
+                returns interrupted), and their results are still yielded.
+        """
         pending = deque(tasks)
+        stopping = False
         busy: dict[Connection, tuple[mp.process.BaseProcess, CellTask, float]] = {}
         idle, self._started = self._started, []
         ctx = mp.get_context()
@@ -86,13 +124,21 @@ class ProcessEngine:
             while len(idle) < min(self.jobs, len(pending)):
                 idle.append(self._spawn(ctx))
             while pending or busy:
+                asked = stop() if stop is not None and not stopping else None
+                if asked:
+                    stopping = True
+                    pending.clear()
+                    signum = signal.SIGTERM if asked is True else int(asked)
+                    for proc, _, _ in busy.values():
+                        os.kill(proc.pid, signum)  # the run's own flag takes it
                 while idle and pending:
                     conn, proc = idle.pop()
                     task = pending.popleft()
                     t0 = time.perf_counter()  # before sending: the worker starts during send
                     conn.send(task)
                     busy[conn] = (proc, task, t0)
-                for conn in wait(list(busy)):
+                ready = wait(list(busy), timeout=None if stop is None else STOP_POLL)
+                for conn in ready:
                     assert isinstance(conn, Connection)
                     proc, task, t0 = busy.pop(conn)
                     try:
@@ -100,12 +146,11 @@ class ProcessEngine:
                     except (EOFError, OSError):
                         proc.join(timeout=5)
                         conn.close()
-                        yield CellResult(
+                        yield self.crashed(
                             task.index,
-                            CRASHED,
                             f"worker process {proc.pid} died (exit code {proc.exitcode}) "
-                            "while running this cell",
-                            engine_time=time.perf_counter() - t0,
+                            "while running this task",
+                            time.perf_counter() - t0,
                         )
                         if pending:
                             idle.append(self._spawn(ctx))
@@ -128,6 +173,7 @@ class ProcessEngine:
                 conn.close()
 
     def _spawn(self, ctx: mp.context.BaseContext) -> tuple[Connection, mp.process.BaseProcess]:
+        """A worker running ``self.fn`` on what the returned connection sends it."""
         parent, child = ctx.Pipe()
         proc = ctx.Process(target=_worker, args=(child, self.fn), daemon=True)
         proc.start()
@@ -135,7 +181,7 @@ class ProcessEngine:
         return parent, proc
 
 
-def _worker(conn: Connection, fn: CellFn) -> None:
+def _worker(conn: Connection, fn: Callable) -> None:
     """Run tasks from ``conn`` until ``None`` or EOF."""
     # Own process group: the terminal's Ctrl-C goes to the parent, which stops the workers.
     os.setpgrp()
@@ -177,19 +223,37 @@ class RayEngine:
     Args:
         jobs: CPUs of the local Ray started for the sweep (ignored with ``address``).
         address: an existing cluster (``ray://…`` or ``host:port``, or ``auto``).
-        fn: the cell function.
+        fn: the task function (a sweep cell's by default), as for :class:`ProcessEngine`.
+        crashed: the result of a task that failed in Ray (:func:`crashed_cell` for cells).
     """
 
-    def __init__(self, jobs: int, address: str | None = None, fn: CellFn = run_cell) -> None:
+    def __init__(
+        self,
+        jobs: int,
+        address: str | None = None,
+        fn: Callable = run_cell,
+        crashed: CrashedFn = crashed_cell,
+    ) -> None:
         if jobs < 1:
             raise WalkreproError(f"--jobs {jobs}: need at least one process.")
         self.ray = import_ray()
         self.jobs = jobs
         self.address = address
         self.fn = fn
+        self.crashed = crashed
 
-    def run(self, tasks: Sequence[CellTask]) -> Iterator[CellResult]:
-        """Submit every task; yield results as they complete."""
+    def run(
+        self, tasks: Sequence[CellTask], stop: Callable[[], bool | int | None] | None = None
+    ) -> Iterator[CellResult]:
+        """Submit every task; yield results as they complete.
+
+        Args:
+            tasks: what to run.
+            stop: polled while waiting (every :data:`STOP_POLL` s); once it returns true,
+                the unfinished tasks are cancelled (Ray interrupts a running one) and not
+                yielded: a run directory so stopped is kept, marked interrupted, but its
+                result does not come back, unlike the process pool's.
+        """
         ray = self.ray
         started = not ray.is_initialized()
         if started:
@@ -199,16 +263,24 @@ class RayEngine:
         try:
             for task in tasks:
                 refs[remote.remote(task)] = task
+            stopping = False
             while refs:
-                done, _ = ray.wait(list(refs), num_returns=1)
+                if stop is not None and not stopping and stop():
+                    stopping = True
+                    for ref in refs:
+                        ray.cancel(ref)
+                timeout = None if stop is None or stopping else STOP_POLL
+                done, _ = ray.wait(list(refs), num_returns=1, timeout=timeout)
                 for ref in done:
                     task = refs.pop(ref)
                     try:
                         result = ray.get(ref)
+                    except ray.exceptions.TaskCancelledError:
+                        continue  # stopped on request: no result
                     except ray.exceptions.RayError as exc:
                         first = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
-                        result = CellResult(
-                            task.index, CRASHED, f"Ray task failed: {type(exc).__name__}: {first}"
+                        result = self.crashed(
+                            task.index, f"Ray task failed: {type(exc).__name__}: {first}", math.nan
                         )
                     yield result
         finally:
@@ -243,7 +315,5 @@ def _pythonpath() -> list[str]:
     """The directory holding this ``walkrepro`` package, plus any PYTHONPATH already set."""
     from pathlib import Path
 
-    import walkrepro
-
-    here = str(Path(walkrepro.__file__).resolve().parent.parent)
+    here = str(Path(__file__).resolve().parents[2])
     return [here, *os.environ.get("PYTHONPATH", "").split(os.pathsep)]

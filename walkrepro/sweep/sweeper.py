@@ -283,7 +283,7 @@ def run_plan(
 def update_reference(directory: Path, name: str) -> Path:
     """Copy a finished declared sweep (sweep.yaml, cells.csv in cell order, map.png) to
     results/maps/<name>/."""
-    from walkrepro import RESULTS_DIR
+    from walkrepro.locations import RESULTS_DIR
 
     target = RESULTS_DIR / MAPS_DIR_NAME / name
     target.mkdir(parents=True, exist_ok=True)
@@ -348,7 +348,7 @@ def _unit(field_name: str, spec: Any) -> str:
 
 def _relative(path: Path) -> str:
     """A spec path relative to the project root when inside it (committed maps stay portable)."""
-    from walkrepro import PROJECT_ROOT
+    from walkrepro.locations import PROJECT_ROOT
 
     try:
         return str(path.resolve().relative_to(PROJECT_ROOT.resolve()))
@@ -357,7 +357,8 @@ def _relative(path: Path) -> str:
 
 
 def _provenance() -> dict[str, Any]:
-    from walkrepro import __version__, provenance
+    from walkrepro import provenance
+    from walkrepro._version import __version__
 
     return {
         "created": provenance.utc_now().isoformat(),

@@ -16,9 +16,18 @@ The pure-math modules know nothing about MuJoCo or a particular robot: model par
 in through :class:`~.threelp.ThreeLPParams`.
 """
 
-from walkrepro.plugins import Plugin
+from walkrepro.plugins import Paper, Plugin
 
 PLUGIN = Plugin(
+    papers=(
+        Paper(
+            key="faraji",
+            citation="Faraji et al., Push recovery with stepping strategy based on time-projection control",
+            label="Paper II — Faraji et al., time-projection push recovery (`coman`)",
+            title="Faraji et al.",
+            order=2,
+        ),
+    ),
     controllers={"timeprojection": "walkrepro.papers.faraji.controller:TimeProjectionController"},
     metric_modules=("walkrepro.papers.faraji.metrics",),
     figures={"faraji": "walkrepro.papers.faraji.figures"},

@@ -10,9 +10,18 @@ of §III-D), :mod:`.controller` (registered as ``qpimpedance``), :mod:`.metrics`
 signals, for viewers of a run).
 """
 
-from walkrepro.plugins import Plugin
+from walkrepro.plugins import Paper, Plugin
 
 PLUGIN = Plugin(
+    papers=(
+        Paper(
+            key="jo_oh",
+            citation="Jo & Oh, Impedance control of humanoid walking on uneven terrain with CMD and QP",
+            label="Paper III — Jo & Oh, impedance control on uneven terrain (`kist_humanoid`)",
+            title="Jo & Oh",
+            order=3,
+        ),
+    ),
     controllers={"qpimpedance": "walkrepro.papers.jo_oh.controller:QPImpedanceController"},
     metric_modules=("walkrepro.papers.jo_oh.metrics",),
     figures={"jo_oh": "walkrepro.papers.jo_oh.figures"},

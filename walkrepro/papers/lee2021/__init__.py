@@ -8,9 +8,18 @@ compiled per-tick arithmetic: the E-FSM, capture point, OS-WBC, Appendix C), :mo
 viewers of a run).
 """
 
-from walkrepro.plugins import Plugin
+from walkrepro.plugins import Paper, Plugin
 
 PLUGIN = Plugin(
+    papers=(
+        Paper(
+            key="lee2021",
+            citation="Lee et al., Toward Reactive Walking (E-FSM + OS-WBC)",
+            label="Paper I — Lee et al., Toward Reactive Walking (E-FSM, `dyros_red`)",
+            title="Lee et al. 2021",
+            order=1,
+        ),
+    ),
     controllers={"efsm": "walkrepro.papers.lee2021.controller:EfsmController"},
     metric_modules=("walkrepro.papers.lee2021.metrics",),
     figures={"lee2021": "walkrepro.papers.lee2021.figures"},
