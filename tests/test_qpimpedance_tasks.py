@@ -14,6 +14,7 @@ from oracles.jo_oh_swing import SwingTrajectory, quintic
 
 from walkrepro.controllers import controller_class
 from walkrepro.papers.jo_oh import tasks
+from walkrepro.papers.jo_oh.centroidal_qp import solve_centroidal
 from walkrepro.robot import frame_classical_acceleration, load_robot, pin_state_into
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -182,7 +183,7 @@ def test_desired_com_equals_numpy_interp() -> None:
 
 
 def test_task_rows_equal_numpy_reference() -> None:
-    """A swing tick's cost rows, contact stacks and signals equal the §III-D algebra written with numpy and Pinocchio."""
+    """A swing tick's QP tasks (b_1; Φ_t, b_t of each task), contact stacks and signals equal the §III-D algebra written with numpy and Pinocchio."""
     robot = load_robot("kist_humanoid")
     cls = controller_class("qpimpedance")
     ctrl = cls()
@@ -207,8 +208,8 @@ def test_task_rows_equal_numpy_reference() -> None:
     swing = phase.swing
     ctrl._task_rows(t, swing, joint_pos, joint_vel, *fts)
 
-    rows, rhs = ctrl._cost_rows, ctrl._cost_rhs
-    # Momentum rows: √W_1 M_B ξ̈ ≈ √W_1 (X_GBᵀ ḣ_{G,r} − C_B ξ̇) (Eq. 7).
+    qp_tasks = ctrl._tasks
+    # Momentum target: b_1 = X_GBᵀ ḣ_{G,r} − C_B ξ̇ (Eq. 7).
     m = robot.total_mass
     c_d, v_d, a_d = np.empty(3), np.empty(3), np.empty(3)
     tasks.desired_com(
@@ -220,22 +221,25 @@ def test_task_rows_equal_numpy_reference() -> None:
     )
     base_rot = data.oMi[1].rotation
     b1 = np.r_[base_rot.T @ h_lin, base_rot.T @ h_ang] - (data.nle[:6] - data.g[:6])
-    np.testing.assert_allclose(rows[:6], data.M[:6], rtol=1e-14)  # W_1 = I by default
-    np.testing.assert_allclose(rhs[:6], b1, rtol=1e-11, atol=1e-9)
-    # Pelvis and torso: ẍ_r = −K_P log R − K_V ω.
-    for frame, row, w in (("pelvis", 6, p.w_pelvis), ("torso", 9, p.w_torso)):
+    np.testing.assert_allclose(qp_tasks.momentum_target, b1, rtol=1e-11, atol=1e-9)
+    np.testing.assert_array_equal(qp_tasks.momentum_weight, 1.0)  # W_1 = I by default
+    # Pelvis and torso: Φ_t the angular Jacobian, b_t = −K_P log R − K_V ω − Φ̇_t ξ̇.
+    for frame, task, w in (
+        ("pelvis", qp_tasks.pelvis, p.w_pelvis),
+        ("torso", qp_tasks.torso, p.w_torso),
+    ):
         fid = robot.pin_frame_id(frame)
         jac = pin.getFrameJacobian(model, data, fid, LWA)[3:]
         drift = pin.getFrameClassicalAcceleration(model, data, fid, LWA).angular
         acc = -p.kp_orient * pin.log3(data.oMf[fid].rotation) - p.kv_orient * jac @ v
-        np.testing.assert_allclose(rows[row : row + 3], np.sqrt(w) * jac, rtol=1e-14, atol=1e-14)
-        np.testing.assert_allclose(
-            rhs[row : row + 3], np.sqrt(w) * (acc - drift), rtol=1e-11, atol=1e-9
-        )
-    # Posture: K_P (q_home − q) − K_V q̇.
+        np.testing.assert_allclose(task.jacobian, jac, rtol=1e-14, atol=1e-14)
+        np.testing.assert_allclose(task.target, acc - drift, rtol=1e-11, atol=1e-9)
+        np.testing.assert_array_equal(task.weight, w)
+    # Posture: Φ_t selects each arm and waist joint, b_t = K_P (q_home − q) − K_V q̇.
     idx = ctrl._posture_idx
     posture = p.kp_posture * (ctrl._q_home_posture - joint_pos[idx]) - p.kv_posture * joint_vel[idx]
-    np.testing.assert_allclose(rhs[12 : 12 + idx.size], np.sqrt(p.w_posture) * posture, rtol=1e-14)
+    np.testing.assert_allclose(qp_tasks.posture.target, posture, rtol=1e-14)
+    np.testing.assert_array_equal(qp_tasks.posture.jacobian, np.eye(model.nv)[robot.pin_v_idx[idx]])
 
     signals = dict(zip(tasks.signal_names(("left", "right")), ctrl._signals, strict=True))
     traj = SwingTrajectory(
@@ -323,11 +327,8 @@ def test_task_rows_equal_numpy_reference() -> None:
             a_m + kv * (v_m - vel[2:5]) + kp * (x_m - x_now),
             -kv * vel[5] - kp * rpy[2],
         ]
-        row = 12 + idx.size
-        np.testing.assert_allclose(rows[row : row + 6], np.sqrt(p.w_swing) * jac, atol=1e-13)
-        np.testing.assert_allclose(
-            rhs[row : row + 6], np.sqrt(p.w_swing) * (acc_ref - drift), rtol=1e-10, atol=1e-8
-        )
+        np.testing.assert_allclose(qp_tasks.swing.jacobian, jac, atol=1e-14)
+        np.testing.assert_allclose(qp_tasks.swing.target, acc_ref - drift, rtol=1e-10, atol=1e-8)
         np.testing.assert_allclose(ctrl._foot_acc_cmd[side], acc_ref[:3], rtol=1e-12, atol=1e-10)
 
 
@@ -337,7 +338,7 @@ def test_reset_compiles_the_tick_kernels_for_a_real_tick(kist_home_snapshot) -> 
     cls = controller_class("qpimpedance")
     ctrl = cls()
     ctrl.reset(robot, cls.Params(), 0.001)
-    kernels = (tasks.task_rows, pin_state_into)
+    kernels = (tasks.task_rows, pin_state_into, solve_centroidal)
     compiled = [len(k.signatures) for k in kernels]
     snapshot = kist_home_snapshot()
     ctrl.step(0.0, snapshot)
@@ -368,6 +369,8 @@ def test_readings_of_another_kind_go_through_numbas_dispatcher() -> None:
         assert pos.flags.c_contiguous != strided and np.array_equal(pos, joint_pos)
         ctrl._task_rows(0.0, -1, pos, joint_vel, *fts)
         assert len(calls) == (0 if strided else 1)
-        outputs.append((ctrl._cost_rows.copy(), ctrl._cost_rhs.copy(), ctrl._signals.copy()))
+        qp_tasks = ctrl._tasks
+        targets = [qp_tasks.momentum_target] + [t.target for t in qp_tasks[2:]]
+        outputs.append((np.concatenate(targets), ctrl._signals.copy()))
     for bound, dispatched in zip(*outputs, strict=True):
         np.testing.assert_allclose(dispatched, bound, rtol=1e-12, atol=1e-12)
