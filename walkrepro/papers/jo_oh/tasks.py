@@ -21,8 +21,8 @@ frames' drifts J̇ ξ̇, log₃ and roll–pitch–yaw angles are formed here
 :func:`matrix_to_rpy`) in Pinocchio's operations, tested against its Python functions to
 1e-12, instead of eight calls from Python (≈ 0.4–1 µs each;
 ``benchmarks/pinocchio_ports.py``). The small kernels it calls are compiled functions too,
-each tested against a reference: the swing trajectory and the impedance filter in
-``tests/oracles/jo_oh_*.py``, Pinocchio's frame Jacobians, numpy expressions. Like
+each tested against a reference (the swing trajectory in ``tests/oracles/jo_oh_swing.py``,
+Pinocchio's frame Jacobians, numpy expressions) or for its properties (the impedance filter). Like
 :mod:`.condensed`, the kernels are cached on disk (``cache=True``) and compiled or loaded
 when the controller resets.
 
@@ -437,7 +437,8 @@ def advance_impedance(
     10 N, 3 N m), stays on to the end of that swing, and is re-initialised (x_m = x_d) in
     support (§IV).
 
-    ``tests/oracles/jo_oh_impedance.py`` is its readable numpy reference (tested equal).
+    ``tests/test_qpimpedance_impedance.py`` tests its properties (the closed-form response
+    of Eq. 1, the thresholds, lift-off, switch-on, the run without impedance).
 
     Args:
         state: (x_m, ẋ_m, ẍ_m), updated in place, shape (3, 3).
