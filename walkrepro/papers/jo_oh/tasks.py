@@ -21,8 +21,8 @@ frames' drifts J̇ ξ̇, log₃ and roll–pitch–yaw angles are formed here
 :func:`matrix_to_rpy`) in Pinocchio's operations, tested against its Python functions to
 1e-12, instead of eight calls from Python (≈ 0.4–1 µs each;
 ``benchmarks/pinocchio_ports.py``). The small kernels it calls are compiled functions too,
-each tested against a reference (the swing trajectory in ``tests/oracles/jo_oh_swing.py``,
-Pinocchio's frame Jacobians, numpy expressions) or for its properties (the impedance filter). Like
+each tested against a reference (Pinocchio's frame Jacobians, numpy expressions) or for its
+properties (the swing trajectory, the impedance filter). Like
 :mod:`.condensed`, the kernels are cached on disk (``cache=True``) and compiled or loaded
 when the controller resets.
 
@@ -373,8 +373,7 @@ def swing_reference(
     x, y and the roll/pitch angles blend from ``start`` to ``target`` by minimum jerk
     (:func:`quintic`) over the whole swing; z rises from the lift-off height to ``apex``
     above the higher of start and target over the first ``rise_fraction`` of the swing,
-    then descends to the landing height by the end. ``tests/oracles/jo_oh_swing.py`` is its
-    readable numpy reference (tested equal).
+    then descends to the landing height by the end.
 
     Args:
         swing: the trajectory, see :func:`pack_swing`, shape (14,).
