@@ -206,7 +206,7 @@ def test_task_rows_equal_numpy_reference() -> None:
     m = robot.total_mass
     c_d, v_d, a_d = np.empty(3), np.empty(3), np.empty(3)
     tasks.desired_com(
-        ctrl._com_plan, t, p.preview_dt, ctrl._plan.end, ctrl._scalars[tasks.COM_Z], c_d, v_d, a_d
+        ctrl._com_plan, t, p.preview_dt, ctrl._plan.end, ctrl._gains.com_z, c_d, v_d, a_d
     )
     h_lin = m * (a_d + p.k_h * (v_d - data.vcom[0]) + p.k_i * (c_d - data.com[0]))
     h_ang = -p.k_h_angular * data.hg.angular + np.cross(
@@ -263,7 +263,7 @@ def test_task_rows_equal_numpy_reference() -> None:
             foot_com,
             sole.translation,
             acc_before[side],
-            ctrl._scalars[tasks.FOOT_MASS],
+            ctrl._gains.foot_mass,
         )
         rpy = pin.rpy.matrixToRpy(sole.rotation)
         acc_meas = (vel - prev_vel[side]) / 0.001

@@ -50,13 +50,13 @@ from walkrepro.papers.jo_oh.preview import generate_com, preview_gains
 from walkrepro.papers.jo_oh.tasks import (
     FOOT_BLOCK,
     N_SIGNALS,
-    SCALARS,
     SIGNAL_COM,
     SIGNAL_FEET,
     RobotTerms,
     SensorReadings,
     SoleKinematics,
     TaskConstants,
+    TaskGains,
     TaskOutputs,
     TaskReferences,
     TaskState,
@@ -533,25 +533,24 @@ class QPImpedanceController(Controller):
         # Each sole's origin in its ankle joint's frame, for its drift (robot.frame_classical_acceleration).
         self._sole_offset = np.array([model.frames[f].placement.translation for f in frames[:2]])
         self._views = _DataViews(self._data, frames, parents)
-        scalars = {
-            "dt": control_period,
-            "mass": robot.total_mass,
-            "foot_mass": _foot_mass(robot),
-            "k_h": p.k_h,
-            "k_i": p.k_i,
-            "k_h_angular": p.k_h_angular,
-            "kp_orient": p.kp_orient,
-            "kv_orient": p.kv_orient,
-            "kp_posture": p.kp_posture,
-            "kv_posture": p.kv_posture,
-            "kp_swing": p.swing_gains[0],
-            "kv_swing": p.swing_gains[1],
-            "impedance": float(p.impedance),
-            "preview_dt": p.preview_dt,
-            "plan_end": self._plan.end,
-            "com_z": com_z,
-        }
-        self._scalars = np.array([scalars[name] for name in SCALARS])
+        self._gains = TaskGains(
+            dt=float(control_period),
+            mass=float(robot.total_mass),
+            foot_mass=_foot_mass(robot),
+            k_h=p.k_h,
+            k_i=p.k_i,
+            k_h_angular=p.k_h_angular,
+            kp_orient=p.kp_orient,
+            kv_orient=p.kv_orient,
+            kp_posture=p.kp_posture,
+            kv_posture=p.kv_posture,
+            kp_swing=float(p.swing_gains[0]),
+            kv_swing=float(p.swing_gains[1]),
+            impedance=bool(p.impedance),
+            preview_dt=p.preview_dt,
+            plan_end=float(self._plan.end),
+            com_z=com_z,
+        )
         self._impedance_gains = np.array(
             [p.m_d, p.b_d, p.k_d, (p.force_threshold, p.torque_threshold, p.torque_threshold)]
         )
@@ -739,7 +738,7 @@ class QPImpedanceController(Controller):
             self._v,
         )
         constants = TaskConstants(
-            self._scalars,
+            self._gains,
             self._impedance_gains,
             self._chains,
             self._posture_idx,

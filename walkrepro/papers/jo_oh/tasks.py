@@ -28,8 +28,7 @@ when the controller resets.
 
 :func:`task_rows` takes its inputs in records (named tuples, :class:`RobotTerms` …
 :class:`TaskOutputs`), which the controller builds once at reset: the arrays in them are
-filled in place every tick. Scalars travel in one float array (:data:`SCALARS` names its
-entries): one array is cheaper to pass than twenty floats.
+filled in place every tick; the gains and times are a record of floats (:class:`TaskGains`).
 """
 
 from __future__ import annotations
@@ -46,43 +45,43 @@ from walkrepro.robot import eigen_rotate, frame_classical_acceleration, frame_ja
 
 GRAVITY = 9.81  # [m/s^2]
 
-#: Entries of the ``scalars`` array of :func:`task_rows`, in order.
-SCALARS = (
-    "dt",  # control period [s]
-    "mass",  # robot mass m [kg]
-    "foot_mass",  # mass of the foot below the F/T sensor [kg]
-    "k_h",  # linear momentum gain K_h [1/s]
-    "k_i",  # linear momentum integral gain K_I [1/s²]
-    "k_h_angular",  # angular momentum gain [1/s]
-    "kp_orient",  # pelvis and torso K_P [1/s²]
-    "kv_orient",  # pelvis and torso K_V [1/s]
-    "kp_posture",  # arm and waist K_P [1/s²]
-    "kv_posture",  # arm and waist K_V [1/s]
-    "kp_swing",  # swing-foot K_P [1/s²]
-    "kv_swing",  # swing-foot K_V [1/s]
-    "impedance",  # 1.0: modify the swing reference by Eqs. (1)–(3); 0.0: don't
-    "preview_dt",  # sample time of the CoM pattern [s]
-    "plan_end",  # time the footstep plan ends [s]
-    "com_z",  # desired CoM height [m]
-)
-(
-    DT,
-    MASS,
-    FOOT_MASS,
-    K_H,
-    K_I,
-    K_H_ANGULAR,
-    KP_ORIENT,
-    KV_ORIENT,
-    KP_POSTURE,
-    KV_POSTURE,
-    KP_SWING,
-    KV_SWING,
-    IMPEDANCE,
-    PREVIEW_DT,
-    PLAN_END,
-    COM_Z,
-) = range(len(SCALARS))
+
+class TaskGains(NamedTuple):
+    """The tick's gains, masses and times, set at reset.
+
+    Attributes:
+        dt: control period [s].
+        mass: robot mass m [kg].
+        foot_mass: mass of the foot below the F/T sensor [kg].
+        k_h: linear momentum gain K_h [1/s].
+        k_i: linear momentum integral gain K_I [1/s²].
+        k_h_angular: angular momentum gain [1/s].
+        kp_orient, kv_orient: pelvis and torso K_P [1/s²], K_V [1/s].
+        kp_posture, kv_posture: arm and waist K_P [1/s²], K_V [1/s].
+        kp_swing, kv_swing: swing-foot K_P [1/s²], K_V [1/s] (Eq. 3).
+        impedance: modify the swing reference by Eqs. (1)–(3).
+        preview_dt: sample time of the CoM pattern [s].
+        plan_end: time the footstep plan ends [s].
+        com_z: desired CoM height [m].
+    """
+
+    dt: float
+    mass: float
+    foot_mass: float
+    k_h: float
+    k_i: float
+    k_h_angular: float
+    kp_orient: float
+    kv_orient: float
+    kp_posture: float
+    kv_posture: float
+    kp_swing: float
+    kv_swing: float
+    impedance: bool
+    preview_dt: float
+    plan_end: float
+    com_z: float
+
 
 #: Rows of the ``chains`` array of :func:`task_rows`: the frames whose Jacobians it forms.
 CHAIN_LEFT_SOLE, CHAIN_RIGHT_SOLE, CHAIN_PELVIS, CHAIN_TORSO = range(4)
@@ -177,7 +176,7 @@ class TaskConstants(NamedTuple):
     """Gains, weights and the robot's geometry, set at reset.
 
     Attributes:
-        scalars: gains and times, named by :data:`SCALARS`.
+        gains: gains, masses and times.
         impedance_gains: M_d, B_d, K_d and thresholds (see :func:`advance_impedance`).
         chains: per frame of :data:`CHAIN_LEFT_SOLE` … whether each velocity moves it,
             shape (4, nv) bool.
@@ -189,7 +188,7 @@ class TaskConstants(NamedTuple):
         local_wrench_map: U_k in the contact frame (Eq. 8), shape (6, m N_c).
     """
 
-    scalars: np.ndarray
+    gains: TaskGains
     impedance_gains: np.ndarray
     chains: np.ndarray
     posture_idx: np.ndarray
@@ -644,7 +643,7 @@ def task_rows(
         terms.base_rotation, terms.base_position, terms.base_drift
     )  # fmt: skip
     joint_pos, joint_vel = readings.joint_pos, readings.joint_vel
-    scalars, chains = constants.scalars, constants.chains
+    gains, chains = constants.gains, constants.chains
     posture_idx, posture_home = constants.posture_idx, references.posture_home
     local_wrench_map = constants.local_wrench_map
     impedance_state, impedance_flags = state.impedance_state, state.impedance_flags
@@ -657,29 +656,29 @@ def task_rows(
     )
     signals = outputs.signals
     nv = velocity.shape[0]
-    m = scalars[MASS]
+    m = gains.mass
     # ---- centroidal momentum reference (§III-D) --------------------------------------
     c_d, v_d, a_d = np.empty(3), np.empty(3), np.empty(3)
     desired_com(
         references.com_plan,
         t,
-        scalars[PREVIEW_DT],
-        scalars[PLAN_END],
-        scalars[COM_Z],
+        gains.preview_dt,
+        gains.plan_end,
+        gains.com_z,
         c_d,
         v_d,
         a_d,
     )
-    kh, ki = scalars[K_H], scalars[K_I]
+    kh, ki = gains.k_h, gains.k_i
     # ḣ_lin = m (c̈_d + K_h (ċ_d − ċ) + K_I (c_d − c)), with ∫(h_d − h) = m (c_d − c).
     lin = np.empty(3)
     for i in range(3):
         lin[i] = m * (a_d[i] + kh * (v_d[i] - com_vel[i]) + ki * (c_d[i] - com[i]))
     r0, r1, r2 = com[0] - base_position[0], com[1] - base_position[1], com[2] - base_position[2]
     ang = np.empty(3)  # ḣ_ang + (c − p_B) × ḣ_lin, with ḣ_ang = −K_h k
-    ang[0] = -scalars[K_H_ANGULAR] * angular_momentum[0] + (r1 * lin[2] - r2 * lin[1])
-    ang[1] = -scalars[K_H_ANGULAR] * angular_momentum[1] + (r2 * lin[0] - r0 * lin[2])
-    ang[2] = -scalars[K_H_ANGULAR] * angular_momentum[2] + (r0 * lin[1] - r1 * lin[0])
+    ang[0] = -gains.k_h_angular * angular_momentum[0] + (r1 * lin[2] - r2 * lin[1])
+    ang[1] = -gains.k_h_angular * angular_momentum[1] + (r2 * lin[0] - r0 * lin[2])
+    ang[2] = -gains.k_h_angular * angular_momentum[2] + (r0 * lin[1] - r1 * lin[0])
     # b_1 = X_GBᵀ ḣ_{G,r} − C_B ξ̇ (Eq. 7): both halves in the base frame, minus (C ξ̇)_B.
     b_1 = tasks.momentum_target
     for i in range(3):
@@ -692,33 +691,34 @@ def task_rows(
 
     # ---- pelvis and torso upright, heading +x ----------------------------------------
     frame_jac = np.empty((6, nv))
-    kp, kv = scalars[KP_ORIENT], scalars[KV_ORIENT]
+    orientation = RowGains(gains.kp_orient, gains.kv_orient)
     drift = np.empty(3)  # angular part of the frame's J̇ ξ̇: the joint's α in world axes
     log_r = np.empty(3)
     drift[0], drift[1], drift[2] = eigen_rotate(
         base_rotation, base_drift[3], base_drift[4], base_drift[5]
     )
     log3(terms.pelvis_rotation, log_r)
-    gains = RowGains(kp, kv)
-    _orientation_task(terms, chains[CHAIN_PELVIS], log_r, drift, gains, frame_jac, tasks.pelvis)
+    _orientation_task(
+        terms, chains[CHAIN_PELVIS], log_r, drift, orientation, frame_jac, tasks.pelvis
+    )
     torso_drift = terms.torso_joint_drift
     drift[0], drift[1], drift[2] = eigen_rotate(
         terms.torso_joint_rotation, torso_drift[3], torso_drift[4], torso_drift[5]
     )
     log3(terms.torso_rotation, log_r)
-    _orientation_task(terms, chains[CHAIN_TORSO], log_r, drift, gains, frame_jac, tasks.torso)
+    _orientation_task(terms, chains[CHAIN_TORSO], log_r, drift, orientation, frame_jac, tasks.torso)
 
     # ---- arm and waist joints: hold home ---------------------------------------------
     n_post = posture_idx.shape[0]
     for r in range(n_post):
         k = posture_idx[r]
-        acc = scalars[KP_POSTURE] * (posture_home[r] - joint_pos[k])
-        acc -= scalars[KV_POSTURE] * joint_vel[k]
+        acc = gains.kp_posture * (posture_home[r] - joint_pos[k])
+        acc -= gains.kv_posture * joint_vel[k]
         tasks.posture.target[r] = acc  # Φ_t selects the joint (constant), Φ̇_t = 0
 
     # ---- feet: state, measured contact wrench, impedance, swing rows -----------------
     signals[0], signals[1] = t, float(swing)
-    dt = scalars[DT]
+    dt = gains.dt
     switched_on = 0
     acc_ref = np.empty(6)
     site_rot, site_pos, foot_com = np.empty((3, 3)), np.empty(3), np.empty(3)
@@ -763,7 +763,7 @@ def task_rows(
         acc_meas = (vel - prev_foot_vel[side]) / dt
         prev_foot_vel[side] = vel
         fz, mx, my = contact_wrench(
-            ft, site_rot, site_pos, foot_com, pos, foot_acc_cmd[side], scalars[FOOT_MASS]
+            ft, site_rot, site_pos, foot_com, pos, foot_acc_cmd[side], gains.foot_mass
         )
         matrix_to_rpy(rot, rpy)
         roll, pitch, yaw = rpy[0], rpy[1], rpy[2]
@@ -797,12 +797,12 @@ def task_rows(
             wrench,
             constants.impedance_gains,
             dt,
-            scalars[IMPEDANCE] != 0.0,
+            gains.impedance,
         ):
             switched_on |= 1 << side
         # Eq. (3), ẍ_r = ẍ_m + K_v (ẋ_m − ẋ) + K_p (x_m − x), for (z, φx, φy) with the
         # modified reference; x, y and yaw follow the plan (the same form, unmodified).
-        kp, kv = scalars[KP_SWING], scalars[KV_SWING]
+        kp, kv = gains.kp_swing, gains.kv_swing
         x_now = (pos[2], roll, pitch)
         acc_ref[0] = acc_d[0] + kv * (vel_d[0] - vel[0]) + kp * (pos_d[0] - pos[0])
         acc_ref[1] = acc_d[1] + kv * (vel_d[1] - vel[1]) + kp * (pos_d[1] - pos[1])
