@@ -1,28 +1,28 @@
-"""Tests of the compiled kernels that solve the §III-D QP with ξ̈ eliminated (condensed.py)."""
+"""Tests of the active_set solver of the §III-D QP, ξ̈ eliminated (condensed.py), against numpy,
+scipy and a QP library."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from oracles.centroidal_qp import solve_with_library
 from scipy.optimize import nnls
 
 from walkrepro.papers.jo_oh.centroidal_qp import (
-    Task,
-    build_qp,
-    contact_wrench_basis,
-    friction_basis,
-    joint_torques,
-)
-from walkrepro.papers.jo_oh.condensed import (
-    CostRows,
+    CentroidalTasks,
     Dynamics,
     QPSolution,
     QPWeights,
     SupportContacts,
+    Task,
+    contact_wrench_basis,
+    empty_qp,
+    friction_basis,
+    solve_centroidal,
+    solve_with_qpsolvers,
+)
+from walkrepro.papers.jo_oh.condensed import (
     cholesky_in_place,
     nonnegative_qp,
-    solve_centroidal,
     solve_eliminated,
     solve_lower,
     solve_lower_transposed,
@@ -108,37 +108,39 @@ def test_eliminated_qp_satisfies_kkt_of_the_full_qp() -> None:
 
 
 @pytest.mark.parametrize("n_feet", [1, 2])
-def test_solve_centroidal_equals_build_qp_and_proxqp(n_feet: int) -> None:
-    """The fused kernel finds build_qp's solution (ProxQP through qpsolvers at 1e-11) and its Eq. (9) torques."""
+def test_solve_centroidal_equals_daqp_on_a_random_problem(n_feet: int) -> None:
+    """The compiled build + active set + Eq. (9) finds DAQP's minimiser (an exact dual active
+    set, through qpsolvers) of the same built problem, on random dynamics and tasks."""
     rng = np.random.default_rng(n_feet)
     nv = 28
     mass = np.asfortranarray(_spd(rng, nv, 1.0))  # Pinocchio's M is column-major
     nle = 10.0 * rng.standard_normal(nv)
     nle[2] = 500.0  # weight on the base, so the feet push
-    jacs = [rng.standard_normal((6, nv)) for _ in range(n_feet)]
-    drifts = [rng.standard_normal(6) for _ in range(n_feet)]
     corners = np.array([[sx * 0.12, sy * 0.065, 0.0] for sx in (1, -1) for sy in (1, -1)])
-    maps = [contact_wrench_basis(np.eye(3), corners, friction_basis(0.6, 4))] * n_feet
-    task = Task("t", rng.standard_normal((9, nv)), rng.standard_normal(9), np.full(9, 4.0))
-    b1, w1 = rng.standard_normal(6), np.ones(6)
-    support = tuple(range(n_feet))
-    contacts = SupportContacts(jacs, drifts, maps)
-    problem = build_qp(
-        Dynamics(mass, nle), b1, w1, contacts, support, [task], QPWeights(1e-4, 1e-6)
+    local = contact_wrench_basis(np.eye(3), corners, friction_basis(0.6, 4))
+    contacts = SupportContacts(
+        rng.standard_normal((n_feet, 6, nv)), rng.standard_normal((n_feet, 6)),
+        np.array([local] * n_feet),
+    )  # fmt: skip
+
+    def task(rows: int) -> Task:
+        return Task(rng.standard_normal((rows, nv)), rng.standard_normal(rows), np.full(rows, 4.0))
+
+    tasks = CentroidalTasks(rng.standard_normal(6), np.ones(6), task(3), task(3), task(9), task(6))
+    weights = QPWeights(1e-4, 1e-6)
+    dynamics = Dynamics(mass, nle)
+    problem = empty_qp(nv, 16 * n_feet, n_feet, weights.force)
+    solution = QPSolution(np.zeros(nv + 16 * n_feet), np.zeros((n_feet, 6)), np.zeros(nv - 6))
+    assert solve_centroidal(dynamics, tasks, contacts, weights, problem, solution) > 0
+    ref = solve_with_qpsolvers(problem, "daqp")  # the problem solve_centroidal built
+    assert ref is not None
+    np.testing.assert_allclose(solution.x, ref, rtol=1e-6, atol=1e-6)
+    accel, beta = ref[:nv], ref[nv:]
+    wrenches = np.array([local @ beta[16 * k : 16 * (k + 1)] for k in range(n_feet)])
+    tau = (
+        mass[6:] @ accel
+        + nle[6:]
+        - sum(j[:, 6:].T @ w for j, w in zip(contacts.jacobians, wrenches, strict=True))
     )
-    ref = solve_with_library(problem, "proxqp", eps_abs=1e-11, eps_rel=0.0)
-    ref_accel, ref_wrenches = problem.split(ref)
-    rows = np.ascontiguousarray(np.vstack([mass[:6], 2.0 * task.jacobian]))
-    rhs = np.concatenate([b1, 2.0 * task.target])
-    beta, accel = np.zeros(16 * n_feet), np.zeros(nv)
-    wrenches, tau = np.zeros((n_feet, 6)), np.zeros(nv - 6)
-    stacked = SupportContacts(np.array(jacs), np.array(drifts), np.array(maps))
-    solution = QPSolution(beta, accel, wrenches, tau)
-    cost = CostRows(rows, rhs)
-    assert solve_centroidal(cost, Dynamics(mass, nle), stacked, QPWeights(1e-4, 1e-6), solution) > 0
-    np.testing.assert_allclose(accel, ref_accel, rtol=1e-6, atol=1e-6)
-    np.testing.assert_allclose(wrenches, np.array(ref_wrenches), rtol=1e-6, atol=1e-5)
-    np.testing.assert_allclose(
-        tau, joint_torques(mass, nle, ref_accel, jacs, ref_wrenches), rtol=1e-6, atol=1e-5
-    )
-    np.testing.assert_allclose(problem.solve(), ref, rtol=1e-6, atol=1e-5)
+    np.testing.assert_allclose(solution.wrenches, wrenches, rtol=1e-6, atol=1e-5)
+    np.testing.assert_allclose(solution.tau, tau, rtol=1e-6, atol=1e-5)

@@ -27,7 +27,8 @@ def test_standing_tick_puts_the_weight_on_both_feet(kist_home_snapshot) -> None:
 
 
 def test_the_removed_solver_params_are_rejected() -> None:
-    """The QP has one solver (the compiled active set): ``solver`` is no parameter any more."""
+    """The solver is ``qp_solver`` (and its tolerance ``qp_tolerance``): the earlier names
+    ``solver`` and ``solver_eps`` are rejected, not silently ignored."""
     cls = controller_class("qpimpedance")
     for name, value in (("solver", "proxqp"), ("solver_eps", 1e-6)):
         with pytest.raises(ValidationError, match=name):

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from oracles.jo_oh_swing import SwingTrajectory
 
 from walkrepro.papers.jo_oh.footsteps import RIGHT, WalkPattern, plan_walk
 from walkrepro.papers.jo_oh.preview import generate_com, preview_gains
+from walkrepro.papers.jo_oh.tasks import pack_swing, swing_reference
 
 DT = 0.005
 
@@ -43,13 +43,21 @@ def test_plan_timing_and_strides() -> None:
 
 
 def test_swing_trajectory_ends_at_target_with_zero_velocity() -> None:
-    """The swing starts at lift-off, peaks at the apex and lands on the target at rest."""
+    """The swing (the tick's swing_reference) starts at lift-off, peaks at the apex and lands on
+    the target at rest."""
     start = np.array([0.0, -0.09, 0.04, 0.1, 0.0])
     target = np.array([0.35, -0.09, 0.0, 0.0, 0.0])
-    swing = SwingTrajectory(1.0, 0.56, start, target, 0.1, 0.4)
-    p0, v0, _ = swing.at(1.0)
-    p1, v1, a1 = swing.at(1.56)
+    packed = np.empty(14)
+    pack_swing(1.0, 0.56, start, target, 0.1, 0.4, packed)
+
+    def at(t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        pos, vel, acc = np.empty(5), np.empty(5), np.empty(5)
+        swing_reference(packed, t, pos, vel, acc)
+        return pos, vel, acc
+
+    p0, _, _ = at(1.0)
+    p1, v1, _ = at(1.56)
     np.testing.assert_allclose(p0, start)
     np.testing.assert_allclose(p1, target, atol=1e-12)
     np.testing.assert_allclose(v1, 0.0, atol=1e-12)
-    assert abs(swing.at(1.0 + 0.4 * 0.56)[0][2] - 0.14) < 1e-12
+    assert abs(at(1.0 + 0.4 * 0.56)[0][2] - 0.14) < 1e-12

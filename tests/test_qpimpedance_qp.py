@@ -1,25 +1,37 @@
-"""Tests of the centroidal-momentum QP (Jo & Oh §III): friction pyramid, equality rows, Eq. (9)."""
+"""Tests of the centroidal-momentum QP (Jo & Oh §III-D): friction pyramid, the built problem,
+its solvers against the QP libraries (through qpsolvers), KKT residuals and Eq. (9)."""
 
 from __future__ import annotations
+
+import typing
 
 import numpy as np
 import pinocchio as pin
 import pytest
-from oracles.centroidal_qp import LIBRARY_SOLVERS, solve_with_library
+from pydantic import ValidationError
 
+from walkrepro.controllers import controller_class
 from walkrepro.papers.jo_oh.centroidal_qp import (
+    QP_SOLVERS,
     CentroidalQP,
+    CentroidalTasks,
+    Dynamics,
+    QPWeights,
+    SupportContacts,
     Task,
-    build_qp,
     contact_wrench_basis,
     friction_basis,
-    joint_torques,
-    rotate_wrench_basis,
+    solve_with_qpsolvers,
+    solver_options,
 )
-from walkrepro.papers.jo_oh.condensed import CostRows, Dynamics, QPWeights, SupportContacts
 from walkrepro.robot import load_robot
 
 MU = 0.6
+CORNERS = np.array([[sx * 0.12, sy * 0.065, 0.0] for sx in (1, -1) for sy in (1, -1)])
+WEIGHTS = QPWeights(1e-4, 1e-6)
+#: The library solvers the runtime's answer is checked against (exact active sets, and an
+#: iterative one at a tight tolerance).
+LIBRARIES = ("daqp", "quadprog", "proxqp")
 
 
 def test_pyramid_forces_lie_in_friction_cone() -> None:
@@ -27,8 +39,7 @@ def test_pyramid_forces_lie_in_friction_cone() -> None:
     rng = np.random.default_rng(0)
     basis = friction_basis(MU, 4)
     rot = pin.rpy.rpyToMatrix(0.3, -0.2, 0.5)
-    corners = np.array([[0.12, 0.065, 0], [0.12, -0.065, 0], [-0.12, 0.065, 0], [-0.12, -0.065, 0]])
-    u = contact_wrench_basis(rot, corners, basis)
+    u = contact_wrench_basis(rot, CORNERS, basis)
     assert u.shape == (6, 16)
     for _ in range(200):
         beta = rng.exponential(size=16)
@@ -39,146 +50,182 @@ def test_pyramid_forces_lie_in_friction_cone() -> None:
     beta = rng.exponential(size=16)
     w = u @ beta
     moment = sum(
-        np.cross(rot @ corners[j], u[:3, 4 * j : 4 * j + 4] @ beta[4 * j : 4 * j + 4])
+        np.cross(rot @ CORNERS[j], u[:3, 4 * j : 4 * j + 4] @ beta[4 * j : 4 * j + 4])
         for j in range(4)
     )
     np.testing.assert_allclose(w[3:], moment, atol=1e-12)
 
 
-def _inputs(support: tuple[int, ...]) -> dict:
-    """The QP inputs of a random state of kist_humanoid with the given support feet."""
+def _qp(support: tuple[int, ...], solver: str = "active_set", seed: int = 1):  # noqa: ANN202
+    """A CentroidalQP with the inputs of a random moving state of kist_humanoid, the given
+    support feet, every task of the paper (random targets) and the momentum task."""
     robot = load_robot("kist_humanoid")
     model = robot.pin_model
     data = model.createData()
-    rng = np.random.default_rng(1)
-    q, v = robot.pin_state_from_mujoco(robot.home_qpos, np.zeros(robot.mj_model.nv))
+    rng = np.random.default_rng(seed)
+    q, _ = robot.pin_state_from_mujoco(robot.home_qpos, np.zeros(robot.mj_model.nv))
     v = 0.1 * rng.standard_normal(model.nv)
     pin.computeAllTerms(model, data, q, v)
-    pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
     pin.updateFramePlacements(model, data)
-    corners = np.array([[sx * 0.12, sy * 0.065, 0.0] for sx in (1, -1) for sy in (1, -1)])
-    jacs, drifts, maps, rots = [], [], [], []
-    for side in support:
+    nv = model.nv
+    jacs, drifts, maps = [], [], []
+    for side in (0, 1):
         fid = model.getFrameId(("left_sole", "right_sole")[side])
         jacs.append(pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED))
         a = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
-        drifts.append(np.concatenate([a.linear, a.angular]))
-        rots.append(data.oMf[fid].rotation.copy())
-        maps.append(contact_wrench_basis(rots[-1], corners, friction_basis(MU, 4)))
-    return {
-        "mass": data.M.copy(),
-        "nle": data.nle.copy(),
-        "b1": np.zeros(6) - (data.nle[:6] - data.g[:6]),
-        "posture": Task("posture", np.eye(model.nv)[6:], -v[6:], np.ones(model.nv - 6)),
-        "jacs": jacs,
-        "drifts": drifts,
-        "maps": maps,
-        "rots": rots,
-        "local": contact_wrench_basis(np.eye(3), corners, friction_basis(MU, 4)),
-    }
+        drifts.append(a.vector.copy())
+        maps.append(contact_wrench_basis(data.oMf[fid].rotation, CORNERS, friction_basis(MU, 4)))
 
+    def task(jacobian: np.ndarray, weight: float) -> Task:
+        rows = jacobian.shape[0]
+        return Task(jacobian.copy(), rng.normal(0, 1, rows), np.full(rows, weight))
 
-def _problem(support: tuple[int, ...]):  # noqa: ANN202
-    i = _inputs(support)
-    problem = build_qp(
-        Dynamics(i["mass"], i["nle"]),
-        i["b1"],
+    pelvis = pin.getFrameJacobian(model, data, model.getFrameId("pelvis"), pin.LOCAL_WORLD_ALIGNED)
+    torso = pin.getFrameJacobian(model, data, model.getFrameId("torso"), pin.LOCAL_WORLD_ALIGNED)
+    swing = jacs[1 - support[0]] if len(support) == 1 else jacs[0]
+    tasks = CentroidalTasks(
+        rng.normal(0, 5, 6) - (data.nle[:6] - data.g[:6]),
         np.ones(6),
-        SupportContacts(i["jacs"], i["drifts"], i["maps"]),
-        support,
-        [i["posture"]],
-        QPWeights(1e-4, 1e-6),
+        task(pelvis[3:], 100.0),
+        task(torso[3:], 10.0),
+        task(np.eye(nv)[6:], 1.0),
+        task(swing, 100.0),
     )
-    return problem, i["mass"], i["nle"], i["jacs"], i["drifts"]
+    dynamics = Dynamics(data.M.copy(), data.nle.copy())
+    contacts = SupportContacts(
+        np.array([jacs[k] for k in support]),
+        np.array([drifts[k] for k in support]),
+        np.array([maps[k] for k in support]),
+    )
+    qp = CentroidalQP(nv, len(support), 16, WEIGHTS, solver, tolerance=1e-11)
+    qp.set_inputs(dynamics, tasks, contacts)
+    return qp, dynamics, contacts
 
 
 def test_problem_is_inspectable() -> None:
-    """build_qp returns matrices of the documented shapes: 28 accelerations, 16 β per support foot."""
-    problem, *_ = _problem((0, 1))
+    """build_qp writes matrices of the documented shapes: 28 accelerations, 16 β per support foot,
+    β ≥ 0 the only finite bounds, P symmetric with W_4 on the β block."""
+    qp, *_ = _qp((0, 1))
+    problem = qp.build()
     assert problem.P.shape == (28 + 32, 28 + 32)
     assert problem.A.shape == (6 + 12, 60)
     assert np.all(problem.lb[28:] == 0) and np.all(np.isneginf(problem.lb[:28]))
+    assert np.all(np.isposinf(problem.ub))
     np.testing.assert_allclose(problem.P, problem.P.T)
+    np.testing.assert_array_equal(problem.P[28:, 28:], WEIGHTS.force * np.eye(32))
+    np.testing.assert_array_equal(problem.q[28:], 0.0)
 
 
-@pytest.mark.parametrize("solver", ("active_set", *LIBRARY_SOLVERS))
-def test_solution_satisfies_floating_base_dynamics(solver: str) -> None:
-    """The QP solution satisfies the floating-base rows of Eq. (5) and the contact constraints,
-    solved by the package's active set and by the library solvers (the oracles)."""
-    problem, mass, nle, jacs, drifts = _problem((0, 1))
-    if solver == "active_set":
-        x = problem.solve()
-    else:
-        opts = {
-            "proxqp": {"eps_abs": 1e-10, "eps_rel": 0.0},
-            "osqp": {"eps_abs": 1e-10, "eps_rel": 1e-10, "polishing": True, "max_iter": 100000},
-        }[solver]
-        x = solve_with_library(problem, solver, **opts)
-    assert x is not None
-    accel, wrenches = problem.split(x)
-    base = (
-        mass[:6] @ accel
-        + nle[:6]
-        - sum(j[:, :6].T @ w for j, w in zip(jacs, wrenches, strict=True))
+def test_build_qp_is_the_papers_cost_and_constraints() -> None:
+    """P and q are Σ ΦᵀWΦ + W_3 I and −Σ ΦᵀWb over the momentum term and the tasks (the swing
+    task in single support only); A, b are Eq. (5)'s base rows and the support feet."""
+    for support in ((0, 1), (1,)):
+        qp, dynamics, contacts = _qp(support)
+        problem = qp.build()
+        _, tasks, *_ = qp._inputs
+        terms = [(dynamics.mass_matrix[:6], tasks.momentum_target, tasks.momentum_weight)]
+        terms += [tasks.pelvis, tasks.torso, tasks.posture]
+        if len(support) == 1:
+            terms.append(tasks.swing)
+        hess = WEIGHTS.accel * np.eye(28) + sum(j.T @ np.diag(w) @ j for j, _, w in terms)
+        grad = -sum(j.T @ (w * b) for j, b, w in terms)
+        np.testing.assert_allclose(problem.P[:28, :28], hess, rtol=1e-12, atol=1e-9)
+        np.testing.assert_allclose(problem.q[:28], grad, rtol=1e-12, atol=1e-9)
+        np.testing.assert_array_equal(problem.A[:6, :28], dynamics.mass_matrix[:6])
+        for k in range(len(support)):
+            base = contacts.jacobians[k][:, :6].T @ contacts.wrench_maps[k]
+            np.testing.assert_allclose(problem.A[:6, 28 + 16 * k : 44 + 16 * k], -base, atol=1e-12)
+            np.testing.assert_array_equal(
+                problem.A[6 + 6 * k : 12 + 6 * k, :28], contacts.jacobians[k]
+            )
+            np.testing.assert_array_equal(problem.b[6 + 6 * k : 12 + 6 * k], -contacts.drifts[k])
+        np.testing.assert_array_equal(problem.b[:6], -dynamics.nonlinear[:6])
+
+
+def _kkt_residuals(problem, x: np.ndarray, nv: int) -> tuple[float, float, float, float]:  # noqa: ANN001
+    """(equality, bound, stationarity, complementarity) residuals of x, relative to the
+    problem's scale, with ν fitted on the free ξ̈ rows and μ = (Px + q − Aᵀν) on β."""
+    p, q, a, b = problem.P, problem.q, problem.A, problem.b
+    scale = max(1.0, np.abs(b).max(), np.abs(q).max())
+    grad = p @ x + q
+    nu = np.linalg.lstsq(a[:, :nv].T, grad[:nv], rcond=None)[0]
+    dual = grad - a.T @ nu  # 0 on ξ̈; the bound multipliers μ ≥ 0 on β
+    beta, mu = x[nv:], dual[nv:]
+    return (
+        np.abs(a @ x - b).max() / scale,
+        max(0.0, -beta.min()),
+        max(np.abs(dual[:nv]).max(), max(0.0, -mu.min())) / scale,
+        np.abs(mu * beta).max() / scale,
     )
-    tol = 1e-6 if solver == "osqp" else 1e-8
-    assert np.max(np.abs(base)) < tol * max(1.0, np.max(np.abs(nle[:6])))
-    for jac, drift in zip(jacs, drifts, strict=True):
-        assert np.max(np.abs(jac @ accel + drift)) < tol * 10
-    assert np.all(x[problem.nv :] >= -1e-9)
-    # the feet carry the weight (≈ 559 N)
-    assert abs(sum(w[2] for w in wrenches) - 57.0 * 9.81) < 50.0
-
-
-def test_eq9_torques_reproduce_the_joint_rows() -> None:
-    """Eq. (9) torques with the QP's ξ̈ and λ make the whole Eq. (5) hold."""
-    problem, mass, nle, jacs, _ = _problem((1,))
-    x = solve_with_library(problem, "proxqp", eps_abs=1e-10, eps_rel=0.0)
-    accel, wrenches = problem.split(x)
-    tau = joint_torques(mass, nle, accel, jacs, wrenches)
-    gen = np.concatenate([np.zeros(6), tau]) + sum(
-        j.T @ w for j, w in zip(jacs, wrenches, strict=True)
-    )
-    np.testing.assert_allclose(mass @ accel + nle, gen, atol=1e-6)
 
 
 @pytest.mark.parametrize("support", [(0, 1), (1,)])
-def test_preallocated_qp_matches_build_qp(support: tuple[int, ...]) -> None:
-    """CentroidalQP builds build_qp's matrices and, cold then warm, finds its solution (ProxQP
-    through qpsolvers, the oracle) and Eq. (9) torques."""
-    i = _inputs(support)
-    problem, mass, nle, jacs, _ = _problem(support)
-    nv = i["mass"].shape[0]
-    qp = CentroidalQP(nv, support, [i["local"]] * len(support), 1e-4, 1e-6)
-    qp.update(
-        Dynamics(i["mass"], i["nle"]),
-        CostRows(
-            np.vstack([i["mass"][:6], i["posture"].jacobian]),
-            np.concatenate([i["b1"], i["posture"].target]),
-        ),
-        i["jacs"],
-        i["drifts"],
-        i["rots"],
-    )
-    built = qp.build()
-    for name in ("P", "q", "A", "b", "lb", "ub"):
-        np.testing.assert_allclose(getattr(built, name), getattr(problem, name), atol=1e-9)
-    ref = solve_with_library(problem, "proxqp", eps_abs=1e-10, eps_rel=0.0)
-    ref_accel, ref_wrenches = problem.split(ref)
-    ref_tau = joint_torques(mass, nle, ref_accel, jacs, ref_wrenches)
+@pytest.mark.parametrize("solver", QP_SOLVERS)
+def test_every_solver_meets_the_kkt_conditions(support: tuple[int, ...], solver: str) -> None:
+    """Each solver's answer satisfies the QP's KKT conditions: the equalities (Eq. 5 base rows,
+    support feet), β ≥ 0, stationarity with μ ≥ 0, and complementarity μ β = 0."""
+    qp, *_ = _qp(support, solver)
+    assert qp.solve(warm=False)
+    residuals = _kkt_residuals(qp.problem, qp.solution.x, qp.nv)
+    tol = 1e-5 if solver == "osqp" else 1e-8  # OSQP: ADMM, then its polish
+    assert max(residuals) < tol, residuals
+
+
+@pytest.mark.parametrize("support", [(0, 1), (1,)])
+@pytest.mark.parametrize("library", LIBRARIES)
+def test_active_set_equals_the_libraries(support: tuple[int, ...], library: str) -> None:
+    """The runtime's active set (cold, then warm-started) finds the libraries' minimiser, and
+    the same Eq. (9) torques, on the same built problem."""
+    qp, *_ = _qp(support)
+    problem = qp.build()
+    x = solve_with_qpsolvers(problem, library, **solver_options(library, 1e-11))
+    assert x is not None
+    reference, _, _ = _qp(support, library)
+    assert reference.solve(warm=False)
+    np.testing.assert_allclose(reference.solution.x, x, atol=1e-12)  # the same library call
     for warm in (False, True):
         assert qp.solve(warm=warm)
-        np.testing.assert_allclose(qp.accel, ref_accel, atol=1e-6)
-        np.testing.assert_allclose(qp.wrenches, np.array(ref_wrenches), atol=1e-5)
-        np.testing.assert_allclose(qp.tau, ref_tau, atol=1e-5)
+        # β is weakly determined (W_4 = 1e-6): compare in units of the forces' scale.
+        np.testing.assert_allclose(qp.accel, x[:28], atol=1e-6)
+        np.testing.assert_allclose(qp.solution.x[28:], x[28:], atol=1e-6 * np.abs(x[28:]).max())
+        np.testing.assert_allclose(qp.wrenches, reference.wrenches, rtol=1e-8, atol=1e-6)
+        np.testing.assert_allclose(qp.tau, reference.tau, rtol=1e-8, atol=1e-6)
 
 
-def test_rotated_wrench_basis_equals_contact_wrench_basis() -> None:
-    """Rotating the contact-frame basis gives the world-axes basis of Eq. (8)."""
-    rot = pin.rpy.rpyToMatrix(0.3, -0.2, 0.5)
-    corners = np.array([[0.12, 0.065, 0], [0.12, -0.065, 0], [-0.12, 0.065, 0], [-0.12, -0.065, 0]])
-    basis = friction_basis(MU, 4)
-    local = contact_wrench_basis(np.eye(3), corners, basis)
-    out = np.empty_like(local)
-    rotate_wrench_basis(rot, local, out)
-    np.testing.assert_allclose(out, contact_wrench_basis(rot, corners, basis), atol=1e-14)
+@pytest.mark.parametrize("solver", ("active_set", "daqp"))
+def test_eq9_torques_make_the_whole_eq5_hold(solver: str) -> None:
+    """Eq. (9) torques with the QP's ξ̈ and λ make the whole Eq. (5) hold, and the feet carry
+    the weight (≈ 559 N) in double support."""
+    for support in ((0, 1), (1,)):
+        qp, dynamics, contacts = _qp(support, solver)
+        assert qp.solve(warm=False)
+        mass, nle = dynamics.mass_matrix, dynamics.nonlinear
+        generalised = np.concatenate([np.zeros(6), qp.tau]) + sum(
+            j.T @ w for j, w in zip(contacts.jacobians, qp.wrenches, strict=True)
+        )
+        np.testing.assert_allclose(mass @ qp.accel + nle, generalised, atol=1e-6)
+        if len(support) == 2:
+            assert abs(qp.wrenches[:, 2].sum() - 57.0 * 9.81) < 60.0
+
+
+def test_the_solver_parameter_names_the_valid_solvers() -> None:
+    """qp_solver accepts exactly QP_SOLVERS, and an unknown name lists them."""
+    cls = controller_class("qpimpedance")
+    field = cls.Params.model_fields["qp_solver"]
+    assert typing.get_args(field.annotation) == QP_SOLVERS
+    with pytest.raises(ValidationError, match="active_set"):
+        cls.Params(qp_solver="cvxopt")
+    with pytest.raises(ValueError, match="valid: active_set, daqp"):
+        CentroidalQP(28, 1, 16, WEIGHTS, "cvxopt")
+
+
+def test_a_library_solver_runs_the_controllers_tick(kist_home_snapshot) -> None:  # noqa: ANN001
+    """A tick with qp_solver daqp (through qpsolvers) gives the active set's torques."""
+    robot = load_robot("kist_humanoid")
+    cls = controller_class("qpimpedance")
+    torques = []
+    for solver in ("active_set", "daqp"):
+        ctrl = cls()
+        ctrl.reset(robot, cls.Params(qp_solver=solver), 0.001)
+        torques.append([ctrl.step(0.001 * k, kist_home_snapshot()).ctrl for k in range(3)])
+    np.testing.assert_allclose(torques[1], torques[0], rtol=1e-7, atol=1e-6)

@@ -1,7 +1,8 @@
 """Tests of the compiled per-tick task algebra of the qpimpedance controller (tasks.py).
 
-Each kernel is compared with its Python reference on random inputs: the footstep module's
-trajectories, the impedance filter, Pinocchio's frame Jacobians and plain numpy algebra.
+Each kernel is checked for its properties (the swing trajectory) or compared with a reference
+on random inputs: Pinocchio's frame Jacobians and plain numpy algebra (the impedance filter's
+own properties are tests/test_qpimpedance_impedance.py's).
 """
 
 from __future__ import annotations
@@ -9,73 +10,66 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
-from oracles.jo_oh_impedance import ImpedanceFilter
-from oracles.jo_oh_swing import SwingTrajectory, quintic
 
 from walkrepro.controllers import controller_class
 from walkrepro.papers.jo_oh import tasks
+from walkrepro.papers.jo_oh.centroidal_qp import solve_centroidal
 from walkrepro.robot import frame_classical_acceleration, load_robot, pin_state_into
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
 
-def test_quintic_equals_python() -> None:
-    """The compiled minimum-jerk blend equals footsteps.quintic, inside, outside and at the ends."""
-    rng = np.random.default_rng(0)
-    for s, duration in [*rng.uniform(-0.5, 1.5, (200, 2)), (0.3, 0.0), (0.0, 0.5), (0.5, 0.5)]:
-        np.testing.assert_allclose(tasks.quintic(s, duration), quintic(s, duration), rtol=1e-15)
+def test_quintic_is_a_minimum_jerk_blend() -> None:
+    """b(s) = u³(10 − 15u + 6u²) rises from 0 to 1 with zero rate and acceleration at both ends,
+    its ḃ and b̈ are its derivatives, it is clipped outside [0, T], and a non-positive duration
+    gives (1, 0, 0)."""
+    duration, h = 0.6, 1e-6
+    assert tasks.quintic(0.0, duration) == (0.0, 0.0, 0.0)
+    np.testing.assert_allclose(tasks.quintic(duration, duration), (1.0, 0.0, 0.0), atol=1e-12)
+    assert tasks.quintic(-0.2, duration) == (0.0, 0.0, 0.0)
+    np.testing.assert_allclose(tasks.quintic(duration + 0.2, duration), (1.0, 0.0, 0.0))
+    assert tasks.quintic(0.3, 0.0) == (1.0, 0.0, 0.0)
+    np.testing.assert_allclose(tasks.quintic(duration / 2, duration)[0], 0.5, rtol=1e-14)
+    for s in np.linspace(0.05, 0.55, 11):
+        b, db, ddb = tasks.quintic(s, duration)
+        u = s / duration
+        np.testing.assert_allclose(b, u**3 * (10 - 15 * u + 6 * u**2), rtol=1e-14)
+        up, down = tasks.quintic(s + h, duration), tasks.quintic(s - h, duration)
+        np.testing.assert_allclose(db, (up[0] - down[0]) / (2 * h), rtol=1e-6)
+        np.testing.assert_allclose(ddb, (up[1] - down[1]) / (2 * h), rtol=1e-5, atol=1e-6)
 
 
-def test_swing_reference_equals_swing_trajectory() -> None:
-    """The compiled swing reference equals SwingTrajectory.at over random trajectories and times."""
-    rng = np.random.default_rng(1)
-    packed = np.empty(14)
+def _swing(packed: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     pos, vel, acc = np.empty(5), np.empty(5), np.empty(5)
-    for _ in range(50):
-        traj = SwingTrajectory(
-            rng.uniform(0, 3),
-            rng.uniform(0.3, 0.8),
-            rng.normal(0, 0.1, 5),
-            rng.normal(0, 0.1, 5),
-            rng.uniform(0.02, 0.15),
-            rng.uniform(0.2, 0.8),
-        )
-        tasks.pack_swing(
-            traj.t0, traj.duration, traj.start, traj.target, traj.apex, traj.rise_fraction, packed
-        )
-        for t in traj.t0 + rng.uniform(-0.1, traj.duration + 0.1, 10):
-            tasks.swing_reference(packed, t, pos, vel, acc)
-            for got, want in zip((pos, vel, acc), traj.at(t), strict=True):
-                np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-13)
+    tasks.swing_reference(packed, t, pos, vel, acc)
+    return pos, vel, acc
 
 
-@pytest.mark.parametrize("enabled", [True, False])
-def test_advance_impedance_equals_impedance_filter(enabled: bool) -> None:
-    """Over a random swing (unloaded, then loaded) the kernel's state and switch-on equal ImpedanceFilter's."""
-    rng = np.random.default_rng(2)
-    m_d, b_d, k_d = (
-        np.array([30.0, 0.3, 0.3]),
-        np.array([450.0, 3.0, 3.0]),
-        np.array([1500, 10, 10.0]),
-    )
-    reference = ImpedanceFilter(m_d, b_d, k_d, 10.0, 3.0)
-    gains = np.array([m_d, b_d, k_d, [10.0, 3.0, 3.0]])
-    state, flags = np.zeros((3, 3)), np.zeros(2, dtype=bool)
-    switches = 0
-    for k in range(400):
-        x_d, v_d, a_d = rng.normal(0, 0.05, 3), rng.normal(0, 0.3, 3), rng.normal(0, 2, 3)
-        # Loaded at first (lift-off), unloaded in flight, then a landing that grows.
-        scale = 20.0 if k < 20 else (1.0 if k < 200 else 0.1 * (k - 200))
-        wrench = scale * rng.normal(0, 1, 3)
-        was_active = reference.active
-        reference.update(x_d, v_d, a_d, wrench, 1e-3, enabled=enabled)
-        desired = tasks.DesiredMotion(x_d, v_d, a_d)
-        switched = tasks.advance_impedance(state, flags, desired, wrench, gains, 1e-3, enabled)
-        assert switched == (reference.active and not was_active)
-        switches += switched
-        assert (flags[0], flags[1]) == (reference.armed, reference.active)
-        np.testing.assert_allclose(state, [reference.x_m, reference.v_m, reference.a_m], rtol=1e-14)
-    assert switches == (1 if enabled else 0)
+def test_swing_reference_lifts_off_clears_the_apex_and_lands() -> None:
+    """The swing reference starts at lift-off and ends at the landing at rest, reaches the apex
+    above the higher of the two at the rise fraction, and its rates and accelerations are
+    the time derivatives of its positions, over random swings."""
+    rng = np.random.default_rng(1)
+    packed, h = np.empty(14), 1e-6
+    for _ in range(30):
+        t0, duration = rng.uniform(0, 3), rng.uniform(0.3, 0.8)
+        start, target = rng.normal(0, 0.1, 5), rng.normal(0, 0.1, 5)
+        apex, rise = rng.uniform(0.02, 0.15), rng.uniform(0.2, 0.8)
+        tasks.pack_swing(t0, duration, start, target, apex, rise, packed)
+        for t, where in ((t0, start), (t0 + duration, target), (t0 - 0.1, start)):
+            pos, vel, acc = _swing(packed, t)
+            np.testing.assert_allclose(pos, where, atol=1e-12)
+            np.testing.assert_allclose(np.r_[vel, acc], 0.0, atol=1e-9)
+        pos, vel, _ = _swing(packed, t0 + rise * duration)
+        np.testing.assert_allclose(pos[2], max(start[2], target[2]) + apex, atol=1e-12)
+        assert abs(vel[2]) < 1e-9
+        for t in t0 + rng.uniform(0.01, duration - 0.01, 5):
+            if abs(t - t0 - rise * duration) < 2 * h:
+                continue  # z's two blends meet there
+            (p_up, v_up, _), (p_down, v_down, _) = _swing(packed, t + h), _swing(packed, t - h)
+            _, vel, acc = _swing(packed, t)
+            np.testing.assert_allclose(vel, (p_up - p_down) / (2 * h), rtol=1e-5, atol=1e-6)
+            np.testing.assert_allclose(acc, (v_up - v_down) / (2 * h), rtol=1e-4, atol=1e-4)
 
 
 def _random_state(seed: int, data: pin.Data | None = None):  # noqa: ANN202
@@ -182,7 +176,7 @@ def test_desired_com_equals_numpy_interp() -> None:
 
 
 def test_task_rows_equal_numpy_reference() -> None:
-    """A swing tick's cost rows, contact stacks and signals equal the §III-D algebra written with numpy and Pinocchio."""
+    """A swing tick's QP tasks (b_1; Φ_t, b_t of each task), contact stacks and signals equal the §III-D algebra written with numpy and Pinocchio."""
     robot = load_robot("kist_humanoid")
     cls = controller_class("qpimpedance")
     ctrl = cls()
@@ -207,12 +201,12 @@ def test_task_rows_equal_numpy_reference() -> None:
     swing = phase.swing
     ctrl._task_rows(t, swing, joint_pos, joint_vel, *fts)
 
-    rows, rhs = ctrl._cost_rows, ctrl._cost_rhs
-    # Momentum rows: √W_1 M_B ξ̈ ≈ √W_1 (X_GBᵀ ḣ_{G,r} − C_B ξ̇) (Eq. 7).
+    qp_tasks = ctrl._tasks
+    # Momentum target: b_1 = X_GBᵀ ḣ_{G,r} − C_B ξ̇ (Eq. 7).
     m = robot.total_mass
     c_d, v_d, a_d = np.empty(3), np.empty(3), np.empty(3)
     tasks.desired_com(
-        ctrl._com_plan, t, p.preview_dt, ctrl._plan.end, ctrl._scalars[tasks.COM_Z], c_d, v_d, a_d
+        ctrl._com_plan, t, p.preview_dt, ctrl._plan.end, ctrl._gains.com_z, c_d, v_d, a_d
     )
     h_lin = m * (a_d + p.k_h * (v_d - data.vcom[0]) + p.k_i * (c_d - data.com[0]))
     h_ang = -p.k_h_angular * data.hg.angular + np.cross(
@@ -220,33 +214,28 @@ def test_task_rows_equal_numpy_reference() -> None:
     )
     base_rot = data.oMi[1].rotation
     b1 = np.r_[base_rot.T @ h_lin, base_rot.T @ h_ang] - (data.nle[:6] - data.g[:6])
-    np.testing.assert_allclose(rows[:6], data.M[:6], rtol=1e-14)  # W_1 = I by default
-    np.testing.assert_allclose(rhs[:6], b1, rtol=1e-11, atol=1e-9)
-    # Pelvis and torso: ẍ_r = −K_P log R − K_V ω.
-    for frame, row, w in (("pelvis", 6, p.w_pelvis), ("torso", 9, p.w_torso)):
+    np.testing.assert_allclose(qp_tasks.momentum_target, b1, rtol=1e-11, atol=1e-9)
+    np.testing.assert_array_equal(qp_tasks.momentum_weight, 1.0)  # W_1 = I by default
+    # Pelvis and torso: Φ_t the angular Jacobian, b_t = −K_P log R − K_V ω − Φ̇_t ξ̇.
+    for frame, task, w in (
+        ("pelvis", qp_tasks.pelvis, p.w_pelvis),
+        ("torso", qp_tasks.torso, p.w_torso),
+    ):
         fid = robot.pin_frame_id(frame)
         jac = pin.getFrameJacobian(model, data, fid, LWA)[3:]
         drift = pin.getFrameClassicalAcceleration(model, data, fid, LWA).angular
         acc = -p.kp_orient * pin.log3(data.oMf[fid].rotation) - p.kv_orient * jac @ v
-        np.testing.assert_allclose(rows[row : row + 3], np.sqrt(w) * jac, rtol=1e-14, atol=1e-14)
-        np.testing.assert_allclose(
-            rhs[row : row + 3], np.sqrt(w) * (acc - drift), rtol=1e-11, atol=1e-9
-        )
-    # Posture: K_P (q_home − q) − K_V q̇.
+        np.testing.assert_allclose(task.jacobian, jac, rtol=1e-14, atol=1e-14)
+        np.testing.assert_allclose(task.target, acc - drift, rtol=1e-11, atol=1e-9)
+        np.testing.assert_array_equal(task.weight, w)
+    # Posture: Φ_t selects each arm and waist joint, b_t = K_P (q_home − q) − K_V q̇.
     idx = ctrl._posture_idx
     posture = p.kp_posture * (ctrl._q_home_posture - joint_pos[idx]) - p.kv_posture * joint_vel[idx]
-    np.testing.assert_allclose(rhs[12 : 12 + idx.size], np.sqrt(p.w_posture) * posture, rtol=1e-14)
+    np.testing.assert_allclose(qp_tasks.posture.target, posture, rtol=1e-14)
+    np.testing.assert_array_equal(qp_tasks.posture.jacobian, np.eye(model.nv)[robot.pin_v_idx[idx]])
 
     signals = dict(zip(tasks.signal_names(("left", "right")), ctrl._signals, strict=True))
-    traj = SwingTrajectory(
-        phase.t0,
-        phase.t1 - phase.t0,
-        ctrl._swing_plan[2:7],
-        ctrl._swing_plan[7:12],
-        p.swing_height,
-        p.swing_rise_fraction,
-    )
-    pos_d, vel_d, acc_d = traj.at(t)
+    pos_d, vel_d, acc_d = _swing(ctrl._swing_plan, t)  # tested above for its properties
     for side, name in enumerate(("left", "right")):
         fid = robot.pin_frame_id(f"{name}_sole")
         sole = data.oMf[fid]
@@ -274,7 +263,7 @@ def test_task_rows_equal_numpy_reference() -> None:
             foot_com,
             sole.translation,
             acc_before[side],
-            ctrl._scalars[tasks.FOOT_MASS],
+            ctrl._gains.foot_mass,
         )
         rpy = pin.rpy.matrixToRpy(sole.rotation)
         acc_meas = (vel - prev_vel[side]) / 0.001
@@ -303,13 +292,14 @@ def test_task_rows_equal_numpy_reference() -> None:
                 ctrl._impedance_state[side, 0], (sole.translation[2], *rpy[:2])
             )
             continue
-        # Swing: Eq. (2) advanced from the previous state, then Eq. (3) on all six axes.
-        reference = ImpedanceFilter(np.array(p.m_d), np.array(p.b_d), np.array(p.k_d), 1e9, 1e9)
-        reference.active = reference.armed = True
-        reference.x_m[:], reference.v_m[:], reference.a_m[:] = imp_before[side]
-        x_m, v_m, a_m = reference.update(
-            pos_d[2:5], vel_d[2:5], acc_d[2:5], np.array(wrench), 0.001
-        )
+        # Swing: Eq. (2) advanced from the previous state (semi-implicit Euler), then Eq. (3)
+        # on all six axes.
+        x_prev, v_prev, _ = imp_before[side]
+        error, error_rate = pos_d[2:5] - x_prev, vel_d[2:5] - v_prev
+        m_d, b_d, k_d = np.array(p.m_d), np.array(p.b_d), np.array(p.k_d)
+        a_m = acc_d[2:5] + (np.array(wrench) + b_d * error_rate + k_d * error) / m_d
+        v_m = v_prev + a_m * 0.001
+        x_m = x_prev + v_m * 0.001
         np.testing.assert_allclose(
             ctrl._impedance_state[side], [x_m, v_m, a_m], rtol=1e-12, atol=1e-12
         )
@@ -323,11 +313,8 @@ def test_task_rows_equal_numpy_reference() -> None:
             a_m + kv * (v_m - vel[2:5]) + kp * (x_m - x_now),
             -kv * vel[5] - kp * rpy[2],
         ]
-        row = 12 + idx.size
-        np.testing.assert_allclose(rows[row : row + 6], np.sqrt(p.w_swing) * jac, atol=1e-13)
-        np.testing.assert_allclose(
-            rhs[row : row + 6], np.sqrt(p.w_swing) * (acc_ref - drift), rtol=1e-10, atol=1e-8
-        )
+        np.testing.assert_allclose(qp_tasks.swing.jacobian, jac, atol=1e-14)
+        np.testing.assert_allclose(qp_tasks.swing.target, acc_ref - drift, rtol=1e-10, atol=1e-8)
         np.testing.assert_allclose(ctrl._foot_acc_cmd[side], acc_ref[:3], rtol=1e-12, atol=1e-10)
 
 
@@ -337,7 +324,7 @@ def test_reset_compiles_the_tick_kernels_for_a_real_tick(kist_home_snapshot) -> 
     cls = controller_class("qpimpedance")
     ctrl = cls()
     ctrl.reset(robot, cls.Params(), 0.001)
-    kernels = (tasks.task_rows, pin_state_into)
+    kernels = (tasks.task_rows, pin_state_into, solve_centroidal)
     compiled = [len(k.signatures) for k in kernels]
     snapshot = kist_home_snapshot()
     ctrl.step(0.0, snapshot)
@@ -368,6 +355,8 @@ def test_readings_of_another_kind_go_through_numbas_dispatcher() -> None:
         assert pos.flags.c_contiguous != strided and np.array_equal(pos, joint_pos)
         ctrl._task_rows(0.0, -1, pos, joint_vel, *fts)
         assert len(calls) == (0 if strided else 1)
-        outputs.append((ctrl._cost_rows.copy(), ctrl._cost_rhs.copy(), ctrl._signals.copy()))
+        qp_tasks = ctrl._tasks
+        targets = [qp_tasks.momentum_target] + [t.target for t in qp_tasks[2:]]
+        outputs.append((np.concatenate(targets), ctrl._signals.copy()))
     for bound, dispatched in zip(*outputs, strict=True):
         np.testing.assert_allclose(dispatched, bound, rtol=1e-12, atol=1e-12)

@@ -3,9 +3,10 @@ centroidal momentum dynamics using QP* (``kist_humanoid``), declared as a plugin
 (:data:`PLUGIN`).
 
 Modules: :mod:`.footsteps` (footstep plan, ZMP reference, swing trajectory),
-:mod:`.preview` (LIPM CoM–ZMP preview control, the paper's ref. [23]), :mod:`.impedance`
-(Eqs. 1–3), :mod:`.centroidal_qp`, :mod:`.condensed` and :mod:`.tasks` (Eqs. 5–9 and the QP
-of §III-D), :mod:`.controller` (registered as ``qpimpedance``), :mod:`.metrics` and
+:mod:`.preview` (LIPM CoM–ZMP preview control, the paper's ref. [23]), :mod:`.tasks` (the
+impedance modification, Eqs. 1–3, and the tasks of §III-D), :mod:`.centroidal_qp` (the QP of
+§III-D, built and solved, and Eq. 9), :mod:`.condensed` (its exact ``active_set`` solver),
+:mod:`.controller` (registered as ``qpimpedance``), :mod:`.metrics` and
 :mod:`.figures` (the paper's metrics and figures, from the log), :mod:`.plots` (its key
 signals, for viewers of a run).
 """

@@ -1,4 +1,4 @@
-"""The whole-body QP of §III: centroidal momentum, friction pyramids, task accelerations.
+"""The whole-body QP of §III-D: centroidal momentum, friction pyramids, task accelerations.
 
 Decision variables x = (ξ̈, β): the generalised acceleration (n + 6) and the pyramid
 coefficients β_k of each support foot (N_c corner point contacts × m edges, Eq. 8).
@@ -6,42 +6,149 @@ coefficients β_k of each support foot (N_c corner point contacts × m edges, Eq
     min  ‖M_B ξ̈ − b_1‖²_{W_1} + Σ_t ‖Φ_t ξ̈ − b_t‖²_{W_t} + ‖ξ̈‖²_{W_3} + Σ_k ‖β_k‖²_{W_4}
     s.t. M_B ξ̈ + C_B ξ̇ + g_B = Σ_k X_{C_k B}ᵀ R̃_{C_k} U_k β_k   (floating-base rows of Eq. 5)
          Φ_k ξ̈ + Φ̇_k ξ̇ = 0                                      (support feet)
-         β_k ≥ 0
+         Λ_k β_k ≥ 0                                             (Λ_k = I: β_k ≥ 0)
 
 with b_1 = X_GBᵀ ḣ_{G,r} − C_B ξ̇ (Eq. 7) and b_t = ẍ_r − Φ̇_t ξ̇. The joint torques follow
 from Eq. (9): τ = M_q ξ̈* + C_q ξ̇ + g_q − Σ_k J_{C_k}ᵀ λ*_k.
 
 Here the contact Jacobians are Pinocchio's sole-frame Jacobians in LOCAL_WORLD_ALIGNED
 axes, so Σ X_{C_k B}ᵀ R̃ U_k β_k is the base block of J_kᵀ (U_k β_k) with U_k β_k the
-contact wrench at the sole centre in world axes. Build, then solve: :func:`build_qp`
-returns an inspectable :class:`QPProblem` (its matrices are what any QP library takes; the
-tests hand them to ``qpsolvers`` as the oracle); :meth:`QPProblem.solve` solves it exactly
-by the active set of :mod:`.condensed`.
+contact wrench at the sole centre in world axes.
 
-At 1 kHz the controller uses :class:`CentroidalQP` instead: the same problem, solved exactly
-in one compiled call with ξ̈ and the equality rows eliminated (:mod:`.condensed`: 16 or 32
-bounded variables instead of 60), warm-started from the support set's last β.
+Build, then solve. Each tick :func:`build_qp` writes the problem, from the tasks named as in
+the paper (:class:`CentroidalTasks`), into a :class:`QPProblem`: the matrices any QP library
+takes, min ½ xᵀPx + qᵀx s.t. A x = b, lb ≤ x ≤ ub. :class:`CentroidalQP` then solves it with
+the solver the controller names (:data:`QP_SOLVERS`): a ``qpsolvers`` backend, or
+``active_set``, this package's exact active set on the same matrices with ξ̈ eliminated
+(:mod:`.condensed`). Why numba: the build is ≈ 30 small matrix products and copies a tick,
+≈ 1 µs each from Python; compiled, the build, the active set and Eq. (9) are one call.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+from typing import NamedTuple
 
+import numba
 import numpy as np
 
-from walkrepro.papers.jo_oh.condensed import (
-    CostRows,
-    Dynamics,
-    QPSolution,
-    QPWeights,
-    SupportContacts,
-    compiled_entry,
-    solve_centroidal,
-    solve_eliminated,
-)
+from walkrepro.papers.jo_oh.condensed import compiled_entry, solve_eliminated
+
+#: The QP solvers a controller may name: this package's exact active set, and the
+#: ``qpsolvers`` backends (each a pip install away: ``pip install qpsolvers[NAME]``).
+QP_SOLVERS = ("active_set", "daqp", "quadprog", "proxqp", "osqp")
 
 
+# ---- records (named tuples: numba passes them without copies) ----------------------------
+class Dynamics(NamedTuple):
+    """Pinocchio's joint-space dynamics terms of Eq. (5) (base velocity in the base frame).
+
+    Attributes:
+        mass_matrix: M = [M_B; M_q], shape (nv, nv) [kg, kg m, kg m²].
+        nonlinear: C ξ̇ + g, shape (nv,) [N, N m].
+    """
+
+    mass_matrix: np.ndarray
+    nonlinear: np.ndarray
+
+
+class Task(NamedTuple):
+    """A task-space acceleration task ‖Φ_t ξ̈ − b_t‖²_{W_t} of §III-D.
+
+    Attributes:
+        jacobian: Φ_t, shape (r, nv).
+        target: b_t = ẍ_r − Φ̇_t ξ̇, shape (r,) [m/s², rad/s²].
+        weight: the diagonal of W_t, shape (r,).
+    """
+
+    jacobian: np.ndarray
+    target: np.ndarray
+    weight: np.ndarray
+
+
+class CentroidalTasks(NamedTuple):
+    """The cost terms of the §III-D QP, as the paper names them.
+
+    Attributes:
+        momentum_target: b_1 = X_GBᵀ ḣ_{G,r} − C_B ξ̇ (Eq. 7), shape (6,) [N, N m]; the term
+            is ‖M_B ξ̈ − b_1‖²_{W_1}, with M_B from :class:`Dynamics`.
+        momentum_weight: the diagonal of W_1, shape (6,).
+        pelvis: the body (pelvis) orientation, 3 rows.
+        torso: the trunk orientation, 3 rows.
+        posture: the arm and waist joints' home angles, one row per joint.
+        swing: the swing foot, Eq. (3), 6 rows; in the QP in single support only.
+    """
+
+    momentum_target: np.ndarray
+    momentum_weight: np.ndarray
+    pelvis: Task
+    torso: Task
+    posture: Task
+    swing: Task
+
+
+class SupportContacts(NamedTuple):
+    """The support feet's contact terms, stacked per foot in the order of their β blocks.
+
+    Attributes:
+        jacobians: J_k = Φ_k (sole frame, world axes), shape (k, 6, nv).
+        drifts: J̇_k ξ̇ = Φ̇_k ξ̇, shape (k, 6) [m/s², rad/s²].
+        wrench_maps: R̃_{C_k} U_k (Eq. 8, world axes, wrench at the sole), shape (k, 6, m N_c).
+    """
+
+    jacobians: np.ndarray
+    drifts: np.ndarray
+    wrench_maps: np.ndarray
+
+
+class QPWeights(NamedTuple):
+    """The regularisation weights of the §III-D QP (each a scalar times identity).
+
+    Attributes:
+        accel: W_3, on ξ̈.
+        force: W_4, on β.
+    """
+
+    accel: float
+    force: float
+
+
+class QPProblem(NamedTuple):
+    """min ½ xᵀPx + qᵀx  s.t.  A x = b,  lb ≤ x ≤ ub,  with x = (ξ̈, β) (nx = nv + Σ m N_c).
+
+    Attributes:
+        P: Hessian, shape (nx, nx): the ξ̈ block from the tasks and W_3, the β block W_4 I.
+        q: linear term, shape (nx,) (zero on β).
+        A: equality matrix, shape (6 + 6k, nx): the 6 floating-base rows of Eq. (5), then 6
+            per support foot.
+        b: equality right-hand side, shape (6 + 6k,).
+        lb: lower bounds, −inf on ξ̈ and 0 on β (Λ_k β_k ≥ 0), shape (nx,).
+        ub: upper bounds, +inf, shape (nx,).
+    """
+
+    P: np.ndarray
+    q: np.ndarray
+    A: np.ndarray
+    b: np.ndarray
+    lb: np.ndarray
+    ub: np.ndarray
+
+
+class QPSolution(NamedTuple):
+    """The §III-D QP's solution and its Eq. (9) torques, written in place.
+
+    Attributes:
+        x: (ξ̈*, β*), shape (nx,); its β part is the active set's start (≥ 0; zeros for a
+            cold start).
+        wrenches: U_k β*_k of each support foot (world axes, at the sole), shape (k, 6).
+        tau: Eq. (9) joint torques, shape (nv − 6,) [N m].
+    """
+
+    x: np.ndarray
+    wrenches: np.ndarray
+    tau: np.ndarray
+
+
+# ---- the friction pyramid (Eq. 8) ----------------------------------------------------------
 def friction_basis(mu: float, n_edges: int) -> np.ndarray:
     """Edge directions Ū of an m-sided friction pyramid inscribed in the cone |f_t| ≤ μ f_n.
 
@@ -74,321 +181,327 @@ def contact_wrench_basis(
         Shape (6, m N_c): column (j, i) is the wrench (force; torque about the contact frame
         origin), world axes, of a unit force along edge i at corner j.
     """
-    n_c, m = corners.shape[0], basis.shape[1]
-    edges_w = rotation @ basis  # (3, m)
-    corners_w = corners @ rotation.T  # (N_c, 3)
-    u = np.empty((6, m * n_c))
-    u[:3] = np.tile(edges_w, n_c)
-    # d̃_j × ū_i for every corner j and edge i, written out (np.cross is slow on small arrays).
-    d = np.repeat(corners_w, m, axis=0).T  # (3, m N_c)
-    e = u[:3]
-    u[3] = d[1] * e[2] - d[2] * e[1]
-    u[4] = d[2] * e[0] - d[0] * e[2]
-    u[5] = d[0] * e[1] - d[1] * e[0]
-    return u
+    edges_w = rotation @ basis  # Ū_j in world axes, (3, m)
+    corners_w = corners @ rotation.T  # d̃_j in world axes, (N_c, 3)
+    forces = np.tile(edges_w, corners.shape[0])  # E_3 Ū_j
+    moments = np.cross(np.repeat(corners_w, basis.shape[1], axis=0), forces.T).T  # $(d̃_j) Ū_j
+    return np.vstack([forces, moments])
 
 
-def rotate_wrench_basis(rotation: np.ndarray, local: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """R̃_{C_k} U_k from U_k in the contact frame, written into ``out``.
-
-    Rotations preserve cross products, R (d̃ × ū) = (R d̃) × (R ū), so the world-axes basis of
-    :func:`contact_wrench_basis` is the contact-frame one with both halves rotated: one
-    (3, 3) @ (2, 3, m N_c) product instead of rebuilding it.
-
-    Args:
-        rotation: world-from-contact-frame rotation R̃_{C_k}, shape (3, 3).
-        local: ``contact_wrench_basis(np.eye(3), corners, basis)``, shape (6, m N_c).
-        out: C-contiguous result, shape (6, m N_c).
-    """
-    np.matmul(rotation, local.reshape(2, 3, -1), out=out.reshape(2, 3, -1))
-    return out
-
-
-@dataclass(frozen=True)
-class Task:
-    """A least-squares task ‖Φ ξ̈ − b‖²_W.
-
-    Attributes:
-        name: for logs and tests.
-        jacobian: Φ, shape (r, n + 6).
-        target: b = ẍ_r − Φ̇ ξ̇, shape (r,).
-        weight: diagonal of W, shape (r,).
-    """
-
-    name: str
-    jacobian: np.ndarray
-    target: np.ndarray
-    weight: np.ndarray
-
-
-@dataclass(frozen=True)
-class QPProblem:
-    """min ½ xᵀPx + qᵀx  s.t.  A x = b,  lb ≤ x ≤ ub,  with x = (ξ̈, β).
-
-    Attributes:
-        P: Hessian, shape (nx, nx).
-        q: linear term, shape (nx,).
-        A: equality matrix, shape (ne, nx): 6 floating-base rows, then 6 per support foot.
-        b: equality right-hand side, shape (ne,).
-        lb: lower bounds (−inf for ξ̈, 0 for β), shape (nx,).
-        ub: upper bounds (+inf), shape (nx,).
-        nv: size of ξ̈ (n + 6).
-        wrench_maps: U_k per support foot (world-axes wrench at the sole = U_k β_k).
-        support: the support feet, in the order of their β blocks.
-    """
-
-    P: np.ndarray
-    q: np.ndarray
-    A: np.ndarray
-    b: np.ndarray
-    lb: np.ndarray
-    ub: np.ndarray
-    nv: int
-    wrench_maps: tuple[np.ndarray, ...]
-    support: tuple[int, ...]
-
-    def solve(self) -> np.ndarray | None:
-        """Solve exactly by the active set with ξ̈ eliminated; None when it finds no solution.
-
-        :func:`.condensed.solve_eliminated` needs the shape :func:`empty_qp` gives: q and P
-        zero on β but for P's W_4 I, and β ≥ 0 its only bounds.
-        """
-        nv = self.nv
-        x = np.zeros(self.q.size)
-        force_weight = self.P[nv, nv] if self.q.size > nv else 1.0
-        accel = x[:nv]  # a view: the kernel writes ξ̈ into x
-        ok = solve_eliminated(
-            self.P[:nv, :nv].copy(),
-            self.q[:nv].copy(),
-            np.ascontiguousarray(self.A[:, :nv]),
-            np.ascontiguousarray(self.A[:, nv:]),
-            self.b.copy(),
-            force_weight,
-            x[nv:],
-            accel,
-        )
-        return x if ok >= 0 else None
-
-    def split(self, x: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
-        """ξ̈ and each support foot's contact wrench U_k β_k (world axes, at the sole)."""
-        accel = x[: self.nv]
-        wrenches, start = [], self.nv
-        for u in self.wrench_maps:
-            wrenches.append(u @ x[start : start + u.shape[1]])
-            start += u.shape[1]
-        return accel, wrenches
-
-
-def build_qp(
-    dynamics: Dynamics,
-    momentum_target: np.ndarray,
-    momentum_weight: np.ndarray,
-    contacts: SupportContacts,
-    support: tuple[int, ...],
-    tasks: list[Task],
-    weights: QPWeights,
-) -> QPProblem:
-    """Assemble the QP of §III-D.
-
-    Args:
-        dynamics: M (Pinocchio, base velocity in the base frame) and C ξ̇ + g.
-        momentum_target: b_1 = X_GBᵀ ḣ_{G,r} − C_B ξ̇, shape (6,).
-        momentum_weight: diagonal of W_1, shape (6,).
-        contacts: J_k (sole frame, world axes), J̇_k ξ̇ and R̃ U_k of each support foot, per
-            foot shapes (6, nv), (6,) and (6, m N_c) (stacked arrays or sequences).
-        support: which feet these are (for bookkeeping).
-        tasks: task-space acceleration tasks (swing foot Eq. 3, trunk, arms ...).
-        weights: W_3 and W_4.
-    """
-    nv = dynamics.mass_matrix.shape[0]
-    n_beta = tuple(u.shape[1] for u in contacts.wrench_maps)
-    problem = empty_qp(nv, n_beta, support, weights.force)
-    # Cost rows: √W (Φ ξ̈ − b).
-    rows = [np.sqrt(momentum_weight)[:, None] * dynamics.mass_matrix[:6]]
-    rhs = [np.sqrt(momentum_weight) * momentum_target]
-    for task in tasks:
-        sw = np.sqrt(task.weight)
-        rows.append(sw[:, None] * task.jacobian)
-        rhs.append(sw * task.target)
-    assemble_qp(
-        problem, dynamics, CostRows(np.vstack(rows), np.concatenate(rhs)), contacts, weights.accel
-    )
-    return problem
-
-
-def empty_qp(
-    nv: int, n_beta: tuple[int, ...], support: tuple[int, ...], force_weight: float
-) -> QPProblem:
+# ---- build -------------------------------------------------------------------------------
+def empty_qp(nv: int, n_beta: int, n_feet: int, force_weight: float) -> QPProblem:
     """A :class:`QPProblem` of the given shape with its constant parts filled in.
 
     Constant: the β block of P (W_4 I), the bounds (ξ̈ free, β ≥ 0) and the zeros of q and A
-    outside the blocks :func:`assemble_qp` writes.
+    outside the blocks :func:`build_qp` writes.
 
     Args:
         nv: size of ξ̈.
-        n_beta: number of pyramid coefficients m N_c of each support foot.
-        support: the support feet, in the order of their β blocks.
-        force_weight: W_4 (scalar times identity).
+        n_beta: number of pyramid coefficients of all support feet, Σ m N_c.
+        n_feet: number of support feet.
+        force_weight: W_4.
     """
-    nb = sum(n_beta)
-    nx = nv + nb
+    nx = nv + n_beta
     p = np.zeros((nx, nx))
     p[np.arange(nv, nx), np.arange(nv, nx)] = force_weight
-    ne = 6 + 6 * len(n_beta)
-    lb = np.concatenate([np.full(nv, -np.inf), np.zeros(nb)])
-    ub = np.full(nx, np.inf)
-    maps = tuple(np.zeros((6, m)) for m in n_beta)
-    return QPProblem(p, np.zeros(nx), np.zeros((ne, nx)), np.zeros(ne), lb, ub, nv, maps, support)
+    lb = np.concatenate([np.full(nv, -np.inf), np.zeros(n_beta)])
+    ne = 6 + 6 * n_feet
+    return QPProblem(p, np.zeros(nx), np.zeros((ne, nx)), np.zeros(ne), lb, np.full(nx, np.inf))
 
 
-def assemble_qp(
-    problem: QPProblem,
+@numba.njit(cache=True)
+def _add_task(task: Task, rows: np.ndarray, rhs: np.ndarray, start: int) -> int:
+    """Write ‖Φ ξ̈ − b‖²_W as rows √W Φ ξ̈ ≈ √W b from ``start``; return the next row."""
+    return _add_rows(task.jacobian, task.target, task.weight, rows, rhs, start)
+
+
+@numba.njit(cache=True)
+def _add_rows(
+    jacobian: np.ndarray,
+    target: np.ndarray,
+    weight: np.ndarray,
+    rows: np.ndarray,
+    rhs: np.ndarray,
+    start: int,
+) -> int:
+    """Rows √W Φ and √W b of ‖Φ ξ̈ − b‖²_W from ``start`` (loops: no temporaries)."""
+    for r in range(weight.size):
+        sqrt_w = np.sqrt(weight[r])
+        for j in range(jacobian.shape[1]):
+            rows[start + r, j] = sqrt_w * jacobian[r, j]
+        rhs[start + r] = sqrt_w * target[r]
+    return start + weight.size
+
+
+@numba.njit(cache=True)
+def build_qp(
     dynamics: Dynamics,
-    cost: CostRows,
+    tasks: CentroidalTasks,
     contacts: SupportContacts,
-    accel_weight: float,
+    weights: QPWeights,
+    problem: QPProblem,
 ) -> None:
-    """Write the tick-dependent blocks of the §III-D QP into ``problem`` (from :func:`empty_qp`).
+    """Write this tick's QP of §III-D into ``problem`` (from :func:`empty_qp`).
 
-    P_ξξ = AᵀA + W_3 I and q_ξ = −Aᵀb for the stacked weighted cost rows A ξ̈ ≈ b (momentum
-    rows √W_1 M_B, b = √W_1 b_1, then the tasks √W_t Φ_t, √W_t b_t; zero rows add nothing);
-    the equality rows of Eq. (5) and of the support feet; ``problem.wrench_maps`` the R̃ U_k.
+    The cost ‖M_B ξ̈ − b_1‖²_{W_1} + Σ_t ‖Φ_t ξ̈ − b_t‖²_{W_t} + ‖ξ̈‖²_{W_3} is ‖A_c ξ̈ − a_c‖²
+    + W_3 ‖ξ̈‖² with the weighted rows A_c = [√W_1 M_B; √W_t Φ_t …], a_c = [√W_1 b_1; √W_t b_t
+    …]: P_ξξ = A_cᵀA_c + W_3 I, q_ξ = −A_cᵀa_c (the β block, W_4 I, is constant). The swing
+    foot's task is in the cost in single support only. The equalities: the floating-base
+    rows of Eq. (5), M_B ξ̈ − Σ_k X_{C_k B}ᵀ R̃_{C_k} U_k β_k = −(C_B ξ̇ + g_B), then each
+    support foot's Φ_k ξ̈ = −Φ̇_k ξ̇.
 
     Args:
-        problem: the problem to fill in place.
         dynamics: M and C ξ̇ + g.
-        cost: stacked √W Φ rows, shape (r, nv), and √W b, shape (r,).
-        contacts: J_k, J̇_k ξ̇ and R̃ U_k of each support foot (as :func:`build_qp`).
-        accel_weight: W_3 (scalar times identity).
+        tasks: b_1, W_1 and the tasks Φ_t, b_t, W_t.
+        contacts: J_k, J̇_k ξ̇ and R̃_{C_k} U_k of each support foot.
+        weights: W_3 (W_4 is in ``problem`` from :func:`empty_qp`).
+        problem: written in place.
     """
-    nv = problem.nv
-    for out, u in zip(problem.wrench_maps, contacts.wrench_maps, strict=True):
-        out[:] = u
-    hess = cost.rows.T @ cost.rows
-    hess.reshape(-1)[:: nv + 1] += accel_weight  # a view: hess is contiguous
+    mass_matrix = dynamics.mass_matrix
+    nv = mass_matrix.shape[0]
+    n_feet, m = contacts.wrench_maps.shape[0], contacts.wrench_maps.shape[2]
+    single_support = n_feet == 1
+    # The weighted cost rows, in the order of the paper's terms.
+    n_rows = 6 + tasks.pelvis.weight.size + tasks.torso.weight.size + tasks.posture.weight.size
+    if single_support:
+        n_rows += tasks.swing.weight.size
+    rows, rhs = np.empty((n_rows, nv)), np.empty(n_rows)
+    row = _add_rows(mass_matrix[:6], tasks.momentum_target, tasks.momentum_weight, rows, rhs, 0)
+    row = _add_task(tasks.pelvis, rows, rhs, row)
+    row = _add_task(tasks.torso, rows, rhs, row)
+    row = _add_task(tasks.posture, rows, rhs, row)
+    if single_support:
+        row = _add_task(tasks.swing, rows, rhs, row)
+    hess = rows.T @ rows  # A_cᵀ A_c
+    for i in range(nv):
+        hess[i, i] += weights.accel  # + W_3 I
     problem.P[:nv, :nv] = hess
-    np.negative(cost.rhs @ cost.rows, out=problem.q[:nv])
-    a_eq, b_eq = problem.A, problem.b
-    a_eq[:6, :nv] = dynamics.mass_matrix[:6]
-    np.negative(dynamics.nonlinear[:6], out=b_eq[:6])
-    col, row = nv, 6
-    for jac, drift, u in zip(contacts.jacobians, contacts.drifts, problem.wrench_maps, strict=True):
-        m = u.shape[1]
-        np.negative(jac[:, :6].T @ u, out=a_eq[:6, col : col + m])
-        a_eq[row : row + 6, :nv] = jac
-        np.negative(drift, out=b_eq[row : row + 6])
-        col += m
-        row += 6
+    problem.q[:nv] = -(rhs @ rows)
+    # Floating-base rows of Eq. (5).
+    problem.A[:6, :nv] = mass_matrix[:6]
+    problem.b[:6] = -dynamics.nonlinear[:6]
+    for k in range(n_feet):
+        jacobian = contacts.jacobians[k]
+        # −X_{C_k B}ᵀ R̃_{C_k} U_k: the base columns of J_kᵀ applied to the wrench basis.
+        # Written out rather than `@` (BLAS): these are the sums, in their order, that the
+        # committed references were computed with; `@` moves the runs' metrics by ≈ 1e-12.
+        wrench_map = contacts.wrench_maps[k]
+        for i in range(6):
+            for c in range(m):
+                s = 0.0
+                for j in range(6):
+                    s += jacobian[j, i] * wrench_map[j, c]
+                problem.A[i, nv + k * m + c] = -s
+        # The support foot: Φ_k ξ̈ + Φ̇_k ξ̇ = 0.
+        problem.A[6 + 6 * k : 12 + 6 * k, :nv] = jacobian
+        problem.b[6 + 6 * k : 12 + 6 * k] = -contacts.drifts[k]
+
+
+# ---- solve -------------------------------------------------------------------------------
+@numba.njit(cache=True)
+def joint_torques(dynamics: Dynamics, contacts: SupportContacts, solution: QPSolution) -> None:
+    """Eq. (9), τ = M_q ξ̈* + C_q ξ̇ + g_q − Σ_k J_{C_k,q}ᵀ λ*_k, with λ*_k = R̃ U_k β*_k.
+
+    Writes ``solution.wrenches`` (λ*_k, world axes, at the sole) and ``solution.tau`` [N m].
+    """
+    mass_matrix, nonlinear = dynamics.mass_matrix, dynamics.nonlinear
+    jacobians, wrench_maps = contacts.jacobians, contacts.wrench_maps
+    x, wrenches, tau = solution.x, solution.wrenches, solution.tau
+    nv = mass_matrix.shape[0]
+    n_feet, m = wrench_maps.shape[0], wrench_maps.shape[2]
+    for k in range(n_feet):
+        wrenches[k] = wrench_maps[k] @ x[nv + k * m : nv + (k + 1) * m]
+    # Written as loops: Pinocchio's M is column-major, which numba's `@` takes slowly.
+    for i in range(nv - 6):
+        s = nonlinear[6 + i]
+        for j in range(nv):
+            s += mass_matrix[6 + i, j] * x[j]
+        for k in range(n_feet):
+            for j in range(6):
+                s -= jacobians[k, j, 6 + i] * wrenches[k, j]
+        tau[i] = s
+
+
+@numba.njit(cache=True)
+def solve_active_set(problem: QPProblem, nv: int, force_weight: float, x: np.ndarray) -> int:
+    """Solve ``problem`` exactly by :func:`.condensed.solve_eliminated` (ξ̈ eliminated, an
+    active set on β ≥ 0), starting from x's β (≥ 0); x ← (ξ̈*, β*).
+
+    It needs the shape :func:`empty_qp` gives: the β block of P W_4 I, q zero on β, and
+    β ≥ 0 the only bounds.
+
+    Returns:
+        The active-set iterations, or −1 if it found no solution.
+    """
+    return solve_eliminated(
+        problem.P[:nv, :nv].copy(),
+        problem.q[:nv],
+        problem.A[:, :nv],
+        problem.A[:, nv:],
+        problem.b,
+        force_weight,
+        x[nv:],
+        x[:nv],
+    )
+
+
+@numba.njit(cache=True)
+def solve_centroidal(
+    dynamics: Dynamics,
+    tasks: CentroidalTasks,
+    contacts: SupportContacts,
+    weights: QPWeights,
+    problem: QPProblem,
+    solution: QPSolution,
+) -> int:
+    """The tick's QP with the ``active_set`` solver: :func:`build_qp`, :func:`solve_active_set`,
+    Eq. (9) (:func:`joint_torques`), in one compiled call.
+
+    Returns:
+        As :func:`solve_active_set`.
+    """
+    build_qp(dynamics, tasks, contacts, weights, problem)
+    nv = dynamics.mass_matrix.shape[0]
+    iterations = solve_active_set(problem, nv, weights.force, solution.x)
+    if iterations >= 0:
+        joint_torques(dynamics, contacts, solution)
+    return iterations
+
+
+def solve_with_qpsolvers(
+    problem: QPProblem, solver: str, initvals: np.ndarray | None = None, **options: object
+) -> np.ndarray | None:
+    """min ½ xᵀPx + qᵀx s.t. A x = b, lb ≤ x ≤ ub through ``qpsolvers``; None when no solution.
+
+    Args:
+        problem: the assembled QP.
+        solver: a ``qpsolvers`` backend (``proxqp`` runs its dense backend, ``osqp`` gets
+            sparse matrices).
+        initvals: a primal start, for the solvers that take one.
+        options: the solver's settings (``eps_abs`` …).
+    """
+    import qpsolvers  # only the library solvers need it
+
+    if solver not in qpsolvers.available_solvers:
+        raise ValueError(
+            f"QP solver {solver!r} is not installed; installed: "
+            f"{', '.join(qpsolvers.available_solvers)} (pip install qpsolvers[{solver}])"
+        )
+    p, a = problem.P, problem.A
+    if solver == "proxqp":
+        options = {"backend": "dense", **options}  # the matrices are dense
+    elif solver == "osqp":  # OSQP takes sparse matrices; converting here avoids a warning
+        from scipy import sparse
+
+        p, a = sparse.csc_matrix(p), sparse.csc_matrix(a)
+    qp = qpsolvers.Problem(p, problem.q, None, None, a, problem.b, problem.lb, problem.ub)
+    solution = qpsolvers.solve_problem(qp, solver=solver, initvals=initvals, **options)
+    return solution.x if solution.found else None
+
+
+def solver_options(solver: str, tolerance: float) -> dict[str, object]:
+    """The settings :func:`solve_with_qpsolvers` passes to ``solver`` for an absolute
+    tolerance [the QP's units]: the iterative solvers' stopping tolerance; the active-set
+    solvers (daqp, quadprog) stop at the exact minimiser and take none."""
+    if solver == "proxqp":
+        return {"eps_abs": tolerance, "eps_rel": 0.0}
+    if solver == "osqp":
+        return {
+            "eps_abs": tolerance,
+            "eps_rel": 0.0,
+            "polishing": True,
+            "max_iter": 100_000,
+            "raise_error": False,  # not converged: no solution, as the other solvers say it
+        }
+    return {}
 
 
 class CentroidalQP:
-    """The QP of §III-D for one support set, in preallocated arrays, solved tick after tick.
-
-    The QP is solved exactly with ξ̈ and the equality rows eliminated (:mod:`.condensed`, one
-    compiled call that also applies Eq. 9), warm-started from the set's last β.
+    """The QP of §III-D for one support set, in preallocated arrays, built and solved each tick.
 
     Args:
         nv: size of ξ̈.
-        support: the support feet, in the order of their β blocks.
-        local_maps: U_k of each support foot in its contact frame, shape (6, m N_c)
-            (``contact_wrench_basis(np.eye(3), ...)``).
-        accel_weight: W_3 (scalar times identity).
-        force_weight: W_4 (scalar times identity).
+        n_feet: number of support feet.
+        n_beta_per_foot: pyramid coefficients m N_c of each foot.
+        weights: W_3 and W_4.
+        solver: one of :data:`QP_SOLVERS`.
+        tolerance: the iterative solvers' absolute tolerance (:func:`solver_options`).
 
     Attributes:
-        problem: the full problem, filled in by :meth:`build` (for inspection).
-        accel: ξ̈* of the last successful :meth:`solve`, shape (nv,).
-        wrenches: U_k β*_k of each support foot (world axes, at the sole), shape (k, 6).
-        tau: Eq. (9) joint torques of the last successful :meth:`solve`, shape (nv − 6,).
+        problem: this tick's problem (after :meth:`build` or :meth:`solve`).
+        solution: ξ̈*, β*, the wrenches and the Eq. (9) torques of the last successful
+            :meth:`solve`.
     """
 
     def __init__(
         self,
         nv: int,
-        support: tuple[int, ...],
-        local_maps: list[np.ndarray],
-        accel_weight: float,
-        force_weight: float,
+        n_feet: int,
+        n_beta_per_foot: int,
+        weights: QPWeights,
+        solver: str = "active_set",
+        tolerance: float = 1e-9,
     ) -> None:
-        n_feet, m = len(local_maps), local_maps[0].shape[1]
-        self.problem = empty_qp(nv, tuple(u.shape[1] for u in local_maps), support, force_weight)
-        self._local_maps = [np.ascontiguousarray(u) for u in local_maps]
-        self._weights = QPWeights(accel_weight, force_weight)
-        # Stacks per support foot that :meth:`update` fills for the compiled kernel.
-        self._stacks = SupportContacts(
-            np.zeros((n_feet, 6, nv)), np.zeros((n_feet, 6)), np.zeros((n_feet, 6, m))
-        )
-        self.accel = np.zeros(nv)
-        self.wrenches = np.zeros((n_feet, 6))
-        self.tau = np.zeros(nv - 6)
-        self._solution = QPSolution(np.zeros(n_feet * m), self.accel, self.wrenches, self.tau)
-        # This tick's inputs (:meth:`set_inputs`) and the kernel to call on them: until then
-        # empty inputs and the dispatcher, which compiles nothing before it is called.
-        empty = Dynamics(np.zeros((nv, nv)), np.zeros(nv)), CostRows(np.zeros((0, nv)), np.zeros(0))
-        self._kernel_args = (empty[1], empty[0], self._stacks, self._weights, self._solution)
-        self._kernel = solve_centroidal
+        if solver not in QP_SOLVERS:
+            raise ValueError(f"unknown QP solver {solver!r}; valid: {', '.join(QP_SOLVERS)}")
+        self.nv, self.solver, self._weights = nv, solver, weights
+        self._options = solver_options(solver, tolerance)
+        self.problem = empty_qp(nv, n_feet * n_beta_per_foot, n_feet, weights.force)
+        nx = self.problem.q.size
+        self.solution = QPSolution(np.zeros(nx), np.zeros((n_feet, 6)), np.zeros(nv - 6))
+        self._inputs: tuple | None = None
 
-    def update(
-        self,
-        dynamics: Dynamics,
-        cost: CostRows,
-        contact_jacobians: list[np.ndarray],
-        contact_drifts: list[np.ndarray],
-        contact_rotations: list[np.ndarray],
+    @property
+    def accel(self) -> np.ndarray:
+        """ξ̈* of the last successful :meth:`solve`, shape (nv,)."""
+        return self.solution.x[: self.nv]
+
+    @property
+    def wrenches(self) -> np.ndarray:
+        """U_k β*_k of each support foot (world axes, at the sole), shape (k, 6)."""
+        return self.solution.wrenches
+
+    @property
+    def tau(self) -> np.ndarray:
+        """Eq. (9) joint torques of the last successful :meth:`solve`, shape (nv − 6,) [N m]."""
+        return self.solution.tau
+
+    def set_inputs(
+        self, dynamics: Dynamics, tasks: CentroidalTasks, contacts: SupportContacts
     ) -> None:
-        """Take this tick's inputs (as :func:`assemble_qp`; J_k, J̇_k ξ̇ and R̃_{C_k} per foot).
-
-        The arrays are referenced, not copied, except the per-foot ones, which are stacked.
-        """
-        jacobians, drifts, maps = self._stacks
-        for k, (jac, drift, rot) in enumerate(
-            zip(contact_jacobians, contact_drifts, contact_rotations, strict=True)
-        ):
-            jacobians[k] = jac
-            drifts[k] = drift
-            rotate_wrench_basis(rot, self._local_maps[k], maps[k])
-        self.set_inputs(dynamics, CostRows(np.ascontiguousarray(cost.rows), cost.rhs), self._stacks)
-
-    def set_inputs(self, dynamics: Dynamics, cost: CostRows, contacts: SupportContacts) -> None:
-        """Take this tick's inputs already stacked per support foot, by reference (no copies).
-
-        Args:
-            dynamics: M and C ξ̇ + g.
-            cost: the stacked weighted cost rows (``rows`` C-contiguous).
-            contacts: J_k (C-contiguous), J̇_k ξ̇ and R̃_{C_k} U_k of each support foot.
-        """
-        # One tuple for the compiled call, and the kernel's entry for its types: a caller
-        # whose inputs stay the same arrays (filled in place each tick) sets them once, and
-        # :meth:`solve` neither looks up attributes nor has numba check the records' types.
-        self._kernel_args = (cost, dynamics, contacts, self._weights, self._solution)
-        self._kernel = compiled_entry(solve_centroidal, *self._kernel_args)
+        """Take the tick's inputs by reference (no copies): a caller that fills the same
+        arrays in place every tick sets them once."""
+        self._inputs = (dynamics, tasks, contacts, self._weights, self.problem)
+        # The kernel's compiled entry for these records' types, looked up once: numba's
+        # dispatcher types every field of a named tuple in Python on every call (≈ 30 µs a
+        # tick for these records, measured). The entry checks no types, and these records
+        # keep theirs: the same arrays, filled in place.
+        self._solve_centroidal = compiled_entry(solve_centroidal, *self._inputs, self.solution)
 
     def build(self) -> QPProblem:
-        """The full problem of this tick's inputs (as :func:`build_qp`), for inspection."""
-        cost, dynamics, contacts, weights, _ = self._kernel_args
-        assemble_qp(self.problem, dynamics, cost, contacts, weights.accel)
+        """This tick's problem (:func:`build_qp`), for inspection or a library solver."""
+        assert self._inputs is not None, "set_inputs first"
+        build_qp(*self._inputs)
         return self.problem
 
     def solve(self, warm: bool) -> bool:
-        """Solve this tick's problem; ``warm`` starts from this set's last solution.
+        """Build and solve this tick's problem; ``warm`` starts from this set's last solution.
 
         Returns:
-            Whether a solution was found (then in :attr:`accel`, :attr:`wrenches`, :attr:`tau`).
+            Whether a solution was found (then in :attr:`solution`).
         """
-        if not warm:
-            self._solution.beta[:] = 0.0  # cold: every β at its bound
-        return self._kernel(*self._kernel_args) >= 0
-
-
-def joint_torques(
-    mass_matrix: np.ndarray,
-    nonlinear: np.ndarray,
-    accel: np.ndarray,
-    contact_jacobians: Sequence[np.ndarray],
-    wrenches: Sequence[np.ndarray],
-) -> np.ndarray:
-    """Eq. (9): τ = M_q ξ̈* + C_q ξ̇ + g_q − Σ_k J_{C_k}ᵀ λ*_k, shape (n,) [N m]."""
-    tau = mass_matrix[6:] @ accel + nonlinear[6:]
-    for jac, w in zip(contact_jacobians, wrenches, strict=True):
-        tau -= jac[:, 6:].T @ w
-    return tau
+        assert self._inputs is not None, "set_inputs first"
+        x = self.solution.x
+        if self.solver == "active_set":
+            if not warm:
+                x[self.nv :] = 0.0  # cold: every β at its bound
+            return self._solve_centroidal(*self._inputs, self.solution) >= 0
+        found = solve_with_qpsolvers(
+            self.build(), self.solver, x.copy() if warm else None, **self._options
+        )
+        if found is None:
+            return False
+        x[:] = found
+        dynamics, _, contacts, _, _ = self._inputs
+        joint_torques(dynamics, contacts, self.solution)
+        return True

@@ -1,6 +1,6 @@
-"""The §III-D QP solved exactly in its condensed form: ξ̈ and the equalities eliminated.
+"""The ``active_set`` solver of the §III-D QP: exact, with ξ̈ and the equalities eliminated.
 
-The QP of :mod:`.centroidal_qp` is
+The QP that :func:`.centroidal_qp.build_qp` builds is
 
     min ½ ξ̈ᵀ P ξ̈ + qᵀ ξ̈ + ½ W_4 ‖β‖²   s.t.   E ξ̈ = f + G β,   β ≥ 0,
 
@@ -16,20 +16,22 @@ That is 16 or 32 variables instead of 60, and no equality rows. A primal active-
 solves it to machine precision (not to a tolerance), warm-started from the previous tick's
 β, whose active set rarely changes; two Cholesky factors (P, S) and a few small products
 do the rest. Same problem, same unique minimiser: only the solver's error differs from a
-library solver's, rounding instead of a tolerance (ProxQP's ``eps_abs``; the tests check the
-two agree).
+library solver's, rounding instead of a tolerance (the tests check it against DAQP, quadprog
+and ProxQP through ``qpsolvers``, and its KKT residuals). It stays beside the ``qpsolvers``
+backends because it is faster on this problem by more than a tenth of a control tick
+(``docs/performance.md``).
 
 Why numba: at 1 kHz a tick has ≈ 200 µs for everything. Written with numpy this is a few
 hundred calls on matrices of 6 to 60 rows, each paying about 1 µs of call overhead; one
 compiled call does the same arithmetic in a few µs. The kernels are plain loops and small
-products, compiled once and cached on disk (``cache=True``); :func:`warm_up` compiles them
-when the controller resets, so the first tick is not slow.
+products, compiled once and cached on disk (``cache=True``); the controller compiles them
+when it resets, so the first tick is not slow.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any, NamedTuple
+from typing import Any
 
 import numba
 import numpy as np
@@ -39,75 +41,6 @@ MAX_ITER_PER_VARIABLE = 4
 #: A bound leaves the active set only if its multiplier is below −this [same units as the
 #: gradient]. Rounding sits orders below; ProxQP's tolerance (1e-6) orders above.
 MULTIPLIER_TOL = 1e-10
-
-
-# Records the compiled kernels take (named tuples: numba passes them without copies and
-# reads their fields as cheaply as separate arguments).
-class CostRows(NamedTuple):
-    """The stacked weighted cost rows A ξ̈ ≈ b of the §III-D QP: A = √W Φ, b = √W (ẍ_r − Φ̇ ξ̇).
-
-    Attributes:
-        rows: A, shape (r, nv), C-contiguous.
-        rhs: b, shape (r,).
-    """
-
-    rows: np.ndarray
-    rhs: np.ndarray
-
-
-class Dynamics(NamedTuple):
-    """Pinocchio's joint-space dynamics terms of Eq. (5) (base velocity in the base frame).
-
-    Attributes:
-        mass_matrix: M, shape (nv, nv) [kg, kg m, kg m²].
-        nonlinear: C ξ̇ + g, shape (nv,) [N, N m].
-    """
-
-    mass_matrix: np.ndarray
-    nonlinear: np.ndarray
-
-
-class SupportContacts(NamedTuple):
-    """The support feet's contact terms, stacked per foot in the order of their β blocks.
-
-    Attributes:
-        jacobians: J_k (sole frame, world axes), shape (k, 6, nv).
-        drifts: J̇_k ξ̇, shape (k, 6) [m/s², rad/s²].
-        wrench_maps: R̃_{C_k} U_k (Eq. 8, world axes, wrench at the sole), shape (k, 6, m N_c).
-    """
-
-    jacobians: np.ndarray
-    drifts: np.ndarray
-    wrench_maps: np.ndarray
-
-
-class QPWeights(NamedTuple):
-    """The regularisation weights of the §III-D QP (each a scalar times identity).
-
-    Attributes:
-        accel: W_3, on ξ̈.
-        force: W_4, on β.
-    """
-
-    accel: float
-    force: float
-
-
-class QPSolution(NamedTuple):
-    """The §III-D QP's solution and its Eq. (9) torques, written in place.
-
-    Attributes:
-        beta: β, the pyramid coefficients, shape (k m N_c,); read as the start (≥ 0; zeros
-            for a cold start), overwritten with β*.
-        accel: ξ̈*, shape (nv,).
-        wrenches: U_k β*_k of each support foot (world axes, at the sole), shape (k, 6).
-        tau: Eq. (9) joint torques, shape (nv − 6,) [N m].
-    """
-
-    beta: np.ndarray
-    accel: np.ndarray
-    wrenches: np.ndarray
-    tau: np.ndarray
 
 
 def compiled_entry(kernel: Any, *args: Any) -> Callable[..., Any]:
@@ -320,7 +253,7 @@ def _solve_condensed(
     accel: np.ndarray,
 ) -> int:
     """:func:`solve_eliminated` on Eᵀ (C-contiguous, shape (nv, ne)) and F, both overwritten
-    (Eᵀ with Y = L⁻¹Eᵀ, F with L_S⁻¹F): :func:`solve_centroidal` builds them in place."""
+    (Eᵀ with Y = L⁻¹Eᵀ, F with L_S⁻¹F): :func:`solve_eliminated` makes them."""
     nv, ne, nb = hess_accel.shape[0], eq_accel_t.shape[1], eq_beta.shape[1]
     if not cholesky_in_place(hess_accel):  # P = L Lᵀ
         return -1
@@ -353,96 +286,3 @@ def _solve_condensed(
     solve_lower_transposed_vector(hess_accel, a[:, 0])  # ξ̈ = L⁻ᵀ (Y ν − z)
     accel[:] = a[:, 0]
     return iterations
-
-
-@numba.njit(cache=True)
-def solve_centroidal(
-    cost: CostRows,
-    dynamics: Dynamics,
-    contacts: SupportContacts,
-    weights: QPWeights,
-    solution: QPSolution,
-) -> int:
-    """The §III-D QP of :func:`.centroidal_qp.build_qp`, solved eliminated, and Eq. (9).
-
-    Args:
-        cost: the stacked weighted cost rows A = √W Φ (C-contiguous) and √W b.
-        dynamics: M and C ξ̇ + g.
-        contacts: J_k, J̇_k ξ̇ and R̃ U_k of each support foot.
-        weights: W_3 and W_4.
-        solution: β start (≥ 0; zeros for a cold start), overwritten with β*; out, ξ̈*, the
-            wrenches U_k β*_k (world axes, at the sole) and the Eq. (9) torques τ [N m].
-
-    Returns:
-        As :func:`solve_eliminated`.
-    """
-    cost_rows, cost_rhs = cost.rows, cost.rhs
-    mass_matrix, nonlinear = dynamics.mass_matrix, dynamics.nonlinear
-    jacobians, drifts, wrench_maps = contacts.jacobians, contacts.drifts, contacts.wrench_maps
-    accel_weight, force_weight = weights.accel, weights.force
-    beta, accel, wrenches, tau = solution.beta, solution.accel, solution.wrenches, solution.tau
-    nv = mass_matrix.shape[0]
-    n_feet, m = wrench_maps.shape[0], wrench_maps.shape[2]
-    ne = 6 + 6 * n_feet
-    # P = AᵀA + W_3 I and q = −Aᵀb (assemble_qp).
-    hess_accel = cost_rows.T @ cost_rows
-    for i in range(nv):
-        hess_accel[i, i] += accel_weight
-    grad_accel = -(cost_rhs @ cost_rows)
-    # Floating-base rows of Eq. (5), M_B ξ̈ − Σ J_{k,B}ᵀ U_k β_k = −(C ξ̇ + g)_B, then the
-    # support feet, J_k ξ̈ = −J̇_k ξ̇; E is built transposed, as the elimination uses it.
-    eq_accel_t = np.empty((nv, ne))
-    eq_beta = np.zeros((ne, n_feet * m))
-    eq_rhs = np.empty(ne)
-    for j in range(nv):
-        for i in range(6):
-            eq_accel_t[j, i] = mass_matrix[i, j]
-        for k in range(n_feet):
-            for i in range(6):
-                eq_accel_t[j, 6 + 6 * k + i] = jacobians[k, i, j]
-    eq_rhs[:6] = -nonlinear[:6]
-    for k in range(n_feet):
-        eq_rhs[6 + 6 * k : 12 + 6 * k] = -drifts[k]
-        for i in range(6):
-            for c in range(m):
-                s = 0.0
-                for j in range(6):
-                    s += jacobians[k, j, i] * wrench_maps[k, j, c]
-                eq_beta[i, k * m + c] = -s
-    iterations = _solve_condensed(
-        hess_accel, grad_accel, eq_accel_t, eq_beta, eq_rhs, force_weight, beta, accel
-    )
-    if iterations < 0:
-        return -1
-    # Eq. (9): τ = M_q ξ̈* + C_q ξ̇ + g_q − Σ_k J_{C_k,q}ᵀ λ*_k.
-    # (Written as loops: Pinocchio's M is column-major, which numba's `@` takes slowly.)
-    for k in range(n_feet):
-        wrenches[k] = wrench_maps[k] @ beta[k * m : (k + 1) * m]
-    for i in range(nv - 6):
-        s = nonlinear[6 + i]
-        for j in range(nv):
-            s += mass_matrix[6 + i, j] * accel[j]
-        for k in range(n_feet):
-            for j in range(6):
-                s -= jacobians[k, j, 6 + i] * wrenches[k, j]
-        tau[i] = s
-    return iterations
-
-
-def warm_up() -> None:
-    """Compile (or load from the cache) the kernels with the argument types a tick uses."""
-    nv, m = 20, 2
-    rng = np.random.default_rng(0)
-    # Pinocchio's M is column-major (as in the controller); the tests' copies are row-major.
-    for n_feet, mass in ((1, np.asfortranarray(np.eye(nv))), (2, np.asfortranarray(np.eye(nv)))):
-        solve_centroidal(
-            CostRows(np.ascontiguousarray(rng.standard_normal((30, nv))), rng.standard_normal(30)),
-            Dynamics(mass, rng.standard_normal(nv)),
-            SupportContacts(
-                rng.standard_normal((n_feet, 6, nv)),
-                np.zeros((n_feet, 6)),
-                rng.standard_normal((n_feet, 6, m)),
-            ),
-            QPWeights(1e-4, 1e-6),
-            QPSolution(np.zeros(n_feet * m), np.empty(nv), np.empty((n_feet, 6)), np.empty(nv - 6)),
-        )

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import time
 from bisect import bisect_right
+from typing import Literal
 
 import numpy as np
 import pinocchio as pin
@@ -28,16 +29,15 @@ from walkrepro.controllers.base import Command, Controller, ControllerParams
 from walkrepro.origin import assumed, calibrated, paper
 from walkrepro.papers.jo_oh.centroidal_qp import (
     CentroidalQP,
+    CentroidalTasks,
+    Dynamics,
+    QPWeights,
+    SupportContacts,
+    Task,
     contact_wrench_basis,
     friction_basis,
 )
-from walkrepro.papers.jo_oh.condensed import (
-    CostRows,
-    Dynamics,
-    SupportContacts,
-    compiled_entry,
-    warm_up,
-)
+from walkrepro.papers.jo_oh.condensed import compiled_entry
 from walkrepro.papers.jo_oh.footsteps import (
     LEFT,
     RIGHT,
@@ -50,14 +50,13 @@ from walkrepro.papers.jo_oh.preview import generate_com, preview_gains
 from walkrepro.papers.jo_oh.tasks import (
     FOOT_BLOCK,
     N_SIGNALS,
-    ROW_POSTURE,
-    SCALARS,
     SIGNAL_COM,
     SIGNAL_FEET,
     RobotTerms,
     SensorReadings,
     SoleKinematics,
     TaskConstants,
+    TaskGains,
     TaskOutputs,
     TaskReferences,
     TaskState,
@@ -369,6 +368,25 @@ class QPImpedanceParams(ControllerParams):
         description="edges m of each pyramid (Eq. 8)",
         json_schema_extra=assumed("§III-C: an m-sided polygon, m not given; 4"),
     )
+    qp_solver: Literal["active_set", "daqp", "quadprog", "proxqp", "osqp"] = Field(
+        "active_set",
+        description="solver of the §III-D QP: active_set (this package's exact active set on "
+        "the same problem, ξ̈ eliminated, compiled and warm-started) or a qpsolvers backend "
+        "(daqp, quadprog: exact active sets; proxqp, osqp: iterative, to qp_tolerance)",
+        json_schema_extra=assumed(
+            "§III-D names no solver. Criterion, fixed before any run: the QP's exact "
+            "minimiser (an active-set method, not a tolerance), and of those the fastest per "
+            "tick on walkrepro bench: active_set (docs/performance.md)"
+        ),
+    )
+    qp_tolerance: float = Field(
+        1e-9,
+        gt=0,
+        description="absolute tolerance of the iterative QP solvers (proxqp, osqp) [N, m/s²]",
+        json_schema_extra=assumed(
+            "1e-9: three orders below the active set's 1e-6 agreement with the libraries"
+        ),
+    )
 
     @property
     def swing_gains(self) -> tuple[float, float]:
@@ -515,29 +533,24 @@ class QPImpedanceController(Controller):
         # Each sole's origin in its ankle joint's frame, for its drift (robot.frame_classical_acceleration).
         self._sole_offset = np.array([model.frames[f].placement.translation for f in frames[:2]])
         self._views = _DataViews(self._data, frames, parents)
-        scalars = {
-            "dt": control_period,
-            "mass": robot.total_mass,
-            "foot_mass": _foot_mass(robot),
-            "k_h": p.k_h,
-            "k_i": p.k_i,
-            "k_h_angular": p.k_h_angular,
-            "kp_orient": p.kp_orient,
-            "kv_orient": p.kv_orient,
-            "kp_posture": p.kp_posture,
-            "kv_posture": p.kv_posture,
-            "kp_swing": p.swing_gains[0],
-            "kv_swing": p.swing_gains[1],
-            "sqrt_w_pelvis": float(np.sqrt(p.w_pelvis)),
-            "sqrt_w_torso": float(np.sqrt(p.w_torso)),
-            "sqrt_w_posture": float(np.sqrt(p.w_posture)),
-            "sqrt_w_swing": float(np.sqrt(p.w_swing)),
-            "impedance": float(p.impedance),
-            "preview_dt": p.preview_dt,
-            "plan_end": self._plan.end,
-            "com_z": com_z,
-        }
-        self._scalars = np.array([scalars[name] for name in SCALARS])
+        self._gains = TaskGains(
+            dt=float(control_period),
+            mass=float(robot.total_mass),
+            foot_mass=_foot_mass(robot),
+            k_h=p.k_h,
+            k_i=p.k_i,
+            k_h_angular=p.k_h_angular,
+            kp_orient=p.kp_orient,
+            kv_orient=p.kv_orient,
+            kp_posture=p.kp_posture,
+            kv_posture=p.kv_posture,
+            kp_swing=float(p.swing_gains[0]),
+            kv_swing=float(p.swing_gains[1]),
+            impedance=bool(p.impedance),
+            preview_dt=p.preview_dt,
+            plan_end=float(self._plan.end),
+            com_z=com_z,
+        )
         self._impedance_gains = np.array(
             [p.m_d, p.b_d, p.k_d, (p.force_threshold, p.torque_threshold, p.torque_threshold)]
         )
@@ -553,17 +566,23 @@ class QPImpedanceController(Controller):
         self._tau = np.zeros(robot.n_joints)
         self._qp_fail = 0
 
-        # Stacked weighted cost rows √W Φ ξ̈ ≈ √W b of §III-D, in a fixed order: momentum (6),
-        # pelvis (3), torso (3), posture (one per arm/waist joint), swing foot (6, single
-        # support only). The posture rows are constant selections.
+        # The QP's cost terms of §III-D (task_rows fills them each tick): the momentum target
+        # b_1 and W_1; the pelvis and torso orientation, the arm and waist posture (Φ_t a
+        # constant selection of each joint) and the swing foot (in single support only).
         nv, n_post = model.nv, self._posture_idx.size
-        self._rows_swing = ROW_POSTURE + n_post
-        self._cost_rows = np.zeros((self._rows_swing + 6, nv))
-        self._cost_rhs = np.zeros(self._rows_swing + 6)
-        self._momentum_sqrt_w = np.sqrt([p.w_momentum_linear] * 3 + [p.w_momentum_angular] * 3)
-        self._cost_rows[ROW_POSTURE + np.arange(n_post), self._v_idx[self._posture_idx]] = np.sqrt(
-            p.w_posture
+
+        def task(rows: int, weight: float) -> Task:
+            return Task(np.zeros((rows, nv)), np.zeros(rows), np.full(rows, weight))
+
+        self._tasks = CentroidalTasks(
+            np.zeros(6),
+            np.array([p.w_momentum_linear] * 3 + [p.w_momentum_angular] * 3),
+            task(3, p.w_pelvis),
+            task(3, p.w_torso),
+            task(n_post, p.w_posture),
+            task(6, p.w_swing),
         )
+        self._tasks.posture.jacobian[np.arange(n_post), self._v_idx[self._posture_idx]] = 1.0
         self._local_map = contact_wrench_basis(np.eye(3), corners, pyramid)
         # Each foot's sole Jacobian, drift and rotated wrench basis; the QP of a support set
         # takes the feet's slices of these (no copies).
@@ -575,7 +594,12 @@ class QPImpedanceController(Controller):
         }
         self._qps = {
             support: CentroidalQP(
-                nv, support, [self._local_map] * len(support), p.w_accel, p.w_force
+                nv,
+                len(support),
+                self._local_map.shape[1],
+                QPWeights(p.w_accel, p.w_force),
+                p.qp_solver,
+                p.qp_tolerance,
             )
             for support in SUPPORTS
         }
@@ -587,7 +611,6 @@ class QPImpedanceController(Controller):
         self._bind_task_args()
         self._bind_task_kernel()
         self._bind_qp_inputs()
-        warm_up()  # compile the QP kernels now (or load them from numba's cache), not on tick 1
         self._warm_up_tick(q0, v0)
         # Wall time of the tick's parts [s], for benchmarks only (never logged: logs stay
         # deterministic). Running totals: memory stays flat however long the run.
@@ -610,18 +633,18 @@ class QPImpedanceController(Controller):
                 self._refresh_views = True
 
     def _bind_qp_inputs(self) -> None:
-        """Point each support set's QP at its slices of the tick's buffers and at M, C ξ̇ + g.
+        """Point each support set's QP at the tasks, its feet's slices of the contact buffers,
+        and M, C ξ̇ + g.
 
         The QP keeps references, and the tick fills these arrays in place, so this runs once
         (and again only when the views of ``Data`` have to be refreshed).
         """
         views = self._views
         for support, qp in self._qps.items():
-            n_rows = self._rows_swing + (6 if len(support) == 1 else 0)
             feet = self._support_slices[support]
             qp.set_inputs(
                 Dynamics(views.mass_matrix, views.nle),
-                CostRows(self._cost_rows[:n_rows], self._cost_rhs[:n_rows]),
+                self._tasks,
                 SupportContacts(
                     self._sole_jacobians[feet], self._sole_drifts[feet], self._wrench_maps[feet]
                 ),
@@ -641,6 +664,9 @@ class QPImpedanceController(Controller):
         pin.computeAllTerms(self._model, self._data, q0, v0)
         pin.updateFramePlacements(self._model, self._data)
         self._task_rows(0.0, -1, home_joints, zero_joints, zero_ft, zero_ft)
+        for qp in self._qps.values():  # the QP's kernels (a library solver's too)
+            qp.solve(warm=False)
+            qp.solution.x[:] = 0.0
         self._impedance_state[:] = 0.0
         self._impedance_flags[:] = False
         self._prev_foot_vel[:] = 0.0
@@ -712,8 +738,7 @@ class QPImpedanceController(Controller):
             self._v,
         )
         constants = TaskConstants(
-            self._scalars,
-            self._momentum_sqrt_w,
+            self._gains,
             self._impedance_gains,
             self._chains,
             self._posture_idx,
@@ -730,7 +755,7 @@ class QPImpedanceController(Controller):
             self._impedance_state, self._impedance_flags, self._prev_foot_vel, self._foot_acc_cmd
         )
         outputs = TaskOutputs(
-            CostRows(self._cost_rows, self._cost_rhs),
+            self._tasks,
             self._sole_jacobians,
             self._sole_drifts,
             self._wrench_maps,

@@ -2,9 +2,9 @@
 
 Each tick the controller turns Pinocchio's quantities and the sensor readings into
 
-- the stacked weighted cost rows √W Φ ξ̈ ≈ √W b of the QP, in a fixed order: centroidal
-  momentum (6, Eq. 7), pelvis (3) and torso (3) orientation, arm and waist posture (one per
-  joint), swing foot (6, Eq. 3, single support only);
+- the QP's cost terms, named as in the paper (:class:`.centroidal_qp.CentroidalTasks`): the
+  centroidal momentum target b_1 (Eq. 7), and each task's Φ_t and b_t = ẍ_r − Φ̇_t ξ̇: pelvis
+  and torso orientation, arm and waist posture, swing foot (Eq. 3);
 - each foot's sole Jacobian, drift J̇ ξ̇ and rotated wrench basis R̃ U_k (Eq. 8), which the
   QP takes for the support feet;
 - each foot's contact wrench from its F/T sensor and the impedance modification of the
@@ -21,15 +21,14 @@ frames' drifts J̇ ξ̇, log₃ and roll–pitch–yaw angles are formed here
 :func:`matrix_to_rpy`) in Pinocchio's operations, tested against its Python functions to
 1e-12, instead of eight calls from Python (≈ 0.4–1 µs each;
 ``benchmarks/pinocchio_ports.py``). The small kernels it calls are compiled functions too,
-each tested against a reference: the swing trajectory and the impedance filter in
-``tests/oracles/jo_oh_*.py``, Pinocchio's frame Jacobians, numpy expressions. Like
+each tested against a reference (Pinocchio's frame Jacobians, numpy expressions) or for its
+properties (the swing trajectory, the impedance filter). Like
 :mod:`.condensed`, the kernels are cached on disk (``cache=True``) and compiled or loaded
 when the controller resets.
 
 :func:`task_rows` takes its inputs in records (named tuples, :class:`RobotTerms` …
 :class:`TaskOutputs`), which the controller builds once at reset: the arrays in them are
-filled in place every tick. Scalars travel in one float array (:data:`SCALARS` names its
-entries): one array is cheaper to pass than twenty floats.
+filled in place every tick; the gains and times are a record of floats (:class:`TaskGains`).
 """
 
 from __future__ import annotations
@@ -41,60 +40,49 @@ import numba
 import numpy as np
 import pinocchio as pin
 
-from walkrepro.papers.jo_oh.condensed import CostRows
+from walkrepro.papers.jo_oh.centroidal_qp import CentroidalTasks, Task
 from walkrepro.robot import eigen_rotate, frame_classical_acceleration, frame_jacobian, log3
 
 GRAVITY = 9.81  # [m/s^2]
 
-#: Entries of the ``scalars`` array of :func:`task_rows`, in order.
-SCALARS = (
-    "dt",  # control period [s]
-    "mass",  # robot mass m [kg]
-    "foot_mass",  # mass of the foot below the F/T sensor [kg]
-    "k_h",  # linear momentum gain K_h [1/s]
-    "k_i",  # linear momentum integral gain K_I [1/s²]
-    "k_h_angular",  # angular momentum gain [1/s]
-    "kp_orient",  # pelvis and torso K_P [1/s²]
-    "kv_orient",  # pelvis and torso K_V [1/s]
-    "kp_posture",  # arm and waist K_P [1/s²]
-    "kv_posture",  # arm and waist K_V [1/s]
-    "kp_swing",  # swing-foot K_P [1/s²]
-    "kv_swing",  # swing-foot K_V [1/s]
-    "sqrt_w_pelvis",  # √W_t of the pelvis rows
-    "sqrt_w_torso",  # √W_t of the torso rows
-    "sqrt_w_posture",  # √W_t of the posture rows
-    "sqrt_w_swing",  # √W_t of the swing-foot rows
-    "impedance",  # 1.0: modify the swing reference by Eqs. (1)–(3); 0.0: don't
-    "preview_dt",  # sample time of the CoM pattern [s]
-    "plan_end",  # time the footstep plan ends [s]
-    "com_z",  # desired CoM height [m]
-)
-(
-    DT,
-    MASS,
-    FOOT_MASS,
-    K_H,
-    K_I,
-    K_H_ANGULAR,
-    KP_ORIENT,
-    KV_ORIENT,
-    KP_POSTURE,
-    KV_POSTURE,
-    KP_SWING,
-    KV_SWING,
-    SQRT_W_PELVIS,
-    SQRT_W_TORSO,
-    SQRT_W_POSTURE,
-    SQRT_W_SWING,
-    IMPEDANCE,
-    PREVIEW_DT,
-    PLAN_END,
-    COM_Z,
-) = range(len(SCALARS))
 
-#: Cost rows of each task in the stacked rows: momentum 0–5, pelvis 6–8, torso 9–11,
-#: posture from 12 (one per joint), then the 6 swing-foot rows.
-ROW_PELVIS, ROW_TORSO, ROW_POSTURE = 6, 9, 12
+class TaskGains(NamedTuple):
+    """The tick's gains, masses and times, set at reset.
+
+    Attributes:
+        dt: control period [s].
+        mass: robot mass m [kg].
+        foot_mass: mass of the foot below the F/T sensor [kg].
+        k_h: linear momentum gain K_h [1/s].
+        k_i: linear momentum integral gain K_I [1/s²].
+        k_h_angular: angular momentum gain [1/s].
+        kp_orient, kv_orient: pelvis and torso K_P [1/s²], K_V [1/s].
+        kp_posture, kv_posture: arm and waist K_P [1/s²], K_V [1/s].
+        kp_swing, kv_swing: swing-foot K_P [1/s²], K_V [1/s] (Eq. 3).
+        impedance: modify the swing reference by Eqs. (1)–(3).
+        preview_dt: sample time of the CoM pattern [s].
+        plan_end: time the footstep plan ends [s].
+        com_z: desired CoM height [m].
+    """
+
+    dt: float
+    mass: float
+    foot_mass: float
+    k_h: float
+    k_i: float
+    k_h_angular: float
+    kp_orient: float
+    kv_orient: float
+    kp_posture: float
+    kv_posture: float
+    kp_swing: float
+    kv_swing: float
+    impedance: bool
+    preview_dt: float
+    plan_end: float
+    com_z: float
+
+
 #: Rows of the ``chains`` array of :func:`task_rows`: the frames whose Jacobians it forms.
 CHAIN_LEFT_SOLE, CHAIN_RIGHT_SOLE, CHAIN_PELVIS, CHAIN_TORSO = range(4)
 #: Names of the per-foot signals, in the order :func:`task_rows` writes them.
@@ -188,8 +176,7 @@ class TaskConstants(NamedTuple):
     """Gains, weights and the robot's geometry, set at reset.
 
     Attributes:
-        scalars: gains, weights and times, named by :data:`SCALARS`.
-        momentum_sqrt_w: √W_1, shape (6,).
+        gains: gains, masses and times.
         impedance_gains: M_d, B_d, K_d and thresholds (see :func:`advance_impedance`).
         chains: per frame of :data:`CHAIN_LEFT_SOLE` … whether each velocity moves it,
             shape (4, nv) bool.
@@ -201,8 +188,7 @@ class TaskConstants(NamedTuple):
         local_wrench_map: U_k in the contact frame (Eq. 8), shape (6, m N_c).
     """
 
-    scalars: np.ndarray
-    momentum_sqrt_w: np.ndarray
+    gains: TaskGains
     impedance_gains: np.ndarray
     chains: np.ndarray
     posture_idx: np.ndarray
@@ -249,14 +235,14 @@ class TaskOutputs(NamedTuple):
     """What :func:`task_rows` writes each tick.
 
     Attributes:
-        cost: the stacked weighted rows (see :data:`ROW_PELVIS`); the constant posture rows
-            are not written.
+        tasks: the QP's cost terms: b_1, and each task's Φ_t and b_t (the posture's Φ_t is
+            a constant selection, set at reset, and the weights are constants).
         sole_jacobians, sole_drifts, wrench_maps: per foot, J_k (6, nv), J̇_k ξ̇ (6,) and
             R̃ U_k (6, m N_c).
         signals: the signal vector named by :func:`signal_names`.
     """
 
-    cost: CostRows
+    tasks: CentroidalTasks
     sole_jacobians: np.ndarray
     sole_drifts: np.ndarray
     wrench_maps: np.ndarray
@@ -264,17 +250,15 @@ class TaskOutputs(NamedTuple):
 
 
 class RowGains(NamedTuple):
-    """A task's gains in ẍ_r = ẍ_d + K_V (ẋ_d − ẋ) + K_P (x_d − x) and its rows' weight.
+    """A task's gains in ẍ_r = ẍ_d + K_V (ẋ_d − ẋ) + K_P (x_d − x).
 
     Attributes:
         kp: K_P [1/s²].
         kv: K_V [1/s].
-        sqrt_w: √W_t of the task's rows.
     """
 
     kp: float
     kv: float
-    sqrt_w: float
 
 
 class DesiredMotion(NamedTuple):
@@ -388,8 +372,7 @@ def swing_reference(
     x, y and the roll/pitch angles blend from ``start`` to ``target`` by minimum jerk
     (:func:`quintic`) over the whole swing; z rises from the lift-off height to ``apex``
     above the higher of start and target over the first ``rise_fraction`` of the swing,
-    then descends to the landing height by the end. ``tests/oracles/jo_oh_swing.py`` is its
-    readable numpy reference (tested equal).
+    then descends to the landing height by the end.
 
     Args:
         swing: the trajectory, see :func:`pack_swing`, shape (14,).
@@ -452,7 +435,8 @@ def advance_impedance(
     10 N, 3 N m), stays on to the end of that swing, and is re-initialised (x_m = x_d) in
     support (§IV).
 
-    ``tests/oracles/jo_oh_impedance.py`` is its readable numpy reference (tested equal).
+    ``tests/test_qpimpedance_impedance.py`` tests its properties (the closed-form response
+    of Eq. 1, the thresholds, lift-off, switch-on, the run without impedance).
 
     Args:
         state: (x_m, ẋ_m, ẍ_m), updated in place, shape (3, 3).
@@ -585,37 +569,28 @@ def desired_com(
 
 
 @numba.njit(cache=True)
-def _weighted_rows(
-    source: np.ndarray,
-    first: int,
-    n_rows: int,
-    cost: CostRows,
-    row: int,
-    acc_ref: np.ndarray,
-    drift: np.ndarray,
-    sqrt_w: float,
+def _set_task(
+    task: Task, source: np.ndarray, first: int, acc_ref: np.ndarray, drift: np.ndarray
 ) -> None:
-    """Cost rows ``row:row+n_rows``, √W Φ and √W (ẍ_r − Φ̇ ξ̇), of a task with
-    Φ = ``source[first:first+n_rows]``."""
-    target, rhs = cost.rows, cost.rhs
-    for r in range(n_rows):
+    """A task's Φ_t = ``source[first:first+r]`` and b_t = ẍ_r − Φ̇_t ξ̇ (r rows of ``task``)."""
+    jacobian, target = task.jacobian, task.target
+    for r in range(target.shape[0]):
         for j in range(source.shape[1]):
-            target[row + r, j] = source[first + r, j] * sqrt_w
-        rhs[row + r] = (acc_ref[r] - drift[r]) * sqrt_w
+            jacobian[r, j] = source[first + r, j]
+        target[r] = acc_ref[r] - drift[r]
 
 
 @numba.njit(cache=True)
-def _orientation_rows(
+def _orientation_task(
     terms: RobotTerms,
     chain: np.ndarray,
     log_r: np.ndarray,
     drift: np.ndarray,
     gains: RowGains,
-    row: int,
     frame_jac: np.ndarray,
-    cost: CostRows,
+    task: Task,
 ) -> None:
-    """Rows ``row:row+3`` of a frame held upright, heading +x: ẍ_r = K_P log(R⁻¹) − K_V ω.
+    """A frame held upright, heading +x: Φ_t its angular Jacobian, ẍ_r = K_P log(R⁻¹) − K_V ω.
 
     ``chain`` marks the velocities that move the frame; ``log_r`` is log₃ R of the frame's
     world rotation (so −log_r is the error), ``drift`` the angular part of its J̇ ξ̇;
@@ -630,7 +605,7 @@ def _orientation_rows(
         for j in range(velocity.shape[0]):
             omega += frame_jac[3 + i, j] * velocity[j]
         acc_ref[i] = -kp * log_r[i] - kv * omega
-    _weighted_rows(frame_jac, 3, 3, cost, row, acc_ref, drift, gains.sqrt_w)
+    _set_task(task, frame_jac, 3, acc_ref, drift)
 
 
 @numba.njit(cache=True)
@@ -656,30 +631,24 @@ def task_rows(
             posture.
         state: each foot's impedance state, previous velocity and commanded acceleration,
             updated in place.
-        outputs: the cost rows, each foot's J_k, J̇_k ξ̇ and R̃ U_k, and the signal vector.
+        outputs: the QP's cost terms, each foot's J_k, J̇_k ξ̇ and R̃ U_k, and the signals.
 
     Returns:
         A bit per foot (1 left, 2 right) whose impedance modification switched on this tick.
     """
-    joint_jacobians, mass_matrix, velocity = (
-        terms.joint_jacobians,
-        terms.mass_matrix,
-        terms.velocity,
-    )
+    joint_jacobians, velocity = terms.joint_jacobians, terms.velocity
     nonlinear, gravity_torques = terms.nonlinear, terms.gravity_torques
     com, com_vel, angular_momentum = terms.com, terms.com_vel, terms.angular_momentum
     base_rotation, base_position, base_drift = (
         terms.base_rotation, terms.base_position, terms.base_drift
     )  # fmt: skip
     joint_pos, joint_vel = readings.joint_pos, readings.joint_vel
-    scalars, chains, momentum_sqrt_w = (
-        constants.scalars, constants.chains, constants.momentum_sqrt_w
-    )  # fmt: skip
+    gains, chains = constants.gains, constants.chains
     posture_idx, posture_home = constants.posture_idx, references.posture_home
     local_wrench_map = constants.local_wrench_map
     impedance_state, impedance_flags = state.impedance_state, state.impedance_flags
     prev_foot_vel, foot_acc_cmd = state.prev_foot_vel, state.foot_acc_cmd
-    cost_rows, cost_rhs = outputs.cost.rows, outputs.cost.rhs
+    tasks = outputs.tasks
     sole_jacobians, sole_drifts, wrench_maps = (
         outputs.sole_jacobians,
         outputs.sole_drifts,
@@ -687,78 +656,69 @@ def task_rows(
     )
     signals = outputs.signals
     nv = velocity.shape[0]
-    m = scalars[MASS]
+    m = gains.mass
     # ---- centroidal momentum reference (§III-D) --------------------------------------
     c_d, v_d, a_d = np.empty(3), np.empty(3), np.empty(3)
     desired_com(
         references.com_plan,
         t,
-        scalars[PREVIEW_DT],
-        scalars[PLAN_END],
-        scalars[COM_Z],
+        gains.preview_dt,
+        gains.plan_end,
+        gains.com_z,
         c_d,
         v_d,
         a_d,
     )
-    kh, ki = scalars[K_H], scalars[K_I]
+    kh, ki = gains.k_h, gains.k_i
     # ḣ_lin = m (c̈_d + K_h (ċ_d − ċ) + K_I (c_d − c)), with ∫(h_d − h) = m (c_d − c).
     lin = np.empty(3)
     for i in range(3):
         lin[i] = m * (a_d[i] + kh * (v_d[i] - com_vel[i]) + ki * (c_d[i] - com[i]))
     r0, r1, r2 = com[0] - base_position[0], com[1] - base_position[1], com[2] - base_position[2]
     ang = np.empty(3)  # ḣ_ang + (c − p_B) × ḣ_lin, with ḣ_ang = −K_h k
-    ang[0] = -scalars[K_H_ANGULAR] * angular_momentum[0] + (r1 * lin[2] - r2 * lin[1])
-    ang[1] = -scalars[K_H_ANGULAR] * angular_momentum[1] + (r2 * lin[0] - r0 * lin[2])
-    ang[2] = -scalars[K_H_ANGULAR] * angular_momentum[2] + (r0 * lin[1] - r1 * lin[0])
+    ang[0] = -gains.k_h_angular * angular_momentum[0] + (r1 * lin[2] - r2 * lin[1])
+    ang[1] = -gains.k_h_angular * angular_momentum[1] + (r2 * lin[0] - r0 * lin[2])
+    ang[2] = -gains.k_h_angular * angular_momentum[2] + (r0 * lin[1] - r1 * lin[0])
     # b_1 = X_GBᵀ ḣ_{G,r} − C_B ξ̇ (Eq. 7): both halves in the base frame, minus (C ξ̇)_B.
+    b_1 = tasks.momentum_target
     for i in range(3):
         h_lin = base_rotation[0, i] * lin[0] + base_rotation[1, i] * lin[1]
         h_lin += base_rotation[2, i] * lin[2]
         h_ang = base_rotation[0, i] * ang[0] + base_rotation[1, i] * ang[1]
         h_ang += base_rotation[2, i] * ang[2]
-        cost_rhs[i] = (h_lin - (nonlinear[i] - gravity_torques[i])) * momentum_sqrt_w[i]
-        cost_rhs[3 + i] = (h_ang - (nonlinear[3 + i] - gravity_torques[3 + i])) * (
-            momentum_sqrt_w[3 + i]
-        )
-    for i in range(6):
-        for j in range(nv):
-            cost_rows[i, j] = mass_matrix[i, j] * momentum_sqrt_w[i]
+        b_1[i] = h_lin - (nonlinear[i] - gravity_torques[i])
+        b_1[3 + i] = h_ang - (nonlinear[3 + i] - gravity_torques[3 + i])
 
     # ---- pelvis and torso upright, heading +x ----------------------------------------
     frame_jac = np.empty((6, nv))
-    kp, kv = scalars[KP_ORIENT], scalars[KV_ORIENT]
+    orientation = RowGains(gains.kp_orient, gains.kv_orient)
     drift = np.empty(3)  # angular part of the frame's J̇ ξ̇: the joint's α in world axes
     log_r = np.empty(3)
     drift[0], drift[1], drift[2] = eigen_rotate(
         base_rotation, base_drift[3], base_drift[4], base_drift[5]
     )
     log3(terms.pelvis_rotation, log_r)
-    gains = RowGains(kp, kv, scalars[SQRT_W_PELVIS])
-    _orientation_rows(
-        terms, chains[CHAIN_PELVIS], log_r, drift, gains, ROW_PELVIS, frame_jac, outputs.cost
+    _orientation_task(
+        terms, chains[CHAIN_PELVIS], log_r, drift, orientation, frame_jac, tasks.pelvis
     )
     torso_drift = terms.torso_joint_drift
     drift[0], drift[1], drift[2] = eigen_rotate(
         terms.torso_joint_rotation, torso_drift[3], torso_drift[4], torso_drift[5]
     )
     log3(terms.torso_rotation, log_r)
-    gains = RowGains(kp, kv, scalars[SQRT_W_TORSO])
-    _orientation_rows(
-        terms, chains[CHAIN_TORSO], log_r, drift, gains, ROW_TORSO, frame_jac, outputs.cost
-    )
+    _orientation_task(terms, chains[CHAIN_TORSO], log_r, drift, orientation, frame_jac, tasks.torso)
 
     # ---- arm and waist joints: hold home ---------------------------------------------
     n_post = posture_idx.shape[0]
     for r in range(n_post):
         k = posture_idx[r]
-        acc = scalars[KP_POSTURE] * (posture_home[r] - joint_pos[k])
-        acc -= scalars[KV_POSTURE] * joint_vel[k]
-        cost_rhs[ROW_POSTURE + r] = acc * scalars[SQRT_W_POSTURE]
-    row_swing = ROW_POSTURE + n_post
+        acc = gains.kp_posture * (posture_home[r] - joint_pos[k])
+        acc -= gains.kv_posture * joint_vel[k]
+        tasks.posture.target[r] = acc  # Φ_t selects the joint (constant), Φ̇_t = 0
 
     # ---- feet: state, measured contact wrench, impedance, swing rows -----------------
     signals[0], signals[1] = t, float(swing)
-    dt = scalars[DT]
+    dt = gains.dt
     switched_on = 0
     acc_ref = np.empty(6)
     site_rot, site_pos, foot_com = np.empty((3, 3)), np.empty(3), np.empty(3)
@@ -803,7 +763,7 @@ def task_rows(
         acc_meas = (vel - prev_foot_vel[side]) / dt
         prev_foot_vel[side] = vel
         fz, mx, my = contact_wrench(
-            ft, site_rot, site_pos, foot_com, pos, foot_acc_cmd[side], scalars[FOOT_MASS]
+            ft, site_rot, site_pos, foot_com, pos, foot_acc_cmd[side], gains.foot_mass
         )
         matrix_to_rpy(rot, rpy)
         roll, pitch, yaw = rpy[0], rpy[1], rpy[2]
@@ -837,12 +797,12 @@ def task_rows(
             wrench,
             constants.impedance_gains,
             dt,
-            scalars[IMPEDANCE] != 0.0,
+            gains.impedance,
         ):
             switched_on |= 1 << side
         # Eq. (3), ẍ_r = ẍ_m + K_v (ẋ_m − ẋ) + K_p (x_m − x), for (z, φx, φy) with the
         # modified reference; x, y and yaw follow the plan (the same form, unmodified).
-        kp, kv = scalars[KP_SWING], scalars[KV_SWING]
+        kp, kv = gains.kp_swing, gains.kv_swing
         x_now = (pos[2], roll, pitch)
         acc_ref[0] = acc_d[0] + kv * (vel_d[0] - vel[0]) + kp * (pos_d[0] - pos[0])
         acc_ref[1] = acc_d[1] + kv * (vel_d[1] - vel[1]) + kp * (pos_d[1] - pos[1])
@@ -854,9 +814,7 @@ def task_rows(
             )
         acc_ref[5] = -kv * vel[5] - kp * yaw
         foot_acc_cmd[side] = acc_ref[:3]
-        _weighted_rows(
-            sole_jac, 0, 6, outputs.cost, row_swing, acc_ref, drift, scalars[SQRT_W_SWING]
-        )
+        _set_task(tasks.swing, sole_jac, 0, acc_ref, drift)
         signals[out + 13] = 1.0 if impedance_flags[side, 1] else 0.0
         refs[0:3], refs[3:6], refs[6:9] = pos_d[2:5], vel_d[2:5], acc_d[2:5]
         refs[9:12], refs[12:15], refs[15:18] = foot_state[0], foot_state[1], foot_state[2]
