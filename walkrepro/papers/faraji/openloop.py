@@ -15,6 +15,7 @@ import mujoco
 import numpy as np
 
 from walkrepro.papers.faraji.ik import (
+    SOLE_FRAMES,
     LegConstants,
     LegGeometry,
     leg_ik,
@@ -39,11 +40,13 @@ def threelp_params_from_robot(robot: Robot, leg_inertia: bool = True) -> ThreeLP
     """3LP parameters of a robot at its ``home`` posture (note ``3lp.md`` §8).
 
     - m1: everything but the legs (pelvis, trunk, head, arms) [kg];
-    - m2: one leg, the subtree from the hip yaw link [kg];
+    - m2: one leg, the subtree of the pelvis's child that carries the left sole (coman:
+      ``l_hip_yaw_link``; coman_lab: ``l_hip_pitch_link``) [kg];
     - h1: pelvis (hip-midpoint) height (:attr:`Robot.nominal_pelvis_height`) [m];
-    - h2: depth of the leg's CoM below the hip [m];
-    - h3: height of the m1 CoM above the pelvis [m];
-    - pw: half the hip spacing [m];
+    - h2: depth of the leg's CoM below the pelvis origin [m];
+    - h3: height of the m1 CoM above the pelvis origin [m];
+    - pw: half the hip spacing: the hip centre's lateral offset (where the three hip axes
+      meet, :class:`.ik.LegGeometry`) [m];
     - I2 = I3: the leg's pitch inertia about its own CoM [kg m²] (Paper II, 3LP Model: "each
       pendulum approximates the entire corresponding limb in the robot with a mass in the
       middle and inertia in the sagittal and lateral planes"); 0 with ``leg_inertia=False``
@@ -54,13 +57,13 @@ def threelp_params_from_robot(robot: Robot, leg_inertia: bool = True) -> ThreeLP
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     mujoco.mj_forward(model, data)
-    pelvis, leg = model.body("pelvis").id, model.body("l_hip_yaw_link").id
+    pelvis, leg = model.body("pelvis").id, leg_root_body(robot, "l")
     total, m2 = float(model.body_subtreemass[pelvis]), float(model.body_subtreemass[leg])
     m1 = total - 2.0 * m2
     z_pelvis = float(data.xpos[pelvis, 2])
     z_leg = float(data.subtree_com[leg, 2])
     z_upper = (total * float(data.subtree_com[pelvis, 2]) - 2.0 * m2 * z_leg) / m1
-    hip_y = float(abs(data.xpos[leg, 1] - data.xpos[pelvis, 1]))
+    hip_y = float(abs(LegGeometry.from_robot(robot, "l").hip[1]))
     inertia = _subtree_pitch_inertia(model, data, leg) if leg_inertia else 0.0
     return ThreeLPParams(
         m1=m1,
@@ -72,6 +75,18 @@ def threelp_params_from_robot(robot: Robot, leg_inertia: bool = True) -> ThreeLP
         I2=inertia,
         I3=inertia,
     )
+
+
+def leg_root_body(robot: Robot, side: str) -> int:
+    """MuJoCo id of the leg's root: the pelvis's child body whose subtree holds the sole."""
+    model = robot.mj_model
+    pelvis = model.body("pelvis").id
+    body = int(model.site_bodyid[model.site(SOLE_FRAMES[side]).id])
+    while int(model.body_parentid[body]) != pelvis:
+        if body == 0:
+            raise ValueError(f"{robot.name}: {SOLE_FRAMES[side]} is not below the pelvis")
+        body = int(model.body_parentid[body])
+    return body
 
 
 def series_stiffness(robot: Robot, joint: str) -> float:
