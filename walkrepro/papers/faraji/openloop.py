@@ -52,6 +52,17 @@ def threelp_params_from_robot(robot: Robot, leg_inertia: bool = True) -> ThreeLP
       middle and inertia in the sagittal and lateral planes"); 0 with ``leg_inertia=False``
       (point-mass legs). On coman it is 0.265 kg m², close to the point mass's own
       m2 h2² = 0.309 kg m² about the hip, so leaving it out halves the swing leg's inertia.
+
+    Which set (decided before any run on coman_lab): the robot's, so on coman_lab the lab's
+    Robotran bodies (class source, robots/coman_lab/parameters.yaml) at the paper's home
+    posture (knee 0.4 rad): m1 15.51 kg, m2 6.424 kg, h1 0.5165 m, h2 0.221 m, h3 0.231 m,
+    pw 0.0726 m, I2 0.171 kg m². The paper's first author's own 3LP set for COMAN
+    (salmanfaraji/Walking3LP @ 63d55a6, anatomy/coman_ratios.m and tools/model_geom.m) gives
+    the masses (M 28.5 kg, m2 6.39 kg per leg; its m1, 14.17 kg, leaves the pelvis out) but
+    every length as a fraction of a body length L that those files do not give (h1 0.524 L,
+    pw 0.0761 L), so it could not be used without an assumed L; its masses agree with the
+    lab's within 0.6 %. The time projection is a model of the robot it runs on, and the lab's
+    model gives every quantity at the posture the controller holds.
     """
     model = robot.mj_model
     data = mujoco.MjData(model)
