@@ -38,7 +38,7 @@ STATUS_END = "<!-- end of status -->"
 #: Papers in the order the README presents them, with a short label.
 PAPER_LABELS = {
     "lee2021": "Paper I — Lee et al., Toward Reactive Walking (E-FSM, `dyros_red`)",
-    "faraji": "Paper II — Faraji et al., time-projection push recovery (`coman`)",
+    "faraji": "Paper II — Faraji et al., time-projection push recovery (`coman_lab`)",
     "jo_oh": "Paper III — Jo & Oh, impedance control on uneven terrain (`kist_humanoid`)",
     "walkrepro": "walkrepro's own sanity checks (standing still)",
 }
