@@ -596,3 +596,14 @@ def test_push_figure_marks_the_corrective_steps(tmp_path: Path) -> None:
     figs._mark_corrective(ax2, fell)
     assert any("not counted (fell)" in line.get_label() for line in ax2.get_lines())
     plt.close("all")
+
+
+def test_the_neck_is_the_torso_top_or_the_shoulder_axes() -> None:
+    """Fig. 20's neck: the top of coman's torso box, the shoulder axes on coman_lab (capsules)."""
+    from walkrepro.papers.faraji.metrics import _neck_offset
+    from walkrepro.robot import load_robot
+
+    assert _neck_offset(load_robot("coman").mj_model) == pytest.approx(0.2)
+    lab = load_robot("coman_lab").mj_model
+    shoulder = lab.body("l_shoulder_pitch_link").id
+    assert _neck_offset(lab) == pytest.approx(float(lab.body_pos[shoulder, 2]))

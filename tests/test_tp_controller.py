@@ -160,7 +160,7 @@ def _walking_still(ticks: int = 40, **params):
 def test_stance_ankle_push_off_moves_a_slow_pelvis_forward() -> None:
     """A pelvis slower than the gait gets a forward ankle torque, and its motor offset turns
     the stance leg forward over the sole (with the sole on the ground); nothing else moves."""
-    robot, with_push_off = _walking_still()
+    robot, with_push_off = _walking_still(ankle_damping=1.0)  # walkrepro's, off by default
     _, without = _walking_still(ankle_damping=0.0)
     assert with_push_off.signals["ankle_torque"] > 1.0  # forward [Nm]
     assert without.signals["ankle_torque"] == 0.0
@@ -187,14 +187,28 @@ def test_stance_ankle_push_off_moves_a_slow_pelvis_forward() -> None:
     assert pelvis_in_sole(q)[0] > before[0]
 
 
+def test_the_defaults_are_the_papers_controller() -> None:
+    """The parameters' defaults are the paper's: Eq. 24 on the motor encoder, Eq. 21 on the
+    knees, full footstep gains and no stance-ankle push-off (a walking gait gets none)."""
+    p = TimeProjectionParams()
+    assert (p.torso_term, p.spring_compensation, p.footstep_scale, p.ankle_damping) == (
+        "motor",
+        "knees",
+        1.0,
+        0.0,
+    )
+    _, walking = _walking_still()
+    assert walking.signals["ankle_torque"] == 0.0
+
+
 def test_stance_ankle_push_off_never_brakes_and_is_off_in_place() -> None:
     """No push-off in place (v = 0) nor for a pelvis faster than the gait; for a backward
     gait a still pelvis lacks speed backward and gets a backward ankle torque."""
-    _, in_place = _walking_still(speed=0.0)
+    _, in_place = _walking_still(speed=0.0, ankle_damping=1.0)
     assert in_place.signals["ankle_torque"] == 0.0
-    _, backward = _walking_still(speed=-0.2)
+    _, backward = _walking_still(speed=-0.2, ankle_damping=1.0)
     assert backward.signals["ankle_torque"] < -1.0
-    robot, ctrl = _controller(start_time=0.0, speed=0.2, velocity_ramp_steps=1)
+    robot, ctrl = _controller(start_time=0.0, speed=0.2, velocity_ramp_steps=1, ankle_damping=1.0)
     for i in range(40):  # both hips extend: the feet run back under the pelvis at ≈ 1 m/s
         snap = _snapshot(robot, 0.002 * i)
         q = snap.joint_pos.copy()
@@ -228,7 +242,9 @@ def test_paper_knee_compensation_offsets_only_the_knees() -> None:
     mu = 0.022
     robot, knees = _controller(start_time=0.0, spring_compensation="knees", knee_deflection=mu)
     _, knees0 = _controller(start_time=0.0, spring_compensation="knees", knee_deflection=0.0)
-    _, home = _controller(start_time=0.0, knee_deflection=mu)  # home-based offsets elsewhere
+    _, home = _controller(
+        start_time=0.0, spring_compensation="posture", knee_deflection=mu
+    )  # home-based offsets elsewhere
     snap = _snapshot(robot, 0.0)  # each foot carries half the weight
     a, b, c = (ctrl.step(0.0, snap).ctrl[:12] for ctrl in (knees, knees0, home))
     diff = a - b

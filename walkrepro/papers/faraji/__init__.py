@@ -1,5 +1,5 @@
 """Paper II, Faraji et al., *Push recovery with stepping strategy based on time-projection
-control* (``coman``), declared as a plugin (:data:`PLUGIN`).
+control* (``coman_lab``; ``coman`` for ablations), declared as a plugin (:data:`PLUGIN`).
 
 - :mod:`.threelp`: the 3LP walking model, its closed-form propagation (Eqs. 1-6) and the
   step-to-step coordinates S, M, M̂, O (Eqs. 3, 7-8, 11);
@@ -23,7 +23,7 @@ PLUGIN = Plugin(
         Paper(
             key="faraji",
             citation="Faraji et al., Push recovery with stepping strategy based on time-projection control",
-            label="Paper II — Faraji et al., time-projection push recovery (`coman`)",
+            label="Paper II — Faraji et al., time-projection push recovery (`coman_lab`)",
             title="Faraji et al.",
             order=2,
         ),

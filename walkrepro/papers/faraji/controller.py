@@ -14,10 +14,10 @@ Every control tick (≈ 2 ms):
 4. open loop (:mod:`.openloop`, :mod:`.lift`): Cartesian pelvis/feet targets with pelvis
    roll (Eq. 22), fixed and adaptive lift (Eqs. 23, 28-30) → IK; stance-hip torso
    regulation (Eq. 24); knee spring compensation (Eq. 21);
-5. stance-ankle push-off (walkrepro, not in the paper; ``ankle_damping``): while walking, a
-   motor offset on the stance ankle's spring adds the pelvis speed lacking along the
-   commanded direction, τ_a = b max(0, −sign(v) e_ṗ) sign(v), b = D1 ω₁ (3LP's stance-ankle
-   torque input, which the paper leaves free); none in place;
+5. stance-ankle push-off (walkrepro, not in the paper; ``ankle_damping``, off by default and
+   in every main spec): while walking, a motor offset on the stance ankle's spring adds the
+   pelvis speed lacking along the commanded direction, τ_a = b max(0, −sign(v) e_ṗ) sign(v),
+   b = D1 ω₁ (3LP's stance-ankle torque input, which the paper leaves free); none in place;
 6. motor targets for the position servos (``Command.ctrl``).
 """
 
@@ -148,16 +148,16 @@ class TimeProjectionParams(ControllerParams):
         0.2, gt=0, description="t1 / T of Eq. 24", json_schema_extra=paper("Eq. 24: t_1 = 0.2 T")
     )
     torso_term: Literal["link", "motor"] = Field(
-        "link",
-        description="the stance-hip torso term of Eq. 24 as a motor target: 'motor' is the "
-        "paper's v = k_d(γ(θ_des − θ_m) + (1 − γ)(−θ_pitch)), target θ_m + θ_pitch from the "
-        "pre-spring motor encoder, a motor torque k_d/β·θ_pitch (222 Nm/rad at 100 V/rad), "
-        "the spring compensation on the tracking part only; 'link' (walkrepro's departure, "
-        "README known deviations) targets the link encoder + θ_pitch, which also feeds back "
-        "the hip spring's deflection: the servo in series with the spring (142 Nm/rad)",
-        json_schema_extra=calibrated(
-            "walkrepro's departure from Eq. 24 ('motor' is the paper's), kept because the 500 V/rad in-place gaits and walks stand with it (robots/coman/README.md)",
-            scenario="the paper's Eq. 24 ablation",
+        "motor",
+        description="the stance-hip torso term of Eq. 24 as a motor target: 'motor' (the "
+        "paper's, the default) is v = k_d(γ(θ_des − θ_m) + (1 − γ)(−θ_pitch)), target "
+        "θ_m + θ_pitch from the pre-spring motor encoder, a motor torque k_d/β·θ_pitch "
+        "(222 Nm/rad at 100 V/rad), the spring compensation on the tracking part only; "
+        "'link' (walkrepro's earlier departure on robots/coman, an ablation) targets the link "
+        "encoder + θ_pitch, which also feeds back the hip spring's deflection: the servo in "
+        "series with the spring",
+        json_schema_extra=paper(
+            "Eq. 24: v = k_d(γ(θ_des − θ_act) + (1 − γ)(−θ_pitch)) on the motor encoder"
         ),
     )
     zeta: float = Field(
@@ -194,20 +194,15 @@ class TimeProjectionParams(ControllerParams):
         ),
     )
     spring_compensation: Literal["posture", "posture_series", "knees"] = Field(
-        "posture_series",
-        description="Eq. 21: 'knees' is the paper's, a load-scaled offset −μ·|F|/(m g) on the "
-        "knee targets only (μ: knee_deflection, identified from the open-loop in-place gait's "
-        "stance knee compressions, Fig. 7); 'posture_series' (walkrepro's, the default) adds "
-        "the hip pitch, knee and ankle pitch joints' static deflection under the body weight "
-        "at the sole point of the commanded posture, each torque divided by the running servo "
-        "in series with the spring, 1/(1/k + 1/kp) (the compliance the stance leg has), and "
-        "the home pre-load on the other leg joints; 'posture' divides by the spring alone, "
-        "which leaves the servo's own yield uncompensated (docs/analysis/faraji.md, why the "
-        "in-place gait drifted forward)",
-        json_schema_extra=calibrated(
-            "walkrepro's departure from Eq. 21 ('knees' is the paper's), adopted because the in-place gait drifted forward with it (docs/analysis/faraji.md)",
-            scenario="the paper's Eq. 21 ablation",
-        ),
+        "knees",
+        description="Eq. 21: 'knees' (the paper's, the default) is a load-scaled offset "
+        "−μ·|F|/(m g) on the knee targets only (μ: knee_deflection); 'posture_series' "
+        "(walkrepro's earlier departure on robots/coman, an ablation) adds the hip pitch, knee "
+        "and ankle pitch joints' static deflection under the body weight at the sole point of "
+        "the commanded posture, each torque divided by the running servo in series with the "
+        "spring, 1/(1/k + 1/kp), and the home pre-load on the other leg joints; 'posture' "
+        "divides by the spring alone (docs/analysis/faraji.md)",
+        json_schema_extra=paper("Eq. 21: a load-scaled offset on the knee targets"),
     )
     stance_ankle_bias: float = Field(
         0.0,
@@ -222,9 +217,8 @@ class TimeProjectionParams(ControllerParams):
     footstep_scale: float = Field(
         1.0,
         ge=0,
-        description="scale on the time-projection footstep gains (1 = the 3LP tables; see "
-        "README known deviations: 3LP has free ankles, coman's stance ankle is a stiff "
-        "servo behind a 125 Nm/rad spring)",
+        description="scale on the time-projection footstep gains (1 = the 3LP tables, the "
+        "paper's; robots/coman's ablations run 0.5, walkrepro's earlier departure)",
         json_schema_extra=paper("Fig. 13: the 3LP time-projection footstep gains, unscaled"),
     )
     attack_in_ik: bool = Field(
@@ -246,14 +240,15 @@ class TimeProjectionParams(ControllerParams):
         json_schema_extra=paper("State Estimation: velocities of s1 = p - f and s2 = p - s"),
     )
     ankle_damping: float = Field(
-        1.0,
+        0.0,
         ge=0,
-        description="stance-ankle push-off gain: τ_a = b · max(0, −sign(v) · e_ṗ) · sign(v), "
+        description="stance-ankle push-off gain (walkrepro's, not the paper's; 0, the "
+        "default, is the paper's free ankle): τ_a = b · max(0, −sign(v) · e_ṗ) · sign(v), "
         "b = ankle_damping × D1 ω₁ [Nm s/m] (damping rate b / D1 = the 3LP falling rate ω₁), "
         "realised as a motor offset τ_a / k_eff through the ankle spring: it only adds speed "
-        "along the commanded direction, none in place (v = 0); 0: the paper's free ankle",
-        json_schema_extra=calibrated(
-            "walkrepro's stance-ankle push-off, chosen on the walking speeds (Fig. 19 rows; robots/coman/README.md); 0 is the paper's free ankle"
+        "along the commanded direction, none in place (v = 0)",
+        json_schema_extra=paper(
+            "3LP / Fig. 3: no stance-ankle torque command (the ankle is left free)"
         ),
     )
     table_samples: int = Field(

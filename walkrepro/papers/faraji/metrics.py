@@ -486,13 +486,17 @@ def _torso_id(model: mujoco.MjModel) -> int:
 
 
 def _neck_offset(model: mujoco.MjModel) -> float:
-    """Height of the neck above the torso body origin: the top of its box geom [m]."""
+    """Height of the neck above the torso body origin [m]: the top of its box geom
+    (robots/coman), else the highest anchor of its child bodies, the shoulder axes
+    (robots/coman_lab, whose torso is drawn with capsules), else 0."""
     torso = model.body("torso").id
     tops = [
         model.geom_pos[g, 2] + model.geom_size[g, 2]
         for g in range(model.ngeom)
         if model.geom_bodyid[g] == torso and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX
     ]
+    if not tops:
+        tops = [model.body_pos[b, 2] for b in range(model.nbody) if model.body_parentid[b] == torso]
     return float(max(tops)) if tops else 0.0
 
 

@@ -15,6 +15,7 @@ import mujoco
 import numpy as np
 
 from walkrepro.papers.faraji.ik import (
+    SOLE_FRAMES,
     LegConstants,
     LegGeometry,
     leg_ik,
@@ -39,28 +40,41 @@ def threelp_params_from_robot(robot: Robot, leg_inertia: bool = True) -> ThreeLP
     """3LP parameters of a robot at its ``home`` posture (note ``3lp.md`` §8).
 
     - m1: everything but the legs (pelvis, trunk, head, arms) [kg];
-    - m2: one leg, the subtree from the hip yaw link [kg];
+    - m2: one leg, the subtree of the pelvis's child that carries the left sole (coman:
+      ``l_hip_yaw_link``; coman_lab: ``l_hip_pitch_link``) [kg];
     - h1: pelvis (hip-midpoint) height (:attr:`Robot.nominal_pelvis_height`) [m];
-    - h2: depth of the leg's CoM below the hip [m];
-    - h3: height of the m1 CoM above the pelvis [m];
-    - pw: half the hip spacing [m];
+    - h2: depth of the leg's CoM below the pelvis origin [m];
+    - h3: height of the m1 CoM above the pelvis origin [m];
+    - pw: half the hip spacing: the hip centre's lateral offset (where the three hip axes
+      meet, :class:`.ik.LegGeometry`) [m];
     - I2 = I3: the leg's pitch inertia about its own CoM [kg m²] (Paper II, 3LP Model: "each
       pendulum approximates the entire corresponding limb in the robot with a mass in the
       middle and inertia in the sagittal and lateral planes"); 0 with ``leg_inertia=False``
       (point-mass legs). On coman it is 0.265 kg m², close to the point mass's own
       m2 h2² = 0.309 kg m² about the hip, so leaving it out halves the swing leg's inertia.
+
+    Which set (decided before any run on coman_lab): the robot's, so on coman_lab the lab's
+    Robotran bodies (class source, robots/coman_lab/parameters.yaml) at the paper's home
+    posture (knee 0.4 rad): m1 15.51 kg, m2 6.424 kg, h1 0.5165 m, h2 0.221 m, h3 0.231 m,
+    pw 0.0726 m, I2 0.171 kg m². The paper's first author's own 3LP set for COMAN
+    (salmanfaraji/Walking3LP @ 63d55a6, anatomy/coman_ratios.m and tools/model_geom.m) gives
+    the masses (M 28.5 kg, m2 6.39 kg per leg; its m1, 14.17 kg, leaves the pelvis out) but
+    every length as a fraction of a body length L that those files do not give (h1 0.524 L,
+    pw 0.0761 L), so it could not be used without an assumed L; its masses agree with the
+    lab's within 0.6 %. The time projection is a model of the robot it runs on, and the lab's
+    model gives every quantity at the posture the controller holds.
     """
     model = robot.mj_model
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     mujoco.mj_forward(model, data)
-    pelvis, leg = model.body("pelvis").id, model.body("l_hip_yaw_link").id
+    pelvis, leg = model.body("pelvis").id, leg_root_body(robot, "l")
     total, m2 = float(model.body_subtreemass[pelvis]), float(model.body_subtreemass[leg])
     m1 = total - 2.0 * m2
     z_pelvis = float(data.xpos[pelvis, 2])
     z_leg = float(data.subtree_com[leg, 2])
     z_upper = (total * float(data.subtree_com[pelvis, 2]) - 2.0 * m2 * z_leg) / m1
-    hip_y = float(abs(data.xpos[leg, 1] - data.xpos[pelvis, 1]))
+    hip_y = float(abs(LegGeometry.from_robot(robot, "l").hip[1]))
     inertia = _subtree_pitch_inertia(model, data, leg) if leg_inertia else 0.0
     return ThreeLPParams(
         m1=m1,
@@ -72,6 +86,18 @@ def threelp_params_from_robot(robot: Robot, leg_inertia: bool = True) -> ThreeLP
         I2=inertia,
         I3=inertia,
     )
+
+
+def leg_root_body(robot: Robot, side: str) -> int:
+    """MuJoCo id of the leg's root: the pelvis's child body whose subtree holds the sole."""
+    model = robot.mj_model
+    pelvis = model.body("pelvis").id
+    body = int(model.site_bodyid[model.site(SOLE_FRAMES[side]).id])
+    while int(model.body_parentid[body]) != pelvis:
+        if body == 0:
+            raise ValueError(f"{robot.name}: {SOLE_FRAMES[side]} is not below the pelvis")
+        body = int(model.body_parentid[body])
+    return body
 
 
 def series_stiffness(robot: Robot, joint: str) -> float:
