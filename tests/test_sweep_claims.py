@@ -9,7 +9,7 @@ import pytest
 
 from walkrepro.checks import FAIL, KNOWN, PASS
 from walkrepro.sweep.claims import evaluate_claim, in_region, matches
-from walkrepro.sweep.model import SweepClaim
+from walkrepro.sweep.model import SweepClaim, SweepSpec
 
 FIELDS = ("height", "tilt", "impedance")
 HEIGHTS, TILTS = (0.02, 0.04, 0.06), (0, 10, 20)
@@ -399,4 +399,12 @@ def test_mirror_needs_a_pairing_kind() -> None:
     with pytest.raises(ValueError, match="'mirror' pairs cells"):
         SweepClaim.model_validate(
             {**CONTAINS.model_dump(), "kind": "everywhere", "contains": None, "mirror": "height"}
+        )
+
+
+def test_mirror_names_a_grid_field() -> None:
+    """A map whose claim mirrors a field it does not sweep is a spec error naming its grid."""
+    with pytest.raises(ValueError, match="not a grid field of map 'm' \\(start\\)"):
+        SweepSpec.model_validate(
+            {"name": "m", "grid": {"start": "4.0,4.1"}, "claims": [MIRRORED.model_dump()]}
         )

@@ -148,6 +148,16 @@ class SweepSpec(_Strict):
     )
     claims: list[SweepClaim] = Field(default_factory=list)
 
+    @model_validator(mode="after")
+    def _mirror_is_a_grid_field(self) -> SweepSpec:
+        for claim in self.claims:
+            if claim.mirror is not None and claim.mirror not in self.grid:
+                raise ValueError(
+                    f"claim mirror {claim.mirror!r} is not a grid field of map {self.name!r} "
+                    f"({', '.join(self.grid)})"
+                )
+        return self
+
     def grid_items(self) -> list[str]:
         """The grid as ``--grid`` strings."""
         return [f"{k}={_values_text(v)}" for k, v in self.grid.items()]
