@@ -9,7 +9,7 @@ import pytest
 
 from walkrepro.checks import FAIL, KNOWN, PASS
 from walkrepro.sweep.claims import evaluate_claim, in_region, matches
-from walkrepro.sweep.model import SweepClaim
+from walkrepro.sweep.model import SweepClaim, SweepSpec
 
 FIELDS = ("height", "tilt", "impedance")
 HEIGHTS, TILTS = (0.02, 0.04, 0.06), (0, 10, 20)
@@ -331,3 +331,80 @@ def test_a_claim_over_no_cells_fails(claim: SweepClaim) -> None:
     row = evaluate_claim(drag_table(slower_with_stepping(0.7)), ("force", "stepping"), claim, "m")
     assert row.status == FAIL and row.measured == 0
     assert "no cell of the map where" in row.note
+
+
+# ---- mirrored pairing: forward against backward pushes ---------------------------------------
+
+PUSH_FIELDS = ("push_impulse", "start")
+IMPULSES, ONSETS = (-8, -6, -4, 4, 6, 8), (4.0, 4.1)
+
+
+def push_table(recovered: set[tuple[int, float]]) -> list[dict]:
+    """Pushes of ±4-8 N·s at two onsets: recovered where listed, else fallen."""
+    rows = []
+    for k, (p, s) in enumerate(itertools.product(IMPULSES, ONSETS)):
+        fell = float((p, s) not in recovered)
+        outcome = "fell" if fell else "complete"
+        rows.append({"cell": k, "push_impulse": p, "start": s, "outcome": outcome, "fell": fell})
+    return rows
+
+
+MIRRORED = SweepClaim.model_validate(
+    {
+        "kind": "exceeds",
+        "region": {"metric": "fell", "op": "==", "value": 0},
+        "where": {"push_impulse": {"op": ">", "value": 0}},
+        "contains": {"push_impulse": {"op": "<", "value": 0}},
+        "mirror": "push_impulse",
+        "source": "Paper II, Moderate Pushes",
+    }
+)
+#: Every push to 6 N·s recovered both ways at both onsets.
+BOTH_WAYS = {(p, s) for p in (-6, -4, 4, 6) for s in ONSETS}
+
+
+def test_mirrored_forward_pushes_recovered_stronger() -> None:
+    """Forward pushes recovered to 8 N·s, backward ones to 6: the forward region is larger."""
+    row = evaluate_claim(push_table(BOTH_WAYS | {(8, 4.0)}), PUSH_FIELDS, MIRRORED, "m")
+    assert row.status == PASS and row.measured == 0
+    assert "mirrored in push_impulse" in row.metric
+    assert "5 of 6 cells where push_impulse > 0, 4 of 6 where push_impulse < 0; 1 only" in row.note
+
+
+def test_mirrored_equal_limits_are_not_stronger() -> None:
+    """Pushes recovered to 6 N·s both ways: forward is not stronger, the claim fails."""
+    row = evaluate_claim(push_table(BOTH_WAYS), PUSH_FIELDS, MIRRORED, "m")
+    assert row.status == FAIL and row.measured == 1
+
+
+def test_mirrored_backward_push_recovered_alone_contradicts() -> None:
+    """A backward 8 N·s push recovered where its forward mirror falls contradicts the claim,
+    named by the backward cell."""
+    recovered = BOTH_WAYS | {(8, 4.0), (-8, 4.1)}
+    row = evaluate_claim(push_table(recovered), PUSH_FIELDS, MIRRORED, "m")
+    assert row.status == FAIL and row.measured == 1
+    assert "contradicted at (push_impulse=-8, start=4.1)" in row.note
+
+
+def test_without_mirror_opposite_pushes_are_not_paired() -> None:
+    """Without ``mirror`` the cells pair by onset alone, not forward with backward: the claim
+    that holds mirrored fails."""
+    plain = SweepClaim.model_validate({**MIRRORED.model_dump(), "mirror": None})
+    row = evaluate_claim(push_table(BOTH_WAYS | {(8, 4.0)}), PUSH_FIELDS, plain, "m")
+    assert row.status == FAIL and "mirrored" not in row.metric
+
+
+def test_mirror_needs_a_pairing_kind() -> None:
+    """An ``everywhere`` claim pairs nothing, so it cannot mirror."""
+    with pytest.raises(ValueError, match="'mirror' pairs cells"):
+        SweepClaim.model_validate(
+            {**CONTAINS.model_dump(), "kind": "everywhere", "contains": None, "mirror": "height"}
+        )
+
+
+def test_mirror_names_a_grid_field() -> None:
+    """A map whose claim mirrors a field it does not sweep is a spec error naming its grid."""
+    with pytest.raises(ValueError, match="not a grid field of map 'm' \\(start\\)"):
+        SweepSpec.model_validate(
+            {"name": "m", "grid": {"start": "4.0,4.1"}, "claims": [MIRRORED.model_dump()]}
+        )

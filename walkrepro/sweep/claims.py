@@ -78,13 +78,15 @@ def evaluate_claim(
         violations, unknown, note = _contains(rows, fields, claim)
         sign = "⊇" if claim.kind == "contains" else "⊋"
         label = f"map {map_name}: {claim.region} where {_sel(claim.where)} {sign} where {_sel(claim.contains or {})}"
+        if claim.mirror:
+            label += f", mirrored in {claim.mirror}"
     elif claim.kind == "paired":
         violations, unknown, note = _paired(rows, fields, claim)
         r = claim.region
         label = (
             f"map {map_name}: {r.metric} where {_sel(claim.where)} {r.op} {r.value:g} × "
             f"its value where {_sel(claim.than or {})}"
-        )
+        ) + (f", mirrored in {claim.mirror}" if claim.mirror else "")
     else:
         violations, unknown, note = _everywhere(rows, fields, claim)
         label = f"map {map_name}: {claim.region} for every cell" + (
@@ -151,15 +153,23 @@ def _selects_none(chosen: Sequence[Row], selector: Mapping[str, Any]) -> list[st
 
 
 def _pairing(
-    fields: Sequence[str], named: set[str]
+    fields: Sequence[str], named: set[str], mirror: str | None = None
 ) -> tuple[list[str], Callable[[Row], tuple[str, ...]]]:
-    """The grid fields that pair two cells (those no selector names), and a cell's key."""
-    others = [f for f in fields if f not in named]
+    """The grid fields that pair two cells (those no selector names, and the ``mirror``
+    field by its magnitude: partners there have opposite signs), and a cell's key."""
+    others = [f for f in fields if f not in named or f == mirror]
 
     def key(row: Row) -> tuple[str, ...]:
-        return tuple(value_text(row.get(f)) for f in others)
+        return tuple(
+            value_text(abs(row[f]) if f == mirror and _number(row.get(f)) else row.get(f))
+            for f in others
+        )
 
     return others, key
+
+
+def _number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
 
 
 def _contains(
@@ -167,7 +177,7 @@ def _contains(
 ) -> tuple[list[str], list[str], str]:
     """Region(where) ⊇ region(contains), cells paired by the fields neither selector names."""
     inner_sel = claim.contains or {}
-    others, key = _pairing(fields, set(claim.where) | set(inner_sel))
+    others, key = _pairing(fields, set(claim.where) | set(inner_sel), claim.mirror)
     outer = {key(r): r for r in rows if matches(r, claim.where)}
     inner = [r for r in rows if matches(r, inner_sel)]
     violations = []
@@ -236,7 +246,7 @@ def _paired(
     """metric(where cell) op value × metric(partner), the partner matching ``than`` with the
     same values of the fields ``than`` does not name."""
     region, than = claim.region, claim.than or {}
-    others, key = _pairing(fields, set(than))
+    others, key = _pairing(fields, set(than), claim.mirror)
     partners = {key(r): r for r in rows if matches(r, than)}
     chosen = [r for r in rows if matches(r, claim.where) and not matches(r, than)]
     violations, unknown = [], _selects_none(chosen, claim.where)

@@ -96,6 +96,12 @@ class SweepClaim(_Strict):
 
     ``where``/``contains``/``than`` map a grid field to a value (equality) or a condition
     ``{op, value}``.
+
+    ``mirror`` names a numeric grid field whose sign the two sides of a ``contains``,
+    ``exceeds`` or ``paired`` claim take opposite: a cell is paired with the one of the
+    opposite value there (and the same values of the other fields), e.g. a forward push of
+    6 N·s with the backward push of 6 N·s at the same onset ("forward pushes are recovered
+    wherever backward ones are, and stronger ones").
     """
 
     kind: Literal["contains", "exceeds", "everywhere", "paired"]
@@ -103,6 +109,7 @@ class SweepClaim(_Strict):
     where: dict[str, Any] = Field(default_factory=dict)
     contains: dict[str, Any] | None = None
     than: dict[str, Any] | None = None
+    mirror: str | None = None
     source: str
     note: str = ""
     known_deviation: KnownDeviation | None = None
@@ -120,6 +127,8 @@ class SweepClaim(_Strict):
                 raise ValueError("a 'paired' claim needs a single-number op (<, <=, >, >=, ==)")
         elif self.than is not None:
             raise ValueError("'than' applies to kind paired only")
+        if self.mirror is not None and self.kind == "everywhere":
+            raise ValueError("'mirror' pairs cells: kinds contains, exceeds and paired only")
         return self
 
 
@@ -138,6 +147,16 @@ class SweepSpec(_Strict):
         None, description="the region whose edge the map draws (default: the cells with no fall)"
     )
     claims: list[SweepClaim] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _mirror_is_a_grid_field(self) -> SweepSpec:
+        for claim in self.claims:
+            if claim.mirror is not None and claim.mirror not in self.grid:
+                raise ValueError(
+                    f"claim mirror {claim.mirror!r} is not a grid field of map {self.name!r} "
+                    f"({', '.join(self.grid)})"
+                )
+        return self
 
     def grid_items(self) -> list[str]:
         """The grid as ``--grid`` strings."""

@@ -7,6 +7,7 @@ changes (Fig. 14), corrective steps after pushes (Figs. 16-17), pelvis speed und
 
 from __future__ import annotations
 
+import math
 from functools import cache
 from typing import NamedTuple
 
@@ -14,6 +15,11 @@ import mujoco
 import numpy as np
 
 from walkrepro.metrics import (
+    FOOT_BODIES,
+    GRAVITY,
+    LIFT_TIME,
+    LIFTOFF_WEIGHT_FRACTION,
+    TOUCHDOWN_WEIGHT_FRACTION,
     LogData,
     MetricArgError,
     NotMeasurable,
@@ -694,3 +700,431 @@ def _error_spread(d: LogData, arg: str) -> float:
             f"fewer than two filtered errors in the window {window or 'of the run'}"
         )
     return float(np.std(e[:, ERROR_NAMES.index(name)]))
+
+
+# ---- the gait's shape from the log: lift, double support, bounce, springs, timing ----------
+#
+# Paper II describes its in-place gait with a few numbers besides its figures' results: the
+# foot lift (Fig. 8: "about 2.4 cm"), the double support the springs produce (3LP Model:
+# "approximately 20 % in each phase"), the knee springs' stance compressions (Fig. 7) and
+# when the feet touch down against the fixed timing (Fig. 19). Each is read here from the
+# logged contact forces and states alone.
+
+#: A swing is an unloaded interval of a foot at least this long [s] (the core's LIFT_TIME: a
+#: tenth of the shortest swing of the three gaits, longer than a landing bounce).
+MIN_SWING_TIME = LIFT_TIME
+#: A foot carries its share of single support above this fraction of the robot's weight: Eq.
+#: 21 scales μ by |F|/(m g), so μ is the compression at F = m g; samples above 0.9 m g keep
+#: the stance at (nearly) full load and drop the weight transfers of double support.
+FULL_LOAD_FRACTION = 0.9
+
+
+class Swing(NamedTuple):
+    """An unloaded interval of one foot (:func:`foot_swings`), indices on the contact time base."""
+
+    #: ``left_foot`` or ``right_foot``.
+    foot: str
+    #: first unloaded sample (lift-off).
+    off: int
+    #: first loaded sample after it (touchdown).
+    on: int
+
+
+def loaded_mask(fz: np.ndarray, weight: float) -> np.ndarray:
+    """Whether a foot carries load at each sample, with the core's hysteresis.
+
+    Loaded above ``TOUCHDOWN_WEIGHT_FRACTION · weight`` (10 %), unloaded below
+    ``LIFTOFF_WEIGHT_FRACTION · weight`` (5 %), unchanged between (as
+    :func:`walkrepro.metrics.detect_steps`, whose step detection also asks for a clearance;
+    a load claim asks only for the load). The first sample is loaded above the 5 % mark.
+
+    Args:
+        fz: vertical contact force on the foot, shape (N,) [N].
+        weight: robot weight m g [N].
+    """
+    on, off = TOUCHDOWN_WEIGHT_FRACTION * weight, LIFTOFF_WEIGHT_FRACTION * weight
+    out = np.zeros(fz.size, dtype=bool)
+    state = bool(fz.size) and bool(fz[0] > off)
+    for i, f in enumerate(fz):
+        if state and f < off:
+            state = False
+        elif not state and f > on:
+            state = True
+        out[i] = state
+    return out
+
+
+def foot_swings(t: np.ndarray, loaded: np.ndarray, foot: str) -> list[Swing]:
+    """The unloaded intervals of one foot that end in a touchdown and last at least
+    :data:`MIN_SWING_TIME` (shorter ones are chatter of a landing or a weight shift)."""
+    swings, off = [], None
+    for i in range(1, loaded.size):
+        if loaded[i - 1] and not loaded[i]:
+            off = i
+        elif off is not None and loaded[i] and not loaded[i - 1]:
+            if t[i] - t[off] >= MIN_SWING_TIME:
+                swings.append(Swing(foot, off, i))
+            off = None
+    return swings
+
+
+class Loading(NamedTuple):
+    """Both feet's load over the contact messages (:func:`loading`)."""
+
+    #: contact message times, shape (N,) [s].
+    t: np.ndarray
+    #: each foot's loaded mask, ``left_foot`` and ``right_foot`` -> shape (N,).
+    loaded: dict[str, np.ndarray]
+    #: each foot's vertical contact force, shape (N,) [N].
+    fz: dict[str, np.ndarray]
+    #: the swings of both feet, in touchdown order.
+    swings: list[Swing]
+
+
+def loading(d: LogData) -> Loading:
+    """Load masks (:func:`loaded_mask`) and swings (:func:`foot_swings`) of both feet, from
+    the logged contact forces (pre-fall)."""
+    d.require_states()
+    d.require_contacts()
+    weight = d.robot_mass * GRAVITY
+    t = d.contact_t
+    fz = {foot: d.foot_normal_force(foot) for foot in FOOT_BODIES}
+    loaded = {foot: loaded_mask(fz[foot], weight) for foot in FOOT_BODIES}
+    swings = [s for foot in FOOT_BODIES for s in foot_swings(t, loaded[foot], foot)]
+    return Loading(t, loaded, fz, sorted(swings, key=lambda s: s.on))
+
+
+def _window_or_run(d: LogData, arg: str) -> tuple[float, float]:
+    """The window ``t0-t1`` the data must reach, or the whole pre-fall run."""
+    if not arg:
+        return -math.inf, math.inf
+    lo, hi = parse_window(arg)
+    d.require_until(hi, f"the end of the window {arg}")
+    return lo, hi
+
+
+def double_support_fractions(
+    t: np.ndarray, loaded: dict[str, np.ndarray], touchdowns: np.ndarray
+) -> np.ndarray:
+    """Fraction of each step in which both feet carry load [-].
+
+    A step runs from one touchdown to the next (``touchdowns``, any foot, sorted) [s]; its
+    double support is the time both masks are loaded, over the step's duration. Each sample
+    stands for the time to the next one.
+
+    Args:
+        t: sample times, shape (N,) [s].
+        loaded: each foot's loaded mask, shape (N,).
+        touchdowns: touchdown times [s].
+    """
+    both = np.logical_and(*loaded.values())
+    dt = np.diff(t, append=t[-1])
+    out = []
+    for a, b in zip(touchdowns[:-1], touchdowns[1:], strict=True):
+        inside = (t >= a) & (t < b)
+        out.append(float(np.sum(dt[inside & both]) / (b - a)))
+    return np.array(out)
+
+
+@metric(
+    "double_support_fraction",
+    "median over the steps (touchdown to next touchdown, from the contact forces) of the "
+    "fraction of the step in which both feet carry more than 10 % of the weight (5 % to "
+    "unload) [-] (arg 't0-t1': steps inside the window)",
+    arg=window_check,
+)
+def _double_support_fraction(d: LogData, arg: str) -> float:
+    """Paper II, 3LP Model: "the intrinsic physical compliance of COMAN naturally produces a
+    double support phase of approximately 20% in each phase" (and Eq. 24's t₁ = 0.2 T, "the
+    force transfer rate during contact switch time (double support ≈ 20%)").
+
+    A touchdown is a foot's loading after a swing of at least :data:`MIN_SWING_TIME`
+    (:func:`foot_swings`); a step runs from one touchdown to the next, whichever foot;
+    its double support is the time both feet are loaded (:func:`loaded_mask`). Window
+    (steps that start and end in it; the data must reach its end), else pre-fall; the
+    median over at least two steps.
+    """
+    lo, hi = _window_or_run(d, arg)
+    ld = loading(d)
+    touchdowns = np.array([ld.t[s.on] for s in ld.swings])
+    touchdowns = touchdowns[(touchdowns >= lo) & (touchdowns <= hi)]
+    if touchdowns.size < 3:
+        raise NotMeasurable(
+            f"{max(touchdowns.size - 1, 0)} step(s) between touchdowns in the window "
+            f"{arg or 'of the run'}, 2 needed{d.stopped_note()}"
+        )
+    return float(np.median(double_support_fractions(ld.t, ld.loaded, touchdowns)))
+
+
+def swing_lifts(centre_z: np.ndarray, loaded: np.ndarray, swings: list[Swing]) -> np.ndarray:
+    """Peak rise of the sole centre in each swing above where the foot stood before it [m].
+
+    The floor level of a swing is the median sole-centre height over the foot's loaded
+    samples of the ground phase before it (from the previous swing's touchdown, or the log's
+    start); the lift is the highest sole-centre height in the swing minus that level, NaN
+    for a swing with no loaded sample before it.
+
+    Args:
+        centre_z: sole-centre height on the contact time base, shape (N,) [m].
+        loaded: the foot's loaded mask, shape (N,).
+        swings: that foot's swings, in time order.
+    """
+    out, start = np.full(len(swings), math.nan), 0
+    for k, s in enumerate(swings):
+        ground = np.flatnonzero(loaded[start : s.off]) + start
+        if ground.size:
+            out[k] = float(np.max(centre_z[s.off : s.on]) - np.median(centre_z[ground]))
+        start = s.on
+    return out
+
+
+@metric(
+    "swing_lift",
+    "median over the swings (unloaded intervals of ≥ 50 ms, from the contact forces) of the "
+    "swing sole centre's peak height above where that foot stood before the swing [m] (arg "
+    "'t0-t1': swings that touch down in the window)",
+    arg=window_check,
+)
+def _swing_lift(d: LogData, arg: str) -> float:
+    """Paper II, Lateral Plane, Eqs. 22-23 and Fig. 8: the pelvis roll and the half-sine
+    swing-foot trajectory "lift it about 2.4 cm in total"; Fig. 8 caption: "In practice, an
+    open-loop foot lift of about 2.4cm is achieved through a combination of both strategies".
+    Fig. 6: a lift of 2-3 cm "cannot be completely realized due to saturated knee velocities".
+
+    The foot is the paper's foot point, the middle of the sole (site ``<side>_sole``), its
+    height in the world frame; a swing is a foot's unloaded interval (:func:`foot_swings`),
+    so a foot that is unloaded but scrapes the floor counts with its small lift, where the
+    step count (``footsteps``, 1 cm of clearance) would drop it. Window (swings that touch
+    down in it; the data must reach its end), else pre-fall.
+    """
+    lo, hi = _window_or_run(d, arg)
+    ld = loading(d)
+    idx = d.state_index(ld.t)
+    lifts = []
+    for foot in FOOT_BODIES:
+        mine = [s for s in ld.swings if s.foot == foot]
+        z = d.sole_tracks[foot].centre[idx, 2]
+        for s, lift in zip(mine, swing_lifts(z, ld.loaded[foot], mine), strict=True):
+            if lo <= ld.t[s.on] <= hi and not math.isnan(lift):
+                lifts.append(lift)
+    if not lifts:
+        raise NotMeasurable(f"no swing in the window {arg or 'of the run'}{d.stopped_note()}")
+    return float(np.median(lifts))
+
+
+def lateral_excursions(
+    t: np.ndarray, pelvis_xy: np.ndarray, yaw: np.ndarray, touchdowns: np.ndarray
+) -> np.ndarray:
+    """Peak-to-peak lateral pelvis displacement in each stride [m].
+
+    A stride runs from one touchdown of a foot to its next (``touchdowns``: one foot's,
+    sorted) [s]. Lateral is the horizontal axis normal to the pelvis's mean heading over the
+    stride (its mean yaw), so a gait that turns slowly keeps its bounce apart from its
+    progression.
+
+    Args:
+        t: state times, shape (N,) [s].
+        pelvis_xy: pelvis position in the world, shape (N, 2) [m].
+        yaw: pelvis yaw in the world, shape (N,) [rad].
+        touchdowns: one foot's touchdown times [s].
+    """
+    out = []
+    for a, b in zip(touchdowns[:-1], touchdowns[1:], strict=True):
+        inside = (t >= a) & (t <= b)
+        if not inside.any():
+            continue
+        heading = math.atan2(np.mean(np.sin(yaw[inside])), np.mean(np.cos(yaw[inside])))
+        lateral = pelvis_xy[inside] @ np.array([-math.sin(heading), math.cos(heading)])
+        out.append(float(np.max(lateral) - np.min(lateral)))
+    return np.array(out)
+
+
+@metric(
+    "lateral_bounce",
+    "median over the strides (a foot's touchdown to its next, from the contact forces) of "
+    "the pelvis's peak-to-peak displacement normal to its heading [m] (arg 't0-t1': strides "
+    "inside the window)",
+    arg=window_check,
+)
+def _lateral_bounce(d: LogData, arg: str) -> float:
+    """Paper II, Lateral Plane: "Lateral bounces in 3LP are as small as 2.2 cm total
+    displacement of the pelvis, given the desired step width of 25 cm and step time of
+    T = 0.4 s"; the robot's pelvis roll (Eq. 22) makes it "converge to a natural lateral
+    bouncing". Total displacement is read as peak to peak, left extreme to right extreme,
+    over a stride (two steps).
+
+    The pelvis is the free joint's body origin (``qpos``), in the world frame projected on
+    the axis normal to the stride's mean pelvis heading (:func:`lateral_excursions`);
+    touchdowns as :func:`foot_swings`, strides of both feet pooled. Window (strides that
+    start and end in it; the data must reach its end), else pre-fall.
+    """
+    lo, hi = _window_or_run(d, arg)
+    ld = loading(d)
+    w, x, y, z = d.qpos[:, 3], d.qpos[:, 4], d.qpos[:, 5], d.qpos[:, 6]
+    yaw = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    bounces = []
+    for foot in FOOT_BODIES:
+        tds = np.array([ld.t[s.on] for s in ld.swings if s.foot == foot])
+        tds = tds[(tds >= lo) & (tds <= hi)]
+        bounces.extend(lateral_excursions(d.t, d.qpos[:, :2], yaw, tds))
+    if not bounces:
+        raise NotMeasurable(
+            f"no stride (two touchdowns of one foot) in the window {arg or 'of the run'}"
+            f"{d.stopped_note()}"
+        )
+    return float(np.median(bounces))
+
+
+def _knee_side(arg: str) -> None:
+    if arg not in ("left", "right"):
+        raise MetricArgError(f"argument {arg!r} is neither left nor right (the knee's side)")
+
+
+#: Argument check of ``knee_spring_compression``: a side, then optionally ``@t0-t1``.
+_knee_compression_arg = qualified_check(_knee_side, parse_window)
+
+
+def spring_compression(deflection: np.ndarray, link_angle: np.ndarray) -> np.ndarray:
+    """Series-spring deflection counted positive where the load bends the joint further than
+    its motor: deflection (link − motor) signed by the joint's bend (the sign of the
+    median link angle) [rad].
+
+    Args:
+        deflection: link minus motor angle, shape (N,) [rad].
+        link_angle: the link angle (motor plus spring), shape (N,) [rad].
+    """
+    bend = float(np.median(link_angle))
+    if bend == 0.0:
+        raise NotMeasurable("the joint is straight: no direction of bending to sign it")
+    return math.copysign(1.0, bend) * deflection
+
+
+@metric(
+    "knee_spring_compression",
+    "median series-spring deflection of the knee (arg 'left' or 'right', optionally "
+    "'@t0-t1'), link minus motor angle signed so that bending further under the load is "
+    "positive, over the samples where that foot carries at least 90 % of the weight [rad]",
+    arg=_knee_compression_arg,
+)
+def _knee_spring_compression(d: LogData, arg: str) -> float:
+    """Paper II, SEA Compensation and Fig. 7: "we perform an open-loop in-place walking gait
+    before experiments to identify steady-state knee spring compressions which are plotted
+    as histograms in Figure 7"; their average μ enters Eq. 21 scaled by |F|/(m g), so μ is
+    the compression at full load. "Given a shank length of ≈ 25 cm, δθ_left(t) and
+    δθ_right(t) each compensate about 3.2 cm and 1.4 cm": μ_left ≈ 0.128 rad, μ_right ≈
+    0.056 rad, on springs that "permanently deflect over time and lose their original
+    stiffness" (Fig. 7 caption).
+
+    The deflection is the logged state of the knee's spring joint (``<l|r>_knee``, in series
+    with its motor joint ``<l|r>_knee_motor``: link = motor + spring), signed by
+    :func:`spring_compression`; the samples are those on the contact time base where the
+    foot's vertical contact force is at least :data:`FULL_LOAD_FRACTION` of the weight
+    (single support at full load). Window ``@t0-t1`` (the data must reach its end), else
+    pre-fall.
+    """
+    _knee_compression_arg(arg)
+    side, _, window = arg.partition("@")
+    lo, hi = _window_or_run(d, window)
+    model = d.model
+    prefix = side[0]
+    motor = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"{prefix}_knee_motor")
+    spring = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"{prefix}_knee")
+    if motor < 0 or spring < 0:
+        raise NotMeasurable(
+            f"the robot has no series-elastic {side} knee ({prefix}_knee_motor and {prefix}_knee)"
+        )
+    d.require_states()
+    d.require_contacts()
+    t = d.contact_t
+    fz = d.foot_normal_force(f"{side}_foot")
+    full = (fz >= FULL_LOAD_FRACTION * d.robot_mass * GRAVITY) & (t >= lo) & (t <= hi)
+    if not full.any():
+        raise NotMeasurable(
+            f"the {side} foot never carries {FULL_LOAD_FRACTION:.0%} of the weight in the "
+            f"window {window or 'of the run'}{d.stopped_note()}"
+        )
+    idx = d.state_index(t[full])
+    deflection = d.qpos[idx, model.jnt_qposadr[spring]]
+    link = d.qpos[idx, model.jnt_qposadr[motor]] + deflection
+    return float(np.median(spring_compression(deflection, link)))
+
+
+def touchdown_leads(phases: np.ndarray, swings: list[tuple[float, float]]) -> np.ndarray:
+    """How early each swing touched down against the fixed-timing gait's phase change [s].
+
+    A swing (lift-off, touchdown) [s] belongs to the first phase change after its midpoint,
+    the touchdown the gait expects; the lead is that phase change's time minus the
+    touchdown's (positive: earlier than expected). Swings after the last phase change are
+    dropped.
+
+    Args:
+        phases: phase-change times of the gait, sorted [s].
+        swings: (lift-off, touchdown) times of each swing [s].
+    """
+    out = []
+    for off, on in swings:
+        k = int(np.searchsorted(phases, 0.5 * (off + on), side="right"))
+        if k < phases.size:
+            out.append(float(phases[k] - on))
+    return np.array(out)
+
+
+def _leads(d: LogData, arg: str) -> np.ndarray:
+    """:func:`touchdown_leads` of the run's swings whose expected touchdown lies in the
+    window ``arg`` (the data must reach its end), else every one before any fall."""
+    lo, hi = _window_or_run(d, arg)
+    phases = _phase_times(d)
+    if phases.size < 2:
+        raise NotMeasurable(
+            f"{phases.size} phase change(s) logged: no fixed-timing gait{d.stopped_note()}"
+        )
+    ld = loading(d)
+    swings = [(float(ld.t[s.off]), float(ld.t[s.on])) for s in ld.swings]
+    # The phase change each swing belongs to, to select by the window.
+    mids = np.array([0.5 * (a + b) for a, b in swings])
+    k = np.searchsorted(phases, mids, side="right")
+    expected = np.where(k < phases.size, phases[np.minimum(k, phases.size - 1)], np.inf)
+    chosen = [s for s, e in zip(swings, expected, strict=True) if lo <= e <= hi]
+    leads = touchdown_leads(phases, chosen)
+    if not leads.size:
+        raise NotMeasurable(
+            f"no touchdown expected in the window {arg or 'of the run'}{d.stopped_note()}"
+        )
+    return leads
+
+
+@metric(
+    "touchdown_lead",
+    "mean over the swings (from the contact forces) of the gait's phase change the swing "
+    "belongs to minus the swing's touchdown [s]: positive when the feet land earlier than "
+    "the fixed timing expects (arg 't0-t1': expected touchdowns in the window)",
+    arg=window_check,
+)
+def _touchdown_lead(d: LogData, arg: str) -> float:
+    """Paper II, Walking Gait Generation, Fig. 19: "the actual phase transition takes place
+    slightly earlier than expected in faster walking speeds. This can be due to a tracking
+    delay in the hip joints or extra spring compressions in the stance leg which limit the
+    ground clearance and influence the swing phase timing."
+
+    The expected touchdowns are the phase changes of the fixed-timing gait (``phase``
+    events, every T from the gait's start: its clock, not a command); the actual ones are
+    where the swing foot carries 10 % of the weight again (:func:`foot_swings`); see
+    :func:`touchdown_leads`. The mean, not the median: the claim is a systematic shift of
+    the phase transitions, and an early landing every few steps is part of it. Window
+    (expected touchdowns in it; the data must reach its end), else pre-fall.
+    """
+    return float(np.mean(_leads(d, arg)))
+
+
+@metric(
+    "max_touchdown_lead",
+    "largest lead of a touchdown on the gait's phase change it belongs to [s] (as "
+    "touchdown_lead; arg 't0-t1'): the earliest landing against the fixed timing",
+    arg=window_check,
+)
+def _max_touchdown_lead(d: LogData, arg: str) -> float:
+    """Paper II, Adaptive Foot Lift and Fig. 15: after a push "the toes might touch the
+    ground much earlier than expected", and "unexpected touchdown events which prevent a
+    complete swing when happening earlier than expected". The largest of
+    :func:`touchdown_leads` in the window (see ``touchdown_lead``)."""
+    return float(np.max(_leads(d, arg)))
