@@ -408,3 +408,50 @@ def test_mirror_names_a_grid_field() -> None:
         SweepSpec.model_validate(
             {"name": "m", "grid": {"start": "4.0,4.1"}, "claims": [MIRRORED.model_dump()]}
         )
+
+
+def unmeasurable_claim(band: tuple[int, int] | None) -> SweepClaim:
+    deviation = {"reason": "the cells from 0.04 m fall first", "observed": [0, 0]}
+    if band is not None:
+        deviation["unmeasurable_cells"] = list(band)
+    return SweepClaim.model_validate({**CONTAINS.model_dump(), "known_deviation": deviation})
+
+
+def test_declared_unmeasurable_cells_make_a_known_deviation() -> None:
+    """Cells whose region cannot be measured (errored here) are a known deviation only when the
+    claim declares their count, and only at that count."""
+    errors = frozenset({(0.04, 0, True), (0.06, 0, True)})
+    row = evaluate_claim(table(set(), errors), FIELDS, unmeasurable_claim((2, 2)), "m")
+    assert row.status == KNOWN
+    undeclared = evaluate_claim(table(set(), errors), FIELDS, unmeasurable_claim(None), "m")
+    assert undeclared.status == FAIL and "2 cells not measurable" in undeclared.note
+    fewer = evaluate_claim(table(set(), errors), FIELDS, unmeasurable_claim((3, 3)), "m")
+    assert fewer.status == FAIL and "declared (3, 3)" in fewer.note
+    measurable = evaluate_claim(table(set()), FIELDS, unmeasurable_claim((2, 2)), "m")
+    assert measurable.status == FAIL
+
+
+def test_declared_unmeasurable_cells_do_not_excuse_missing_cells() -> None:
+    """A missing cell fails the claim whatever the known deviation declares."""
+    errors = frozenset({(0.04, 0, True), (0.06, 0, True)})
+    rows = table(set(), errors)[:-1]
+    row = evaluate_claim(rows, FIELDS, unmeasurable_claim((2, 3)), "m", n_cells=18)
+    assert row.status == FAIL and "missing cells" in row.note
+
+
+def test_an_expectation_cannot_declare_unmeasurable_cells() -> None:
+    """unmeasurable_cells is a map claim's; an expectation says observed: not measurable."""
+    from pydantic import ValidationError
+
+    from walkrepro.spec import Expectation
+
+    with pytest.raises(ValidationError, match="unmeasurable_cells belongs to a map claim"):
+        Expectation.model_validate(
+            {
+                "metric": "fell",
+                "op": "==",
+                "value": 0,
+                "source": "x",
+                "known_deviation": {"reason": "r", "observed": [1, 1], "unmeasurable_cells": [1, 1]},
+            }
+        )

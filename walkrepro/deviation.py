@@ -33,6 +33,14 @@ class KnownDeviation(BaseModel):
         "before bands existed"
     )
 
+    unmeasurable_cells: tuple[int, int] | None = Field(
+        default=None,
+        description="map claims only: [low, high], the band of selected cells in which the "
+        "claim's region cannot be measured today (e.g. a cell that falls has no speed ratio); "
+        "the claim fails when that count leaves the band; a missing cell or a selector that "
+        "picks no cell still fails",
+    )
+
     @model_validator(mode="before")
     @classmethod
     def _legacy_reason_only(cls, data: object) -> object:
@@ -46,4 +54,7 @@ class KnownDeviation(BaseModel):
     def _band_is_ordered(self) -> KnownDeviation:
         if isinstance(self.observed, tuple) and not self.observed[0] <= self.observed[1]:
             raise ValueError("observed needs [low, high] with low <= high")
+        band = self.unmeasurable_cells
+        if band is not None and not 0 <= band[0] <= band[1]:
+            raise ValueError("unmeasurable_cells needs [low, high] with 0 <= low <= high")
         return self

@@ -615,6 +615,11 @@ class Expectation(_Strict):
                 "a row cannot be both calibrated and a known deviation: a calibration "
                 "criterion is met by construction; drop one of the two"
             )
+        if self.known_deviation is not None and self.known_deviation.unmeasurable_cells:
+            raise ValueError(
+                "unmeasurable_cells belongs to a map claim's known deviation; an expectation "
+                "that cannot be measured says observed: not measurable"
+            )
         return self
 
     @model_validator(mode="after")

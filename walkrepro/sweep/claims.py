@@ -92,8 +92,14 @@ def evaluate_claim(
         label = f"map {map_name}: {claim.region} for every cell" + (
             f" where {_sel(claim.where)}" if claim.where else ""
         )
+    # Cells that exist but whose region cannot be measured (a fall before the window) may
+    # be a declared band of the known deviation; a selector over no cell, or a missing cell,
+    # never is.
+    unmeasured = [u for u in unknown if not u.startswith(_NO_CELL)]
+    hard = [u for u in unknown if u.startswith(_NO_CELL)]
     if n_cells is not None and len(rows) < n_cells:
-        unknown.append(f"{n_cells - len(rows)} of {n_cells} cells missing")
+        hard.append(f"{n_cells - len(rows)} of {n_cells} cells missing")
+        unknown.append(hard[-1])
     ok = not violations and not unknown
     parts = [note]
     if violations:
@@ -111,15 +117,26 @@ def evaluate_claim(
     elif isinstance(observed, str):  # "not measurable": a claim always counts its cells
         status = FAIL
         text = f"{text}. A claim's known deviation needs an observed band of contradicting cells"
-    elif observed is not None and not unknown and observed[0] <= measured <= observed[1]:
-        # A known deviation is a band of contradicting cells: it fails when it leaves it.
+    elif (
+        observed is not None
+        and not hard
+        and observed[0] <= measured <= observed[1]
+        and _in_band(len(unmeasured), dev.unmeasurable_cells)
+    ):
+        # A known deviation is a band of contradicting cells (and, where declared, of cells
+        # not measurable): it fails when either count leaves its band.
         status = KNOWN
         text = f"{text}. Known deviation: {dev.reason}"
     else:
         status = FAIL
-        side = "missing cells" if unknown else ("fewer" if ok or measured < observed[0] else "more")
+        if hard:
+            side = "missing cells"
+        elif not _in_band(len(unmeasured), dev.unmeasurable_cells):
+            side = f"{len(unmeasured)} cells not measurable, declared {dev.unmeasurable_cells or 0}"
+        else:
+            side = ("fewer" if ok or measured < observed[0] else "more") + " contradicting cells"
         text = (
-            f"{text}. Left the known deviation's observed band ({side} contradicting cells"
+            f"{text}. Left the known deviation's observed band ({side}"
             f"{': the deviation may be gone, update the spec' if ok else ''}). "
             f"Known deviation: {dev.reason}"
         )
@@ -147,9 +164,18 @@ def evaluate_sweep(
     return [evaluate_claim(rows, fields, c, sweep.name, n_cells, origin) for c in sweep.claims]
 
 
+_NO_CELL = "no cell of the map where"
+
+
+def _in_band(count: int, band: tuple[int, int] | None) -> bool:
+    """Whether ``count`` unmeasurable cells is what the known deviation declares (none
+    when it declares no band)."""
+    return count == 0 if band is None else band[0] <= count <= band[1]
+
+
 def _selects_none(chosen: Sequence[Row], selector: Mapping[str, Any]) -> list[str]:
     """A claim over no cells would hold whatever the map shows: say so, so that it fails."""
-    return [] if chosen else [f"no cell of the map where {_sel(selector)}"]
+    return [] if chosen else [f"{_NO_CELL} {_sel(selector)}"]
 
 
 def _pairing(
