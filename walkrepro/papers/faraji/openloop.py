@@ -58,11 +58,13 @@ def threelp_params_from_robot(robot: Robot, leg_inertia: bool = True) -> ThreeLP
     posture (knee 0.4 rad): m1 15.51 kg, m2 6.424 kg, h1 0.5165 m, h2 0.221 m, h3 0.231 m,
     pw 0.0726 m, I2 0.171 kg m². The paper's first author's own 3LP set for COMAN
     (salmanfaraji/Walking3LP @ 63d55a6, anatomy/coman_ratios.m and tools/model_geom.m) gives
-    the masses (M 28.5 kg, m2 6.39 kg per leg; its m1, 14.17 kg, leaves the pelvis out) but
-    every length as a fraction of a body length L that those files do not give (h1 0.524 L,
-    pw 0.0761 L), so it could not be used without an assumed L; its masses agree with the
-    lab's within 0.6 %. The time projection is a model of the robot it runs on, and the lab's
-    model gives every quantity at the posture the controller holds.
+    the masses (M 28.5 kg, m2 6.39 kg per leg; its m1, 14.17 kg, leaves the pelvis out) and
+    every length as a fraction of a body length L, which the same file sets to r.L = 1 m (the
+    GUI's anatomy selector loads it, Walking3LP.m): h1 0.524 m, h2 0.232 m, h3 0.190 m,
+    pw 0.0636 m (r.pelvis; 0.0761 in the earlier commit 592f691), I2 0.207 kg m²; its masses
+    agree with the lab's within 0.6 %, its hips are 12.7 cm apart against the lab's 14.5 cm
+    and Paper II's "about 14 cm". The time projection is a model of the robot it runs on,
+    and the lab's model gives every quantity at the posture the controller holds.
     """
     model = robot.mj_model
     data = mujoco.MjData(model)
