@@ -851,13 +851,13 @@ def test_pin_state_is_pinocchios_rotation(name: str) -> None:
 
 def test_controller_robot_carries_the_specs_servo_gains() -> None:
     """with_servo_gains copies the scene's servo gains (a spec's actuators.position_gain:
-    in_place runs its hip pitch at 1111 Nm/rad, the robot model at 222) into a copy of the
+    the coman ablation in_place_paper_eq21 runs its hip pitch at 1111 Nm/rad, the robot model at 222) into a copy of the
     robot; the cached robot keeps its own, and a torque robot comes back unchanged."""
     from walkrepro.specfiles import load_spec
     from walkrepro.world import build_scene
 
     robot = load_robot("coman")
-    scene = build_scene(robot, load_spec("in_place").spec)
+    scene = build_scene(robot, load_spec("in_place_paper_eq21").spec)
     seen = with_servo_gains(robot, scene.model)
     assert seen is not robot
     assert seen.mj_model.actuator("l_hip_pitch").gainprm[0] == pytest.approx(1111.1)
