@@ -7,8 +7,7 @@ import pytest
 from pydantic import ValidationError
 
 from walkrepro.controllers import controller_class
-from walkrepro.papers.jo_oh.controller import SUPPORTS, TAIL_SIGNALS
-from walkrepro.papers.jo_oh.tasks import SIGNAL_COM, signal_names
+from walkrepro.papers.jo_oh.controller import SIGNAL_LAYOUT, SUPPORTS
 from walkrepro.robot import load_robot
 
 
@@ -90,13 +89,14 @@ def test_signals_follow_the_documented_order(kist_home_snapshot) -> None:
     cls = controller_class("qpimpedance")
     ctrl = cls()
     ctrl.reset(robot, cls.Params(), 0.001)
-    names = signal_names(("left", "right"))
+    names = [name for name, _, _ in SIGNAL_LAYOUT.fields]
+    head, tail = names[: names.index("left_fz_qp")], names[names.index("right_fz_qp") + 1 :]
     seen = set()
     for phase in ctrl._plan.phases[:4]:  # stand, swing, double support, other swing
         cmd = ctrl.step(0.5 * (phase.t0 + phase.t1), kist_home_snapshot())
         support = SUPPORTS[phase.swing + 1]
         fz = [f"{('left', 'right')[side]}_fz_qp" for side in support]
-        assert list(cmd.signals) == [*names[:SIGNAL_COM], *fz, *TAIL_SIGNALS]
+        assert list(cmd.signals) == [*head, *fz, *tail]
         assert cmd.signals["swing_foot"] == phase.swing
         seen.add(support)
     assert len(seen) == 3  # both feet, then each foot alone

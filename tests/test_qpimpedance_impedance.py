@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from walkrepro.papers.jo_oh.tasks import DesiredMotion, advance_impedance
+from walkrepro.papers.jo_oh.tasks import DesiredMotion, ImpedanceGains, advance_impedance
 
 M, B, K = np.array([30.0, 0.3, 0.3]), np.array([120.0, 0.6, 0.6]), np.array([1500.0, 10.0, 10.0])
-GAINS = np.array([M, B, K, [10.0, 3.0, 3.0]])  # M_d, B_d, K_d; 10 N, 3 N m thresholds (§IV)
+GAINS = ImpedanceGains(M, B, K, np.array([10.0, 3.0, 3.0]))  # 10 N, 3 N m thresholds (§IV)
 ZERO = np.zeros(3)
 
 

@@ -37,7 +37,6 @@ from walkrepro.papers.jo_oh.centroidal_qp import (
     contact_wrench_basis,
     friction_basis,
 )
-from walkrepro.papers.jo_oh.condensed import compiled_entry
 from walkrepro.papers.jo_oh.footsteps import (
     LEFT,
     RIGHT,
@@ -48,10 +47,9 @@ from walkrepro.papers.jo_oh.footsteps import (
 )
 from walkrepro.papers.jo_oh.preview import generate_com, preview_gains
 from walkrepro.papers.jo_oh.tasks import (
-    FOOT_BLOCK,
-    N_SIGNALS,
-    SIGNAL_COM,
-    SIGNAL_FEET,
+    FOOT_SIGNALS,
+    SWING_PLAN,
+    ImpedanceGains,
     RobotTerms,
     SensorReadings,
     SoleKinematics,
@@ -62,7 +60,7 @@ from walkrepro.papers.jo_oh.tasks import (
     TaskState,
     kinematic_chain,
     pack_swing,
-    signal_names,
+    task_records,
     task_rows,
 )
 from walkrepro.robot import Robot, pin_state_buffer, pin_state_into
@@ -70,24 +68,31 @@ from walkrepro.sensors import SensorSnapshot
 from walkrepro.signals import SignalLayout, Signals
 
 Vec3 = tuple[float, float, float]
-#: The readings the tick's compiled entry of task_rows takes: contiguous float64 vectors.
-_FLOAT64 = np.dtype(np.float64)
-_VECTOR_STRIDES = (_FLOAT64.itemsize,)
 #: Support sets, each with its own QP (its β blocks differ).
 SUPPORTS = ((LEFT, RIGHT), (RIGHT,), (LEFT,))
-#: Signals logged after the QP's contact forces, in order.
-TAIL_SIGNALS = (
-    "com_x", "com_y", "com_z", "com_x_d", "com_y_d", "com_z_d", "zmp_x_ref", "zmp_y_ref",
-    "qp_failures",
-)  # fmt: skip
-#: The logged signals (all floats): the kernel's head, the QP's f_z of each foot (NaN, so not
-#: in the tick's message, when the foot is not in the QP's support or the QP failed), then
-#: :data:`TAIL_SIGNALS`.
-SIGNAL_LAYOUT = SignalLayout(
-    [(name, 0, False) for name in signal_names(SIDES)[:SIGNAL_COM]]
-    + [(f"{side}_fz_qp", 0, False) for side in SIDES]
-    + [(name, 0, False) for name in TAIL_SIGNALS]
+#: The logged signals, declared once, all floats. :func:`.tasks.task_rows` writes the plan's
+#: time, the swing foot, each foot's block (``left_fz`` …, :data:`.tasks.FOOT_SIGNALS`) and
+#: the CoM; the tick adds each foot's f_z from the QP [N] (NaN, so not in the tick's
+#: message, when the foot is not in the QP's support or the QP failed), the ZMP reference
+#: [m] and the count of failed QPs.
+SIGNALS = np.dtype(
+    [
+        ("t_plan", np.float64),
+        ("swing_foot", np.float64),
+        ("left", FOOT_SIGNALS),
+        ("right", FOOT_SIGNALS),
+        ("left_fz_qp", np.float64),
+        ("right_fz_qp", np.float64),
+        *((name, np.float64) for name in ("com_x", "com_y", "com_z")),
+        *((name, np.float64) for name in ("com_x_d", "com_y_d", "com_z_d")),
+        ("zmp_x_ref", np.float64),
+        ("zmp_y_ref", np.float64),
+        ("qp_failures", np.float64),
+    ]
 )
+SIGNAL_LAYOUT = SignalLayout.of_record(SIGNALS)
+#: Each foot's ``…_fz_qp`` field of :data:`SIGNALS`, by side.
+FZ_QP = tuple(f"{side}_fz_qp" for side in SIDES)
 
 
 class QPImpedanceParams(ControllerParams):
@@ -551,8 +556,11 @@ class QPImpedanceController(Controller):
             plan_end=float(self._plan.end),
             com_z=com_z,
         )
-        self._impedance_gains = np.array(
-            [p.m_d, p.b_d, p.k_d, (p.force_threshold, p.torque_threshold, p.torque_threshold)]
+        self._impedance_gains = ImpedanceGains(
+            mass=np.array(p.m_d, dtype=np.float64),
+            damping=np.array(p.b_d, dtype=np.float64),
+            stiffness=np.array(p.k_d, dtype=np.float64),
+            threshold=np.array((p.force_threshold, p.torque_threshold, p.torque_threshold)),
         )
         # Per-tick state: each foot's impedance (x_m, ẋ_m, ẍ_m) and (armed, active), its
         # previous sole velocity and its commanded acceleration; the swing trajectory.
@@ -560,7 +568,7 @@ class QPImpedanceController(Controller):
         self._impedance_flags = np.zeros((2, 2), dtype=bool)
         self._prev_foot_vel = np.zeros((2, 6))
         self._foot_acc_cmd = np.zeros((2, 3))
-        self._swing_plan = np.zeros(14)  # tasks.pack_swing
+        self._swing_plan = np.zeros(1, dtype=SWING_PLAN)  # tasks.pack_swing
         self._stance_z = np.zeros(2)  # planned height of each foot in support [m]
         self._phase_index = -1
         self._tau = np.zeros(robot.n_joints)
@@ -604,12 +612,12 @@ class QPImpedanceController(Controller):
             for support in SUPPORTS
         }
         self._warm_support: tuple[int, ...] | None = None  # QP solved on the previous tick
-        self._signals = np.zeros(N_SIGNALS)
-        self._signal_values = np.zeros(SIGNAL_LAYOUT.width)
+        # The tick's signals (SIGNALS): task_rows writes its fields; a QP f_z stays NaN here.
+        self._signal_record = np.zeros(1, dtype=SIGNALS)
+        self._signal_record[FZ_QP[LEFT]] = self._signal_record[FZ_QP[RIGHT]] = np.nan
         self._refresh_views = False
         self._check_views(q0)
         self._bind_task_args()
-        self._bind_task_kernel()
         self._bind_qp_inputs()
         self._warm_up_tick(q0, v0)
         # Wall time of the tick's parts [s], for benchmarks only (never logged: logs stay
@@ -715,8 +723,8 @@ class QPImpedanceController(Controller):
         """Gather :func:`.tasks.task_rows`' records, which hold the same arrays every tick.
 
         Data's views and ξ̇, the constants, the walking pattern, the per-tick state and the
-        output buffers: all are filled in place, so a tick passes one prebuilt tuple instead
-        of looking up fifty attributes.
+        output buffers: all are filled in place, so a tick passes one prebuilt
+        :class:`.tasks.TaskRecords` instead of looking up fifty attributes.
         """
         views = self._views
         terms = RobotTerms(
@@ -759,17 +767,9 @@ class QPImpedanceController(Controller):
             self._sole_jacobians,
             self._sole_drifts,
             self._wrench_maps,
-            self._signals,
+            self._signal_record,
         )
-        self._task_args = (terms, constants, references, state, outputs)
-
-    def _bind_task_kernel(self) -> None:
-        """Take task_rows' compiled entry for the records' types and readings of the kind a
-        snapshot holds (contiguous float vectors): a tick then skips numba's check of every
-        record's fields (the records' types stay when the views are refreshed)."""
-        joints, ft = np.zeros(self._robot.n_joints), np.zeros(6)
-        readings = SensorReadings(joints, joints, ft, ft)
-        self._task_kernel = compiled_entry(task_rows, 0.0, -1, readings, *self._task_args)
+        self._task_records = task_records(terms, constants, references, state, outputs)
 
     def _task_rows(
         self,
@@ -782,22 +782,11 @@ class QPImpedanceController(Controller):
     ) -> int:
         """Run :func:`.tasks.task_rows` on this tick's Pinocchio terms and sensor readings.
 
-        Readings of another kind than :meth:`_bind_task_kernel` bound the entry for go
-        through numba's dispatcher, which checks their types.
-
         Returns:
             A bit per foot (1 left, 2 right) whose impedance modification switched on.
         """
         readings = SensorReadings(joint_pos, joint_vel, left_ft, right_ft)
-        kernel = self._task_kernel
-        for reading in readings:
-            if not (
-                type(reading) is np.ndarray
-                and reading.dtype is _FLOAT64
-                and reading.strides == _VECTOR_STRIDES
-            ):
-                kernel = task_rows
-        return kernel(t, swing, readings, *self._task_args)
+        return task_rows(t, swing, readings, self._task_records)
 
     def step(self, t: float, s: SensorSnapshot) -> Command:
         """One tick of §III-D: tasks → QP → Eq. (9)."""
@@ -825,7 +814,7 @@ class QPImpedanceController(Controller):
         if switched_on:
             for side in (LEFT, RIGHT):
                 if switched_on >> side & 1:
-                    fz = float(self._signals[SIGNAL_FEET + side * FOOT_BLOCK])
+                    fz = float(self._signal_record[SIDES[side]]["fz"][0])
                     events.append({"kind": "impedance_on", "foot": SIDES[side], "fz": fz})
         t2 = time.perf_counter()
 
@@ -842,17 +831,14 @@ class QPImpedanceController(Controller):
             self._warm_support = None
             events.append({"kind": "qp_failed"})
             tau, fz_qp, support = self._tau.copy(), [], ()  # hold the last torques
-        # The kernel's head, each foot's QP f_z (NaN: not solved for), CoM, ZMP, failures.
-        values = self._signal_values.copy()
-        head, feet = self._signals[:SIGNAL_COM], slice(SIGNAL_COM, SIGNAL_COM + 2)
-        values[:SIGNAL_COM] = head
-        values[feet] = np.nan
+        # task_rows' signals, then each foot's QP f_z (NaN: not solved for), ZMP, failures.
+        record = self._signal_record.copy()
+        values = record[0]
         for side, fz in zip(support, fz_qp, strict=True):
-            values[SIGNAL_COM + side] = fz
-        values[SIGNAL_COM + 2 : SIGNAL_COM + 8] = self._signals[SIGNAL_COM:]
-        values[SIGNAL_COM + 8 : SIGNAL_COM + 10] = self._plan.zmp_at(t)
-        values[SIGNAL_COM + 10] = self._qp_fail
-        signals = Signals(SIGNAL_LAYOUT, values)
+            values[FZ_QP[side]] = fz
+        values["zmp_x_ref"], values["zmp_y_ref"] = self._plan.zmp_at(t)
+        values["qp_failures"] = self._qp_fail
+        signals = Signals(SIGNAL_LAYOUT, record.view(np.float64))
         command = Command(ctrl=tau, signals=signals, events=tuple(events))
         timing = self._timing
         timing["dynamics"] += t1 - t0

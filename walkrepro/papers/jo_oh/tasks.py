@@ -26,9 +26,13 @@ properties (the swing trajectory, the impedance filter). Like
 :mod:`.condensed`, the kernels are cached on disk (``cache=True``) and compiled or loaded
 when the controller resets.
 
-:func:`task_rows` takes its inputs in records (named tuples, :class:`RobotTerms` …
-:class:`TaskOutputs`), which the controller builds once at reset: the arrays in them are
-filled in place every tick; the gains and times are a record of floats (:class:`TaskGains`).
+:func:`task_rows` takes its inputs in records of named fields (named tuples,
+:class:`RobotTerms` … :class:`TaskOutputs`), which the controller builds once at reset and
+gathers into one :class:`TaskRecords` (a numba StructRef: numba reads its type from the
+object, where it would type a named tuple's fields one by one in Python on every call); the
+arrays in them are filled in place every tick; the gains and times are a record of floats
+(:class:`TaskGains`). The signals it writes are fields of a structured record
+(:data:`FOOT_SIGNALS` per foot), named as in the log.
 """
 
 from __future__ import annotations
@@ -39,6 +43,8 @@ from typing import NamedTuple
 import numba
 import numpy as np
 import pinocchio as pin
+from numba.core import types
+from numba.experimental import structref
 
 from walkrepro.papers.jo_oh.centroidal_qp import CentroidalTasks, Task
 from walkrepro.robot import eigen_rotate, frame_classical_acceleration, frame_jacobian, log3
@@ -85,18 +91,58 @@ class TaskGains(NamedTuple):
 
 #: Rows of the ``chains`` array of :func:`task_rows`: the frames whose Jacobians it forms.
 CHAIN_LEFT_SOLE, CHAIN_RIGHT_SOLE, CHAIN_PELVIS, CHAIN_TORSO = range(4)
-#: Names of the per-foot signals, in the order :func:`task_rows` writes them.
-FOOT_SIGNALS = (
-    "fz", "mx", "my", "x", "z", "roll", "pitch", "vz", "wx", "wy", "az", "alphax", "alphay"
+#: The axes of the swing foot that the impedance modifies, x = (z, φ_x, φ_y) (§II).
+IMPEDANCE_AXES = ("z", "roll", "pitch")
+#: Kinds of the per-axis references: x_d, ẋ_d, ẍ_d (desired), x_m, ẋ_m, ẍ_m (modified).
+REFERENCE_KINDS = ("_d", "_dot_d", "_ddot_d", "_m", "_dot_m", "_ddot_m")
+#: The signals :func:`task_rows` writes for each foot (the log names them ``left_fz`` …):
+#: the measured contact wrench at the sole [N, N m], the sole's x, z [m], roll, pitch [rad],
+#: its velocity (v_z [m/s], ω_x, ω_y [rad/s]) and finite-difference acceleration, whether
+#: the impedance modification is on, and the references of each impedance axis.
+FOOT_SIGNALS = np.dtype(
+    [
+        (name, np.float64)
+        for name in (
+            "fz", "mx", "my", "x", "z", "roll", "pitch",
+            "vz", "wx", "wy", "az", "alphax", "alphay", "impedance_on",
+            *(f"{axis}{kind}" for kind in REFERENCE_KINDS for axis in IMPEDANCE_AXES),
+        )
+    ]
 )  # fmt: skip
-#: Names of the reference signals per axis, in the order of ``(x_d, ẋ_d, ẍ_d, x_m, ẋ_m, ẍ_m)``.
-REFERENCE_SIGNALS = ("_d", "_dot_d", "_ddot_d", "_m", "_dot_m", "_ddot_m")
-#: Signals per foot: :data:`FOOT_SIGNALS`, ``impedance_on``, 6 × 3 references.
-FOOT_BLOCK = len(FOOT_SIGNALS) + 1 + 3 * len(REFERENCE_SIGNALS)
-#: Where the feet's blocks, the CoM and the desired CoM sit in the signal vector.
-SIGNAL_FEET = 2  # after t_plan and swing_foot
-SIGNAL_COM = SIGNAL_FEET + 2 * FOOT_BLOCK
-N_SIGNALS = SIGNAL_COM + 6
+#: The signals :func:`task_rows` writes besides the feet: the plan's time [s], the swing foot
+#: (0 left, 1 right, −1 none), the CoM and the desired CoM [m]. A controller's signal record
+#: holds these fields and ``left``, ``right`` of :data:`FOOT_SIGNALS`, in its own order.
+TICK_SIGNALS = ("t_plan", "swing_foot", "com_x", "com_y", "com_z", "com_x_d", "com_y_d", "com_z_d")
+#: A swing trajectory (see :func:`swing_reference`): start time [s], duration [s], the sole
+#: centre's (x, y, z [m], roll, pitch [rad]) at lift-off and at landing, the apex [m] above the
+#: higher of the two, and the share of the swing spent rising [-].
+SWING_PLAN = np.dtype(
+    [
+        ("t0", np.float64),
+        ("duration", np.float64),
+        ("start", np.float64, (5,)),
+        ("target", np.float64, (5,)),
+        ("apex", np.float64),
+        ("rise_fraction", np.float64),
+    ]
+)
+
+
+class ImpedanceGains(NamedTuple):
+    """The impedance law's gains and switch-on thresholds (§II Eq. 1, §IV), per coordinate
+    x = (z, φ_x, φ_y), each of shape (3,).
+
+    Attributes:
+        mass: M_d [kg, kg m², kg m²].
+        damping: B_d [N s/m, N m s/rad, N m s/rad].
+        stiffness: K_d [N/m, N m/rad, N m/rad].
+        threshold: |λ| that switches the modification on [N, N m, N m] (§IV: 10 N, 3 N m).
+    """
+
+    mass: np.ndarray
+    damping: np.ndarray
+    stiffness: np.ndarray
+    threshold: np.ndarray
 
 
 class SoleKinematics(NamedTuple):
@@ -189,7 +235,7 @@ class TaskConstants(NamedTuple):
     """
 
     gains: TaskGains
-    impedance_gains: np.ndarray
+    impedance_gains: ImpedanceGains
     chains: np.ndarray
     posture_idx: np.ndarray
     sole_site_rotation: np.ndarray
@@ -204,7 +250,7 @@ class TaskReferences(NamedTuple):
 
     Attributes:
         com_plan: the preview CoM pattern (see :func:`desired_com`), shape (N, 6).
-        swing_plan: this phase's swing trajectory (see :func:`pack_swing`), shape (14,).
+        swing_plan: this phase's swing trajectory, shape (1,) of :data:`SWING_PLAN`.
         stance_z: each foot's planned stance height [m], shape (2,).
         posture_home: home angles of the arm and waist joints [rad] (``posture_idx``).
     """
@@ -239,7 +285,9 @@ class TaskOutputs(NamedTuple):
             a constant selection, set at reset, and the weights are constants).
         sole_jacobians, sole_drifts, wrench_maps: per foot, J_k (6, nv), J̇_k ξ̇ (6,) and
             R̃ U_k (6, m N_c).
-        signals: the signal vector named by :func:`signal_names`.
+        signals: the controller's signal record, shape (1,): a structured array with the
+            fields of :data:`TICK_SIGNALS` and ``left``, ``right`` of :data:`FOOT_SIGNALS`
+            (others are the controller's to write).
     """
 
     tasks: CentroidalTasks
@@ -273,20 +321,6 @@ class DesiredMotion(NamedTuple):
     position: np.ndarray
     velocity: np.ndarray
     acceleration: np.ndarray
-
-
-def signal_names(sides: tuple[str, ...]) -> tuple[str, ...]:
-    """Names of the signal vector of :func:`task_rows`, entry by entry."""
-    names = ["t_plan", "swing_foot"]
-    for side in sides:
-        names += [f"{side}_{s}" for s in FOOT_SIGNALS]
-        names.append(f"{side}_impedance_on")
-        names += [
-            f"{side}_{axis}{kind}" for kind in REFERENCE_SIGNALS for axis in ("z", "roll", "pitch")
-        ]
-    names += ["com_x", "com_y", "com_z", "com_x_d", "com_y_d", "com_z_d"]
-    assert len(names) == N_SIGNALS
-    return tuple(names)
 
 
 def kinematic_chain(model: pin.Model, frame_id: int) -> np.ndarray:
@@ -356,11 +390,13 @@ def pack_swing(
     rise_fraction: float,
     out: np.ndarray,
 ) -> None:
-    """Write a swing trajectory into the 14-array of :func:`swing_reference`: (t0 [s],
-    duration [s], start (5), target (5), apex [m], rise_fraction [-])."""
-    out[0], out[1] = t0, duration
-    out[2:7], out[7:12] = start, target
-    out[12], out[13] = apex, rise_fraction
+    """Write a swing trajectory into ``out``, shape (1,) of :data:`SWING_PLAN` (its fields
+    are these arguments: t0 [s], duration [s], start and target (5,), apex [m],
+    rise_fraction [-])."""
+    plan = out[0]
+    plan["t0"], plan["duration"] = t0, duration
+    plan["start"], plan["target"] = start, target
+    plan["apex"], plan["rise_fraction"] = apex, rise_fraction
 
 
 @numba.njit(cache=True)
@@ -375,12 +411,13 @@ def swing_reference(
     then descends to the landing height by the end.
 
     Args:
-        swing: the trajectory, see :func:`pack_swing`, shape (14,).
+        swing: the trajectory, shape (1,) of :data:`SWING_PLAN` (see :func:`pack_swing`).
         t: time [s].
         pos, vel, acc: out, desired (x, y, z, roll, pitch), rates and accelerations, (5,).
     """
-    t0, duration, apex, rise_fraction = swing[0], swing[1], swing[12], swing[13]
-    start, target = swing[2:7], swing[7:12]
+    plan = swing[0]
+    t0, duration, apex, rise_fraction = plan.t0, plan.duration, plan.apex, plan.rise_fraction
+    start, target = plan.start, plan.target
     s = t - t0
     b, db, ddb = quintic(s, duration)
     for i in range(5):
@@ -407,7 +444,7 @@ def advance_impedance(
     flags: np.ndarray,
     desired: DesiredMotion,
     wrench: np.ndarray,
-    gains: np.ndarray,
+    gains: ImpedanceGains,
     dt: float,
     enabled: bool,
 ) -> bool:
@@ -443,7 +480,7 @@ def advance_impedance(
         flags: (armed, active), updated in place, shape (2,) bool.
         desired: desired (z [m], φ_x, φ_y [rad]), rates and accelerations.
         wrench: contact wrench λ = (f_z [N], μ_x [N m], μ_y [N m]).
-        gains: rows M_d, B_d, K_d and the switch-on thresholds, shape (4, 3).
+        gains: M_d, B_d, K_d and the switch-on thresholds.
         dt: control period [s].
         enabled: False runs without impedance (the modified reference is the desired one).
 
@@ -453,7 +490,7 @@ def advance_impedance(
     x_d, v_d, a_d = desired.position, desired.velocity, desired.acceleration
     over = False
     for i in range(3):
-        if abs(wrench[i]) > gains[3, i]:
+        if abs(wrench[i]) > gains.threshold[i]:
             over = True
     if not flags[0] and not over:
         flags[0] = True  # the foot has left the ground: a new contact is unexpected
@@ -470,7 +507,9 @@ def advance_impedance(
     for i in range(3):
         e = x_d[i] - state[0, i]
         e_dot = v_d[i] - state[1, i]
-        state[2, i] = a_d[i] + (wrench[i] + gains[1, i] * e_dot + gains[2, i] * e) / gains[0, i]
+        state[2, i] = a_d[i] + (
+            wrench[i] + gains.damping[i] * e_dot + gains.stiffness[i] * e
+        ) / gains.mass[i]
         state[1, i] += state[2, i] * dt
         state[0, i] += state[1, i] * dt
     return switched_on
@@ -569,6 +608,18 @@ def desired_com(
 
 
 @numba.njit(cache=True)
+def _write_references(foot: np.void, refs: np.ndarray) -> None:
+    """A foot's reference signals (:data:`FOOT_SIGNALS`) from ``refs``, rows x_d, ẋ_d, ẍ_d,
+    x_m, ẋ_m, ẍ_m, columns (z [m], φ_x, φ_y [rad]) and their rates."""
+    foot.z_d, foot.roll_d, foot.pitch_d = refs[0, 0], refs[0, 1], refs[0, 2]
+    foot.z_dot_d, foot.roll_dot_d, foot.pitch_dot_d = refs[1, 0], refs[1, 1], refs[1, 2]
+    foot.z_ddot_d, foot.roll_ddot_d, foot.pitch_ddot_d = refs[2, 0], refs[2, 1], refs[2, 2]
+    foot.z_m, foot.roll_m, foot.pitch_m = refs[3, 0], refs[3, 1], refs[3, 2]
+    foot.z_dot_m, foot.roll_dot_m, foot.pitch_dot_m = refs[4, 0], refs[4, 1], refs[4, 2]
+    foot.z_ddot_m, foot.roll_ddot_m, foot.pitch_ddot_m = refs[5, 0], refs[5, 1], refs[5, 2]
+
+
+@numba.njit(cache=True)
 def _set_task(
     task: Task, source: np.ndarray, first: int, acc_ref: np.ndarray, drift: np.ndarray
 ) -> None:
@@ -608,34 +659,65 @@ def _orientation_task(
     _set_task(task, frame_jac, 3, acc_ref, drift)
 
 
+@structref.register
+class TaskRecordsType(types.StructRef):
+    """numba's type of :class:`TaskRecords` (its fields typed as given, not literal)."""
+
+    def preprocess_fields(self, fields: tuple) -> tuple:
+        """The fields' types without literal values."""
+        return tuple((name, types.unliteral(typ)) for name, typ in fields)
+
+
+class TaskRecords(structref.StructRefProxy):
+    """Everything :func:`task_rows` reads and writes besides the readings, as one argument;
+    make it with :func:`task_records` once at reset (its arrays are filled in place).
+
+    Fields: ``terms`` (:class:`RobotTerms`), ``constants`` (:class:`TaskConstants`),
+    ``references`` (:class:`TaskReferences`), ``state`` (:class:`TaskState`), ``outputs``
+    (:class:`TaskOutputs`). Why not the named tuples themselves: numba finds the type of a
+    named tuple argument in Python, field by field, at every call (≈ 0.2 µs a field, ≈ 15 µs
+    for these); a StructRef carries its type, and its arrays were unboxed once, when it was
+    made.
+    """
+
+
+structref.define_proxy(
+    TaskRecords, TaskRecordsType, ["terms", "constants", "references", "state", "outputs"]
+)
+
+
 @numba.njit(cache=True)
-def task_rows(
-    t: float,
-    swing: int,
-    readings: SensorReadings,
+def task_records(
     terms: RobotTerms,
     constants: TaskConstants,
     references: TaskReferences,
     state: TaskState,
     outputs: TaskOutputs,
-) -> int:
+) -> TaskRecords:
+    """The :class:`TaskRecords` of these records (compiled and cached, unlike the proxy's own
+    constructor)."""
+    return TaskRecords(terms, constants, references, state, outputs)
+
+
+@numba.njit(cache=True)
+def task_rows(t: float, swing: int, readings: SensorReadings, records: TaskRecords) -> int:
     """One tick's task rows (§III-D), foot states, contact wrenches and impedance (Eqs. 1–3).
 
     Args:
         t: time [s].
         swing: the swing foot (0 left, 1 right), or −1 in double support.
         readings: the joint encoders and each foot's F/T reading.
-        terms: Pinocchio's terms of the tick and ξ̇.
-        constants: gains, weights and geometry (set at reset).
-        references: the CoM pattern, this phase's swing trajectory, stance heights and home
-            posture.
-        state: each foot's impedance state, previous velocity and commanded acceleration,
-            updated in place.
-        outputs: the QP's cost terms, each foot's J_k, J̇_k ξ̇ and R̃ U_k, and the signals.
+        records: (:class:`TaskRecords`) Pinocchio's terms of the tick and ξ̇; the gains,
+            weights and geometry (set at reset); the CoM pattern, this phase's swing
+            trajectory, stance heights and home posture; each foot's impedance state,
+            previous velocity and commanded acceleration (updated in place); the outputs: the
+            QP's cost terms, each foot's J_k, J̇_k ξ̇ and R̃ U_k, and the signals.
 
     Returns:
         A bit per foot (1 left, 2 right) whose impedance modification switched on this tick.
     """
+    terms, constants = records.terms, records.constants
+    references, state, outputs = records.references, records.state, records.outputs
     joint_jacobians, velocity = terms.joint_jacobians, terms.velocity
     nonlinear, gravity_torques = terms.nonlinear, terms.gravity_torques
     com, com_vel, angular_momentum = terms.com, terms.com_vel, terms.angular_momentum
@@ -654,7 +736,7 @@ def task_rows(
         outputs.sole_drifts,
         outputs.wrench_maps,
     )
-    signals = outputs.signals
+    signals = outputs.signals[0]
     nv = velocity.shape[0]
     m = gains.mass
     # ---- centroidal momentum reference (§III-D) --------------------------------------
@@ -717,7 +799,7 @@ def task_rows(
         tasks.posture.target[r] = acc  # Φ_t selects the joint (constant), Φ̇_t = 0
 
     # ---- feet: state, measured contact wrench, impedance, swing rows -----------------
-    signals[0], signals[1] = t, float(swing)
+    signals.t_plan, signals.swing_foot = t, float(swing)
     dt = gains.dt
     switched_on = 0
     acc_ref = np.empty(6)
@@ -726,9 +808,9 @@ def task_rows(
     rpy = np.empty(3)
     for side in range(2):
         if side == 0:  # the sole's placement and parent joint's R, v, a; its F/T reading
-            sole, ft = terms.left, readings.left_ft
+            sole, ft, foot = terms.left, readings.left_ft, signals.left
         else:
-            sole, ft = terms.right, readings.right_ft
+            sole, ft, foot = terms.right, readings.right_ft, signals.right
         rot, pos = sole.rotation, sole.position
         joint_r, joint_v, joint_a = sole.joint_rotation, sole.joint_velocity, sole.joint_drift
         sole_jac = sole_jacobians[side]
@@ -767,14 +849,10 @@ def task_rows(
         )
         matrix_to_rpy(rot, rpy)
         roll, pitch, yaw = rpy[0], rpy[1], rpy[2]
-        out = SIGNAL_FEET + side * FOOT_BLOCK
-        values = (
-            fz, mx, my, pos[0], pos[2], roll, pitch,
-            vel[2], vel[3], vel[4], acc_meas[2], acc_meas[3], acc_meas[4],
-        )  # fmt: skip
-        for i in range(13):
-            signals[out + i] = values[i]
-        refs = signals[out + 14 : out + FOOT_BLOCK]  # x_d, ẋ_d, ẍ_d, x_m, ẋ_m, ẍ_m
+        foot.fz, foot.mx, foot.my = fz, mx, my
+        foot.x, foot.z, foot.roll, foot.pitch = pos[0], pos[2], roll, pitch
+        foot.vz, foot.wx, foot.wy = vel[2], vel[3], vel[4]
+        foot.az, foot.alphax, foot.alphay = acc_meas[2], acc_meas[3], acc_meas[4]
         foot_state = impedance_state[side]
         if side != swing:
             # Support: re-initialise the impedance at the foot's state (§IV), no command.
@@ -783,9 +861,11 @@ def task_rows(
             foot_state[0, 0], foot_state[0, 1], foot_state[0, 2] = pos[2], roll, pitch
             foot_state[1:] = 0.0
             foot_acc_cmd[side] = 0.0
-            signals[out + 13] = 0.0
-            refs[:] = 0.0
-            refs[0] = refs[9] = references.stance_z[side]
+            foot.impedance_on = 0.0
+            # The references of a support foot: at its planned height, at rest, level.
+            stance = np.zeros((6, 3))  # x_d, ẋ_d, ẍ_d, x_m, ẋ_m, ẍ_m of (z, φ_x, φ_y)
+            stance[0, 0] = stance[3, 0] = references.stance_z[side]
+            _write_references(foot, stance)
             continue
         swing_reference(references.swing_plan, t, pos_d, vel_d, acc_d)
         wrench = np.array((fz, mx, my))
@@ -815,9 +895,11 @@ def task_rows(
         acc_ref[5] = -kv * vel[5] - kp * yaw
         foot_acc_cmd[side] = acc_ref[:3]
         _set_task(tasks.swing, sole_jac, 0, acc_ref, drift)
-        signals[out + 13] = 1.0 if impedance_flags[side, 1] else 0.0
-        refs[0:3], refs[3:6], refs[6:9] = pos_d[2:5], vel_d[2:5], acc_d[2:5]
-        refs[9:12], refs[12:15], refs[15:18] = foot_state[0], foot_state[1], foot_state[2]
-    signals[SIGNAL_COM : SIGNAL_COM + 3] = com
-    signals[SIGNAL_COM + 3 : SIGNAL_COM + 6] = c_d
+        foot.impedance_on = 1.0 if impedance_flags[side, 1] else 0.0
+        swing_refs = np.empty((6, 3))  # x_d, ẋ_d, ẍ_d, x_m, ẋ_m, ẍ_m of (z, φ_x, φ_y)
+        swing_refs[0], swing_refs[1], swing_refs[2] = pos_d[2:5], vel_d[2:5], acc_d[2:5]
+        swing_refs[3:] = foot_state
+        _write_references(foot, swing_refs)
+    signals.com_x, signals.com_y, signals.com_z = com[0], com[1], com[2]
+    signals.com_x_d, signals.com_y_d, signals.com_z_d = c_d[0], c_d[1], c_d[2]
     return switched_on
