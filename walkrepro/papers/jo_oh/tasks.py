@@ -337,7 +337,7 @@ def kinematic_chain(model: pin.Model, frame_id: int) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def matrix_to_rpy(rotation: np.ndarray, out: np.ndarray) -> None:
+def matrix_to_rpy(rotation: np.ndarray, rpy: np.ndarray) -> None:
     """``pin.rpy.matrixToRpy``: roll, pitch, yaw [rad] with R = R_z(yaw) R_y(pitch) R_x(roll).
 
     Eigen's ``eulerAngles(2, 1, 0)`` (Graphics Gems IV) reversed, then Pinocchio's fold of
@@ -345,7 +345,7 @@ def matrix_to_rpy(rotation: np.ndarray, out: np.ndarray) -> None:
 
     Args:
         rotation: R, shape (3, 3).
-        out: (roll, pitch, yaw), shape (3,).
+        rpy: out, (roll, pitch, yaw) [rad], shape (3,).
     """
     r = rotation
     yaw = math.atan2(r[1, 0], r[0, 0])
@@ -363,7 +363,7 @@ def matrix_to_rpy(rotation: np.ndarray, out: np.ndarray) -> None:
         pitch = math.pi - pitch
         roll = roll + math.pi if roll < 0.0 else roll - math.pi
         yaw -= math.pi
-    out[0], out[1], out[2] = roll, pitch, yaw
+    rpy[0], rpy[1], rpy[2] = roll, pitch, yaw
 
 
 @numba.njit(cache=True)
@@ -507,9 +507,9 @@ def advance_impedance(
     for i in range(3):
         e = x_d[i] - state[0, i]
         e_dot = v_d[i] - state[1, i]
-        state[2, i] = a_d[i] + (
-            wrench[i] + gains.damping[i] * e_dot + gains.stiffness[i] * e
-        ) / gains.mass[i]
+        state[2, i] = (
+            a_d[i] + (wrench[i] + gains.damping[i] * e_dot + gains.stiffness[i] * e) / gains.mass[i]
+        )
         state[1, i] += state[2, i] * dt
         state[0, i] += state[1, i] * dt
     return switched_on
