@@ -177,6 +177,13 @@ def test_desired_com_equals_numpy_interp() -> None:
     np.testing.assert_array_equal(np.r_[pos, vel, acc], [plan[-1, 0], plan[-1, 3], z] + [0.0] * 6)
 
 
+def _impedance_rows(impedance: np.ndarray) -> np.ndarray:
+    """Each foot's (x_m, ẋ_m, ẍ_m) of the impedance records, shape (2, 3, 3)."""
+    return np.stack(
+        [impedance["position"], impedance["velocity"], impedance["acceleration"]], axis=1
+    )
+
+
 def test_task_rows_equal_numpy_reference() -> None:
     """A swing tick's QP tasks (b_1; Φ_t, b_t of each task), contact stacks and signals equal the §III-D algebra written with numpy and Pinocchio."""
     robot = load_robot("kist_humanoid")
@@ -190,12 +197,14 @@ def test_task_rows_equal_numpy_reference() -> None:
     ctrl._v[:] = v
     ctrl._enter_phase(swing_index)
     rng = np.random.default_rng(8)
-    ctrl._impedance_state[:] = rng.normal(0, 0.1, (2, 3, 3))
-    ctrl._impedance_flags[:] = True  # armed and active: Eq. (2) integrates this tick
+    impedance = ctrl._impedance
+    for name in ("position", "velocity", "acceleration"):
+        impedance[name] = rng.normal(0, 0.1, (2, 3))
+    impedance["armed"] = impedance["active"] = True  # Eq. (2) integrates this tick
     ctrl._foot_acc_cmd[:] = rng.normal(0, 1, (2, 3))
     ctrl._stance_z[:] = rng.normal(0, 0.05, 2)  # planned heights (0 on flat ground)
     prev_vel = ctrl._prev_foot_vel[:] = rng.normal(0, 1, (2, 6))
-    imp_before = ctrl._impedance_state.copy()
+    imp_before = _impedance_rows(impedance)
     acc_before = ctrl._foot_acc_cmd.copy()
     joint_pos, joint_vel = rng.normal(0, 0.3, (2, robot.n_joints))
     fts = rng.normal(0, 50, (2, 6))
@@ -290,9 +299,7 @@ def test_task_rows_equal_numpy_reference() -> None:
             assert refs == [z, 0, 0] + [0] * 6 + [z, 0, 0] + [0] * 6
             assert signals[f"{name}_impedance_on"] == 0.0
             np.testing.assert_array_equal(ctrl._foot_acc_cmd[side], 0.0)
-            np.testing.assert_allclose(
-                ctrl._impedance_state[side, 0], (sole.translation[2], *rpy[:2])
-            )
+            np.testing.assert_allclose(impedance[side]["position"], (sole.translation[2], *rpy[:2]))
             continue
         # Swing: Eq. (2) advanced from the previous state (semi-implicit Euler), then Eq. (3)
         # on all six axes.
@@ -303,7 +310,7 @@ def test_task_rows_equal_numpy_reference() -> None:
         v_m = v_prev + a_m * 0.001
         x_m = x_prev + v_m * 0.001
         np.testing.assert_allclose(
-            ctrl._impedance_state[side], [x_m, v_m, a_m], rtol=1e-12, atol=1e-12
+            _impedance_rows(impedance)[side], [x_m, v_m, a_m], rtol=1e-12, atol=1e-12
         )
         assert signals[f"{name}_impedance_on"] == 1.0
         want_refs = np.r_[pos_d[2:5], vel_d[2:5], acc_d[2:5], x_m, v_m, a_m]

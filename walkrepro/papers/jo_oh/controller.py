@@ -48,6 +48,7 @@ from walkrepro.papers.jo_oh.footsteps import (
 from walkrepro.papers.jo_oh.preview import generate_com, preview_gains
 from walkrepro.papers.jo_oh.tasks import (
     FOOT_SIGNALS,
+    IMPEDANCE_STATE,
     SWING_PLAN,
     ImpedanceGains,
     RobotTerms,
@@ -564,8 +565,7 @@ class QPImpedanceController(Controller):
         )
         # Per-tick state: each foot's impedance (x_m, ẋ_m, ẍ_m) and (armed, active), its
         # previous sole velocity and its commanded acceleration; the swing trajectory.
-        self._impedance_state = np.zeros((2, 3, 3))
-        self._impedance_flags = np.zeros((2, 2), dtype=bool)
+        self._impedance = np.zeros(2, dtype=IMPEDANCE_STATE)
         self._prev_foot_vel = np.zeros((2, 6))
         self._foot_acc_cmd = np.zeros((2, 3))
         self._swing_plan = np.zeros(1, dtype=SWING_PLAN)  # tasks.pack_swing
@@ -675,8 +675,7 @@ class QPImpedanceController(Controller):
         for qp in self._qps.values():  # the QP's kernels (a library solver's too)
             qp.solve(warm=False)
             qp.solution.x[:] = 0.0
-        self._impedance_state[:] = 0.0
-        self._impedance_flags[:] = False
+        self._impedance[:] = np.zeros(1, dtype=IMPEDANCE_STATE)
         self._prev_foot_vel[:] = 0.0
         self._foot_acc_cmd[:] = 0.0
 
@@ -759,9 +758,7 @@ class QPImpedanceController(Controller):
         references = TaskReferences(
             self._com_plan, self._swing_plan, self._stance_z, self._q_home_posture
         )
-        state = TaskState(
-            self._impedance_state, self._impedance_flags, self._prev_foot_vel, self._foot_acc_cmd
-        )
+        state = TaskState(self._impedance, self._prev_foot_vel, self._foot_acc_cmd)
         outputs = TaskOutputs(
             self._tasks,
             self._sole_jacobians,

@@ -113,6 +113,19 @@ FOOT_SIGNALS = np.dtype(
 #: (0 left, 1 right, −1 none), the CoM and the desired CoM [m]. A controller's signal record
 #: holds these fields and ``left``, ``right`` of :data:`FOOT_SIGNALS`, in its own order.
 TICK_SIGNALS = ("t_plan", "swing_foot", "com_x", "com_y", "com_z", "com_x_d", "com_y_d", "com_z_d")
+#: A foot's impedance state (see :func:`advance_impedance`): the modified reference x_m, ẋ_m,
+#: ẍ_m of (z [m], φ_x, φ_y [rad]) and its rates; ``armed``: the foot has been unloaded since
+#: lift-off; ``active``: the modification is on.
+IMPEDANCE_STATE = np.dtype(
+    [
+        ("position", np.float64, (3,)),
+        ("velocity", np.float64, (3,)),
+        ("acceleration", np.float64, (3,)),
+        ("armed", np.bool_),
+        ("active", np.bool_),
+    ],
+    align=True,
+)
 #: A swing trajectory (see :func:`swing_reference`): start time [s], duration [s], the sole
 #: centre's (x, y, z [m], roll, pitch [rad]) at lift-off and at landing, the apex [m] above the
 #: higher of the two, and the share of the swing spent rising [-].
@@ -265,14 +278,12 @@ class TaskState(NamedTuple):
     """Each foot's state carried from tick to tick, updated in place.
 
     Attributes:
-        impedance_state, impedance_flags: each foot's (see :func:`advance_impedance`),
-            shapes (2, 3, 3) and (2, 2).
+        impedance: each foot's impedance state, shape (2,) of :data:`IMPEDANCE_STATE`.
         prev_foot_vel: each sole's spatial velocity of the previous tick, shape (2, 6).
         foot_acc_cmd: each sole's commanded linear acceleration [m/s²], shape (2, 3).
     """
 
-    impedance_state: np.ndarray
-    impedance_flags: np.ndarray
+    impedance: np.ndarray
     prev_foot_vel: np.ndarray
     foot_acc_cmd: np.ndarray
 
@@ -440,8 +451,7 @@ def swing_reference(
 
 @numba.njit(cache=True)
 def advance_impedance(
-    state: np.ndarray,
-    flags: np.ndarray,
+    state: np.void,
     desired: DesiredMotion,
     wrench: np.ndarray,
     gains: ImpedanceGains,
@@ -476,8 +486,8 @@ def advance_impedance(
     of Eq. 1, the thresholds, lift-off, switch-on, the run without impedance).
 
     Args:
-        state: (x_m, ẋ_m, ẍ_m), updated in place, shape (3, 3).
-        flags: (armed, active), updated in place, shape (2,) bool.
+        state: the foot's record of :data:`IMPEDANCE_STATE` (x_m, ẋ_m, ẍ_m, armed,
+            active), updated in place.
         desired: desired (z [m], φ_x, φ_y [rad]), rates and accelerations.
         wrench: contact wrench λ = (f_z [N], μ_x [N m], μ_y [N m]).
         gains: M_d, B_d, K_d and the switch-on thresholds.
@@ -492,26 +502,27 @@ def advance_impedance(
     for i in range(3):
         if abs(wrench[i]) > gains.threshold[i]:
             over = True
-    if not flags[0] and not over:
-        flags[0] = True  # the foot has left the ground: a new contact is unexpected
+    if not state.armed and not over:
+        state.armed = True  # the foot has left the ground: a new contact is unexpected
     switched_on = False
-    if enabled and flags[0] and not flags[1] and over:
-        flags[1] = switched_on = True  # start from the desired state: continuous reference
-        state[0] = x_d
-        state[1] = v_d
-    if not flags[1]:
-        state[0] = x_d
-        state[1] = v_d
-        state[2] = a_d
+    if enabled and state.armed and not state.active and over:
+        state.active = switched_on = True  # start from the desired state: continuous reference
+        state.position[:] = x_d
+        state.velocity[:] = v_d
+    if not state.active:
+        state.position[:] = x_d
+        state.velocity[:] = v_d
+        state.acceleration[:] = a_d
         return False
+    x_m, v_m, a_m = state.position, state.velocity, state.acceleration
     for i in range(3):
-        e = x_d[i] - state[0, i]
-        e_dot = v_d[i] - state[1, i]
-        state[2, i] = (
+        e = x_d[i] - x_m[i]
+        e_dot = v_d[i] - v_m[i]
+        a_m[i] = (
             a_d[i] + (wrench[i] + gains.damping[i] * e_dot + gains.stiffness[i] * e) / gains.mass[i]
         )
-        state[1, i] += state[2, i] * dt
-        state[0, i] += state[1, i] * dt
+        v_m[i] += a_m[i] * dt
+        x_m[i] += v_m[i] * dt
     return switched_on
 
 
@@ -728,7 +739,7 @@ def task_rows(t: float, swing: int, readings: SensorReadings, records: TaskRecor
     gains, chains = constants.gains, constants.chains
     posture_idx, posture_home = constants.posture_idx, references.posture_home
     local_wrench_map = constants.local_wrench_map
-    impedance_state, impedance_flags = state.impedance_state, state.impedance_flags
+    impedance = state.impedance
     prev_foot_vel, foot_acc_cmd = state.prev_foot_vel, state.foot_acc_cmd
     tasks = outputs.tasks
     sole_jacobians, sole_drifts, wrench_maps = (
@@ -853,13 +864,14 @@ def task_rows(t: float, swing: int, readings: SensorReadings, records: TaskRecor
         foot.x, foot.z, foot.roll, foot.pitch = pos[0], pos[2], roll, pitch
         foot.vz, foot.wx, foot.wy = vel[2], vel[3], vel[4]
         foot.az, foot.alphax, foot.alphay = acc_meas[2], acc_meas[3], acc_meas[4]
-        foot_state = impedance_state[side]
+        foot_state = impedance[side]
         if side != swing:
             # Support: re-initialise the impedance at the foot's state (§IV), no command.
-            flags = impedance_flags[side]
-            flags[0] = flags[1] = False
-            foot_state[0, 0], foot_state[0, 1], foot_state[0, 2] = pos[2], roll, pitch
-            foot_state[1:] = 0.0
+            foot_state.armed = foot_state.active = False
+            x_m = foot_state.position
+            x_m[0], x_m[1], x_m[2] = pos[2], roll, pitch
+            foot_state.velocity[:] = 0.0
+            foot_state.acceleration[:] = 0.0
             foot_acc_cmd[side] = 0.0
             foot.impedance_on = 0.0
             # The references of a support foot: at its planned height, at rest, level.
@@ -872,7 +884,6 @@ def task_rows(t: float, swing: int, readings: SensorReadings, records: TaskRecor
         desired = DesiredMotion(pos_d[2:5], vel_d[2:5], acc_d[2:5])
         if advance_impedance(
             foot_state,
-            impedance_flags[side],
             desired,
             wrench,
             constants.impedance_gains,
@@ -888,17 +899,18 @@ def task_rows(t: float, swing: int, readings: SensorReadings, records: TaskRecor
         acc_ref[1] = acc_d[1] + kv * (vel_d[1] - vel[1]) + kp * (pos_d[1] - pos[1])
         for i in range(3):
             acc_ref[2 + i] = (
-                foot_state[2, i]
-                + kv * (foot_state[1, i] - vel[2 + i])
-                + kp * (foot_state[0, i] - x_now[i])
+                foot_state.acceleration[i]
+                + kv * (foot_state.velocity[i] - vel[2 + i])
+                + kp * (foot_state.position[i] - x_now[i])
             )
         acc_ref[5] = -kv * vel[5] - kp * yaw
         foot_acc_cmd[side] = acc_ref[:3]
         _set_task(tasks.swing, sole_jac, 0, acc_ref, drift)
-        foot.impedance_on = 1.0 if impedance_flags[side, 1] else 0.0
+        foot.impedance_on = 1.0 if foot_state.active else 0.0
         swing_refs = np.empty((6, 3))  # x_d, ẋ_d, ẍ_d, x_m, ẋ_m, ẍ_m of (z, φ_x, φ_y)
         swing_refs[0], swing_refs[1], swing_refs[2] = pos_d[2:5], vel_d[2:5], acc_d[2:5]
-        swing_refs[3:] = foot_state
+        swing_refs[3], swing_refs[4] = foot_state.position, foot_state.velocity
+        swing_refs[5] = foot_state.acceleration
         _write_references(foot, swing_refs)
     signals.com_x, signals.com_y, signals.com_z = com[0], com[1], com[2]
     signals.com_x_d, signals.com_y_d, signals.com_z_d = c_d[0], c_d[1], c_d[2]
