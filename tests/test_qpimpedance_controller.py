@@ -7,7 +7,8 @@ import pytest
 from pydantic import ValidationError
 
 from walkrepro.controllers import controller_class
-from walkrepro.papers.jo_oh.controller import SIGNAL_LAYOUT, SUPPORTS
+from walkrepro.papers.jo_oh.controller import SIGNAL_LAYOUT, SIGNALS, SUPPORTS
+from walkrepro.papers.jo_oh.tasks import FOOT_SIGNALS, TICK_SIGNALS
 from walkrepro.robot import load_robot
 
 
@@ -81,6 +82,18 @@ def test_data_views_follow_and_equal_fresh_reads(kist_home_snapshot) -> None:
         assert a.signals.keys() == b.signals.keys() and a.events == b.events
         np.testing.assert_allclose(list(a.signals.values()), list(b.signals.values()), atol=1e-9)
         assert controllers[0]._views.follows()
+
+
+def test_the_signal_record_holds_every_field_the_kernel_writes() -> None:
+    """The controller's one signal declaration holds task_rows' fields and each foot's block,
+    and its float64 view is the logged vector, field for field."""
+    assert set(TICK_SIGNALS) <= set(SIGNALS.names)
+    assert SIGNALS["left"] == SIGNALS["right"] == FOOT_SIGNALS
+    names = [name for name, _, _ in SIGNAL_LAYOUT.fields]
+    assert [n for n in names if n.startswith("left_")][: len(FOOT_SIGNALS.names)] == [
+        f"left_{n}" for n in FOOT_SIGNALS.names
+    ]
+    assert SIGNAL_LAYOUT.width * 8 == SIGNALS.itemsize
 
 
 def test_signals_follow_the_documented_order(kist_home_snapshot) -> None:
