@@ -50,6 +50,7 @@ from walkrepro.papers.jo_oh.tasks import (
     FOOT_SIGNALS,
     IMPEDANCE_STATE,
     SWING_PLAN,
+    FrameChains,
     ImpedanceGains,
     RobotTerms,
     SensorReadings,
@@ -436,15 +437,16 @@ class _DataViews:
         self.base_drift = data.a[1].vector
         self.pelvis_rotation = data.oMf[pelvis].rotation
         self.torso_rotation = data.oMf[torso].rotation
-        self.torso_joint = data.oMi[torso_joint].rotation, data.a[torso_joint].vector
-        #: per sole: world rotation and position; parent joint's rotation, velocity, drift
+        self.torso_joint_rotation = data.oMi[torso_joint].rotation
+        self.torso_joint_drift = data.a[torso_joint].vector
+        #: per sole (left, right): its placement and its parent joint's R, v, a
         self.soles = tuple(
-            (
-                data.oMf[frame].rotation,
-                data.oMf[frame].translation,
-                data.oMi[joint].rotation,
-                data.v[joint].vector,
-                data.a[joint].vector,
+            SoleKinematics(
+                rotation=data.oMf[frame].rotation,
+                position=data.oMf[frame].translation,
+                joint_rotation=data.oMi[joint].rotation,
+                joint_velocity=data.v[joint].vector,
+                joint_drift=data.a[joint].vector,
             )
             for frame, joint in ((left, left_joint), (right, right_joint))
         )
@@ -453,8 +455,8 @@ class _DataViews:
         return [
             self.jacobians, self.mass_matrix, self.nle, self.g, self.com, self.vcom,
             self.angular_momentum, self.base_rotation, self.base_position, self.base_drift,
-            self.pelvis_rotation, self.torso_rotation, *self.torso_joint,
-            *self.soles[0], *self.soles[1],
+            self.pelvis_rotation, self.torso_rotation, self.torso_joint_rotation,
+            self.torso_joint_drift, *self.soles[LEFT], *self.soles[RIGHT],
         ]  # fmt: skip
 
     def follows(self) -> bool:
@@ -536,7 +538,7 @@ class QPImpedanceController(Controller):
         self._v_idx = np.ascontiguousarray(robot.pin_v_idx, dtype=np.int64)
         self._pin_state, self._q, self._v = pin_state_buffer(model)
         frames = (self._sole[LEFT], self._sole[RIGHT], self._pelvis, self._torso)
-        self._chains = np.array([kinematic_chain(model, fid) for fid in frames])  # tasks.CHAIN_*
+        self._chains = FrameChains(*(kinematic_chain(model, fid) for fid in frames))
         parents = tuple(model.frames[fid].parentJoint for fid in frames)
         if parents[2] != 1:
             raise ValueError("qpimpedance needs the pelvis frame on the floating base")
@@ -744,9 +746,10 @@ class QPImpedanceController(Controller):
             views.base_drift,
             views.pelvis_rotation,
             views.torso_rotation,
-            *views.torso_joint,
-            SoleKinematics(*views.soles[LEFT]),
-            SoleKinematics(*views.soles[RIGHT]),
+            views.torso_joint_rotation,
+            views.torso_joint_drift,
+            views.soles[LEFT],
+            views.soles[RIGHT],
             self._v,
         )
         constants = TaskConstants(

@@ -89,8 +89,6 @@ class TaskGains(NamedTuple):
     com_z: float
 
 
-#: Rows of the ``chains`` array of :func:`task_rows`: the frames whose Jacobians it forms.
-CHAIN_LEFT_SOLE, CHAIN_RIGHT_SOLE, CHAIN_PELVIS, CHAIN_TORSO = range(4)
 #: The axes of the swing foot that the impedance modifies, x = (z, φ_x, φ_y) (§II).
 IMPEDANCE_AXES = ("z", "roll", "pitch")
 #: Kinds of the per-axis references: x_d, ẋ_d, ẍ_d (desired), x_m, ẋ_m, ẍ_m (modified).
@@ -156,6 +154,21 @@ class ImpedanceGains(NamedTuple):
     damping: np.ndarray
     stiffness: np.ndarray
     threshold: np.ndarray
+
+
+class FrameChains(NamedTuple):
+    """Which velocities move each frame whose Jacobian :func:`task_rows` forms (see
+    :func:`kinematic_chain`), each of shape (nv,) bool.
+
+    Attributes:
+        left_sole, right_sole: the soles (contact and swing rows).
+        pelvis, torso: the orientation tasks' frames.
+    """
+
+    left_sole: np.ndarray
+    right_sole: np.ndarray
+    pelvis: np.ndarray
+    torso: np.ndarray
 
 
 class SoleKinematics(NamedTuple):
@@ -237,8 +250,7 @@ class TaskConstants(NamedTuple):
     Attributes:
         gains: gains, masses and times.
         impedance_gains: M_d, B_d, K_d and thresholds (see :func:`advance_impedance`).
-        chains: per frame of :data:`CHAIN_LEFT_SOLE` … whether each velocity moves it,
-            shape (4, nv) bool.
+        chains: per frame, whether each velocity moves it.
         posture_idx: actuator indices of the arm and waist joints.
         sole_site_rotation, sole_site_position: each F/T sensor's placement in its sole
             frame, shapes (2, 3, 3) and (2, 3) [-, m].
@@ -249,7 +261,7 @@ class TaskConstants(NamedTuple):
 
     gains: TaskGains
     impedance_gains: ImpedanceGains
-    chains: np.ndarray
+    chains: FrameChains
     posture_idx: np.ndarray
     sole_site_rotation: np.ndarray
     sole_site_position: np.ndarray
@@ -791,15 +803,13 @@ def task_rows(t: float, swing: int, readings: SensorReadings, records: TaskRecor
         base_rotation, base_drift[3], base_drift[4], base_drift[5]
     )
     log3(terms.pelvis_rotation, log_r)
-    _orientation_task(
-        terms, chains[CHAIN_PELVIS], log_r, drift, orientation, frame_jac, tasks.pelvis
-    )
+    _orientation_task(terms, chains.pelvis, log_r, drift, orientation, frame_jac, tasks.pelvis)
     torso_drift = terms.torso_joint_drift
     drift[0], drift[1], drift[2] = eigen_rotate(
         terms.torso_joint_rotation, torso_drift[3], torso_drift[4], torso_drift[5]
     )
     log3(terms.torso_rotation, log_r)
-    _orientation_task(terms, chains[CHAIN_TORSO], log_r, drift, orientation, frame_jac, tasks.torso)
+    _orientation_task(terms, chains.torso, log_r, drift, orientation, frame_jac, tasks.torso)
 
     # ---- arm and waist joints: hold home ---------------------------------------------
     n_post = posture_idx.shape[0]
@@ -820,12 +830,14 @@ def task_rows(t: float, swing: int, readings: SensorReadings, records: TaskRecor
     for side in range(2):
         if side == 0:  # the sole's placement and parent joint's R, v, a; its F/T reading
             sole, ft, foot = terms.left, readings.left_ft, signals.left
+            chain = chains.left_sole
         else:
             sole, ft, foot = terms.right, readings.right_ft, signals.right
+            chain = chains.right_sole
         rot, pos = sole.rotation, sole.position
         joint_r, joint_v, joint_a = sole.joint_rotation, sole.joint_velocity, sole.joint_drift
         sole_jac = sole_jacobians[side]
-        frame_jacobian(joint_jacobians, chains[CHAIN_LEFT_SOLE + side], pos, sole_jac)
+        frame_jacobian(joint_jacobians, chain, pos, sole_jac)
         drift = sole_drifts[side]
         frame_classical_acceleration(joint_r, joint_v, joint_a, constants.sole_offset[side], drift)
         # R̃ U_k: both halves (forces, moments) of the contact-frame basis rotated.
