@@ -163,18 +163,22 @@ def test_contact_wrench_equals_numpy() -> None:
 def test_desired_com_equals_numpy_interp() -> None:
     """The CoM pattern is np.interp of its samples, and rests at the last sample after the plan."""
     rng = np.random.default_rng(5)
-    plan = rng.standard_normal((50, 6))
+    columns = rng.standard_normal((50, 6))  # x, ẋ, ẍ, y, ẏ, ÿ
+    plan = np.zeros(50, dtype=tasks.COM_SAMPLE)
+    for order, name in enumerate(("position", "velocity", "acceleration")):
+        plan[name] = columns[:, [order, 3 + order]]
     dt, end, z = 0.005, 0.2, 0.8
     pos, vel, acc = np.empty(3), np.empty(3), np.empty(3)
     times = dt * np.arange(50)
     for t in rng.uniform(0, end, 30):
         tasks.desired_com(plan, t, dt, end, z, pos, vel, acc)
-        want = [np.interp(t, times, plan[:, j]) for j in range(6)]
+        want = [np.interp(t, times, columns[:, j]) for j in range(6)]
         np.testing.assert_allclose(pos, (want[0], want[3], z), rtol=1e-12)
         np.testing.assert_allclose(vel, (want[1], want[4], 0.0), rtol=1e-12)
         np.testing.assert_allclose(acc, (want[2], want[5], 0.0), rtol=1e-12)
     tasks.desired_com(plan, end, dt, end, z, pos, vel, acc)
-    np.testing.assert_array_equal(np.r_[pos, vel, acc], [plan[-1, 0], plan[-1, 3], z] + [0.0] * 6)
+    want_end = [columns[-1, 0], columns[-1, 3], z] + [0.0] * 6
+    np.testing.assert_array_equal(np.r_[pos, vel, acc], want_end)
 
 
 def _impedance_rows(impedance: np.ndarray) -> np.ndarray:

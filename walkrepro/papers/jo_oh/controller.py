@@ -47,6 +47,7 @@ from walkrepro.papers.jo_oh.footsteps import (
 )
 from walkrepro.papers.jo_oh.preview import generate_com, preview_gains
 from walkrepro.papers.jo_oh.tasks import (
+    COM_SAMPLE,
     FOOT_SIGNALS,
     IMPEDANCE_STATE,
     SWING_PLAN,
@@ -523,7 +524,10 @@ class QPImpedanceController(Controller):
         ref = self._plan.zmp_xy.copy()
         com_x, _ = generate_com(gains, ref[:, 0], np.array([com0[0], 0.0, 0.0]))
         com_y, _ = generate_com(gains, ref[:, 1], np.array([com0[1], 0.0, 0.0]))
-        self._com_plan = np.ascontiguousarray(np.hstack([com_x, com_y]))  # (x, ẋ, ẍ, y, ẏ, ÿ)
+        # generate_com gives each axis's (c, ċ, c̈) per sample.
+        self._com_plan = np.zeros(len(com_x), dtype=COM_SAMPLE)
+        for order, name in enumerate(("position", "velocity", "acceleration")):
+            self._com_plan[name] = np.column_stack([com_x[:, order], com_y[:, order]])
         com_z = float(com0[2] if p.com_height is None else p.com_height)
 
         names = robot.joint_names

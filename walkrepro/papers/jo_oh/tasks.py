@@ -124,6 +124,15 @@ IMPEDANCE_STATE = np.dtype(
     ],
     align=True,
 )
+#: A sample of the preview-control CoM pattern (ref. [23]): the CoM's horizontal (x, y)
+#: position [m], velocity [m/s] and acceleration [m/s²] in the world.
+COM_SAMPLE = np.dtype(
+    [
+        ("position", np.float64, (2,)),
+        ("velocity", np.float64, (2,)),
+        ("acceleration", np.float64, (2,)),
+    ]
+)
 #: A swing trajectory (see :func:`swing_reference`): start time [s], duration [s], the sole
 #: centre's (x, y, z [m], roll, pitch [rad]) at lift-off and at landing, the apex [m] above the
 #: higher of the two, and the share of the swing spent rising [-].
@@ -274,7 +283,7 @@ class TaskReferences(NamedTuple):
     """The walking pattern the tasks track: set at reset, the swing at each phase's start.
 
     Attributes:
-        com_plan: the preview CoM pattern (see :func:`desired_com`), shape (N, 6).
+        com_plan: the preview CoM pattern, shape (N,) of :data:`COM_SAMPLE`.
         swing_plan: this phase's swing trajectory, shape (1,) of :data:`SWING_PLAN`.
         stance_z: each foot's planned stance height [m], shape (2,).
         posture_home: home angles of the arm and waist joints [rad] (``posture_idx``).
@@ -601,7 +610,7 @@ def desired_com(
     Linear between the pattern's samples; after the plan, its last position at rest.
 
     Args:
-        com_plan: (x, ẋ, ẍ, y, ẏ, ÿ) per sample of the preview pattern, shape (N, 6).
+        com_plan: the preview pattern's samples, shape (N,) of :data:`COM_SAMPLE`.
         t: time [s].
         preview_dt: sample time of the pattern [s].
         plan_end: time the plan ends [s].
@@ -610,23 +619,19 @@ def desired_com(
     """
     n = com_plan.shape[0]
     if t >= plan_end:
-        pos[0], pos[1], pos[2] = com_plan[n - 1, 0], com_plan[n - 1, 3], com_z
+        last = com_plan[n - 1].position
+        pos[0], pos[1], pos[2] = last[0], last[1], com_z
         vel[:] = 0.0
         acc[:] = 0.0
         return
     k = t / preview_dt
     i = int(min(max(np.floor(k), 0.0), n - 2))
     a = min(max(k - i, 0.0), 1.0)
+    before, after = com_plan[i], com_plan[i + 1]
     for axis in range(2):
-        for order in range(3):
-            j = 3 * axis + order
-            value = (1 - a) * com_plan[i, j] + a * com_plan[i + 1, j]
-            if order == 0:
-                pos[axis] = value
-            elif order == 1:
-                vel[axis] = value
-            else:
-                acc[axis] = value
+        pos[axis] = (1 - a) * before.position[axis] + a * after.position[axis]
+        vel[axis] = (1 - a) * before.velocity[axis] + a * after.velocity[axis]
+        acc[axis] = (1 - a) * before.acceleration[axis] + a * after.acceleration[axis]
     pos[2], vel[2], acc[2] = com_z, 0.0, 0.0
 
 
