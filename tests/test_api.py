@@ -36,6 +36,25 @@ def test_importing_walkrepro_changes_no_environment_and_no_signal_handler(argv0:
     assert done.returncode == 0, done.stderr
 
 
+def test_importing_the_api_and_the_papers_controllers_changes_nothing() -> None:
+    """Importing walkrepro.api and each paper's controller module (which define their kernels
+    and records) leaves the environment and the SIGINT and SIGTERM handlers alone."""
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR",)}
+    env.pop("OPENBLAS_NUM_THREADS", None)
+    code = (
+        "import os, signal\n"
+        "e = dict(os.environ); h = signal.getsignal(signal.SIGINT)\n"
+        "t = signal.getsignal(signal.SIGTERM)\n"
+        "import walkrepro, walkrepro.api\n"
+        "import walkrepro.papers.lee2021.controller, walkrepro.papers.faraji.controller\n"
+        "import walkrepro.papers.jo_oh.controller\n"
+        "assert dict(os.environ) == e, set(os.environ.items()) ^ set(e.items())\n"
+        "assert signal.getsignal(signal.SIGINT) is h and signal.getsignal(signal.SIGTERM) is t\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+
+
 def test_using_the_library_leaves_the_environment_and_handlers_alone(tmp_path: Path) -> None:
     """load() and run() change no environment variable and leave the signal handlers as they
     found them; numba's cache is walkrepro's source-keyed directory, through numba.config."""

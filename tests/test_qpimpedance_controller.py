@@ -7,8 +7,8 @@ import pytest
 from pydantic import ValidationError
 
 from walkrepro.controllers import controller_class
-from walkrepro.papers.jo_oh.controller import SUPPORTS, TAIL_SIGNALS
-from walkrepro.papers.jo_oh.tasks import SIGNAL_COM, signal_names
+from walkrepro.papers.jo_oh.controller import SIGNAL_LAYOUT, SIGNALS, SUPPORTS
+from walkrepro.papers.jo_oh.tasks import FOOT_SIGNALS, TICK_SIGNALS
 from walkrepro.robot import load_robot
 
 
@@ -84,19 +84,32 @@ def test_data_views_follow_and_equal_fresh_reads(kist_home_snapshot) -> None:
         assert controllers[0]._views.follows()
 
 
+def test_the_signal_record_holds_every_field_the_kernel_writes() -> None:
+    """The controller's one signal declaration holds task_rows' fields and each foot's block,
+    and its float64 view is the logged vector, field for field."""
+    assert set(TICK_SIGNALS) <= set(SIGNALS.names)
+    assert SIGNALS["left"] == SIGNALS["right"] == FOOT_SIGNALS
+    names = [name for name, _, _ in SIGNAL_LAYOUT.fields]
+    assert [n for n in names if n.startswith("left_")][: len(FOOT_SIGNALS.names)] == [
+        f"left_{n}" for n in FOOT_SIGNALS.names
+    ]
+    assert SIGNAL_LAYOUT.width * 8 == SIGNALS.itemsize
+
+
 def test_signals_follow_the_documented_order(kist_home_snapshot) -> None:
     """A tick logs the kernel's head, each support foot's QP f_z, then CoM, ZMP and failures."""
     robot = load_robot("kist_humanoid")
     cls = controller_class("qpimpedance")
     ctrl = cls()
     ctrl.reset(robot, cls.Params(), 0.001)
-    names = signal_names(("left", "right"))
+    names = [name for name, _, _ in SIGNAL_LAYOUT.fields]
+    head, tail = names[: names.index("left_fz_qp")], names[names.index("right_fz_qp") + 1 :]
     seen = set()
     for phase in ctrl._plan.phases[:4]:  # stand, swing, double support, other swing
         cmd = ctrl.step(0.5 * (phase.t0 + phase.t1), kist_home_snapshot())
         support = SUPPORTS[phase.swing + 1]
         fz = [f"{('left', 'right')[side]}_fz_qp" for side in support]
-        assert list(cmd.signals) == [*names[:SIGNAL_COM], *fz, *TAIL_SIGNALS]
+        assert list(cmd.signals) == [*head, *fz, *tail]
         assert cmd.signals["swing_foot"] == phase.swing
         seen.add(support)
     assert len(seen) == 3  # both feet, then each foot alone

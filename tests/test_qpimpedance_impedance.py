@@ -5,10 +5,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from walkrepro.papers.jo_oh.tasks import DesiredMotion, advance_impedance
+from walkrepro.papers.jo_oh.tasks import (
+    IMPEDANCE_STATE,
+    DesiredMotion,
+    ImpedanceGains,
+    advance_impedance,
+)
 
 M, B, K = np.array([30.0, 0.3, 0.3]), np.array([120.0, 0.6, 0.6]), np.array([1500.0, 10.0, 10.0])
-GAINS = np.array([M, B, K, [10.0, 3.0, 3.0]])  # M_d, B_d, K_d; 10 N, 3 N m thresholds (§IV)
+GAINS = ImpedanceGains(M, B, K, np.array([10.0, 3.0, 3.0]))  # 10 N, 3 N m thresholds (§IV)
 ZERO = np.zeros(3)
 
 
@@ -16,8 +21,7 @@ class Foot:
     """One foot's impedance state, (x_m, ẋ_m, ẍ_m) and (armed, active), as the tick keeps it."""
 
     def __init__(self) -> None:
-        self.state = np.zeros((3, 3))
-        self.flags = np.zeros(2, dtype=bool)
+        self.record = np.zeros(1, dtype=IMPEDANCE_STATE)
 
     def update(
         self,
@@ -29,12 +33,18 @@ class Foot:
         """One control period of :func:`advance_impedance`; whether it switched on."""
         motion = DesiredMotion(*(np.asarray(d, dtype=float) for d in desired))
         return advance_impedance(
-            self.state, self.flags, motion, np.asarray(wrench, float), GAINS, dt, enabled
+            self.record[0], motion, np.asarray(wrench, float), GAINS, dt, enabled
         )
 
     @property
+    def state(self) -> np.ndarray:
+        """(x_m, ẋ_m, ẍ_m), shape (3, 3)."""
+        r = self.record[0]
+        return np.array([r["position"], r["velocity"], r["acceleration"]])
+
+    @property
     def active(self) -> bool:
-        return bool(self.flags[1])
+        return bool(self.record[0]["active"])
 
 
 def _msd_step_response(m: float, b: float, k: float, f: float, t: np.ndarray) -> np.ndarray:

@@ -7,7 +7,7 @@ import pytest
 
 from walkrepro.papers.jo_oh.footsteps import RIGHT, WalkPattern, plan_walk
 from walkrepro.papers.jo_oh.preview import generate_com, preview_gains
-from walkrepro.papers.jo_oh.tasks import pack_swing, swing_reference
+from walkrepro.papers.jo_oh.tasks import SWING_PLAN, pack_swing, swing_reference
 
 DT = 0.005
 
@@ -47,7 +47,7 @@ def test_swing_trajectory_ends_at_target_with_zero_velocity() -> None:
     the target at rest."""
     start = np.array([0.0, -0.09, 0.04, 0.1, 0.0])
     target = np.array([0.35, -0.09, 0.0, 0.0, 0.0])
-    packed = np.empty(14)
+    packed = np.zeros(1, dtype=SWING_PLAN)
     pack_swing(1.0, 0.56, start, target, 0.1, 0.4, packed)
 
     def at(t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

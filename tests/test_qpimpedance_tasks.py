@@ -14,7 +14,9 @@ import pytest
 from walkrepro.controllers import controller_class
 from walkrepro.papers.jo_oh import tasks
 from walkrepro.papers.jo_oh.centroidal_qp import solve_centroidal
+from walkrepro.papers.jo_oh.controller import SIGNAL_LAYOUT
 from walkrepro.robot import frame_classical_acceleration, load_robot, pin_state_into
+from walkrepro.signals import Signals
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
@@ -50,7 +52,7 @@ def test_swing_reference_lifts_off_clears_the_apex_and_lands() -> None:
     above the higher of the two at the rise fraction, and its rates and accelerations are
     the time derivatives of its positions, over random swings."""
     rng = np.random.default_rng(1)
-    packed, h = np.empty(14), 1e-6
+    packed, h = np.zeros(1, dtype=tasks.SWING_PLAN), 1e-6
     for _ in range(30):
         t0, duration = rng.uniform(0, 3), rng.uniform(0.3, 0.8)
         start, target = rng.normal(0, 0.1, 5), rng.normal(0, 0.1, 5)
@@ -161,18 +163,29 @@ def test_contact_wrench_equals_numpy() -> None:
 def test_desired_com_equals_numpy_interp() -> None:
     """The CoM pattern is np.interp of its samples, and rests at the last sample after the plan."""
     rng = np.random.default_rng(5)
-    plan = rng.standard_normal((50, 6))
+    columns = rng.standard_normal((50, 6))  # x, ẋ, ẍ, y, ẏ, ÿ
+    plan = np.zeros(50, dtype=tasks.COM_SAMPLE)
+    for order, name in enumerate(("position", "velocity", "acceleration")):
+        plan[name] = columns[:, [order, 3 + order]]
     dt, end, z = 0.005, 0.2, 0.8
     pos, vel, acc = np.empty(3), np.empty(3), np.empty(3)
     times = dt * np.arange(50)
     for t in rng.uniform(0, end, 30):
         tasks.desired_com(plan, t, dt, end, z, pos, vel, acc)
-        want = [np.interp(t, times, plan[:, j]) for j in range(6)]
+        want = [np.interp(t, times, columns[:, j]) for j in range(6)]
         np.testing.assert_allclose(pos, (want[0], want[3], z), rtol=1e-12)
         np.testing.assert_allclose(vel, (want[1], want[4], 0.0), rtol=1e-12)
         np.testing.assert_allclose(acc, (want[2], want[5], 0.0), rtol=1e-12)
     tasks.desired_com(plan, end, dt, end, z, pos, vel, acc)
-    np.testing.assert_array_equal(np.r_[pos, vel, acc], [plan[-1, 0], plan[-1, 3], z] + [0.0] * 6)
+    want_end = [columns[-1, 0], columns[-1, 3], z] + [0.0] * 6
+    np.testing.assert_array_equal(np.r_[pos, vel, acc], want_end)
+
+
+def _impedance_rows(impedance: np.ndarray) -> np.ndarray:
+    """Each foot's (x_m, ẋ_m, ẍ_m) of the impedance records, shape (2, 3, 3)."""
+    return np.stack(
+        [impedance["position"], impedance["velocity"], impedance["acceleration"]], axis=1
+    )
 
 
 def test_task_rows_equal_numpy_reference() -> None:
@@ -188,12 +201,14 @@ def test_task_rows_equal_numpy_reference() -> None:
     ctrl._v[:] = v
     ctrl._enter_phase(swing_index)
     rng = np.random.default_rng(8)
-    ctrl._impedance_state[:] = rng.normal(0, 0.1, (2, 3, 3))
-    ctrl._impedance_flags[:] = True  # armed and active: Eq. (2) integrates this tick
+    impedance = ctrl._impedance
+    for name in ("position", "velocity", "acceleration"):
+        impedance[name] = rng.normal(0, 0.1, (2, 3))
+    impedance["armed"] = impedance["active"] = True  # Eq. (2) integrates this tick
     ctrl._foot_acc_cmd[:] = rng.normal(0, 1, (2, 3))
     ctrl._stance_z[:] = rng.normal(0, 0.05, 2)  # planned heights (0 on flat ground)
     prev_vel = ctrl._prev_foot_vel[:] = rng.normal(0, 1, (2, 6))
-    imp_before = ctrl._impedance_state.copy()
+    imp_before = _impedance_rows(impedance)
     acc_before = ctrl._foot_acc_cmd.copy()
     joint_pos, joint_vel = rng.normal(0, 0.3, (2, robot.n_joints))
     fts = rng.normal(0, 50, (2, 6))
@@ -234,7 +249,7 @@ def test_task_rows_equal_numpy_reference() -> None:
     np.testing.assert_allclose(qp_tasks.posture.target, posture, rtol=1e-14)
     np.testing.assert_array_equal(qp_tasks.posture.jacobian, np.eye(model.nv)[robot.pin_v_idx[idx]])
 
-    signals = dict(zip(tasks.signal_names(("left", "right")), ctrl._signals, strict=True))
+    signals = dict(Signals(SIGNAL_LAYOUT, ctrl._signal_record.view(np.float64)))
     pos_d, vel_d, acc_d = _swing(ctrl._swing_plan, t)  # tested above for its properties
     for side, name in enumerate(("left", "right")):
         fid = robot.pin_frame_id(f"{name}_sole")
@@ -276,21 +291,19 @@ def test_task_rows_equal_numpy_reference() -> None:
             *vel[2:5],
             *acc_meas[2:5],
         )
-        got = [signals[f"{name}_{s}"] for s in tasks.FOOT_SIGNALS]
+        got = [signals[f"{name}_{s}"] for s in tasks.FOOT_SIGNALS.names[:13]]
         np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9)
         refs = [
             signals[f"{name}_{axis}{kind}"]
-            for kind in tasks.REFERENCE_SIGNALS
-            for axis in ("z", "roll", "pitch")
+            for kind in tasks.REFERENCE_KINDS
+            for axis in tasks.IMPEDANCE_AXES
         ]
         if side != swing:
             z = ctrl._stance_z[side]
             assert refs == [z, 0, 0] + [0] * 6 + [z, 0, 0] + [0] * 6
             assert signals[f"{name}_impedance_on"] == 0.0
             np.testing.assert_array_equal(ctrl._foot_acc_cmd[side], 0.0)
-            np.testing.assert_allclose(
-                ctrl._impedance_state[side, 0], (sole.translation[2], *rpy[:2])
-            )
+            np.testing.assert_allclose(impedance[side]["position"], (sole.translation[2], *rpy[:2]))
             continue
         # Swing: Eq. (2) advanced from the previous state (semi-implicit Euler), then Eq. (3)
         # on all six axes.
@@ -301,7 +314,7 @@ def test_task_rows_equal_numpy_reference() -> None:
         v_m = v_prev + a_m * 0.001
         x_m = x_prev + v_m * 0.001
         np.testing.assert_allclose(
-            ctrl._impedance_state[side], [x_m, v_m, a_m], rtol=1e-12, atol=1e-12
+            _impedance_rows(impedance)[side], [x_m, v_m, a_m], rtol=1e-12, atol=1e-12
         )
         assert signals[f"{name}_impedance_on"] == 1.0
         want_refs = np.r_[pos_d[2:5], vel_d[2:5], acc_d[2:5], x_m, v_m, a_m]
@@ -331,9 +344,9 @@ def test_reset_compiles_the_tick_kernels_for_a_real_tick(kist_home_snapshot) -> 
     assert [len(k.signatures) for k in kernels] == compiled
 
 
-def test_readings_of_another_kind_go_through_numbas_dispatcher() -> None:
-    """Contiguous float readings take task_rows' entry bound at reset; a strided one goes through
-    numba's dispatcher (which checks its type), with the same rows and signals."""
+def test_readings_of_any_layout_give_the_same_rows() -> None:
+    """A strided reading (numba's dispatcher compiles task_rows for its type) gives the rows and
+    signals of contiguous readings."""
     robot = load_robot("kist_humanoid")
     cls = controller_class("qpimpedance")
     rng = np.random.default_rng(3)
@@ -343,20 +356,11 @@ def test_readings_of_another_kind_go_through_numbas_dispatcher() -> None:
     for strided in (False, True):
         ctrl = cls()
         ctrl.reset(robot, cls.Params(), 0.001)
-        calls = []
-        entry = ctrl._task_kernel
-
-        def counted(*args, entry=entry, calls=calls):  # noqa: ANN002, ANN202
-            calls.append(args)
-            return entry(*args)
-
-        ctrl._task_kernel = counted
         pos = np.repeat(joint_pos, 2)[::2] if strided else joint_pos
         assert pos.flags.c_contiguous != strided and np.array_equal(pos, joint_pos)
         ctrl._task_rows(0.0, -1, pos, joint_vel, *fts)
-        assert len(calls) == (0 if strided else 1)
         qp_tasks = ctrl._tasks
         targets = [qp_tasks.momentum_target] + [t.target for t in qp_tasks[2:]]
-        outputs.append((np.concatenate(targets), ctrl._signals.copy()))
-    for bound, dispatched in zip(*outputs, strict=True):
-        np.testing.assert_allclose(dispatched, bound, rtol=1e-12, atol=1e-12)
+        outputs.append((np.concatenate(targets), ctrl._signal_record.view(np.float64).copy()))
+    for contiguous, strided_out in zip(*outputs, strict=True):
+        np.testing.assert_array_equal(strided_out, contiguous)

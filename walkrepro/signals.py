@@ -48,6 +48,45 @@ class SignalLayout:
         #: Length of the value vector.
         self.width = at
 
+    @classmethod
+    def of_record(cls, dtype: np.dtype) -> SignalLayout:
+        """The layout of a structured record of float64 signals, in field order.
+
+        A controller that writes its signals in compiled code declares them once as a numpy
+        structured dtype and fills a record of it by name (``record.com_x = …``); the
+        record's memory, viewed as float64 (``record.view(np.float64)``), is then the
+        :class:`Signals` vector of this layout. A float field is a scalar signal, a 1-D
+        float subarray an array signal, and a nested record's fields are signals named
+        ``<record>_<field>`` (``left`` with ``fz``: ``left_fz``).
+
+        Raises:
+            ValueError: a field of another type, or a dtype with gaps (not packed in field
+                order), so that its float64 view would not match the layout.
+        """
+        fields: list[tuple[str, int, bool]] = []
+        offsets: list[int] = []
+
+        def add(record: np.dtype, prefix: str, base: int) -> None:
+            for name in record.names:
+                field, offset = record.fields[name][:2]
+                if field.names is not None:
+                    add(field, f"{prefix}{name}_", base + offset)
+                    continue
+                sub, shape = field.subdtype or (field, ())
+                if sub != np.float64 or len(shape) > 1:
+                    raise ValueError(
+                        f"signal {prefix}{name!r} is {field}, not float64 or a 1-D array of it"
+                    )
+                fields.append((prefix + name, shape[0] if shape else 0, False))
+                offsets.append(base + offset)
+
+        add(np.dtype(dtype), "", 0)
+        layout = cls(fields)
+        packed = [8 * at for at, _, _ in layout.slots.values()]
+        if offsets != packed or np.dtype(dtype).itemsize != 8 * layout.width:
+            raise ValueError("a signal record must be packed in field order (no gaps)")
+        return layout
+
     def __repr__(self) -> str:
         return f"SignalLayout({len(self.fields)} signals, {self.width} values)"
 

@@ -68,13 +68,14 @@ ANKLE_PITCH = 4  # within a leg
 SAGITTAL_JOINTS = (2, 3, 4)
 #: Parts of a control tick reported by `TimeProjectionController.timing`.
 SPLIT = ("estimation", "feedback", "ik", "output")
-#: The logged signals (all floats). Before walking only ``phase`` (−1) is defined, and
-#: ``sway`` [m] only while swaying; a signal not defined at a tick is NaN.
-SIGNAL_LAYOUT = SignalLayout(
-    [(name, 0, False) for name in ("phase", "step_index", "swing_side")]
-    + [(name, 4, False) for name in ("e_raw", "e_dead_zone", "e_meas", "e_nominal")]
+#: The logged signals, declared once (all floats; an array field is an array signal). Before
+#: walking only ``phase`` (−1) is defined, and ``sway`` [m] only while swaying; a signal not
+#: defined at a tick is NaN. A tick names its signals in a mapping (``Signals.of``).
+SIGNALS = np.dtype(
+    [(name, np.float64) for name in ("phase", "step_index", "swing_side")]
+    + [(name, np.float64, (4,)) for name in ("e_raw", "e_dead_zone", "e_meas", "e_nominal")]
     + [
-        (name, 0, False)
+        (name, np.float64)
         for name in (
             "footstep_raw",
             "footstep",
@@ -85,9 +86,10 @@ SIGNAL_LAYOUT = SignalLayout(
             "pelvis_pitch",
         )
     ]  # fmt: skip
-    + [("q_cmd_legs", 12, False), ("load", 2, False), ("ankle_torque", 0, False)]
-    + [("sway", 0, False)]
+    + [("q_cmd_legs", np.float64, (12,)), ("load", np.float64, (2,))]
+    + [("ankle_torque", np.float64), ("sway", np.float64)]
 )
+SIGNAL_LAYOUT = SignalLayout.of_record(SIGNALS)
 
 
 class TimeProjectionParams(ControllerParams):

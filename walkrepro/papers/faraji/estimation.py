@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -18,6 +19,23 @@ import pinocchio as pin
 from walkrepro.robot import Robot
 
 FOOT_FRAMES = ("left_sole", "right_sole")
+
+Point = tuple[float, float, float]
+
+
+class FeetPose(NamedTuple):
+    """The soles relative to the pelvis and the pelvis tilt, in the heading frame (gravity
+    aligned, x along the pelvis heading).
+
+    Attributes:
+        left, right: each sole point (x, y, z) [m] relative to the pelvis.
+        roll, pitch: the pelvis roll and pitch [rad].
+    """
+
+    left: Point
+    right: Point
+    roll: float
+    pitch: float
 
 
 def smooth_dead_zone(x: np.ndarray | float, a: np.ndarray | float) -> np.ndarray:
@@ -198,15 +216,9 @@ class KinematicState:
             r[6], r[7], r[8],
         )  # fmt: skip
 
-    def feet(
-        self, imu_quat_wxyz: np.ndarray, joint_pos: np.ndarray
-    ) -> tuple[tuple[float, float, float], tuple[float, float, float], float, float]:
-        """Left and right sole points relative to the pelvis, heading frame.
-
-        Returns:
-            left (x, y, z), right (x, y, z) [m], pelvis roll [rad] and pitch [rad] in that
-            frame.
-        """
+    def feet(self, imu_quat_wxyz: np.ndarray, joint_pos: np.ndarray) -> FeetPose:
+        """Left and right sole points relative to the pelvis, heading frame, and the pelvis
+        roll and pitch in that frame."""
         h = self.heading_rotation(imu_quat_wxyz)
         # Forward kinematics with the pelvis at the identity, then rotate into the heading
         # frame: the same sole points as a floating base at the heading orientation.
@@ -214,10 +226,10 @@ class KinematicState:
         q[self._q_idx] = joint_pos
         model, data = self._model, self._data
         pin.forwardKinematics(model, data, q)
-        out = []
+        soles = []
         for frame in self._frames:
             x, y, z = pin.updateFramePlacement(model, data, frame).translation.tolist()
-            out.append(
+            soles.append(
                 (
                     h[0] * x + h[1] * y + h[2] * z,
                     h[3] * x + h[4] * y + h[5] * z,
@@ -226,4 +238,4 @@ class KinematicState:
             )
         pitch = math.asin(min(max(-h[6], -1.0), 1.0))
         roll = math.atan2(h[7], h[8])
-        return out[0], out[1], roll, pitch
+        return FeetPose(soles[0], soles[1], roll, pitch)

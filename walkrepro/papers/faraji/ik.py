@@ -362,10 +362,10 @@ def leg_ik_scalar(
     q2 = math.asin(min(max(leg.hip_det * _dot(a1, m_a3), -1.0), 1.0))
     q1 = _angle_about(a1, _rotate(a2, q2, a3), m_a3)
     q3 = _angle_about(a3, mt_a1, _rotate(a2, -q2, a1))
-    out = [0.0] * 6
+    angles = [0.0] * 6  # actuator order
     for i, q in zip(leg.order, (q1, q2, q3, knee, q5, q6), strict=True):
-        out[i] = q
-    return out[0], out[1], out[2], out[3], out[4], out[5]
+        angles[i] = q
+    return angles[0], angles[1], angles[2], angles[3], angles[4], angles[5]
 
 
 def forward(robot: Robot, joint_pos: np.ndarray, side: str) -> tuple[np.ndarray, np.ndarray]:

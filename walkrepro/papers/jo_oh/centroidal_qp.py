@@ -30,8 +30,10 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
+from numba.core import types
+from numba.experimental import structref
 
-from walkrepro.papers.jo_oh.condensed import compiled_entry, solve_eliminated
+from walkrepro.papers.jo_oh.condensed import solve_eliminated
 
 #: The QP solvers a controller may name: this package's exact active set, and the
 #: ``qpsolvers`` backends (each a pip install away: ``pip install qpsolvers[NAME]``).
@@ -345,21 +347,58 @@ def solve_active_set(problem: QPProblem, nv: int, force_weight: float, x: np.nda
     )
 
 
+@structref.register
+class QPRecordsType(types.StructRef):
+    """numba's type of :class:`QPRecords` (its fields typed as given, not literal)."""
+
+    def preprocess_fields(self, fields: tuple) -> tuple:
+        """The fields' types without literal values."""
+        return tuple((name, types.unliteral(typ)) for name, typ in fields)
+
+
+class QPRecords(structref.StructRefProxy):
+    """One support set's QP as one argument of :func:`solve_centroidal`: its inputs and
+    outputs, made once by :func:`qp_records` (the arrays are filled in place every tick).
+
+    Fields: ``dynamics`` (:class:`Dynamics`), ``tasks`` (:class:`CentroidalTasks`),
+    ``contacts`` (:class:`SupportContacts`), ``weights`` (:class:`QPWeights`), ``problem``
+    (:class:`QPProblem`) and ``solution`` (:class:`QPSolution`). Why not the named tuples
+    themselves: numba finds the type of a named tuple argument in Python, field by field, at
+    every call (≈ 30 fields here, ≈ 25–30 µs a tick, measured); a StructRef carries its type.
+    """
+
+
+structref.define_proxy(
+    QPRecords,
+    QPRecordsType,
+    ["dynamics", "tasks", "contacts", "weights", "problem", "solution"],
+)
+
+
 @numba.njit(cache=True)
-def solve_centroidal(
+def qp_records(
     dynamics: Dynamics,
     tasks: CentroidalTasks,
     contacts: SupportContacts,
     weights: QPWeights,
     problem: QPProblem,
     solution: QPSolution,
-) -> int:
+) -> QPRecords:
+    """The :class:`QPRecords` of these records (compiled and cached, unlike the proxy's own
+    constructor)."""
+    return QPRecords(dynamics, tasks, contacts, weights, problem, solution)
+
+
+@numba.njit(cache=True)
+def solve_centroidal(qp: QPRecords) -> int:
     """The tick's QP with the ``active_set`` solver: :func:`build_qp`, :func:`solve_active_set`,
     Eq. (9) (:func:`joint_torques`), in one compiled call.
 
     Returns:
         As :func:`solve_active_set`.
     """
+    dynamics, tasks, contacts, weights = qp.dynamics, qp.tasks, qp.contacts, qp.weights
+    problem, solution = qp.problem, qp.solution
     build_qp(dynamics, tasks, contacts, weights, problem)
     nv = dynamics.mass_matrix.shape[0]
     iterations = solve_active_set(problem, nv, weights.force, solution.x)
@@ -472,11 +511,7 @@ class CentroidalQP:
         """Take the tick's inputs by reference (no copies): a caller that fills the same
         arrays in place every tick sets them once."""
         self._inputs = (dynamics, tasks, contacts, self._weights, self.problem)
-        # The kernel's compiled entry for these records' types, looked up once: numba's
-        # dispatcher types every field of a named tuple in Python on every call (≈ 30 µs a
-        # tick for these records, measured). The entry checks no types, and these records
-        # keep theirs: the same arrays, filled in place.
-        self._solve_centroidal = compiled_entry(solve_centroidal, *self._inputs, self.solution)
+        self._records = qp_records(*self._inputs, self.solution)
 
     def build(self) -> QPProblem:
         """This tick's problem (:func:`build_qp`), for inspection or a library solver."""
@@ -495,7 +530,7 @@ class CentroidalQP:
         if self.solver == "active_set":
             if not warm:
                 x[self.nv :] = 0.0  # cold: every β at its bound
-            return self._solve_centroidal(*self._inputs, self.solution) >= 0
+            return solve_centroidal(self._records) >= 0
         found = solve_with_qpsolvers(
             self.build(), self.solver, x.copy() if warm else None, **self._options
         )

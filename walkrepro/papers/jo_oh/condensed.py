@@ -30,9 +30,6 @@ when it resets, so the first tick is not slow.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Any
-
 import numba
 import numpy as np
 
@@ -41,18 +38,6 @@ MAX_ITER_PER_VARIABLE = 4
 #: A bound leaves the active set only if its multiplier is below −this [same units as the
 #: gradient]. Rounding sits orders below; ProxQP's tolerance (1e-6) orders above.
 MULTIPLIER_TOL = 1e-10
-
-
-def compiled_entry(kernel: Any, *args: Any) -> Callable[..., Any]:
-    """``kernel``'s compiled entry for the types of ``args`` (compiled or loaded from the cache).
-
-    A numba dispatcher finds the types of every argument on every call: cheap for arrays
-    and numbers, ≈ 0.2 µs per field for a named tuple (in Python). A tick whose records are
-    the same objects every tick looks that up once, here, and calls the entry directly. The
-    entry checks no types: call it only with arguments of the types of ``args`` (the same
-    records, and arrays of the same dtype, dimension and layout).
-    """
-    return kernel.compile(tuple(kernel.typeof_pyval(a) for a in args))
 
 
 @numba.njit(cache=True)

@@ -37,7 +37,6 @@ from walkrepro.papers.jo_oh.centroidal_qp import (
     contact_wrench_basis,
     friction_basis,
 )
-from walkrepro.papers.jo_oh.condensed import compiled_entry
 from walkrepro.papers.jo_oh.footsteps import (
     LEFT,
     RIGHT,
@@ -48,10 +47,12 @@ from walkrepro.papers.jo_oh.footsteps import (
 )
 from walkrepro.papers.jo_oh.preview import generate_com, preview_gains
 from walkrepro.papers.jo_oh.tasks import (
-    FOOT_BLOCK,
-    N_SIGNALS,
-    SIGNAL_COM,
-    SIGNAL_FEET,
+    COM_SAMPLE,
+    FOOT_SIGNALS,
+    IMPEDANCE_STATE,
+    SWING_PLAN,
+    FrameChains,
+    ImpedanceGains,
     RobotTerms,
     SensorReadings,
     SoleKinematics,
@@ -62,7 +63,7 @@ from walkrepro.papers.jo_oh.tasks import (
     TaskState,
     kinematic_chain,
     pack_swing,
-    signal_names,
+    task_records,
     task_rows,
 )
 from walkrepro.robot import Robot, pin_state_buffer, pin_state_into
@@ -70,24 +71,35 @@ from walkrepro.sensors import SensorSnapshot
 from walkrepro.signals import SignalLayout, Signals
 
 Vec3 = tuple[float, float, float]
-#: The readings the tick's compiled entry of task_rows takes: contiguous float64 vectors.
-_FLOAT64 = np.dtype(np.float64)
-_VECTOR_STRIDES = (_FLOAT64.itemsize,)
 #: Support sets, each with its own QP (its β blocks differ).
 SUPPORTS = ((LEFT, RIGHT), (RIGHT,), (LEFT,))
-#: Signals logged after the QP's contact forces, in order.
-TAIL_SIGNALS = (
-    "com_x", "com_y", "com_z", "com_x_d", "com_y_d", "com_z_d", "zmp_x_ref", "zmp_y_ref",
-    "qp_failures",
-)  # fmt: skip
-#: The logged signals (all floats): the kernel's head, the QP's f_z of each foot (NaN, so not
-#: in the tick's message, when the foot is not in the QP's support or the QP failed), then
-#: :data:`TAIL_SIGNALS`.
-SIGNAL_LAYOUT = SignalLayout(
-    [(name, 0, False) for name in signal_names(SIDES)[:SIGNAL_COM]]
-    + [(f"{side}_fz_qp", 0, False) for side in SIDES]
-    + [(name, 0, False) for name in TAIL_SIGNALS]
+#: The logged signals, declared once, all floats. :func:`.tasks.task_rows` writes the plan's
+#: time, the swing foot, each foot's block (``left_fz`` …, :data:`.tasks.FOOT_SIGNALS`) and
+#: the CoM; the tick adds each foot's f_z from the QP [N] (NaN, so not in the tick's
+#: message, when the foot is not in the QP's support or the QP failed), the ZMP reference
+#: [m] and the count of failed QPs.
+SIGNALS = np.dtype(
+    [
+        ("t_plan", np.float64),
+        ("swing_foot", np.float64),
+        ("left", FOOT_SIGNALS),
+        ("right", FOOT_SIGNALS),
+        ("left_fz_qp", np.float64),
+        ("right_fz_qp", np.float64),
+        *((name, np.float64) for name in ("com_x", "com_y", "com_z")),
+        *((name, np.float64) for name in ("com_x_d", "com_y_d", "com_z_d")),
+        ("zmp_x_ref", np.float64),
+        ("zmp_y_ref", np.float64),
+        ("qp_failures", np.float64),
+    ]
 )
+SIGNAL_LAYOUT = SignalLayout.of_record(SIGNALS)
+#: Each foot's ``…_fz_qp`` field of :data:`SIGNALS`, by side.
+FZ_QP = tuple(f"{side}_fz_qp" for side in SIDES)
+#: Where each signal sits in the float64 view of a :data:`SIGNALS` record, by name: the tick
+#: writes its own few signals there (numpy sets a structured record's fields, and copies a
+#: nested record, ≈ 20× slower than a float vector's).
+SIGNAL_AT = {name: at for name, (at, _, _) in SIGNAL_LAYOUT.slots.items()}
 
 
 class QPImpedanceParams(ControllerParams):
@@ -426,15 +438,16 @@ class _DataViews:
         self.base_drift = data.a[1].vector
         self.pelvis_rotation = data.oMf[pelvis].rotation
         self.torso_rotation = data.oMf[torso].rotation
-        self.torso_joint = data.oMi[torso_joint].rotation, data.a[torso_joint].vector
-        #: per sole: world rotation and position; parent joint's rotation, velocity, drift
+        self.torso_joint_rotation = data.oMi[torso_joint].rotation
+        self.torso_joint_drift = data.a[torso_joint].vector
+        #: per sole (left, right): its placement and its parent joint's R, v, a
         self.soles = tuple(
-            (
-                data.oMf[frame].rotation,
-                data.oMf[frame].translation,
-                data.oMi[joint].rotation,
-                data.v[joint].vector,
-                data.a[joint].vector,
+            SoleKinematics(
+                rotation=data.oMf[frame].rotation,
+                position=data.oMf[frame].translation,
+                joint_rotation=data.oMi[joint].rotation,
+                joint_velocity=data.v[joint].vector,
+                joint_drift=data.a[joint].vector,
             )
             for frame, joint in ((left, left_joint), (right, right_joint))
         )
@@ -443,8 +456,8 @@ class _DataViews:
         return [
             self.jacobians, self.mass_matrix, self.nle, self.g, self.com, self.vcom,
             self.angular_momentum, self.base_rotation, self.base_position, self.base_drift,
-            self.pelvis_rotation, self.torso_rotation, *self.torso_joint,
-            *self.soles[0], *self.soles[1],
+            self.pelvis_rotation, self.torso_rotation, self.torso_joint_rotation,
+            self.torso_joint_drift, *self.soles[LEFT], *self.soles[RIGHT],
         ]  # fmt: skip
 
     def follows(self) -> bool:
@@ -511,7 +524,10 @@ class QPImpedanceController(Controller):
         ref = self._plan.zmp_xy.copy()
         com_x, _ = generate_com(gains, ref[:, 0], np.array([com0[0], 0.0, 0.0]))
         com_y, _ = generate_com(gains, ref[:, 1], np.array([com0[1], 0.0, 0.0]))
-        self._com_plan = np.ascontiguousarray(np.hstack([com_x, com_y]))  # (x, ẋ, ẍ, y, ẏ, ÿ)
+        # generate_com gives each axis's (c, ċ, c̈) per sample.
+        self._com_plan = np.zeros(len(com_x), dtype=COM_SAMPLE)
+        for order, name in enumerate(("position", "velocity", "acceleration")):
+            self._com_plan[name] = np.column_stack([com_x[:, order], com_y[:, order]])
         com_z = float(com0[2] if p.com_height is None else p.com_height)
 
         names = robot.joint_names
@@ -526,7 +542,7 @@ class QPImpedanceController(Controller):
         self._v_idx = np.ascontiguousarray(robot.pin_v_idx, dtype=np.int64)
         self._pin_state, self._q, self._v = pin_state_buffer(model)
         frames = (self._sole[LEFT], self._sole[RIGHT], self._pelvis, self._torso)
-        self._chains = np.array([kinematic_chain(model, fid) for fid in frames])  # tasks.CHAIN_*
+        self._chains = FrameChains(*(kinematic_chain(model, fid) for fid in frames))
         parents = tuple(model.frames[fid].parentJoint for fid in frames)
         if parents[2] != 1:
             raise ValueError("qpimpedance needs the pelvis frame on the floating base")
@@ -551,16 +567,18 @@ class QPImpedanceController(Controller):
             plan_end=float(self._plan.end),
             com_z=com_z,
         )
-        self._impedance_gains = np.array(
-            [p.m_d, p.b_d, p.k_d, (p.force_threshold, p.torque_threshold, p.torque_threshold)]
+        self._impedance_gains = ImpedanceGains(
+            mass=np.array(p.m_d, dtype=np.float64),
+            damping=np.array(p.b_d, dtype=np.float64),
+            stiffness=np.array(p.k_d, dtype=np.float64),
+            threshold=np.array((p.force_threshold, p.torque_threshold, p.torque_threshold)),
         )
         # Per-tick state: each foot's impedance (x_m, ẋ_m, ẍ_m) and (armed, active), its
         # previous sole velocity and its commanded acceleration; the swing trajectory.
-        self._impedance_state = np.zeros((2, 3, 3))
-        self._impedance_flags = np.zeros((2, 2), dtype=bool)
+        self._impedance = np.zeros(2, dtype=IMPEDANCE_STATE)
         self._prev_foot_vel = np.zeros((2, 6))
         self._foot_acc_cmd = np.zeros((2, 3))
-        self._swing_plan = np.zeros(14)  # tasks.pack_swing
+        self._swing_plan = np.zeros(1, dtype=SWING_PLAN)  # tasks.pack_swing
         self._stance_z = np.zeros(2)  # planned height of each foot in support [m]
         self._phase_index = -1
         self._tau = np.zeros(robot.n_joints)
@@ -604,12 +622,13 @@ class QPImpedanceController(Controller):
             for support in SUPPORTS
         }
         self._warm_support: tuple[int, ...] | None = None  # QP solved on the previous tick
-        self._signals = np.zeros(N_SIGNALS)
-        self._signal_values = np.zeros(SIGNAL_LAYOUT.width)
+        # The tick's signals (SIGNALS): task_rows writes its fields; a QP f_z stays NaN here.
+        self._signal_record = np.zeros(1, dtype=SIGNALS)
+        self._signal_record[FZ_QP[LEFT]] = self._signal_record[FZ_QP[RIGHT]] = np.nan
+        self._signal_vector = self._signal_record.view(np.float64)  # the same memory
         self._refresh_views = False
         self._check_views(q0)
         self._bind_task_args()
-        self._bind_task_kernel()
         self._bind_qp_inputs()
         self._warm_up_tick(q0, v0)
         # Wall time of the tick's parts [s], for benchmarks only (never logged: logs stay
@@ -667,8 +686,7 @@ class QPImpedanceController(Controller):
         for qp in self._qps.values():  # the QP's kernels (a library solver's too)
             qp.solve(warm=False)
             qp.solution.x[:] = 0.0
-        self._impedance_state[:] = 0.0
-        self._impedance_flags[:] = False
+        self._impedance[:] = np.zeros(1, dtype=IMPEDANCE_STATE)
         self._prev_foot_vel[:] = 0.0
         self._foot_acc_cmd[:] = 0.0
 
@@ -715,8 +733,8 @@ class QPImpedanceController(Controller):
         """Gather :func:`.tasks.task_rows`' records, which hold the same arrays every tick.
 
         Data's views and ξ̇, the constants, the walking pattern, the per-tick state and the
-        output buffers: all are filled in place, so a tick passes one prebuilt tuple instead
-        of looking up fifty attributes.
+        output buffers: all are filled in place, so a tick passes one prebuilt
+        :class:`.tasks.TaskRecords` instead of looking up fifty attributes.
         """
         views = self._views
         terms = RobotTerms(
@@ -732,9 +750,10 @@ class QPImpedanceController(Controller):
             views.base_drift,
             views.pelvis_rotation,
             views.torso_rotation,
-            *views.torso_joint,
-            SoleKinematics(*views.soles[LEFT]),
-            SoleKinematics(*views.soles[RIGHT]),
+            views.torso_joint_rotation,
+            views.torso_joint_drift,
+            views.soles[LEFT],
+            views.soles[RIGHT],
             self._v,
         )
         constants = TaskConstants(
@@ -751,25 +770,15 @@ class QPImpedanceController(Controller):
         references = TaskReferences(
             self._com_plan, self._swing_plan, self._stance_z, self._q_home_posture
         )
-        state = TaskState(
-            self._impedance_state, self._impedance_flags, self._prev_foot_vel, self._foot_acc_cmd
-        )
+        state = TaskState(self._impedance, self._prev_foot_vel, self._foot_acc_cmd)
         outputs = TaskOutputs(
             self._tasks,
             self._sole_jacobians,
             self._sole_drifts,
             self._wrench_maps,
-            self._signals,
+            self._signal_record,
         )
-        self._task_args = (terms, constants, references, state, outputs)
-
-    def _bind_task_kernel(self) -> None:
-        """Take task_rows' compiled entry for the records' types and readings of the kind a
-        snapshot holds (contiguous float vectors): a tick then skips numba's check of every
-        record's fields (the records' types stay when the views are refreshed)."""
-        joints, ft = np.zeros(self._robot.n_joints), np.zeros(6)
-        readings = SensorReadings(joints, joints, ft, ft)
-        self._task_kernel = compiled_entry(task_rows, 0.0, -1, readings, *self._task_args)
+        self._task_records = task_records(terms, constants, references, state, outputs)
 
     def _task_rows(
         self,
@@ -782,22 +791,11 @@ class QPImpedanceController(Controller):
     ) -> int:
         """Run :func:`.tasks.task_rows` on this tick's Pinocchio terms and sensor readings.
 
-        Readings of another kind than :meth:`_bind_task_kernel` bound the entry for go
-        through numba's dispatcher, which checks their types.
-
         Returns:
             A bit per foot (1 left, 2 right) whose impedance modification switched on.
         """
         readings = SensorReadings(joint_pos, joint_vel, left_ft, right_ft)
-        kernel = self._task_kernel
-        for reading in readings:
-            if not (
-                type(reading) is np.ndarray
-                and reading.dtype is _FLOAT64
-                and reading.strides == _VECTOR_STRIDES
-            ):
-                kernel = task_rows
-        return kernel(t, swing, readings, *self._task_args)
+        return task_rows(t, swing, readings, self._task_records)
 
     def step(self, t: float, s: SensorSnapshot) -> Command:
         """One tick of §III-D: tasks → QP → Eq. (9)."""
@@ -825,7 +823,7 @@ class QPImpedanceController(Controller):
         if switched_on:
             for side in (LEFT, RIGHT):
                 if switched_on >> side & 1:
-                    fz = float(self._signals[SIGNAL_FEET + side * FOOT_BLOCK])
+                    fz = float(self._signal_record[SIDES[side]]["fz"][0])
                     events.append({"kind": "impedance_on", "foot": SIDES[side], "fz": fz})
         t2 = time.perf_counter()
 
@@ -842,16 +840,12 @@ class QPImpedanceController(Controller):
             self._warm_support = None
             events.append({"kind": "qp_failed"})
             tau, fz_qp, support = self._tau.copy(), [], ()  # hold the last torques
-        # The kernel's head, each foot's QP f_z (NaN: not solved for), CoM, ZMP, failures.
-        values = self._signal_values.copy()
-        head, feet = self._signals[:SIGNAL_COM], slice(SIGNAL_COM, SIGNAL_COM + 2)
-        values[:SIGNAL_COM] = head
-        values[feet] = np.nan
+        # task_rows' signals, then each foot's QP f_z (NaN: not solved for), ZMP, failures.
+        values = self._signal_vector.copy()
         for side, fz in zip(support, fz_qp, strict=True):
-            values[SIGNAL_COM + side] = fz
-        values[SIGNAL_COM + 2 : SIGNAL_COM + 8] = self._signals[SIGNAL_COM:]
-        values[SIGNAL_COM + 8 : SIGNAL_COM + 10] = self._plan.zmp_at(t)
-        values[SIGNAL_COM + 10] = self._qp_fail
+            values[SIGNAL_AT[FZ_QP[side]]] = fz
+        values[SIGNAL_AT["zmp_x_ref"]], values[SIGNAL_AT["zmp_y_ref"]] = self._plan.zmp_at(t)
+        values[SIGNAL_AT["qp_failures"]] = self._qp_fail
         signals = Signals(SIGNAL_LAYOUT, values)
         command = Command(ctrl=tau, signals=signals, events=tuple(events))
         timing = self._timing

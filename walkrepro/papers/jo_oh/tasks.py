@@ -26,9 +26,13 @@ properties (the swing trajectory, the impedance filter). Like
 :mod:`.condensed`, the kernels are cached on disk (``cache=True``) and compiled or loaded
 when the controller resets.
 
-:func:`task_rows` takes its inputs in records (named tuples, :class:`RobotTerms` …
-:class:`TaskOutputs`), which the controller builds once at reset: the arrays in them are
-filled in place every tick; the gains and times are a record of floats (:class:`TaskGains`).
+:func:`task_rows` takes its inputs in records of named fields (named tuples,
+:class:`RobotTerms` … :class:`TaskOutputs`), which the controller builds once at reset and
+gathers into one :class:`TaskRecords` (a numba StructRef: numba reads its type from the
+object, where it would type a named tuple's fields one by one in Python on every call); the
+arrays in them are filled in place every tick; the gains and times are a record of floats
+(:class:`TaskGains`). The signals it writes are fields of a structured record
+(:data:`FOOT_SIGNALS` per foot), named as in the log.
 """
 
 from __future__ import annotations
@@ -39,6 +43,8 @@ from typing import NamedTuple
 import numba
 import numpy as np
 import pinocchio as pin
+from numba.core import types
+from numba.experimental import structref
 
 from walkrepro.papers.jo_oh.centroidal_qp import CentroidalTasks, Task
 from walkrepro.robot import eigen_rotate, frame_classical_acceleration, frame_jacobian, log3
@@ -83,20 +89,95 @@ class TaskGains(NamedTuple):
     com_z: float
 
 
-#: Rows of the ``chains`` array of :func:`task_rows`: the frames whose Jacobians it forms.
-CHAIN_LEFT_SOLE, CHAIN_RIGHT_SOLE, CHAIN_PELVIS, CHAIN_TORSO = range(4)
-#: Names of the per-foot signals, in the order :func:`task_rows` writes them.
-FOOT_SIGNALS = (
-    "fz", "mx", "my", "x", "z", "roll", "pitch", "vz", "wx", "wy", "az", "alphax", "alphay"
+#: The axes of the swing foot that the impedance modifies, x = (z, φ_x, φ_y) (§II).
+IMPEDANCE_AXES = ("z", "roll", "pitch")
+#: Kinds of the per-axis references: x_d, ẋ_d, ẍ_d (desired), x_m, ẋ_m, ẍ_m (modified).
+REFERENCE_KINDS = ("_d", "_dot_d", "_ddot_d", "_m", "_dot_m", "_ddot_m")
+#: The signals :func:`task_rows` writes for each foot (the log names them ``left_fz`` …):
+#: the measured contact wrench at the sole [N, N m], the sole's x, z [m], roll, pitch [rad],
+#: its velocity (v_z [m/s], ω_x, ω_y [rad/s]) and finite-difference acceleration, whether
+#: the impedance modification is on, and the references of each impedance axis.
+FOOT_SIGNALS = np.dtype(
+    [
+        (name, np.float64)
+        for name in (
+            "fz", "mx", "my", "x", "z", "roll", "pitch",
+            "vz", "wx", "wy", "az", "alphax", "alphay", "impedance_on",
+            *(f"{axis}{kind}" for kind in REFERENCE_KINDS for axis in IMPEDANCE_AXES),
+        )
+    ]
 )  # fmt: skip
-#: Names of the reference signals per axis, in the order of ``(x_d, ẋ_d, ẍ_d, x_m, ẋ_m, ẍ_m)``.
-REFERENCE_SIGNALS = ("_d", "_dot_d", "_ddot_d", "_m", "_dot_m", "_ddot_m")
-#: Signals per foot: :data:`FOOT_SIGNALS`, ``impedance_on``, 6 × 3 references.
-FOOT_BLOCK = len(FOOT_SIGNALS) + 1 + 3 * len(REFERENCE_SIGNALS)
-#: Where the feet's blocks, the CoM and the desired CoM sit in the signal vector.
-SIGNAL_FEET = 2  # after t_plan and swing_foot
-SIGNAL_COM = SIGNAL_FEET + 2 * FOOT_BLOCK
-N_SIGNALS = SIGNAL_COM + 6
+#: The signals :func:`task_rows` writes besides the feet: the plan's time [s], the swing foot
+#: (0 left, 1 right, −1 none), the CoM and the desired CoM [m]. A controller's signal record
+#: holds these fields and ``left``, ``right`` of :data:`FOOT_SIGNALS`, in its own order.
+TICK_SIGNALS = ("t_plan", "swing_foot", "com_x", "com_y", "com_z", "com_x_d", "com_y_d", "com_z_d")
+#: A foot's impedance state (see :func:`advance_impedance`): the modified reference x_m, ẋ_m,
+#: ẍ_m of (z [m], φ_x, φ_y [rad]) and its rates; ``armed``: the foot has been unloaded since
+#: lift-off; ``active``: the modification is on.
+IMPEDANCE_STATE = np.dtype(
+    [
+        ("position", np.float64, (3,)),
+        ("velocity", np.float64, (3,)),
+        ("acceleration", np.float64, (3,)),
+        ("armed", np.bool_),
+        ("active", np.bool_),
+    ],
+    align=True,
+)
+#: A sample of the preview-control CoM pattern (ref. [23]): the CoM's horizontal (x, y)
+#: position [m], velocity [m/s] and acceleration [m/s²] in the world.
+COM_SAMPLE = np.dtype(
+    [
+        ("position", np.float64, (2,)),
+        ("velocity", np.float64, (2,)),
+        ("acceleration", np.float64, (2,)),
+    ]
+)
+#: A swing trajectory (see :func:`swing_reference`): start time [s], duration [s], the sole
+#: centre's (x, y, z [m], roll, pitch [rad]) at lift-off and at landing, the apex [m] above the
+#: higher of the two, and the share of the swing spent rising [-].
+SWING_PLAN = np.dtype(
+    [
+        ("t0", np.float64),
+        ("duration", np.float64),
+        ("start", np.float64, (5,)),
+        ("target", np.float64, (5,)),
+        ("apex", np.float64),
+        ("rise_fraction", np.float64),
+    ]
+)
+
+
+class ImpedanceGains(NamedTuple):
+    """The impedance law's gains and switch-on thresholds (§II Eq. 1, §IV), per coordinate
+    x = (z, φ_x, φ_y), each of shape (3,).
+
+    Attributes:
+        mass: M_d [kg, kg m², kg m²].
+        damping: B_d [N s/m, N m s/rad, N m s/rad].
+        stiffness: K_d [N/m, N m/rad, N m/rad].
+        threshold: |λ| that switches the modification on [N, N m, N m] (§IV: 10 N, 3 N m).
+    """
+
+    mass: np.ndarray
+    damping: np.ndarray
+    stiffness: np.ndarray
+    threshold: np.ndarray
+
+
+class FrameChains(NamedTuple):
+    """Which velocities move each frame whose Jacobian :func:`task_rows` forms (see
+    :func:`kinematic_chain`), each of shape (nv,) bool.
+
+    Attributes:
+        left_sole, right_sole: the soles (contact and swing rows).
+        pelvis, torso: the orientation tasks' frames.
+    """
+
+    left_sole: np.ndarray
+    right_sole: np.ndarray
+    pelvis: np.ndarray
+    torso: np.ndarray
 
 
 class SoleKinematics(NamedTuple):
@@ -178,8 +259,7 @@ class TaskConstants(NamedTuple):
     Attributes:
         gains: gains, masses and times.
         impedance_gains: M_d, B_d, K_d and thresholds (see :func:`advance_impedance`).
-        chains: per frame of :data:`CHAIN_LEFT_SOLE` … whether each velocity moves it,
-            shape (4, nv) bool.
+        chains: per frame, whether each velocity moves it.
         posture_idx: actuator indices of the arm and waist joints.
         sole_site_rotation, sole_site_position: each F/T sensor's placement in its sole
             frame, shapes (2, 3, 3) and (2, 3) [-, m].
@@ -189,8 +269,8 @@ class TaskConstants(NamedTuple):
     """
 
     gains: TaskGains
-    impedance_gains: np.ndarray
-    chains: np.ndarray
+    impedance_gains: ImpedanceGains
+    chains: FrameChains
     posture_idx: np.ndarray
     sole_site_rotation: np.ndarray
     sole_site_position: np.ndarray
@@ -203,8 +283,8 @@ class TaskReferences(NamedTuple):
     """The walking pattern the tasks track: set at reset, the swing at each phase's start.
 
     Attributes:
-        com_plan: the preview CoM pattern (see :func:`desired_com`), shape (N, 6).
-        swing_plan: this phase's swing trajectory (see :func:`pack_swing`), shape (14,).
+        com_plan: the preview CoM pattern, shape (N,) of :data:`COM_SAMPLE`.
+        swing_plan: this phase's swing trajectory, shape (1,) of :data:`SWING_PLAN`.
         stance_z: each foot's planned stance height [m], shape (2,).
         posture_home: home angles of the arm and waist joints [rad] (``posture_idx``).
     """
@@ -219,14 +299,12 @@ class TaskState(NamedTuple):
     """Each foot's state carried from tick to tick, updated in place.
 
     Attributes:
-        impedance_state, impedance_flags: each foot's (see :func:`advance_impedance`),
-            shapes (2, 3, 3) and (2, 2).
+        impedance: each foot's impedance state, shape (2,) of :data:`IMPEDANCE_STATE`.
         prev_foot_vel: each sole's spatial velocity of the previous tick, shape (2, 6).
         foot_acc_cmd: each sole's commanded linear acceleration [m/s²], shape (2, 3).
     """
 
-    impedance_state: np.ndarray
-    impedance_flags: np.ndarray
+    impedance: np.ndarray
     prev_foot_vel: np.ndarray
     foot_acc_cmd: np.ndarray
 
@@ -239,7 +317,9 @@ class TaskOutputs(NamedTuple):
             a constant selection, set at reset, and the weights are constants).
         sole_jacobians, sole_drifts, wrench_maps: per foot, J_k (6, nv), J̇_k ξ̇ (6,) and
             R̃ U_k (6, m N_c).
-        signals: the signal vector named by :func:`signal_names`.
+        signals: the controller's signal record, shape (1,): a structured array with the
+            fields of :data:`TICK_SIGNALS` and ``left``, ``right`` of :data:`FOOT_SIGNALS`
+            (others are the controller's to write).
     """
 
     tasks: CentroidalTasks
@@ -275,20 +355,6 @@ class DesiredMotion(NamedTuple):
     acceleration: np.ndarray
 
 
-def signal_names(sides: tuple[str, ...]) -> tuple[str, ...]:
-    """Names of the signal vector of :func:`task_rows`, entry by entry."""
-    names = ["t_plan", "swing_foot"]
-    for side in sides:
-        names += [f"{side}_{s}" for s in FOOT_SIGNALS]
-        names.append(f"{side}_impedance_on")
-        names += [
-            f"{side}_{axis}{kind}" for kind in REFERENCE_SIGNALS for axis in ("z", "roll", "pitch")
-        ]
-    names += ["com_x", "com_y", "com_z", "com_x_d", "com_y_d", "com_z_d"]
-    assert len(names) == N_SIGNALS
-    return tuple(names)
-
-
 def kinematic_chain(model: pin.Model, frame_id: int) -> np.ndarray:
     """Which velocities move a frame: those of its parent joint and the joints supporting it.
 
@@ -303,7 +369,7 @@ def kinematic_chain(model: pin.Model, frame_id: int) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def matrix_to_rpy(rotation: np.ndarray, out: np.ndarray) -> None:
+def matrix_to_rpy(rotation: np.ndarray, rpy: np.ndarray) -> None:
     """``pin.rpy.matrixToRpy``: roll, pitch, yaw [rad] with R = R_z(yaw) R_y(pitch) R_x(roll).
 
     Eigen's ``eulerAngles(2, 1, 0)`` (Graphics Gems IV) reversed, then Pinocchio's fold of
@@ -311,7 +377,7 @@ def matrix_to_rpy(rotation: np.ndarray, out: np.ndarray) -> None:
 
     Args:
         rotation: R, shape (3, 3).
-        out: (roll, pitch, yaw), shape (3,).
+        rpy: out, (roll, pitch, yaw) [rad], shape (3,).
     """
     r = rotation
     yaw = math.atan2(r[1, 0], r[0, 0])
@@ -329,7 +395,7 @@ def matrix_to_rpy(rotation: np.ndarray, out: np.ndarray) -> None:
         pitch = math.pi - pitch
         roll = roll + math.pi if roll < 0.0 else roll - math.pi
         yaw -= math.pi
-    out[0], out[1], out[2] = roll, pitch, yaw
+    rpy[0], rpy[1], rpy[2] = roll, pitch, yaw
 
 
 @numba.njit(cache=True)
@@ -356,11 +422,13 @@ def pack_swing(
     rise_fraction: float,
     out: np.ndarray,
 ) -> None:
-    """Write a swing trajectory into the 14-array of :func:`swing_reference`: (t0 [s],
-    duration [s], start (5), target (5), apex [m], rise_fraction [-])."""
-    out[0], out[1] = t0, duration
-    out[2:7], out[7:12] = start, target
-    out[12], out[13] = apex, rise_fraction
+    """Write a swing trajectory into ``out``, shape (1,) of :data:`SWING_PLAN` (its fields
+    are these arguments: t0 [s], duration [s], start and target (5,), apex [m],
+    rise_fraction [-])."""
+    plan = out[0]
+    plan["t0"], plan["duration"] = t0, duration
+    plan["start"], plan["target"] = start, target
+    plan["apex"], plan["rise_fraction"] = apex, rise_fraction
 
 
 @numba.njit(cache=True)
@@ -375,12 +443,13 @@ def swing_reference(
     then descends to the landing height by the end.
 
     Args:
-        swing: the trajectory, see :func:`pack_swing`, shape (14,).
+        swing: the trajectory, shape (1,) of :data:`SWING_PLAN` (see :func:`pack_swing`).
         t: time [s].
         pos, vel, acc: out, desired (x, y, z, roll, pitch), rates and accelerations, (5,).
     """
-    t0, duration, apex, rise_fraction = swing[0], swing[1], swing[12], swing[13]
-    start, target = swing[2:7], swing[7:12]
+    plan = swing[0]
+    t0, duration, apex, rise_fraction = plan.t0, plan.duration, plan.apex, plan.rise_fraction
+    start, target = plan.start, plan.target
     s = t - t0
     b, db, ddb = quintic(s, duration)
     for i in range(5):
@@ -403,11 +472,10 @@ def swing_reference(
 
 @numba.njit(cache=True)
 def advance_impedance(
-    state: np.ndarray,
-    flags: np.ndarray,
+    state: np.void,
     desired: DesiredMotion,
     wrench: np.ndarray,
-    gains: np.ndarray,
+    gains: ImpedanceGains,
     dt: float,
     enabled: bool,
 ) -> bool:
@@ -439,11 +507,11 @@ def advance_impedance(
     of Eq. 1, the thresholds, lift-off, switch-on, the run without impedance).
 
     Args:
-        state: (x_m, ẋ_m, ẍ_m), updated in place, shape (3, 3).
-        flags: (armed, active), updated in place, shape (2,) bool.
+        state: the foot's record of :data:`IMPEDANCE_STATE` (x_m, ẋ_m, ẍ_m, armed,
+            active), updated in place.
         desired: desired (z [m], φ_x, φ_y [rad]), rates and accelerations.
         wrench: contact wrench λ = (f_z [N], μ_x [N m], μ_y [N m]).
-        gains: rows M_d, B_d, K_d and the switch-on thresholds, shape (4, 3).
+        gains: M_d, B_d, K_d and the switch-on thresholds.
         dt: control period [s].
         enabled: False runs without impedance (the modified reference is the desired one).
 
@@ -453,26 +521,29 @@ def advance_impedance(
     x_d, v_d, a_d = desired.position, desired.velocity, desired.acceleration
     over = False
     for i in range(3):
-        if abs(wrench[i]) > gains[3, i]:
+        if abs(wrench[i]) > gains.threshold[i]:
             over = True
-    if not flags[0] and not over:
-        flags[0] = True  # the foot has left the ground: a new contact is unexpected
+    if not state.armed and not over:
+        state.armed = True  # the foot has left the ground: a new contact is unexpected
     switched_on = False
-    if enabled and flags[0] and not flags[1] and over:
-        flags[1] = switched_on = True  # start from the desired state: continuous reference
-        state[0] = x_d
-        state[1] = v_d
-    if not flags[1]:
-        state[0] = x_d
-        state[1] = v_d
-        state[2] = a_d
+    if enabled and state.armed and not state.active and over:
+        state.active = switched_on = True  # start from the desired state: continuous reference
+        state.position[:] = x_d
+        state.velocity[:] = v_d
+    if not state.active:
+        state.position[:] = x_d
+        state.velocity[:] = v_d
+        state.acceleration[:] = a_d
         return False
+    x_m, v_m, a_m = state.position, state.velocity, state.acceleration
     for i in range(3):
-        e = x_d[i] - state[0, i]
-        e_dot = v_d[i] - state[1, i]
-        state[2, i] = a_d[i] + (wrench[i] + gains[1, i] * e_dot + gains[2, i] * e) / gains[0, i]
-        state[1, i] += state[2, i] * dt
-        state[0, i] += state[1, i] * dt
+        e = x_d[i] - x_m[i]
+        e_dot = v_d[i] - v_m[i]
+        a_m[i] = (
+            a_d[i] + (wrench[i] + gains.damping[i] * e_dot + gains.stiffness[i] * e) / gains.mass[i]
+        )
+        v_m[i] += a_m[i] * dt
+        x_m[i] += v_m[i] * dt
     return switched_on
 
 
@@ -539,7 +610,7 @@ def desired_com(
     Linear between the pattern's samples; after the plan, its last position at rest.
 
     Args:
-        com_plan: (x, ẋ, ẍ, y, ẏ, ÿ) per sample of the preview pattern, shape (N, 6).
+        com_plan: the preview pattern's samples, shape (N,) of :data:`COM_SAMPLE`.
         t: time [s].
         preview_dt: sample time of the pattern [s].
         plan_end: time the plan ends [s].
@@ -548,24 +619,32 @@ def desired_com(
     """
     n = com_plan.shape[0]
     if t >= plan_end:
-        pos[0], pos[1], pos[2] = com_plan[n - 1, 0], com_plan[n - 1, 3], com_z
+        last = com_plan[n - 1].position
+        pos[0], pos[1], pos[2] = last[0], last[1], com_z
         vel[:] = 0.0
         acc[:] = 0.0
         return
     k = t / preview_dt
     i = int(min(max(np.floor(k), 0.0), n - 2))
     a = min(max(k - i, 0.0), 1.0)
+    before, after = com_plan[i], com_plan[i + 1]
     for axis in range(2):
-        for order in range(3):
-            j = 3 * axis + order
-            value = (1 - a) * com_plan[i, j] + a * com_plan[i + 1, j]
-            if order == 0:
-                pos[axis] = value
-            elif order == 1:
-                vel[axis] = value
-            else:
-                acc[axis] = value
+        pos[axis] = (1 - a) * before.position[axis] + a * after.position[axis]
+        vel[axis] = (1 - a) * before.velocity[axis] + a * after.velocity[axis]
+        acc[axis] = (1 - a) * before.acceleration[axis] + a * after.acceleration[axis]
     pos[2], vel[2], acc[2] = com_z, 0.0, 0.0
+
+
+@numba.njit(cache=True)
+def _write_references(foot: np.void, refs: np.ndarray) -> None:
+    """A foot's reference signals (:data:`FOOT_SIGNALS`) from ``refs``, rows x_d, ẋ_d, ẍ_d,
+    x_m, ẋ_m, ẍ_m, columns (z [m], φ_x, φ_y [rad]) and their rates."""
+    foot.z_d, foot.roll_d, foot.pitch_d = refs[0, 0], refs[0, 1], refs[0, 2]
+    foot.z_dot_d, foot.roll_dot_d, foot.pitch_dot_d = refs[1, 0], refs[1, 1], refs[1, 2]
+    foot.z_ddot_d, foot.roll_ddot_d, foot.pitch_ddot_d = refs[2, 0], refs[2, 1], refs[2, 2]
+    foot.z_m, foot.roll_m, foot.pitch_m = refs[3, 0], refs[3, 1], refs[3, 2]
+    foot.z_dot_m, foot.roll_dot_m, foot.pitch_dot_m = refs[4, 0], refs[4, 1], refs[4, 2]
+    foot.z_ddot_m, foot.roll_ddot_m, foot.pitch_ddot_m = refs[5, 0], refs[5, 1], refs[5, 2]
 
 
 @numba.njit(cache=True)
@@ -608,34 +687,65 @@ def _orientation_task(
     _set_task(task, frame_jac, 3, acc_ref, drift)
 
 
+@structref.register
+class TaskRecordsType(types.StructRef):
+    """numba's type of :class:`TaskRecords` (its fields typed as given, not literal)."""
+
+    def preprocess_fields(self, fields: tuple) -> tuple:
+        """The fields' types without literal values."""
+        return tuple((name, types.unliteral(typ)) for name, typ in fields)
+
+
+class TaskRecords(structref.StructRefProxy):
+    """Everything :func:`task_rows` reads and writes besides the readings, as one argument;
+    make it with :func:`task_records` once at reset (its arrays are filled in place).
+
+    Fields: ``terms`` (:class:`RobotTerms`), ``constants`` (:class:`TaskConstants`),
+    ``references`` (:class:`TaskReferences`), ``state`` (:class:`TaskState`), ``outputs``
+    (:class:`TaskOutputs`). Why not the named tuples themselves: numba finds the type of a
+    named tuple argument in Python, field by field, at every call (≈ 0.2 µs a field, ≈ 15 µs
+    for these); a StructRef carries its type, and its arrays were unboxed once, when it was
+    made.
+    """
+
+
+structref.define_proxy(
+    TaskRecords, TaskRecordsType, ["terms", "constants", "references", "state", "outputs"]
+)
+
+
 @numba.njit(cache=True)
-def task_rows(
-    t: float,
-    swing: int,
-    readings: SensorReadings,
+def task_records(
     terms: RobotTerms,
     constants: TaskConstants,
     references: TaskReferences,
     state: TaskState,
     outputs: TaskOutputs,
-) -> int:
+) -> TaskRecords:
+    """The :class:`TaskRecords` of these records (compiled and cached, unlike the proxy's own
+    constructor)."""
+    return TaskRecords(terms, constants, references, state, outputs)
+
+
+@numba.njit(cache=True)
+def task_rows(t: float, swing: int, readings: SensorReadings, records: TaskRecords) -> int:
     """One tick's task rows (§III-D), foot states, contact wrenches and impedance (Eqs. 1–3).
 
     Args:
         t: time [s].
         swing: the swing foot (0 left, 1 right), or −1 in double support.
         readings: the joint encoders and each foot's F/T reading.
-        terms: Pinocchio's terms of the tick and ξ̇.
-        constants: gains, weights and geometry (set at reset).
-        references: the CoM pattern, this phase's swing trajectory, stance heights and home
-            posture.
-        state: each foot's impedance state, previous velocity and commanded acceleration,
-            updated in place.
-        outputs: the QP's cost terms, each foot's J_k, J̇_k ξ̇ and R̃ U_k, and the signals.
+        records: (:class:`TaskRecords`) Pinocchio's terms of the tick and ξ̇; the gains,
+            weights and geometry (set at reset); the CoM pattern, this phase's swing
+            trajectory, stance heights and home posture; each foot's impedance state,
+            previous velocity and commanded acceleration (updated in place); the outputs: the
+            QP's cost terms, each foot's J_k, J̇_k ξ̇ and R̃ U_k, and the signals.
 
     Returns:
         A bit per foot (1 left, 2 right) whose impedance modification switched on this tick.
     """
+    terms, constants = records.terms, records.constants
+    references, state, outputs = records.references, records.state, records.outputs
     joint_jacobians, velocity = terms.joint_jacobians, terms.velocity
     nonlinear, gravity_torques = terms.nonlinear, terms.gravity_torques
     com, com_vel, angular_momentum = terms.com, terms.com_vel, terms.angular_momentum
@@ -646,7 +756,7 @@ def task_rows(
     gains, chains = constants.gains, constants.chains
     posture_idx, posture_home = constants.posture_idx, references.posture_home
     local_wrench_map = constants.local_wrench_map
-    impedance_state, impedance_flags = state.impedance_state, state.impedance_flags
+    impedance = state.impedance
     prev_foot_vel, foot_acc_cmd = state.prev_foot_vel, state.foot_acc_cmd
     tasks = outputs.tasks
     sole_jacobians, sole_drifts, wrench_maps = (
@@ -654,7 +764,7 @@ def task_rows(
         outputs.sole_drifts,
         outputs.wrench_maps,
     )
-    signals = outputs.signals
+    signals = outputs.signals[0]
     nv = velocity.shape[0]
     m = gains.mass
     # ---- centroidal momentum reference (§III-D) --------------------------------------
@@ -698,15 +808,13 @@ def task_rows(
         base_rotation, base_drift[3], base_drift[4], base_drift[5]
     )
     log3(terms.pelvis_rotation, log_r)
-    _orientation_task(
-        terms, chains[CHAIN_PELVIS], log_r, drift, orientation, frame_jac, tasks.pelvis
-    )
+    _orientation_task(terms, chains.pelvis, log_r, drift, orientation, frame_jac, tasks.pelvis)
     torso_drift = terms.torso_joint_drift
     drift[0], drift[1], drift[2] = eigen_rotate(
         terms.torso_joint_rotation, torso_drift[3], torso_drift[4], torso_drift[5]
     )
     log3(terms.torso_rotation, log_r)
-    _orientation_task(terms, chains[CHAIN_TORSO], log_r, drift, orientation, frame_jac, tasks.torso)
+    _orientation_task(terms, chains.torso, log_r, drift, orientation, frame_jac, tasks.torso)
 
     # ---- arm and waist joints: hold home ---------------------------------------------
     n_post = posture_idx.shape[0]
@@ -717,7 +825,7 @@ def task_rows(
         tasks.posture.target[r] = acc  # Φ_t selects the joint (constant), Φ̇_t = 0
 
     # ---- feet: state, measured contact wrench, impedance, swing rows -----------------
-    signals[0], signals[1] = t, float(swing)
+    signals.t_plan, signals.swing_foot = t, float(swing)
     dt = gains.dt
     switched_on = 0
     acc_ref = np.empty(6)
@@ -726,13 +834,15 @@ def task_rows(
     rpy = np.empty(3)
     for side in range(2):
         if side == 0:  # the sole's placement and parent joint's R, v, a; its F/T reading
-            sole, ft = terms.left, readings.left_ft
+            sole, ft, foot = terms.left, readings.left_ft, signals.left
+            chain = chains.left_sole
         else:
-            sole, ft = terms.right, readings.right_ft
+            sole, ft, foot = terms.right, readings.right_ft, signals.right
+            chain = chains.right_sole
         rot, pos = sole.rotation, sole.position
         joint_r, joint_v, joint_a = sole.joint_rotation, sole.joint_velocity, sole.joint_drift
         sole_jac = sole_jacobians[side]
-        frame_jacobian(joint_jacobians, chains[CHAIN_LEFT_SOLE + side], pos, sole_jac)
+        frame_jacobian(joint_jacobians, chain, pos, sole_jac)
         drift = sole_drifts[side]
         frame_classical_acceleration(joint_r, joint_v, joint_a, constants.sole_offset[side], drift)
         # R̃ U_k: both halves (forces, moments) of the contact-frame basis rotated.
@@ -767,32 +877,30 @@ def task_rows(
         )
         matrix_to_rpy(rot, rpy)
         roll, pitch, yaw = rpy[0], rpy[1], rpy[2]
-        out = SIGNAL_FEET + side * FOOT_BLOCK
-        values = (
-            fz, mx, my, pos[0], pos[2], roll, pitch,
-            vel[2], vel[3], vel[4], acc_meas[2], acc_meas[3], acc_meas[4],
-        )  # fmt: skip
-        for i in range(13):
-            signals[out + i] = values[i]
-        refs = signals[out + 14 : out + FOOT_BLOCK]  # x_d, ẋ_d, ẍ_d, x_m, ẋ_m, ẍ_m
-        foot_state = impedance_state[side]
+        foot.fz, foot.mx, foot.my = fz, mx, my
+        foot.x, foot.z, foot.roll, foot.pitch = pos[0], pos[2], roll, pitch
+        foot.vz, foot.wx, foot.wy = vel[2], vel[3], vel[4]
+        foot.az, foot.alphax, foot.alphay = acc_meas[2], acc_meas[3], acc_meas[4]
+        foot_state = impedance[side]
         if side != swing:
             # Support: re-initialise the impedance at the foot's state (§IV), no command.
-            flags = impedance_flags[side]
-            flags[0] = flags[1] = False
-            foot_state[0, 0], foot_state[0, 1], foot_state[0, 2] = pos[2], roll, pitch
-            foot_state[1:] = 0.0
+            foot_state.armed = foot_state.active = False
+            x_m = foot_state.position
+            x_m[0], x_m[1], x_m[2] = pos[2], roll, pitch
+            foot_state.velocity[:] = 0.0
+            foot_state.acceleration[:] = 0.0
             foot_acc_cmd[side] = 0.0
-            signals[out + 13] = 0.0
-            refs[:] = 0.0
-            refs[0] = refs[9] = references.stance_z[side]
+            foot.impedance_on = 0.0
+            # The references of a support foot: at its planned height, at rest, level.
+            stance = np.zeros((6, 3))  # x_d, ẋ_d, ẍ_d, x_m, ẋ_m, ẍ_m of (z, φ_x, φ_y)
+            stance[0, 0] = stance[3, 0] = references.stance_z[side]
+            _write_references(foot, stance)
             continue
         swing_reference(references.swing_plan, t, pos_d, vel_d, acc_d)
         wrench = np.array((fz, mx, my))
         desired = DesiredMotion(pos_d[2:5], vel_d[2:5], acc_d[2:5])
         if advance_impedance(
             foot_state,
-            impedance_flags[side],
             desired,
             wrench,
             constants.impedance_gains,
@@ -808,16 +916,19 @@ def task_rows(
         acc_ref[1] = acc_d[1] + kv * (vel_d[1] - vel[1]) + kp * (pos_d[1] - pos[1])
         for i in range(3):
             acc_ref[2 + i] = (
-                foot_state[2, i]
-                + kv * (foot_state[1, i] - vel[2 + i])
-                + kp * (foot_state[0, i] - x_now[i])
+                foot_state.acceleration[i]
+                + kv * (foot_state.velocity[i] - vel[2 + i])
+                + kp * (foot_state.position[i] - x_now[i])
             )
         acc_ref[5] = -kv * vel[5] - kp * yaw
         foot_acc_cmd[side] = acc_ref[:3]
         _set_task(tasks.swing, sole_jac, 0, acc_ref, drift)
-        signals[out + 13] = 1.0 if impedance_flags[side, 1] else 0.0
-        refs[0:3], refs[3:6], refs[6:9] = pos_d[2:5], vel_d[2:5], acc_d[2:5]
-        refs[9:12], refs[12:15], refs[15:18] = foot_state[0], foot_state[1], foot_state[2]
-    signals[SIGNAL_COM : SIGNAL_COM + 3] = com
-    signals[SIGNAL_COM + 3 : SIGNAL_COM + 6] = c_d
+        foot.impedance_on = 1.0 if foot_state.active else 0.0
+        swing_refs = np.empty((6, 3))  # x_d, ẋ_d, ẍ_d, x_m, ẋ_m, ẍ_m of (z, φ_x, φ_y)
+        swing_refs[0], swing_refs[1], swing_refs[2] = pos_d[2:5], vel_d[2:5], acc_d[2:5]
+        swing_refs[3], swing_refs[4] = foot_state.position, foot_state.velocity
+        swing_refs[5] = foot_state.acceleration
+        _write_references(foot, swing_refs)
+    signals.com_x, signals.com_y, signals.com_z = com[0], com[1], com[2]
+    signals.com_x_d, signals.com_y_d, signals.com_z_d = c_d[0], c_d[1], c_d[2]
     return switched_on
