@@ -164,20 +164,21 @@ def test_ow_frame_matches_the_rotation_it_writes() -> None:
 
 
 def test_signals_follow_the_kernel_layout() -> None:
-    """Each logged signal reads the entries of kernels.SIGNALS that the tick wrote for it."""
+    """Each logged signal reads the field of the record the tick wrote it into by name."""
     from walkrepro.papers.lee2021.kernels import SIGNALS
 
     robot = load_robot("dyros_red")
     ctrl = EfsmController()
     ctrl.reset(robot, EfsmParams(), 0.0005)
     signals = ctrl.step(0.0, ctrl._home_snapshot()).signals
-    assert list(signals) == [name for name, _ in SIGNALS] + ["tau_ref"]
-    flat = ctrl._signals.tolist()
-    start = 0
-    for name, size in SIGNALS:
-        want = flat[start : start + size]
-        got = signals[name] if size > 1 else [signals[name]]
-        assert got == want, name
-        start += size
-    assert start == len(flat)
+    assert list(signals) == [name for name, _, _ in SIGNALS]
+    record = ctrl._signal_record[0]
+    for name, _, integer in SIGNALS:
+        want = record[name].tolist()
+        got = signals[name]
+        if integer:
+            assert isinstance(got, int) and got == want, name
+        else:
+            assert got == want, name
     assert signals["tau_ref"] == ctrl._tau.tolist()
+    assert signals["steps_done"] == 0 and signals["efsm_phase"] == int(Phase.DS)
