@@ -155,9 +155,11 @@ def test_ow_frame_matches_the_rotation_it_writes() -> None:
     rng = np.random.default_rng(5)
     for _ in range(5):
         p_sup, p_sw, com, vcom = rng.normal(size=(4, 3))
-        rot = np.eye(3)
-        c, s, com_w, vcom_w, x_s = ow_frame(p_sup, p_sw, com, vcom, rot)
-        assert np.isclose(np.linalg.det(rot), 1.0) and (c, s) == (rot[0, 0], rot[1, 0])
+        rot = np.full((3, 3), np.nan)
+        yaw, com_w, vcom_w, x_s = ow_frame(p_sup, p_sw, com, vcom, rot)
+        np.testing.assert_allclose(rot.T @ rot, np.eye(3), atol=1e-15)
+        assert np.linalg.det(rot) > 0 and rot[2, 2] == 1.0
+        assert (np.cos(yaw), np.sin(yaw)) == (rot[0, 0], rot[1, 0])
         np.testing.assert_allclose(com_w, rot.T @ (com - p_sup), atol=1e-12)
         np.testing.assert_allclose(vcom_w, rot.T @ vcom, atol=1e-12)
         np.testing.assert_allclose([x_s, 0.0], (rot.T @ (p_sw - p_sup))[:2], atol=1e-12)

@@ -186,9 +186,12 @@ def _reference_tick(ctrl: EfsmController, sensors, state: np.ndarray) -> tuple:
     sw = 1 - sup
     com, vcom, rot, z_m0 = data.com[0], data.vcom[0], st["rot_w"].copy(), float(st["z_m0"])
     ow = kernels.ow_frame(soles[sup].translation, soles[sw].translation, com, vcom, rot)
-    x_cp = capture_point(ow[2][0], ow[3][0], z_m0)
+    x_cp = capture_point(ow.com_w[0], ow.vcom_w[0], z_m0)
     out = fsm_step(
-        int(st["phase"]), float(st["xp_des"]), FsmInput(ow[2][0], ow[3][0], x_cp, ow[4]), params
+        int(st["phase"]),
+        float(st["xp_des"]),
+        FsmInput(ow.com_w[0], ow.vcom_w[0], x_cp, ow.x_s),
+        params,
     )
     xp_des, target, steps = out.xp_des, st["swing_target"].copy(), int(st["steps_done"])
     if out.transitions & DS_TO_SSD:
@@ -198,9 +201,10 @@ def _reference_tick(ctrl: EfsmController, sensors, state: np.ndarray) -> tuple:
         target = soles[sup].translation + st["heading"] * length
         target = target + side * float(st["width"]) * st["lateral"]
         ow = kernels.ow_frame(soles[sup].translation, soles[sw].translation, com, vcom, rot)
-        x_cp = capture_point(ow[2][0], ow[3][0], z_m0)
+        x_cp = capture_point(ow.com_w[0], ow.vcom_w[0], z_m0)
         xp_des = 0.0
-    (c, s, com_w, vcom_w, x_s), double = ow, out.phase == Phase.DS
+    com_w, vcom_w, x_s, double = ow.com_w, ow.vcom_w, ow.x_s, out.phase == Phase.DS
+    c, s = math.cos(ow.yaw), math.sin(ow.yaw)
     p_sup, p_sw = soles[sup].translation, soles[sw].translation
     h = p.raise_height if out.phase == Phase.SSD else p.land_height
     sw_ref = np.array([target[0], target[1], p_sup[2] + h])
@@ -264,7 +268,7 @@ def _reference_tick(ctrl: EfsmController, sensors, state: np.ndarray) -> tuple:
         "swing_ref_world": list(sw_ref),
         "swing_foot": 0 if double else (1 if sw == 1 else -1),
         "support_pos_world": list(p_sup),
-        "ow_yaw": math.atan2(s, c),
+        "ow_yaw": ow.yaw,
         "com_force_x": report.com_force_x,
         "balancing": int(report.balancing),
         "steps_done": steps,
@@ -300,7 +304,7 @@ def test_tick_matches_the_reference_composition(case: str) -> None:
         pin.updateFramePlacements(ctrl._model, ctrl._data)
         sup = int(st["support"])
         p_sup, p_sw = (ctrl._data.oMf[ctrl._sole[SIDES[f]]].translation for f in (sup, 1 - sup))
-        x_s = kernels.ow_frame(p_sup, p_sw, ctrl._data.com[0], ctrl._data.vcom[0], np.eye(3))[4]
+        x_s = kernels.ow_frame(p_sup, p_sw, ctrl._data.com[0], ctrl._data.vcom[0], np.eye(3)).x_s
         st["xp_des"], st["ds_start_xp"] = x_s - 0.5 * ctrl._p.dxp, x_s - 0.05
     state = ctrl._state.copy()
     tau_want, signals_want, transitions = _reference_tick(ctrl, sensors, state)

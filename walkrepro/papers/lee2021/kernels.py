@@ -161,32 +161,41 @@ def frame_placement(
     pos[0], pos[1], pos[2] = joint_pos[0] + x0, joint_pos[1] + x1, joint_pos[2] + x2
 
 
+class WalkingFrame(NamedTuple):
+    """The walking frame O_w of a tick (§III-A1) and what the E-FSM reads in it.
+
+    Attributes:
+        yaw: O_w's yaw in the world [rad].
+        com_w: the CoM in O_w [m], shape (3,).
+        vcom_w: the CoM velocity in O_w axes [m/s], shape (3,).
+        x_s: the swing sole centre along x of O_w [m].
+    """
+
+    yaw: float
+    com_w: np.ndarray
+    vcom_w: np.ndarray
+    x_s: float
+
+
 @_jit
 def ow_frame(
-    p_sup: np.ndarray, p_sw: np.ndarray, com: np.ndarray, vcom: np.ndarray, rot: np.ndarray
-) -> tuple[float, float, tuple[float, float, float], tuple[float, float, float], float]:
-    """O_w (§III-A1) and the CoM and swing foot in it.
+    p_sup: np.ndarray, p_sw: np.ndarray, com: np.ndarray, vcom: np.ndarray, rot_w: np.ndarray
+) -> WalkingFrame:
+    """O_w (§III-A1): origin at the support sole centre, z up, x toward the swing sole's
+    ground projection; and the CoM and swing foot in it.
 
     Args:
-        p_sup: support sole centre, the origin of O_w [m].
-        p_sw: swing sole centre [m]; O_w's x points to its ground projection.
+        p_sup: support sole centre [m]; p_sw: swing sole centre [m].
         com, vcom: CoM position [m] and velocity [m/s] in the world.
-        rot: out: the world-from-O_w rotation (3, 3); only its top-left 2 × 2 is written
-            (the rest stays that of a rotation about z).
-
-    Returns:
-        cos and sin of O_w's yaw; com_w [m] and vcom_w [m/s]; x_s, the swing sole centre
-        along x of O_w [m].
+        rot_w: out: the world-from-O_w rotation, (3, 3).
     """
-    ox, oy, oz = p_sup[0], p_sup[1], p_sup[2]
-    sx, sy = p_sw[0], p_sw[1]
-    yaw = math.atan2(sy - oy, sx - ox)
+    yaw = math.atan2(p_sw[1] - p_sup[1], p_sw[0] - p_sup[0])
     c, s = math.cos(yaw), math.sin(yaw)
-    rot[0, 0], rot[0, 1], rot[1, 0], rot[1, 1] = c, -s, s, c
-    dx, dy = com[0] - ox, com[1] - oy
-    com_w = (c * dx + s * dy, c * dy - s * dx, com[2] - oz)
-    vcom_w = (c * vcom[0] + s * vcom[1], c * vcom[1] - s * vcom[0], vcom[2])
-    return c, s, com_w, vcom_w, c * (sx - ox) + s * (sy - oy)
+    rot_w[:] = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    w_from_world = np.ascontiguousarray(rot_w.T)
+    return WalkingFrame(
+        yaw, w_from_world @ (com - p_sup), w_from_world @ vcom, (w_from_world @ (p_sw - p_sup))[0]
+    )
 
 
 @_jit
@@ -506,10 +515,11 @@ def tick(
     sw = 1 - sup
     rot_w = st.rot_w
     com, vcom = terms.com, terms.vcom
-    cos_w, sin_w, com_w, vcom_w, x_s = ow_frame(sole_pos[sup], sole_pos[sw], com, vcom, rot_w)
-    x_cp = capture_point(com_w[0], vcom_w[0], st.z_m0)
+    ow = ow_frame(sole_pos[sup], sole_pos[sw], com, vcom, rot_w)
+    x_cp = capture_point(ow.com_w[0], ow.vcom_w[0], st.z_m0)
     fsm_params = FsmParams(st.zeta, st.r, st.dxp, st.d_thr, st.v_stop, st.use_epsilon != 0)
-    fsm = fsm_step(st.phase, st.xp_des, FsmInput(com_w[0], vcom_w[0], x_cp, x_s), fsm_params)
+    fsm_input = FsmInput(ow.com_w[0], ow.vcom_w[0], x_cp, ow.x_s)
+    fsm = fsm_step(st.phase, st.xp_des, fsm_input, fsm_params)
     phase, xp_des = fsm.phase, fsm.xp_des
     if fsm.transitions & DS_TO_SSD:
         # DS ends: the swing foot becomes the support foot; next footstep target; O_w moves
@@ -521,8 +531,8 @@ def tick(
             sole_pos[sup], sw, st.steps_done, st.step_length, st.n_steps, st.width,
             st.heading, st.lateral,
         )  # fmt: skip
-        cos_w, sin_w, com_w, vcom_w, x_s = ow_frame(sole_pos[sup], sole_pos[sw], com, vcom, rot_w)
-        x_cp = capture_point(com_w[0], vcom_w[0], st.z_m0)
+        ow = ow_frame(sole_pos[sup], sole_pos[sw], com, vcom, rot_w)
+        x_cp = capture_point(ow.com_w[0], ow.vcom_w[0], st.z_m0)
         xp_des = 0.0
     st.phase, st.xp_des = phase, xp_des
     double = phase == _DS
@@ -562,9 +572,8 @@ def tick(
         ),
         WbcTargets(
             st.rot_des_pelvis, st.rot_des_swing,
-            np.array([0.0 - com_w[1], st.z_m0 - com_w[2]]),  # CoM y, z targets (Table II)
-            np.array([vcom_w[1], vcom_w[2]]), swing_ref,
-            phase, fsm.epsilon, eps_onset, xp_des, x_s,
+            np.array([0.0 - ow.com_w[1], st.z_m0 - ow.com_w[2]]),  # CoM y, z targets (Table II)
+            ow.vcom_w[1:], swing_ref, phase, fsm.epsilon, eps_onset, xp_des, ow.x_s,
         ),
         WbcParams(
             st.kp, st.kv, st.fs_max_force, st.fs_max_moment, st.fs_saturation, st.balance != 0,
@@ -586,11 +595,11 @@ def tick(
     out.efsm_phase = phase
     out.epsilon, out.epsilon_onset = fsm.epsilon, eps_onset
     out.d = fsm.d if math.isfinite(fsm.d) else 1.0
-    out.com_w[0], out.com_w[1], out.com_w[2] = com_w
-    out.com_vel_w[0], out.com_vel_w[1], out.com_vel_w[2] = vcom_w
+    out.com_w[:] = ow.com_w
+    out.com_vel_w[:] = ow.vcom_w
     out.com_world[:] = com
     out.com_vel_world[:] = vcom
-    out.cp_w, out.cp_ref_w, out.x_s_w, out.xp_des_w = x_cp, x_s - st.r, x_s, xp_des
+    out.cp_w, out.cp_ref_w, out.x_s_w, out.xp_des_w = x_cp, ow.x_s - st.r, ow.x_s, xp_des
     rot_w_xy = rot_w[:2, :2]  # (c, −s; s, c)
     out.xp_des_world[:] = p_sup[:2] + rot_w_xy[:, 0] * xp_des
     out.cop_exp_w[0], out.cop_exp_w[1] = wbc.cop_exp_x, wbc.cop_exp_y
@@ -601,7 +610,7 @@ def tick(
     out.swing_ref_world[:] = swing_ref
     out.swing_foot = 0.0 if double else (1.0 if sw == 1 else -1.0)
     out.support_pos_world[:] = p_sup
-    out.ow_yaw = math.atan2(sin_w, cos_w)
+    out.ow_yaw = ow.yaw
     out.com_force_x, out.balancing, out.steps_done = wbc.com_force_x, wbc.balancing, st.steps_done
     out.tau_ref[:] = st.tau
     return fsm.transitions
