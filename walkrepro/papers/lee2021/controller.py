@@ -21,7 +21,8 @@ events and the signal dict.
 from __future__ import annotations
 
 import math
-from typing import Literal
+from collections.abc import Callable
+from typing import Any, Literal
 
 import numpy as np
 import pinocchio as pin
@@ -308,7 +309,7 @@ class EfsmController(Controller):
         # Pinocchio's (q, v), rewritten in place every tick (nothing keeps them across ticks).
         self._pin_buffer = st["pin_state"]
         self._q, self._v = self._pin_buffer[0, : model.nq], self._pin_buffer[1, :nv]
-        self._tau, self._rot_w = st["tau"], st["rot_w"]
+        self._tau, self._rot_w, self._ft_wrench = st["tau"], st["rot_w"], st["ft_wrench"]
         self._signal_layout = signal_layout(n_act)
         # The tick writes the signals by name into a record whose bytes are the log's vector.
         self._signal_record = np.zeros(1, dtype=kernels.signal_dtype(n_act))
@@ -348,6 +349,9 @@ class EfsmController(Controller):
         st["ds_start_xp"] = math.nan
         self._rot_w[:] = np.eye(3)  # world-from-O_w, rewritten in place every tick
         self._started = False
+        self._tick = _compiled_entry(
+            kernels.tick, self._pose.kernel_views, state, self._signal_record
+        )
 
     def _home_snapshot(self) -> SensorSnapshot:
         """The robot standing still in its home posture, as sensed."""
@@ -418,9 +422,8 @@ class EfsmController(Controller):
             pose.refresh()
         if not self._started:
             self._start()
-        transitions = kernels.tick(
-            pose.kernel_views, sensors.left_ft, sensors.right_ft, self._state, self._signal_record
-        )
+        self._ft_wrench[0], self._ft_wrench[1] = sensors.left_ft, sensors.right_ft
+        transitions = self._tick(pose.kernel_views, self._state, self._signal_record)
         signals = Signals(self._signal_layout, self._signals.copy())
         events = self._events(transitions) if transitions else ()
         return Command(ctrl=self._tau.copy(), signals=signals, events=events)
@@ -532,6 +535,19 @@ class EfsmController(Controller):
             self._st["foot_com"],
             self._st["foot_weight"],
         )
+
+
+def _compiled_entry(kernel: Any, *args: Any) -> Callable[..., Any]:
+    """``kernel``'s compiled entry for the types of ``args`` (compiled, or loaded from numba's
+    cache).
+
+    numba's dispatcher finds the type of every argument at every call, which for the tick's
+    two records (structured arrays) costs µs in Python, more than a tenth of the tick. Their
+    objects and types do not change during a run, so the controller looks the entry up once
+    and calls it directly. The entry checks no types: call it only with arguments of the
+    types of ``args``.
+    """
+    return kernel.compile(tuple(kernel.typeof_pyval(a) for a in args))
 
 
 def _saturation_mode(p: EfsmParams) -> int:

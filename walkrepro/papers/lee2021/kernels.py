@@ -351,6 +351,8 @@ def tick_state(nq: int, nv: int, n_actuators: int) -> np.ndarray:
         rot_w: world-from-O_w, rewritten every tick.
         pin_state: Pinocchio's q (row 0, first nq entries) and v (row 1, first nv entries)
             of the tick, written by the controller (:func:`walkrepro.robot.pin_state_into`).
+        ft_wrench: per foot, the F/T reading of the tick (see :func:`measured_cop`), written
+            by the controller.
         tau: out: actuator torques [Nm].
     """
     f8, i8 = np.float64, np.int64
@@ -399,6 +401,7 @@ def tick_state(nq: int, nv: int, n_actuators: int) -> np.ndarray:
         ("swing_target", f8, (3,)),
         ("rot_w", f8, (3, 3)),
         ("pin_state", f8, (2, max(nq, nv))),
+        ("ft_wrench", f8, (2, 6)),
         ("tau", f8, (n_actuators,)),
     ]
     return np.zeros(1, dtype=np.dtype(fields, align=True))
@@ -475,13 +478,7 @@ def pinocchio_views(terms: PinocchioTerms, feet: tuple[FootJoint, FootJoint]) ->
 
 
 @_jit
-def tick(
-    views: PinocchioViews,
-    wrench_left: np.ndarray,
-    wrench_right: np.ndarray,
-    state: np.ndarray,
-    signals: np.ndarray,
-) -> int:
+def tick(views: PinocchioViews, state: np.ndarray, signals: np.ndarray) -> int:
     """``EfsmController.step`` after computeAllTerms: O_w, the E-FSM, the footstep planner,
     Γ (Eq. 7) and the expected and measured CoP.
 
@@ -489,8 +486,8 @@ def tick(
         views: :class:`PinocchioViews` of ``Data`` after computeAllTerms: the dynamics, CoM
             and pelvis (:class:`PinocchioTerms`) and the joint carrying each foot's sole and
             F/T frame (:class:`FootJoint`, left and right).
-        wrench_left, wrench_right: the F/T readings (see :func:`measured_cop`).
-        state: :func:`tick_state`, read and updated; ``tau`` is written.
+        state: :func:`tick_state`, read and updated (``ft_wrench``: the tick's F/T readings,
+            written by the controller); ``tau`` is written.
         signals: out: a record of :func:`signal_dtype` (length 1), every field written.
 
     Returns:
@@ -583,7 +580,7 @@ def tick(
         st.tau,
     )  # fmt: skip
     meas_x, meas_y = measured_cop(
-        ft_rot, ft_pos, wrench_left, wrench_right, st.foot_com, st.foot_weight
+        ft_rot, ft_pos, st.ft_wrench[0], st.ft_wrench[1], st.foot_com, st.foot_weight
     )
     meas_valid = math.isfinite(meas_x) and math.isfinite(meas_y)
     if not meas_valid:  # no foot loaded: logs hold finite numbers only
