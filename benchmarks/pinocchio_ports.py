@@ -56,7 +56,7 @@ def _loop_acceleration(
 @numba.njit(cache=False)
 def _loop_minv(mass: np.ndarray, tree: np.ndarray, out: np.ndarray, n: int) -> None:
     for _ in range(n):
-        kernels.mass_matrix_inverse(mass, tree, out)
+        kernels.mass_matrix_inverse(mass, tree[0], tree[1], out)
 
 
 @numba.njit(cache=False)

@@ -155,29 +155,32 @@ def test_ow_frame_matches_the_rotation_it_writes() -> None:
     rng = np.random.default_rng(5)
     for _ in range(5):
         p_sup, p_sw, com, vcom = rng.normal(size=(4, 3))
-        rot = np.eye(3)
-        c, s, com_w, vcom_w, x_s = ow_frame(p_sup, p_sw, com, vcom, rot)
-        assert np.isclose(np.linalg.det(rot), 1.0) and (c, s) == (rot[0, 0], rot[1, 0])
+        rot = np.full((3, 3), np.nan)
+        yaw, com_w, vcom_w, x_s = ow_frame(p_sup, p_sw, com, vcom, rot)
+        np.testing.assert_allclose(rot.T @ rot, np.eye(3), atol=1e-15)
+        assert np.linalg.det(rot) > 0 and rot[2, 2] == 1.0
+        assert (np.cos(yaw), np.sin(yaw)) == (rot[0, 0], rot[1, 0])
         np.testing.assert_allclose(com_w, rot.T @ (com - p_sup), atol=1e-12)
         np.testing.assert_allclose(vcom_w, rot.T @ vcom, atol=1e-12)
         np.testing.assert_allclose([x_s, 0.0], (rot.T @ (p_sw - p_sup))[:2], atol=1e-12)
 
 
 def test_signals_follow_the_kernel_layout() -> None:
-    """Each logged signal reads the entries of kernels.SIGNALS that the tick wrote for it."""
+    """Each logged signal reads the field of the record the tick wrote it into by name."""
     from walkrepro.papers.lee2021.kernels import SIGNALS
 
     robot = load_robot("dyros_red")
     ctrl = EfsmController()
     ctrl.reset(robot, EfsmParams(), 0.0005)
     signals = ctrl.step(0.0, ctrl._home_snapshot()).signals
-    assert list(signals) == [name for name, _ in SIGNALS] + ["tau_ref"]
-    flat = ctrl._signals.tolist()
-    start = 0
-    for name, size in SIGNALS:
-        want = flat[start : start + size]
-        got = signals[name] if size > 1 else [signals[name]]
-        assert got == want, name
-        start += size
-    assert start == len(flat)
+    assert list(signals) == [name for name, _, _ in SIGNALS]
+    record = ctrl._signal_record[0]
+    for name, _, integer in SIGNALS:
+        want = record[name].tolist()
+        got = signals[name]
+        if integer:
+            assert isinstance(got, int) and got == want, name
+        else:
+            assert got == want, name
     assert signals["tau_ref"] == ctrl._tau.tolist()
+    assert signals["steps_done"] == 0 and signals["efsm_phase"] == int(Phase.DS)

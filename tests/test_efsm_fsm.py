@@ -5,24 +5,43 @@ from __future__ import annotations
 import math
 
 import pytest
-from oracles.efsm_fsm import (
-    EventFsm,
+
+from walkrepro.papers.lee2021.fsm import (
+    DS_TO_SSD,
+    SSA_TO_DS,
+    SSD_TO_SSA,
     FsmInput,
+    FsmOutput,
     FsmParams,
     Phase,
     capture_point,
     desired_cop_double_support,
     desired_cop_single_support,
     epsilon,
+    fsm_step,
     transition_distance,
 )
 
-P = FsmParams()
+#: §V-B's ζ, r, Δx_p^des, d^thr; Table I's ẋ_m ≈ 0 as EfsmParams.v_stop; with ε.
+P = FsmParams(zeta=0.03, r=0.08, dxp=0.0007, d_thr=0.01, v_stop=0.005, use_epsilon=True)
+
+
+class EventFsm:
+    """The compiled E-FSM step with its state (phase, x_p^des) kept between ticks."""
+
+    def __init__(self, params: FsmParams, start: Phase, xp_start: float = 0.0) -> None:
+        self.params, self.phase, self.xp_des = params, start, xp_start
+
+    def step(self, inp: FsmInput) -> FsmOutput:
+        """One control period; the phase of the output as a Phase."""
+        out = fsm_step(int(self.phase), self.xp_des, inp, self.params)
+        self.phase, self.xp_des = Phase(out.phase), out.xp_des
+        return out._replace(phase=self.phase)
 
 
 def test_capture_point_eq2() -> None:
     """x_CP = sqrt(z/g) ẋ + x (Eq. 2)."""
-    assert capture_point(0.1, 0.5, 0.81, 9.81) == pytest.approx(0.1 + math.sqrt(0.81 / 9.81) * 0.5)
+    assert capture_point(0.1, 0.5, 0.81) == pytest.approx(0.1 + math.sqrt(0.81 / 9.81) * 0.5)
 
 
 def test_eq3_support_centre_when_com_is_far() -> None:
@@ -53,9 +72,9 @@ def test_epsilon_ramp() -> None:
 
 def test_distance_reaches_zero_at_termination() -> None:
     """d is zero exactly at the SSA (x_CP = x_s − r) and DS (x_p^des = x_s) criteria."""
-    assert transition_distance(Phase.SSA, 0.25, 0.0, 0.25 - P.r, P.r) == pytest.approx(0.0)
-    assert transition_distance(Phase.DS, 0.25, 0.25, 0.0, P.r) == 0.0
-    assert math.isinf(transition_distance(Phase.SSD, 0.25, 0.0, 0.0, P.r))
+    assert transition_distance(int(Phase.SSA), 0.25, 0.0, 0.25 - P.r, P.r) == pytest.approx(0.0)
+    assert transition_distance(int(Phase.DS), 0.25, 0.25, 0.0, P.r) == 0.0
+    assert math.isinf(transition_distance(int(Phase.SSD), 0.25, 0.0, 0.0, P.r))
 
 
 def test_ssd_ends_when_com_stops() -> None:
@@ -64,7 +83,7 @@ def test_ssd_ends_when_com_stops() -> None:
     assert fsm.step(FsmInput(0.1, -0.2, 0.05, 0.25)).phase is Phase.SSD
     out = fsm.step(FsmInput(0.08, 0.0, 0.08, 0.25))
     assert out.phase is Phase.SSA
-    assert out.transitions == ((Phase.SSD, Phase.SSA),)
+    assert out.transitions == SSD_TO_SSA
 
 
 def test_ssa_ends_when_cp_reaches_swing_foot_minus_r() -> None:
@@ -73,7 +92,7 @@ def test_ssa_ends_when_cp_reaches_swing_foot_minus_r() -> None:
     for _ in range(10000):
         assert fsm.step(FsmInput(0.08, 0.0, 0.08, 0.25)).phase is Phase.SSA
     out = fsm.step(FsmInput(0.12, 0.2, 0.25 - P.r, 0.25))
-    assert out.phase is Phase.DS
+    assert out.phase is Phase.DS and out.transitions == SSA_TO_DS
 
 
 def test_ds_moves_cop_and_switches_support() -> None:
@@ -84,7 +103,7 @@ def test_ds_moves_cop_and_switches_support() -> None:
     while True:
         out = fsm.step(FsmInput(0.1, 0.1, 0.2, x_s))
         ticks += 1
-        if out.switched_support:
+        if out.transitions & DS_TO_SSD:
             break
         assert out.phase is Phase.DS
     assert abs(ticks - x_s / P.dxp) <= 1.0
@@ -98,7 +117,7 @@ def test_epsilon_falls_to_zero_before_ds_ends() -> None:
     while True:
         out = fsm.step(FsmInput(0.1, 0.1, 0.2, 0.05))
         eps.append(out.epsilon)
-        if out.switched_support:
+        if out.transitions & DS_TO_SSD:
             break
     assert eps[0] == 1.0 and eps[-1] == 0.0
     assert all(a >= b for a, b in zip(eps, eps[1:], strict=False))
@@ -106,6 +125,15 @@ def test_epsilon_falls_to_zero_before_ds_ends() -> None:
 
 def test_without_epsilon_it_stays_one() -> None:
     """The ablation (use_epsilon false) keeps ε ≡ 1 (§VI-D1)."""
-    fsm = EventFsm(FsmParams(use_epsilon=False), start=Phase.DS, xp_start=0.0)
+    fsm = EventFsm(P._replace(use_epsilon=False), start=Phase.DS, xp_start=0.0)
     outs = [fsm.step(FsmInput(0.1, 0.1, 0.2, 0.01)) for _ in range(20)]
     assert all(o.epsilon == 1.0 for o in outs)
+
+
+def test_one_tick_can_pass_ssd_and_ssa() -> None:
+    """A stopped CoM whose capture point already reaches x_s − r goes SSD → SSA → DS in one
+    tick (Table I's criteria are checked in order), and x_p^des then follows Eq. (4)."""
+    out = fsm_step(int(Phase.SSD), 0.01, FsmInput(0.1, 0.0, 0.2, 0.25), P)
+    assert out.transitions == SSD_TO_SSA | SSA_TO_DS
+    assert out.phase == Phase.DS and out.xp_des == pytest.approx(0.01 + P.dxp)
+    assert out.d == pytest.approx(0.25 - out.xp_des) and out.epsilon == 1.0

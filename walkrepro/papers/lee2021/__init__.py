@@ -1,9 +1,10 @@
 """Paper I, Lee et al., *Toward Reactive Walking* (``dyros_red``): event-based FSM walking
 with an operational-space whole-body controller, declared as a plugin (:data:`PLUGIN`).
 
-Modules: :mod:`.controller` (the controller registered as ``efsm``), :mod:`.kernels` (its
-compiled per-tick arithmetic: the E-FSM, capture point, OS-WBC, Appendix C), :mod:`.fsm`
-(the E-FSM's states), :mod:`.metrics` (the paper's metrics, from the log),
+Modules: :mod:`.controller` (the controller registered as ``efsm``), :mod:`.fsm` (the
+E-FSM: capture point, Eqs. 2–4, ε, Table I), :mod:`.wbc` (the OS-WBC: P, W, Φ, Λ, Ñ, the
+task hierarchy of Eq. 11, Appendices A–D), :mod:`.kernels` (the compiled tick that runs
+them, its records and its signals), :mod:`.metrics` (the paper's metrics, from the log),
 :mod:`.figures` (its figures redrawn from a run) and :mod:`.plots` (its key signals, for
 viewers of a run).
 """

@@ -9,19 +9,20 @@ three prioritized tasks (Eq. 11):
 3. upper-body roll and pitch (Eq. 6), plus F_3^bal when the expected CoP leaves the
    shrunk support polygon (Appendix D-3, Eqs. 23–29).
 
-Speed: the tick runs at 2 kHz, so it calls Pinocchio's combined algorithm once
-(``computeAllTerms``), reads its results through views of ``Data`` taken at reset, and does
-everything else (O_w, the E-FSM, footsteps, the WBC algebra, the CoPs) in one compiled numba
-call, :func:`.kernels.tick` (why numba: see :mod:`.kernels`). Python keeps the first tick's
-set-up, the events and the signal dict. The E-FSM and the algebra in plain Python/numpy,
-the references the tests compare the kernels with, are test oracles
-(``tests/oracles/efsm_fsm.py``, ``tests/oracles/efsm_wbc.py``).
+The equations live in :mod:`.fsm` (the E-FSM, Eqs. 2–4, Table I) and :mod:`.wbc` (P, W,
+Φ, Λ, Ñ, the hierarchy of Eq. 11, Appendices A–D). Speed: the tick runs at 2 kHz, so it
+calls Pinocchio's combined algorithm once (``computeAllTerms``), reads its results through
+views of ``Data`` taken at reset, and does everything else (O_w, the E-FSM, footsteps, the
+WBC, the CoPs) in one compiled numba call, :func:`.kernels.tick`, which runs those modules'
+functions (why numba: see :mod:`.kernels`). Python keeps the first tick's set-up, the
+events and the signal dict.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Literal
+from collections.abc import Callable
+from typing import Any, Literal
 
 import numpy as np
 import pinocchio as pin
@@ -29,8 +30,8 @@ from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
 from walkrepro.origin import assumed, calibrated, paper
-from walkrepro.papers.lee2021 import kernels
-from walkrepro.papers.lee2021.fsm import Phase
+from walkrepro.papers.lee2021 import kernels, wbc
+from walkrepro.papers.lee2021.fsm import DS_TO_SSD, SSA_TO_DS, SSD_TO_SSA, Phase
 from walkrepro.robot import Robot, pin_state_into
 from walkrepro.sensors import SensorSnapshot
 from walkrepro.signals import SignalLayout, Signals
@@ -39,22 +40,11 @@ GRAVITY = 9.81  # [m/s^2]
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 FEET = ("left", "right")  # a foot is its index here: 0 left, 1 right; 1 - i the other one
 PELVIS_JOINT = 1  # the free-flyer root: the rigid upper body
-#: The kernel's signals that are integers (states, flags, counts).
-_INTEGER_SIGNALS = frozenset(
-    {"fsm_state", "efsm_phase", "cop_meas_valid", "swing_foot", "balancing", "steps_done"}
-)
-#: Index of ``steps_done`` in the kernel's signal vector (its last entry).
-STEPS_DONE = sum(n for _, n in kernels.SIGNALS) - 1
-assert kernels.SIGNALS[-1] == ("steps_done", 1)
 
 
 def signal_layout(n_actuators: int) -> SignalLayout:
-    """The logged signals: :data:`kernels.SIGNALS` (those of length 1 as scalars), then the
-    reference torques ``tau_ref`` [Nm] of the ``n_actuators`` joints."""
-    return SignalLayout(
-        [(name, 0 if n == 1 else n, name in _INTEGER_SIGNALS) for name, n in kernels.SIGNALS]
-        + [("tau_ref", n_actuators, False)]
-    )
+    """The logged signals, :data:`.kernels.SIGNALS`, for ``n_actuators`` joints."""
+    return kernels.signal_layout(n_actuators)
 
 
 class EfsmParams(ControllerParams):
@@ -270,9 +260,9 @@ class _PoseViews:
 
 #: The E-FSM transitions of kernels.tick's result bits, as logged.
 _TRANSITIONS = (
-    (kernels.SSD_TO_SSA, Phase.SSD, Phase.SSA),
-    (kernels.SSA_TO_DS, Phase.SSA, Phase.DS),
-    (kernels.DS_TO_SSD, Phase.DS, Phase.SSD),
+    (SSD_TO_SSA, Phase.SSD, Phase.SSA),
+    (SSA_TO_DS, Phase.SSA, Phase.DS),
+    (DS_TO_SSD, Phase.DS, Phase.SSD),
 )
 
 
@@ -319,29 +309,27 @@ class EfsmController(Controller):
         # Pinocchio's (q, v), rewritten in place every tick (nothing keeps them across ticks).
         self._pin_buffer = st["pin_state"]
         self._q, self._v = self._pin_buffer[0, : model.nq], self._pin_buffer[1, :nv]
-        self._tau, self._signals, self._rot_w = st["tau"], st["signals"], st["rot"]
-        self._signal_layout = signal_layout(len(self._tau))
+        self._tau, self._rot_w, self._ft_wrench = st["tau"], st["rot_w"], st["ft_wrench"]
+        self._signal_layout = signal_layout(n_act)
+        # The tick writes the signals by name into a record whose bytes are the log's vector.
+        self._signal_record = np.zeros(1, dtype=kernels.signal_dtype(n_act))
+        self._signals = self._signal_record.view(np.float64)
         # Γ is in joint order, ctrl in actuator order: the joint-torque row of each actuator.
         st["actuator_rows"] = np.asarray(robot.pin_v_idx, dtype=np.int64) - 6
-        half_sole = np.asarray(robot.sole_size, dtype=float) / 2.0
-        st["params"] = [
-            params.kp,
-            params.kv,
-            params.fs_max_force,
-            params.fs_max_moment,
-            _saturation_mode(params),
-            float(params.balance),
-            params.cop_margin,
-            params.torque_limit,
-            *half_sole,
-        ]
-        for name in ("zeta", "r", "dxp", "d_thr", "v_stop", "step_length"):
+        st["half_sole"] = np.asarray(robot.sole_size, dtype=float) / 2.0
+        st["fs_saturation"] = _saturation_mode(params)
+        st["balance"] = params.balance
+        for name in (
+            "kp", "kv", "fs_max_force", "fs_max_moment", "cop_margin", "torque_limit",
+            "zeta", "r", "dxp", "d_thr", "v_stop", "step_length",
+        ):  # fmt: skip
             st[name] = getattr(params, name)
         st["use_epsilon"], st["ds_onset_ramp"] = params.use_epsilon, params.ds_onset_ramp
         st["raise_height"], st["land_height"] = params.raise_height, params.land_height
         st["n_steps"] = -1 if params.n_steps is None else params.n_steps
         # The kinematic tree as Pinocchio's Cholesky factorisation walks it.
-        st["cholesky_tree"] = [list(data.parents_fromRow), list(data.nvSubtree_fromRow)]
+        st["parents_from_row"] = list(data.parents_fromRow)
+        st["nv_subtree_from_row"] = list(data.nvSubtree_fromRow)
         for i, f in enumerate(FEET):
             # Each sole and F/T frame in its joint, and the coordinates that move the sole
             # (the joint's ancestors in the tree).
@@ -350,7 +338,7 @@ class EfsmController(Controller):
                 st[f"{key}_local_pos"][i] = model.frames[frame].placement.translation
             for j in model.supports[ankle[i]][1:]:  # without the universe
                 first = model.joints[j].idx_v
-                st["sole_support"][i, first : first + model.joints[j].nv] = 1
+                st["sole_chain"][i, first : first + model.joints[j].nv] = 1
             # The part of the foot below its F/T sensor (the ankle-roll link): its weight and
             # its CoM in the sensor frame (both on that link, so the offset is constant).
             inertia = model.inertias[ankle[i]]
@@ -361,6 +349,9 @@ class EfsmController(Controller):
         st["ds_start_xp"] = math.nan
         self._rot_w[:] = np.eye(3)  # world-from-O_w, rewritten in place every tick
         self._started = False
+        self._tick = _compiled_entry(
+            kernels.tick, self._pose.kernel_views, state, self._signal_record
+        )
 
     def _home_snapshot(self) -> SensorSnapshot:
         """The robot standing still in its home posture, as sensed."""
@@ -431,27 +422,24 @@ class EfsmController(Controller):
             pose.refresh()
         if not self._started:
             self._start()
-        transitions = kernels.tick(
-            pose.kernel_views, sensors.left_ft, sensors.right_ft, self._state
-        )
-        tau = self._tau
-        # The kernel's signals, then the reference torques, as one new vector.
-        signals = Signals(self._signal_layout, np.concatenate((self._signals, tau)))
-        events = self._events(transitions, int(self._signals[STEPS_DONE])) if transitions else ()
-        return Command(ctrl=tau.copy(), signals=signals, events=events)
+        self._ft_wrench[0], self._ft_wrench[1] = sensors.left_ft, sensors.right_ft
+        transitions = self._tick(pose.kernel_views, self._state, self._signal_record)
+        signals = Signals(self._signal_layout, self._signals.copy())
+        events = self._events(transitions) if transitions else ()
+        return Command(ctrl=self._tau.copy(), signals=signals, events=events)
 
     # ---- helpers -------------------------------------------------------------------------
 
-    def _events(self, transitions: int, steps_done: int) -> tuple[dict, ...]:
+    def _events(self, transitions: int) -> tuple[dict, ...]:
         """The E-FSM transitions of a tick, then the footstep when the feet swapped roles."""
         events: list[dict] = [
             {"kind": "fsm", "from": old.name, "to": new.name}
             for bit, old, new in _TRANSITIONS
             if transitions & bit
         ]
-        if transitions & kernels.DS_TO_SSD:
+        if transitions & DS_TO_SSD:
             foot = FEET[int(self._st["support"])]
-            events.append({"kind": "support", "foot": foot, "step": steps_done})
+            events.append({"kind": "support", "foot": foot, "step": int(self._st["steps_done"])})
         return tuple(events)
 
     def _pin_state(self, sensors: SensorSnapshot) -> tuple[np.ndarray, np.ndarray]:
@@ -481,8 +469,8 @@ class EfsmController(Controller):
         pin.updateFramePlacements(model, data)  # once: the kernel places the frames it needs
         p_left, p_right = (data.oMf[self._sole[f]].translation for f in FEET)
         rot_ub_des = _yaw_only(data.oMi[PELVIS_JOINT].rotation)
-        st["rot_des"][0] = rot_ub_des  # Table II: the upper body level, initial heading
-        st["rot_des"][1] = _yaw_only(data.oMf[self._sole["left"]].rotation)  # swing sole level
+        st["rot_des_pelvis"] = rot_ub_des  # Table II: the upper body level, initial heading
+        st["rot_des_swing"] = _yaw_only(data.oMf[self._sole["left"]].rotation)  # sole level
         st["heading"], st["lateral"] = rot_ub_des[:, 0], rot_ub_des[:, 1]
         spacing = float(rot_ub_des[:, 1] @ (p_left - p_right))
         st["width"] = spacing if p.step_width is None else p.step_width
@@ -515,11 +503,11 @@ class EfsmController(Controller):
         with the swing-foot acceleration that this bounded F_s actually produces, so that
         they do not carry the coupling of an unbounded swing acceleration.
 
-        The tick computes this inside :func:`.kernels.whole_body_torques`
-        (:func:`.kernels.task2_force`); this method is that kernel with the parameters.
+        The tick computes this inside :func:`.wbc.whole_body_torques`
+        (:func:`.wbc.task2_force`); this method is that function with the parameters.
         """
         p = self._p
-        return kernels.task2_force(
+        return wbc.task2_force(
             np.ascontiguousarray(lam, dtype=float),
             np.ascontiguousarray(acc, dtype=float),
             double,
@@ -538,25 +526,35 @@ class EfsmController(Controller):
         (:func:`.kernels.measured_cop`; the tick calls it with the frames it places). Reads
         the F/T frames of ``Data``'s last ``updateFramePlacements``.
         """
-        left, right = (self._data.oMf[self._ft[f]] for f in FEET)
+        frames = [self._data.oMf[self._ft[f]] for f in FEET]
         return kernels.measured_cop(
-            left.rotation,
-            left.translation,
+            np.array([f.rotation for f in frames]),
+            np.array([f.translation for f in frames]),
             sensors.left_ft,
-            right.rotation,
-            right.translation,
             sensors.right_ft,
             self._st["foot_com"],
             self._st["foot_weight"],
         )
 
 
-def _saturation_mode(p: EfsmParams) -> float:
-    """F_s saturation as :func:`.kernels.task2_force` reads it: 0 plain clip, 1 decoupled
-    clip, 2 decoupled uniform scaling."""
+def _compiled_entry(kernel: Any, *args: Any) -> Callable[..., Any]:
+    """``kernel``'s compiled entry for the types of ``args`` (compiled, or loaded from numba's
+    cache).
+
+    numba's dispatcher finds the type of every argument at every call, which for the tick's
+    two records (structured arrays) costs µs in Python, more than a tenth of the tick. Their
+    objects and types do not change during a run, so the controller looks the entry up once
+    and calls it directly. The entry checks no types: call it only with arguments of the
+    types of ``args``.
+    """
+    return kernel.compile(tuple(kernel.typeof_pyval(a) for a in args))
+
+
+def _saturation_mode(p: EfsmParams) -> int:
+    """F_s saturation as :func:`.wbc.task2_force` reads it."""
     if not p.fs_decoupled_saturation:
-        return 0.0
-    return 2.0 if p.fs_saturation == "uniform" else 1.0
+        return wbc.CLIP
+    return wbc.UNIFORM if p.fs_saturation == "uniform" else wbc.DECOUPLED_CLIP
 
 
 def _rot_z(c: float, s: float) -> np.ndarray:
