@@ -21,8 +21,7 @@ events and the signal dict.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any, Literal
+from typing import Literal
 
 import numpy as np
 import pinocchio as pin
@@ -217,8 +216,8 @@ class _PoseViews:
     per tick then costs nothing. :meth:`aliases` proves that on this Pinocchio; where it
     does not hold, the controller calls :meth:`refresh` every tick. ``terms`` and ``feet``
     (left, right, indexed like :data:`FEET`: the joint carrying each foot's sole and F/T
-    frame) are the kernel's records; ``kernel_views`` holds them both as the one argument
-    :func:`.kernels.tick` reads them from.
+    frame) are the kernel's records (the controller gathers them with its own records into
+    :class:`.kernels.TickRecords`).
     """
 
     def __init__(self, data: pin.Data, foot: tuple[int, int]):
@@ -247,7 +246,6 @@ class _PoseViews:
             )
             for j in self._foot
         )
-        self.kernel_views = kernels.pinocchio_views(self.terms, self.feet)
 
     def aliases(self) -> bool:
         """True if every view holds what a fresh read of ``Data`` gives."""
@@ -349,9 +347,7 @@ class EfsmController(Controller):
         st["ds_start_xp"] = math.nan
         self._rot_w[:] = np.eye(3)  # world-from-O_w, rewritten in place every tick
         self._started = False
-        self._tick = _compiled_entry(
-            kernels.tick, self._pose.kernel_views, state, self._signal_record
-        )
+        self._records = self._tick_records()
 
     def _home_snapshot(self) -> SensorSnapshot:
         """The robot standing still in its home posture, as sensed."""
@@ -417,18 +413,24 @@ class EfsmController(Controller):
         # One pass: M, b + g, joint Jacobians and placements, CoM and its Jacobian, and (with
         # q̈ = 0) the bias accelerations of every joint.
         pin.computeAllTerms(self._model, self._data, q, v)
-        pose = self._pose
         if self._refresh_pose:
-            pose.refresh()
+            self._pose.refresh()
+            self._records = self._tick_records()
         if not self._started:
             self._start()
         self._ft_wrench[0], self._ft_wrench[1] = sensors.left_ft, sensors.right_ft
-        transitions = self._tick(pose.kernel_views, self._state, self._signal_record)
+        transitions = kernels.tick(self._records)
         signals = Signals(self._signal_layout, self._signals.copy())
         events = self._events(transitions) if transitions else ()
         return Command(ctrl=self._tau.copy(), signals=signals, events=events)
 
     # ---- helpers -------------------------------------------------------------------------
+
+    def _tick_records(self) -> kernels.TickRecords:
+        """The one argument of :func:`.kernels.tick`: the views of ``Data``, the tick state
+        and the signal record (made once at reset; again only if the views are re-taken)."""
+        pose = self._pose
+        return kernels.tick_records(pose.terms, pose.feet, self._state, self._signal_record)
 
     def _events(self, transitions: int) -> tuple[dict, ...]:
         """The E-FSM transitions of a tick, then the footstep when the feet swapped roles."""
@@ -535,19 +537,6 @@ class EfsmController(Controller):
             self._st["foot_com"],
             self._st["foot_weight"],
         )
-
-
-def _compiled_entry(kernel: Any, *args: Any) -> Callable[..., Any]:
-    """``kernel``'s compiled entry for the types of ``args`` (compiled, or loaded from numba's
-    cache).
-
-    numba's dispatcher finds the type of every argument at every call, which for the tick's
-    two records (structured arrays) costs µs in Python, more than a tenth of the tick. Their
-    objects and types do not change during a run, so the controller looks the entry up once
-    and calls it directly. The entry checks no types: call it only with arguments of the
-    types of ``args``.
-    """
-    return kernel.compile(tuple(kernel.typeof_pyval(a) for a in args))
 
 
 def _saturation_mode(p: EfsmParams) -> int:

@@ -4,10 +4,10 @@
 feet's frames, the walking frame O_w (§III-A1), the E-FSM (:mod:`.fsm`, Table I), the
 footstep planner, A⁻¹ and J̇_c q̇, Γ (:mod:`.wbc`, Eq. 7) and the expected and measured
 CoPs, then the logged signals. It is one numba call because the Python around it cost
-more than the algebra: each numba call pays ≈ 50 ns per array argument (hence
-:func:`tick_state`, one record of the controller's own arrays and numbers, and
-:class:`PinocchioViews`, one for the views of Pinocchio's ``Data``, made once), a
-Pinocchio call ≈ 1 µs, a line of Python ≈ 0.1 µs. Records passed between compiled
+more than the algebra: numba's dispatcher types each argument in Python at every call
+(≈ 50 ns an array, µs a named tuple or a structured array; hence :class:`TickRecords`, one
+StructRef of the views of Pinocchio's ``Data``, :func:`tick_state` and the signal record,
+made once at reset), a Pinocchio call ≈ 1 µs, a line of Python ≈ 0.1 µs. Records passed between compiled
 functions (:class:`.wbc.WbcDynamics`, :class:`.fsm.FsmInput`, …) are named tuples built in
 compiled code, where they cost nothing. ``cache=True`` keeps the machine code on disk, so
 only the first process compiles; the controller's reset compiles or loads it with two
@@ -25,7 +25,7 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
-from numba.core import types
+from numba import types
 from numba.experimental import structref
 
 from walkrepro.papers.lee2021.fsm import (
@@ -444,58 +444,66 @@ class FootJoint(NamedTuple):
 
 
 @structref.register
-class PinocchioViewsType(types.StructRef):
-    """numba's type of :class:`PinocchioViews` (its fields typed as given, not literal)."""
+class TickRecordsType(types.StructRef):
+    """numba's type of :class:`TickRecords` (its fields typed as given, not literal)."""
 
     def preprocess_fields(self, fields: tuple) -> tuple:
         """The fields' types without literal values."""
         return tuple((name, types.unliteral(typ)) for name, typ in fields)
 
 
-class PinocchioViews(structref.StructRefProxy):
-    """Everything :func:`tick` reads of Pinocchio's ``Data``, as one argument; make it with
-    :func:`pinocchio_views`, once per ``Data`` (its arrays are views, so it stays current).
+class TickRecords(structref.StructRefProxy):
+    """Everything :func:`tick` reads and writes, as one argument; make it with
+    :func:`tick_records` once at reset (its arrays are views, filled in place every tick).
 
     Fields: ``terms`` (:class:`PinocchioTerms`) and ``feet`` (:class:`FootJoint` of the
-    left, then the right foot). Why not a named tuple: numba finds the type of a named tuple
-    argument in Python at every call, ≈ 2 µs for these fifteen arrays (more than the
-    separate arrays cost); a StructRef carries its type, and its arrays were unboxed once,
-    when it was made.
+    left, then the right foot), views of Pinocchio's ``Data``; ``state`` (:func:`tick_state`)
+    and ``signals`` (a record of :func:`signal_dtype`). Why not separate arguments or a named
+    tuple: numba's dispatcher finds the type of every argument in Python at every call,
+    ≈ 2 µs for the fifteen arrays of ``terms`` and ``feet`` and ≈ 15–20 µs for the two
+    structured arrays (more than a tenth of the tick); a StructRef carries its type, and its
+    arrays were unboxed once, when it was made.
     """
 
 
-structref.define_proxy(PinocchioViews, PinocchioViewsType, ["terms", "feet"])
+structref.define_proxy(TickRecords, TickRecordsType, ["terms", "feet", "state", "signals"])
 
 
 @_jit
-def pinocchio_views(terms: PinocchioTerms, feet: tuple[FootJoint, FootJoint]) -> PinocchioViews:
-    """The :class:`PinocchioViews` of ``terms`` and ``feet`` (left, right); compiled and
-    cached, unlike the proxy's own constructor."""
-    return PinocchioViews(terms, feet)
+def tick_records(
+    terms: PinocchioTerms,
+    feet: tuple[FootJoint, FootJoint],
+    state: np.ndarray,
+    signals: np.ndarray,
+) -> TickRecords:
+    """The :class:`TickRecords` of these views and records (``feet``: left, right); compiled
+    and cached, unlike the proxy's own constructor."""
+    return TickRecords(terms, feet, state, signals)
 
 
 # ---- the control tick: O_w, E-FSM, footsteps, OS-WBC ----------------------------------------
 
 
 @_jit
-def tick(views: PinocchioViews, state: np.ndarray, signals: np.ndarray) -> int:
+def tick(records: TickRecords) -> int:
     """``EfsmController.step`` after computeAllTerms: O_w, the E-FSM, the footstep planner,
     Γ (Eq. 7) and the expected and measured CoP.
 
     Args:
-        views: :class:`PinocchioViews` of ``Data`` after computeAllTerms: the dynamics, CoM
-            and pelvis (:class:`PinocchioTerms`) and the joint carrying each foot's sole and
-            F/T frame (:class:`FootJoint`, left and right).
-        state: :func:`tick_state`, read and updated (``ft_wrench``: the tick's F/T readings,
-            written by the controller); ``tau`` is written.
-        signals: out: a record of :func:`signal_dtype` (length 1), every field written.
+        records: (:class:`TickRecords`) ``terms`` and ``feet``: views of ``Data`` after
+            computeAllTerms, the dynamics, CoM and pelvis (:class:`PinocchioTerms`) and the
+            joint carrying each foot's sole and F/T frame (:class:`FootJoint`, left and
+            right); ``state``: :func:`tick_state`, read and updated (``ft_wrench``: the
+            tick's F/T readings, written by the controller; ``tau`` is written);
+            ``signals``: out: a record of :func:`signal_dtype` (length 1), every field
+            written.
 
     Returns:
         The E-FSM transitions of the tick as bits (:data:`.fsm.DS_TO_SSD`: the feet swapped
         roles).
     """
-    terms, feet = views.terms, views.feet
-    st = state[0]
+    terms, feet = records.terms, records.feet
+    st = records.state[0]
     n = terms.mass.shape[0]
     # The soles and the F/T frames (left, right), as updateFramePlacements.
     sole_rot, sole_pos = np.empty((2, 3, 3)), np.empty((2, 3))
@@ -587,7 +595,7 @@ def tick(views: PinocchioViews, state: np.ndarray, signals: np.ndarray) -> int:
         meas_x, meas_y = 0.0, 0.0
 
     # The signals (SIGNALS), by name.
-    out = signals[0]
+    out = records.signals[0]
     out.fsm_state = 0.0 if double else (1.0 if sup == 0 else -1.0)
     out.efsm_phase = phase
     out.epsilon, out.epsilon_onset = fsm.epsilon, eps_onset

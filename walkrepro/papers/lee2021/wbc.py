@@ -31,7 +31,6 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
-from numba.core.errors import NumbaPerformanceWarning
 
 from walkrepro.robot import frame_jacobian, log3
 
@@ -53,7 +52,7 @@ _jit = numba.njit(cache=True, error_model="numpy")
 # Blocks of the matrices below are strided views; numba copies them for BLAS and says so.
 # At these sizes (≤ 18 × 18) the copy costs less than writing the blocks out by hand.
 warnings.filterwarnings(
-    "ignore", message=".*is faster on contiguous arrays", category=NumbaPerformanceWarning
+    "ignore", message=".*is faster on contiguous arrays", category=numba.NumbaPerformanceWarning
 )
 
 
