@@ -25,9 +25,7 @@ NUMBA_CORE_ALLOWED = ("types",)
 #: Decorators that make a compiled kernel.
 KERNEL_DECORATORS = ("njit", "jit", "_jit")
 #: Papers whose code still keeps positions, each with the reason.
-PENDING = {
-    "lee2021": "Paper I's records (st['params'], tick_state, out[0..43]) are issue 44's Paper I step",
-}
+PENDING: dict[str, str] = {}
 
 
 def _name(node: ast.AST) -> str:
