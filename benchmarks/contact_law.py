@@ -1,4 +1,4 @@
-"""What the point-contact ground law (walkrepro/contact_law.py) costs per physics step.
+"""What the point-contact ground law (walkrepro/sim/contact_law.py) costs per physics step.
 
 Two COMAN-sized soles on the lab's 1 cm grid (200 points each) stand on the ground under a
 14 kg block each; the script times MuJoCo's ``mj_step`` with the law applied against the same
@@ -15,7 +15,7 @@ import time
 
 import mujoco
 
-from walkrepro.contact_law import GroundContact, PointContactLaw, applied, sole_grid
+from walkrepro.sim.contact_law import GroundContact, PointContactLaw, applied, sole_grid
 
 LAB = PointContactLaw(27818.0, 0.3, 1e4, 10.0, 0.9)
 POINTS = sole_grid((-0.095, 0.095), (-0.045, 0.045), -0.02, 0.01)

@@ -5,7 +5,7 @@ Each log given is read back (schemas, channels, attachments, metadata, and every
 its channel, log time and encoded bytes, chunk by chunk, with the ``mcap`` package's stream
 reader). Then the same messages are written to a new file by each writer:
 
-- ``mcapfile``: :class:`walkrepro.mcapfile.McapFile` used the way ``LogWriter`` uses it: a
+- ``mcapfile``: :class:`walkrepro.log.mcapfile.McapFile` used the way ``LogWriter`` uses it: a
   batched topic's consecutive messages in one ``ChannelWriter.append_rows`` call (a uint8
   array, one row per message, with any extra bytes of a row), the other topics one
   ``ChannelWriter.append`` per message, the chunk closed where the log's chunk closes
@@ -60,9 +60,9 @@ from mcap.stream_reader import StreamReader
 
 import foxglove
 import walkrepro
-from walkrepro import mcapfile
-from walkrepro.mcapfile import McapFile
-from walkrepro.record import (
+from walkrepro.log import mcapfile
+from walkrepro.log.mcapfile import McapFile
+from walkrepro.log.record import (
     DEFAULT_CHUNK_SIZE,
     TOPIC_CONTACTS,
     TOPIC_INPUTS,

@@ -22,7 +22,7 @@ import pinocchio as pin
 
 from walkrepro.papers.jo_oh.tasks import matrix_to_rpy
 from walkrepro.papers.lee2021 import kernels
-from walkrepro.robot import frame_classical_acceleration, frame_jacobian, load_robot, log3
+from walkrepro.sim.robot import frame_classical_acceleration, frame_jacobian, load_robot, log3
 
 #: Calls per control tick: (Paper I's tick in double support, Paper III's tick); Paper I's
 #: tick places four frames, one updateFramePlacements would do them all.

@@ -44,14 +44,14 @@ import mujoco
 import numpy as np
 from scipy.optimize import brentq
 
-from walkrepro import contact_law
-from walkrepro.contact_law import PointContactLaw
-from walkrepro.yamlload import load as load_yaml
+from walkrepro.sim import contact_law
+from walkrepro.sim.contact_law import PointContactLaw
+from walkrepro.specs.yamlload import load as load_yaml
 
 ROBOTS_DIR = Path(__file__).resolve().parent
 Vec3 = tuple[float, float, float]
 
-# Collision filtering shared with walkrepro.world: robot geoms touch world geoms
+# Collision filtering shared with walkrepro.sim.world: robot geoms touch world geoms
 # (contype=1, conaffinity=3) but never each other.
 ROBOT_CONTYPE = 2
 ROBOT_CONAFFINITY = 1
@@ -459,7 +459,7 @@ class RobotDesign:
 
 @dataclass(frozen=True)
 class GroundLaw:
-    """The lab's point-contact ground law (walkrepro.contact_law) and each sole's points.
+    """The lab's point-contact ground law (walkrepro.sim.contact_law) and each sole's points.
 
     Attributes:
         law: the law's parameters.
@@ -1540,7 +1540,7 @@ def build_xml(robot: RobotDesign, keyframe: tuple[np.ndarray, np.ndarray] | None
                 },
             )
     if robot.drive is not None:
-        # Encoders before the gear (§V-A): the sensors read the motor DoF (walkrepro/robot.py).
+        # Encoders before the gear (§V-A): the sensors read the motor DoF (walkrepro/sim/robot.py).
         custom = ET.SubElement(root, "custom")
         ET.SubElement(custom, "text", {"name": "walkrepro_encoders", "data": "motor"})
     sensor = ET.SubElement(root, "sensor")
@@ -1551,7 +1551,7 @@ def build_xml(robot: RobotDesign, keyframe: tuple[np.ndarray, np.ndarray] | None
         ET.SubElement(sensor, "force", {"name": f"{side}_foot_force", "site": f"{side}_foot_ft"})
         ET.SubElement(sensor, "torque", {"name": f"{side}_foot_torque", "site": f"{side}_foot_ft"})
     if robot.ground is not None:
-        # The lab's ground law on the soles (walkrepro.contact_law): its numerics, the
+        # The lab's ground law on the soles (walkrepro.sim.contact_law): its numerics, the
         # userdata its anchors need, and MuJoCo's own contact between the soles and the
         # floor switched off (the law alone holds them).
         law = ET.fromstring(f"<law>{contact_law.mjcf(robot.ground.law, robot.ground.points)}</law>")

@@ -7,15 +7,15 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from walkrepro import numbacache
+from walkrepro.runtime import numbacache
 
 # Importing walkrepro sets up nothing; the tests compile kernels as the command does, in the
 # source-keyed cache (an edit to a helper a kernel inlines recompiles it), and the commands
 # they start in child processes inherit it. Before anything below compiles a kernel.
 numbacache.install()
 
-from walkrepro.robot import load_robot  # noqa: E402
-from walkrepro.sensors import SensorSnapshot  # noqa: E402
+from walkrepro.sim.robot import load_robot  # noqa: E402
+from walkrepro.sim.sensors import SensorSnapshot  # noqa: E402
 
 
 def _kist_home_snapshot() -> SensorSnapshot:
@@ -50,6 +50,6 @@ def _clean_tree_for_tests(monkeypatch: pytest.MonkeyPatch) -> None:
     """Commands that refuse to write references from uncommitted changes see a clean tree:
     a test's outcome must not depend on the developer's uncommitted edits
     (tests/test_ledger.py checks the refusal itself)."""
-    from walkrepro import provenance
+    from walkrepro.runs import provenance
 
     monkeypatch.setattr(provenance, "dirty_paths", lambda folders: [])

@@ -154,8 +154,8 @@ def test_the_readmes_library_tour_runs(
     prints each claim of the run."""
     import re
 
-    from walkrepro import results
     from walkrepro.locations import PROJECT_ROOT
+    from walkrepro.runs import results
 
     readme = (PROJECT_ROOT / "README.md").read_text()
     tour = readme.split("## Library tour", 1)[1]

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from walkrepro.bench import bench_experiment, machine_info
-from walkrepro.specfiles import load_spec, resolve_spec
+from walkrepro.runs.resolve import resolve_spec
+from walkrepro.specs.files import load_spec
+from walkrepro.studies.bench import bench_experiment, machine_info
 
 
 @pytest.mark.slow
@@ -69,8 +70,8 @@ def test_bench_compare_with_a_wrong_file_is_a_clear_error(tmp_path) -> None:  # 
 
 def test_repeat_keeps_the_fastest_run_and_floor(monkeypatch: pytest.MonkeyPatch) -> None:
     """With --repeat N the fastest run and the fastest floor are reported (no clock read)."""
-    from walkrepro import bench
-    from walkrepro.runner import RunResult, RunTiming
+    from walkrepro.runs.runner import RunResult, RunTiming
+    from walkrepro.studies import bench
 
     walls, floors = iter([3.0, 1.0, 2.0]), iter([0.5, 0.7, 0.4])
 
@@ -89,8 +90,8 @@ def test_repeat_keeps_the_fastest_run_and_floor(monkeypatch: pytest.MonkeyPatch)
 def test_repeats_go_round_the_experiments(monkeypatch: pytest.MonkeyPatch) -> None:
     """--repeat runs A, B, A, B (not A, A, B, B), so a slow spell of the host does not meet
     every run of one experiment; each experiment keeps its own fastest run and floor."""
-    from walkrepro import bench
-    from walkrepro.runner import RunResult, RunTiming
+    from walkrepro.runs.runner import RunResult, RunTiming
+    from walkrepro.studies import bench
 
     order: list[str] = []
     walls = iter([2.0, 5.0, 1.0, 6.0])  # A, B, A, B

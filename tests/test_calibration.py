@@ -9,22 +9,22 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from walkrepro.calibration import model as calibration_model
-from walkrepro.calibration.model import (
+from walkrepro.errors import SpecError, WalkreproError
+from walkrepro.evaluation.checks import CALIBRATED, FAIL, count, evaluate, write_junit
+from walkrepro.specs import calibration_files as calibration_model
+from walkrepro.specs.calibration_files import (
     CALIBRATION_DIR,
     calibration_papers,
     dump_calibration,
     load_calibration,
     with_results,
 )
-from walkrepro.calibration.rules import check_consistency
-from walkrepro.calibration.run import CalibrateOptions, EngineEvaluators, calibrate, compare
-from walkrepro.calibration.search import CalibrationFailed, RootProblem, find_root, split
-from walkrepro.checks import CALIBRATED, FAIL, count, evaluate, write_junit
-from walkrepro.errors import SpecError, WalkreproError
-from walkrepro.specfiles import load_spec
-from walkrepro.sweep.cells import CellResult, CellTask
-from walkrepro.sweep.engines import ProcessEngine
+from walkrepro.specs.files import load_spec
+from walkrepro.studies.calibration.rules import check_consistency
+from walkrepro.studies.calibration.run import CalibrateOptions, EngineEvaluators, calibrate, compare
+from walkrepro.studies.calibration.search import CalibrationFailed, RootProblem, find_root, split
+from walkrepro.studies.sweep.cells import CellResult, CellTask
+from walkrepro.studies.sweep.engines import ProcessEngine
 
 METRIC = "mean_forward_speed:0.1-0.3"
 
@@ -127,7 +127,7 @@ def test_a_reference_without_a_calibration_file_is_an_error(
     values."""
     path = write_tree(tmp_path)
     (tmp_path / "calibration" / "walkrepro.yaml").unlink()
-    from walkrepro.calibration import references
+    from walkrepro.specs import calibrated as references
 
     monkeypatch.setattr(references, "CALIBRATION_DIR", tmp_path / "none")
     with pytest.raises(SpecError, match=r"line 8, field controller.params.kp.*no calibration file"):
@@ -333,8 +333,8 @@ def test_calibrate_command_updates_then_reproduces_exactly(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Without a result it differs (exit 1); --update writes it; then it reproduces exactly."""
-    from walkrepro.calibration import run as calibration_run
     from walkrepro.cli import app
+    from walkrepro.studies.calibration import run as calibration_run
 
     write_tree(tmp_path, result="null")
     monkeypatch.setattr(calibration_model, "CALIBRATION_DIR", tmp_path / "calibration")
@@ -379,7 +379,7 @@ def test_update_keeps_every_authored_field(tmp_path: Path) -> None:
 
 def test_a_withheld_reference_takes_the_default(tmp_path: Path) -> None:
     """A value withheld from a criterion run (a later parameter's) is left out: the default."""
-    from walkrepro.calibration.references import Withheld
+    from walkrepro.specs.calibrated import Withheld
 
     path = write_tree(tmp_path)
     loaded = load_spec(path, calibrated={"gain": Withheld("calibrated later")})

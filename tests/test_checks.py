@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from walkrepro.checks import FAIL, KNOWN, PASS, count, evaluate, holds, write_junit
-from walkrepro.spec import Expectation, ExperimentSpec
+from walkrepro.evaluation.checks import FAIL, KNOWN, PASS, count, evaluate, holds, write_junit
+from walkrepro.specs.models import Expectation, ExperimentSpec
 
 
 def make_spec(*expect: Expectation) -> ExperimentSpec:
@@ -185,7 +185,7 @@ def test_old_log_spec_with_reason_only_loads_and_fails() -> None:
 
 def test_summary_line_names_the_experiment_its_outcome_and_counts() -> None:
     """One experiment's line says whether it passed, its outcome and its row counts in the summary's wording."""
-    from walkrepro.checks import failing_row_text, summary_line
+    from walkrepro.evaluation.checks import failing_row_text, summary_line
 
     ok = Expectation(metric="fell", op="==", value=0, source="s")
     bad = Expectation(metric="footsteps", op=">=", value=11, source="s")

@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from walkrepro import record
 from walkrepro.cli import app
+from walkrepro.log import record
 
 runner = CliRunner()
 
@@ -154,8 +154,9 @@ def test_run_writes_a_complete_run_directory(tmp_path: Path) -> None:
 
 def test_determinism_same_spec_same_states(tmp_path: Path) -> None:
     """Two runs of the same spec and seed log identical /sim/state streams."""
-    from walkrepro.runner import run as simulate
-    from walkrepro.specfiles import load_spec, resolve_spec
+    from walkrepro.runs.resolve import resolve_spec
+    from walkrepro.runs.runner import run as simulate
+    from walkrepro.specs.files import load_spec
 
     path = tmp_path / "ok.yaml"
     path.write_text(
@@ -209,7 +210,7 @@ def test_save_reference_copies_metrics_and_figures(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """A run's metrics, verdict and PNGs become the experiment's committed reference, replacing old PNGs."""
-    from walkrepro import results
+    from walkrepro.runs import results
 
     run = tmp_path / "runs" / "tiny_stand" / "20260101T000000Z-abcdef"
     (run / "figures").mkdir(parents=True)
@@ -357,8 +358,8 @@ def test_forward_walks_verdict_fits_in_thirty_lines(capsys: pytest.CaptureFixtur
     import math
 
     from walkrepro import REFERENCES_DIR
-    from walkrepro.checks import CheckRow, Verdict
     from walkrepro.cli import _print_verdicts
+    from walkrepro.evaluation.checks import CheckRow, Verdict
 
     saved = json.loads((REFERENCES_DIR / "forward_walk" / "check.json").read_text())
 

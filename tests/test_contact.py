@@ -11,7 +11,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from walkrepro.contact import (
+from walkrepro.errors import SpecError
+from walkrepro.sim.contact_model import (
     AREAL_STIFFNESS,
     DEFAULT_CONTACT,
     ContactModel,
@@ -21,11 +22,10 @@ from walkrepro.contact import (
     sourced_natural_frequency,
     spring_damper,
 )
-from walkrepro.errors import SpecError
-from walkrepro.robot import load_robot
-from walkrepro.spec import ContactSpec
-from walkrepro.specfiles import experiment_names, load_spec
-from walkrepro.world import build_scene
+from walkrepro.sim.robot import load_robot
+from walkrepro.sim.world import build_scene
+from walkrepro.specs.files import experiment_names, load_spec
+from walkrepro.specs.models import ContactSpec
 
 
 @pytest.mark.parametrize(

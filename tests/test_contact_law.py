@@ -1,4 +1,4 @@
-"""The point-contact ground law of COMAN's lab's simulator (walkrepro/contact_law.py)."""
+"""The point-contact ground law of COMAN's lab's simulator (walkrepro/sim/contact_law.py)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from walkrepro.contact_law import GroundContact, PointContactLaw, applied, applied_to, sole_grid
+from walkrepro.sim.contact_law import GroundContact, PointContactLaw, applied, applied_to, sole_grid
 
 #: The lab's parameters (NicolasVdN/CoManRobotran @ 0207863b: simu_def.h, user_ExtForces.c).
 LAB = PointContactLaw(
@@ -173,7 +173,7 @@ def test_the_law_refuses_non_physical_parameters() -> None:
 
 def test_a_model_carries_its_law_in_its_mjcf() -> None:
     """mjcf() writes the law and its soles into a model; from_model() reads back the same."""
-    from walkrepro.contact_law import from_model, mjcf
+    from walkrepro.sim.contact_law import from_model, mjcf
 
     xml = f"""<mujoco>{mjcf(LAB, {"foot": POINTS})}
     <worldbody><body name="foot"><freejoint/><geom size="0.1"/></body></worldbody></mujoco>"""
@@ -192,12 +192,12 @@ def test_coman_stands_on_the_lab_law_and_its_log_replays_bit_for_bit(
     excluded), and walkrepro verify replays its log with the law to zero deviation."""
     from pathlib import Path
 
-    import walkrepro.robot as robot_module
-    from walkrepro.contact_law import mjcf
-    from walkrepro.record import read_log
-    from walkrepro.replay import verify_log
-    from walkrepro.runner import run
-    from walkrepro.specfiles import load_spec
+    import walkrepro.sim.robot as robot_module
+    from walkrepro.log.record import read_log
+    from walkrepro.runs.runner import run
+    from walkrepro.sim.contact_law import mjcf
+    from walkrepro.sim.replay import verify_log
+    from walkrepro.specs.files import load_spec
 
     # COMAN's sole (0.22 × 0.10 m, 3 cm ahead of the ankle, 6 cm below it) on a 1 cm grid.
     sole = sole_grid((-0.08, 0.14), (-0.05, 0.05), -0.06, 0.01)
@@ -224,8 +224,8 @@ def test_coman_stands_on_the_lab_law_and_its_log_replays_bit_for_bit(
     assert "walkrepro_ground_law" in log.scene_xml  # the log carries its own law
     # The law's forces are in the logged contact pairs and in the feet's F/T sensors: once
     # settled, the feet carry the robot's weight.
-    from walkrepro.metrics import LogData
-    from walkrepro.sensors import SensorModel
+    from walkrepro.evaluation.metrics import LogData
+    from walkrepro.sim.sensors import SensorModel
 
     logged = LogData(log)
     weight = logged.robot_mass * 9.81

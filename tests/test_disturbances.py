@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from walkrepro.disturbances import DisturbanceSchedule, profile_scale
-from walkrepro.spec import DisturbanceSpec
+from walkrepro.sim.disturbances import DisturbanceSchedule, profile_scale
+from walkrepro.specs.models import DisturbanceSpec
 
 
 def test_window_and_ramp_profile() -> None:

@@ -8,8 +8,9 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from walkrepro import PROJECT_ROOT, docsgen
+from walkrepro import PROJECT_ROOT
 from walkrepro.cli import app
+from walkrepro.publish import docsgen
 
 README = PROJECT_ROOT / "README.md"
 #: The commands a newcomer types: CI runs the second verbatim (.ci/run).
@@ -101,7 +102,7 @@ def test_a_copied_reason_is_found_across_line_breaks_and_markup() -> None:
 
 def test_every_known_deviation_is_in_its_papers_page(generated: dict[Path, str]) -> None:
     """Each known deviation's reason appears on the generated page of its paper."""
-    from walkrepro.specfiles import load_spec
+    from walkrepro.specs.files import load_spec
 
     pages = {p.stem: t for p, t in generated.items() if p.parent.name == "deviations"}
     assert set(pages) == {"lee2021", "faraji", "jo_oh"}
@@ -113,7 +114,7 @@ def test_every_known_deviation_is_in_its_papers_page(generated: dict[Path, str])
 def test_spec_reference_lists_every_field(generated: dict[Path, str]) -> None:
     """The spec reference has a row for every field of every spec model and controller params model."""
     from walkrepro.controllers import controller_class, controller_names
-    from walkrepro.spec import ExperimentSpec
+    from walkrepro.specs.models import ExperimentSpec
 
     text = generated[PROJECT_ROOT / "docs" / "spec-reference.md"]
     schema = ExperimentSpec.model_json_schema()

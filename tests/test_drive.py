@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from walkrepro.robot import MOTOR_SUFFIX, load_robot
+from walkrepro.sim.robot import MOTOR_SUFFIX, load_robot
 
 JOINT = "l_knee"
 

@@ -9,7 +9,7 @@ import pinocchio as pin
 
 from walkrepro.papers.lee2021.controller import EfsmController, EfsmParams
 from walkrepro.papers.lee2021.fsm import Phase
-from walkrepro.robot import load_robot
+from walkrepro.sim.robot import load_robot
 
 
 def _controller(**params: object) -> EfsmController:

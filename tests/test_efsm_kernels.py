@@ -24,7 +24,7 @@ from walkrepro.papers.lee2021.fsm import (
     epsilon,
     fsm_step,
 )
-from walkrepro.robot import frame_jacobian, load_robot
+from walkrepro.sim.robot import frame_jacobian, load_robot
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 FEET = ("left_sole", "right_sole")

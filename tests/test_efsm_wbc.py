@@ -11,7 +11,7 @@ import pytest
 
 from walkrepro.papers.lee2021 import wbc
 from walkrepro.papers.lee2021.fsm import Phase
-from walkrepro.robot import load_robot
+from walkrepro.sim.robot import load_robot
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 ONE_FOOT, TWO_FEET = ("left_sole",), ("left_sole", "right_sole")

@@ -8,10 +8,11 @@ from pathlib import Path
 
 import pytest
 
-from walkrepro import RESULTS_DIR, experiment, results
+from walkrepro import RESULTS_DIR
 from walkrepro.cli import _paired_partners, _resolved
-from walkrepro.experiment import References, partner_metric_names
-from walkrepro.specfiles import experiment_names, load_spec
+from walkrepro.runs import experiment, results
+from walkrepro.runs.experiment import References, partner_metric_names
+from walkrepro.specs.files import experiment_names, load_spec
 
 
 def committed(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, values: dict, reasons: dict) -> None:

@@ -15,11 +15,11 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from matplotlib.colors import to_rgb  # noqa: E402
 
-from walkrepro.figures import style  # noqa: E402
-from walkrepro.sweep import store  # noqa: E402
-from walkrepro.sweep.cells import CellResult  # noqa: E402
-from walkrepro.sweep.grid import Cell  # noqa: E402
-from walkrepro.sweep.maps import plot_sweep  # noqa: E402
+from walkrepro.present.figures import style  # noqa: E402
+from walkrepro.studies.sweep import store  # noqa: E402
+from walkrepro.studies.sweep.cells import CellResult  # noqa: E402
+from walkrepro.studies.sweep.grid import Cell  # noqa: E402
+from walkrepro.studies.sweep.maps import plot_sweep  # noqa: E402
 
 
 def test_title_names_the_paper_the_figure_and_the_experiment() -> None:
@@ -102,10 +102,10 @@ def test_yes_no_map_has_two_colours(tmp_path: Path, metric: str, binary: bool) -
 
 def test_fall_message_is_readable() -> None:
     """A fall by pelvis height says how far the pelvis dropped against its standing height."""
-    from walkrepro.contacts import FallDetector
-    from walkrepro.robot import load_robot
-    from walkrepro.specfiles import load_spec
-    from walkrepro.world import build_scene
+    from walkrepro.sim.contact_reader import FallDetector
+    from walkrepro.sim.robot import load_robot
+    from walkrepro.sim.world import build_scene
+    from walkrepro.specs.files import load_spec
 
     spec = load_spec("stand_dyros_red").spec
     robot = load_robot(spec.robot)

@@ -16,10 +16,12 @@ from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mcap.reader import make_reader
 
-from walkrepro import PROJECT_ROOT, foxglove
-from walkrepro.record import TOPIC_FRAMES, TOPIC_SCENE, TOPIC_SIGNALS, TOPIC_STATE, read_log
-from walkrepro.runner import run
-from walkrepro.specfiles import load_spec, resolve_spec
+from walkrepro import PROJECT_ROOT
+from walkrepro.log import foxglove
+from walkrepro.log.record import TOPIC_FRAMES, TOPIC_SCENE, TOPIC_SIGNALS, TOPIC_STATE, read_log
+from walkrepro.runs.resolve import resolve_spec
+from walkrepro.runs.runner import run
+from walkrepro.specs.files import load_spec
 
 LAYOUT = PROJECT_ROOT / "foxglove" / "walkrepro-layout.json"
 

@@ -24,10 +24,12 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from walkrepro import EXPERIMENTS_DIR, yamlload
+from walkrepro import EXPERIMENTS_DIR
 from walkrepro.cli import app
 from walkrepro.errors import WalkreproError
-from walkrepro.specfiles import load_spec, resolve_spec
+from walkrepro.runs.resolve import resolve_spec
+from walkrepro.specs import yamlload
+from walkrepro.specs.files import load_spec
 
 #: Seed of every mutation; change it to explore other cases.
 SEED = 32

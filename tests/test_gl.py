@@ -8,15 +8,15 @@ import sys
 
 import pytest
 
-from walkrepro import gl
 from walkrepro.cli import app
+from walkrepro.runtime import gl
 
 
 def test_import_chooses_no_backend() -> None:
     """Importing walkrepro (and its CLI) sets no MUJOCO_GL and imports no OpenGL."""
     env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
     code = (
-        "import os, sys, walkrepro.cli, walkrepro.metrics, walkrepro.runner\n"
+        "import os, sys, walkrepro.cli, walkrepro.evaluation.metrics, walkrepro.runs.runner\n"
         "assert 'MUJOCO_GL' not in os.environ, os.environ['MUJOCO_GL']\n"
         "assert not any(m == 'OpenGL' or m.startswith('OpenGL.') for m in sys.modules)\n"
     )
@@ -84,8 +84,9 @@ def test_render_writes_a_strip_on_this_machine(tmp_path: object) -> None:
 def _tiny_log(tmp_path: object):  # noqa: ANN202 - Path
     from pathlib import Path
 
-    from walkrepro.runner import run
-    from walkrepro.specfiles import load_spec, resolve_spec
+    from walkrepro.runs.resolve import resolve_spec
+    from walkrepro.runs.runner import run
+    from walkrepro.specs.files import load_spec
 
     spec = resolve_spec(load_spec("stand_dyros_red", ["sim.duration=0.1"])).spec
     path = Path(str(tmp_path)) / "log.mcap"

@@ -110,15 +110,15 @@ def test_spec_is_a_leaf_of_walkrepro() -> None:
     plugin registry, which says which papers exist, imports only the errors)."""
     graph = import_graph(module_files())
     assert graph["walkrepro.plugins"] <= {"walkrepro.errors"}
-    assert graph["walkrepro.spec"] <= {
+    assert graph["walkrepro.specs.models"] <= {
         "walkrepro",
         "walkrepro.plugins",
         "walkrepro.locations",
-        "walkrepro.yamlload",
-        "walkrepro.deviation",
+        "walkrepro.specs.yamlload",
+        "walkrepro.specs.deviation",
         "walkrepro.errors",
-        "walkrepro.origin",
-        "walkrepro.sweep.model",
+        "walkrepro.specs.origin",
+        "walkrepro.specs.sweeps",
     }
 
 

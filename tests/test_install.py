@@ -58,7 +58,7 @@ def test_check_without_names_runs_the_user_folder_only(user_folder: Path, tmp_pa
 
 
 def test_a_shipped_name_is_found_with_a_user_folder(user_folder: Path) -> None:
-    from walkrepro.specfiles import find_spec_file
+    from walkrepro.specs.files import find_spec_file
 
     os.environ[locations.USER_EXPERIMENTS_ENV] = str(user_folder)
     assert find_spec_file("my_stand") == user_folder / "my_stand.yaml"

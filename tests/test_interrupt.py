@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from walkrepro.cli import app
-from walkrepro.interrupt import InterruptFlag
+from walkrepro.runtime.interrupt import InterruptFlag
 
 SPEC = """\
 name: tiny_walk_stand
@@ -173,7 +173,11 @@ app(sys.argv[1:])
 
 @pytest.mark.parametrize(
     "target",
-    ["walkrepro.metrics.evaluate", "walkrepro.figures.plot_run", "walkrepro.runner._set_home"],
+    [
+        "walkrepro.evaluation.metrics.evaluate",
+        "walkrepro.present.figures.plot_run",
+        "walkrepro.runs.runner._set_home",
+    ],
     ids=["metrics", "figures", "set-up"],
 )
 def test_a_crash_leaves_an_error_run_directory(tmp_path: Path, target: str) -> None:
@@ -221,8 +225,8 @@ def test_flag_takes_sigterm_like_ctrl_c_and_says_which() -> None:
 
 def test_a_run_without_log_is_rechecked_from_its_record(tmp_path: Path) -> None:
     """A run directory stopped before its log exists (run.json and spec.yaml only) re-checks as interrupted and verify says there is no log; one without spec.yaml is a one-paragraph error."""
-    from walkrepro import results
-    from walkrepro.specfiles import load_spec
+    from walkrepro.runs import results
+    from walkrepro.specs.files import load_spec
 
     spec = load_spec("stand_coman").spec
     run = results.abandon(
@@ -245,7 +249,7 @@ def test_a_run_without_log_is_rechecked_from_its_record(tmp_path: Path) -> None:
 HOLD = """
 import os, signal, sys, time
 sys.argv[0] = "walkrepro"  # as the console script
-from walkrepro import interrupt
+from walkrepro.runtime import interrupt
 interrupt.hold_stop_signals_if_command()  # as the command's set-up does
 interrupt.hold_stop_signals_if_command()  # a second call keeps the one hold
 os.kill(os.getpid(), signal.{signal})  # while "importing"
@@ -292,7 +296,7 @@ def test_a_held_signal_nothing_takes_over_ends_the_process_at_exit() -> None:
 
 def test_only_the_command_holds_signals() -> None:
     """The console script and python -m walkrepro hold stop signals; a program importing walkrepro does not."""
-    from walkrepro.interrupt import started_as_command
+    from walkrepro.runtime.interrupt import started_as_command
 
     assert started_as_command(["/usr/local/bin/walkrepro", "run"], [])
     assert started_as_command(["-m"], ["python", "-m", "walkrepro", "run"])

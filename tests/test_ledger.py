@@ -1,4 +1,4 @@
-"""The provenance ledger: every number a run uses has a class (walkrepro/ledger.py)."""
+"""The provenance ledger: every number a run uses has a class (walkrepro/publish/ledger.py)."""
 
 from __future__ import annotations
 
@@ -8,11 +8,10 @@ import pytest
 import yaml
 from pydantic import Field
 
-from walkrepro import yamlload
 from walkrepro.controllers import controller_class, controller_names
 from walkrepro.controllers.base import ControllerParams
 from walkrepro.errors import SpecError, WalkreproError
-from walkrepro.ledger import (
+from walkrepro.publish.ledger import (
     OVERRIDE,
     UNCLASSIFIED,
     counts,
@@ -22,10 +21,12 @@ from walkrepro.ledger import (
     unclassified_fields,
     unused_entries,
 )
-from walkrepro.origin import CLASSES, assumed, paper, scenario
-from walkrepro.robot import load_robot
-from walkrepro.specfiles import find_spec_file, load_spec, resolve_spec, shipped_experiment_names
-from walkrepro.world import build_scene
+from walkrepro.runs.resolve import resolve_spec
+from walkrepro.sim.robot import load_robot
+from walkrepro.sim.world import build_scene
+from walkrepro.specs import yamlload
+from walkrepro.specs.files import find_spec_file, load_spec, shipped_experiment_names
+from walkrepro.specs.origin import CLASSES, assumed, paper, scenario
 
 
 @pytest.mark.parametrize("name", controller_names())
@@ -47,7 +48,7 @@ def test_a_parameter_without_a_class_is_found() -> None:
 
 def test_origin_helpers_refuse_unknown_classes_and_empty_sources() -> None:
     """A class outside the four and a provenance without its source are errors."""
-    from walkrepro.origin import _origin
+    from walkrepro.specs.origin import _origin
 
     with pytest.raises(ValueError, match="unknown provenance class"):
         _origin("guessed", "x")
@@ -202,7 +203,8 @@ def test_every_spec_provenance_entry_names_a_value(name: str) -> None:
 
 def test_update_reference_refuses_uncommitted_changes(monkeypatch: pytest.MonkeyPatch) -> None:
     """Writing references from a dirty tree is refused, unless --allow-dirty says so."""
-    from walkrepro import cli, provenance
+    from walkrepro import cli
+    from walkrepro.runs import provenance
 
     monkeypatch.setattr(provenance, "dirty_paths", lambda folders: ["robots/build_models.py"])
     with pytest.raises(WalkreproError, match="uncommitted changes.*build_models"):

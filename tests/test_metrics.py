@@ -20,8 +20,7 @@ import numpy as np
 import pytest
 import yaml
 
-from walkrepro import record
-from walkrepro.metrics import (
+from walkrepro.evaluation.metrics import (
     LIFT_CLEARANCE,
     LogData,
     MetricArgError,
@@ -35,10 +34,11 @@ from walkrepro.metrics import (
     metric_names,
     split_metric,
 )
-from walkrepro.provenance import run_metadata
-from walkrepro.robot import load_robot
-from walkrepro.spec import ExperimentSpec
-from walkrepro.world import build_scene
+from walkrepro.log import record
+from walkrepro.runs.provenance import run_metadata
+from walkrepro.sim.robot import load_robot
+from walkrepro.sim.world import build_scene
+from walkrepro.specs.models import ExperimentSpec
 
 EXPERIMENTS = Path(__file__).resolve().parents[1] / "experiments"
 DT = 0.01  # [s] between synthetic messages

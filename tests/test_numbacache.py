@@ -1,4 +1,4 @@
-"""numba's cache directory keyed on every source a kernel imports (walkrepro/numbacache.py)."""
+"""numba's cache directory keyed on every source a kernel imports (walkrepro/runtime/numbacache.py)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from walkrepro import numbacache
+from walkrepro.runtime import numbacache
 
 HELPER = "import numba\n\n@numba.njit(cache=True)\ndef bump(x):\n    return x + {step}\n"
 KERNEL = (
@@ -19,7 +19,7 @@ KERNEL = (
 # Prints the kernel's value and whether it came from the on-disk cache.
 SCRIPT = (
     "import sys\n"
-    "import walkrepro.numbacache as n\n"
+    "import walkrepro.runtime.numbacache as n\n"
     "if sys.argv[1] == 'watched':\n    n.watch('cachepair')\n"
     "from cachepair.kernel import kernel\n"
     "print(kernel(1.0), bool(kernel.stats.cache_hits))\n"

@@ -20,7 +20,7 @@ from test_metrics import (
     write_log,
 )
 
-from walkrepro.metrics import LogData
+from walkrepro.evaluation.metrics import LogData
 from walkrepro.papers.faraji.controller import TimeProjectionParams
 from walkrepro.papers.faraji.metrics import (
     CORRECTIVE_SIGMAS,
@@ -31,7 +31,7 @@ from walkrepro.papers.faraji.metrics import (
     tracking_lag,
     unsettled_steps,
 )
-from walkrepro.robot import load_robot
+from walkrepro.sim.robot import load_robot
 
 ROBOT = "coman"
 STEP = 0.4  # [s] (Paper II's T)
@@ -601,7 +601,7 @@ def test_push_figure_marks_the_corrective_steps(tmp_path: Path) -> None:
 def test_the_neck_is_the_torso_top_or_the_shoulder_axes() -> None:
     """Fig. 20's neck: the top of coman's torso box, the shoulder axes on coman_lab (capsules)."""
     from walkrepro.papers.faraji.metrics import _neck_offset
-    from walkrepro.robot import load_robot
+    from walkrepro.sim.robot import load_robot
 
     assert _neck_offset(load_robot("coman").mj_model) == pytest.approx(0.2)
     lab = load_robot("coman_lab").mj_model

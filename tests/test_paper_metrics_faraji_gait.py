@@ -23,7 +23,7 @@ from test_metrics import (
     write_log,
 )
 
-from walkrepro.metrics import LogData, MetricArgError, check_metric_arg
+from walkrepro.evaluation.metrics import LogData, MetricArgError, check_metric_arg
 from walkrepro.papers.faraji.metrics import (
     double_support_fractions,
     foot_swings,

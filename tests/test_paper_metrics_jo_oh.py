@@ -22,7 +22,7 @@ from test_metrics import (
     write_log,
 )
 
-from walkrepro.metrics import LogData
+from walkrepro.evaluation.metrics import LogData
 
 ROBOT = "kist_humanoid"
 TOP = 0.04  # [m] block height

@@ -21,7 +21,7 @@ from test_metrics import (
     write_log,
 )
 
-from walkrepro.metrics import LogData, MetricArgError, check_metric_arg
+from walkrepro.evaluation.metrics import LogData, MetricArgError, check_metric_arg
 from walkrepro.papers.lee2021.metrics import eq3_cop_lead, ow_x, switch_torque_jumps
 
 ROBOT = "dyros_red"

@@ -6,8 +6,8 @@ from __future__ import annotations
 import pytest
 
 from walkrepro import plugins
-from walkrepro.plots import Plot, Series, signal_plots
-from walkrepro.record import TOPIC_SIGNALS, TOPIC_STATE
+from walkrepro.log.record import TOPIC_SIGNALS, TOPIC_STATE
+from walkrepro.present.plots import Plot, Series, signal_plots
 
 
 def _signal_layouts() -> dict:

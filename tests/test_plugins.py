@@ -12,9 +12,10 @@ from pathlib import Path
 import pytest
 from test_install import ROOT, _venv_with_this_environment
 
-from walkrepro import metrics, plugins
+from walkrepro import plugins
 from walkrepro.controllers import controller_class, controller_names
 from walkrepro.errors import UnknownNameError, WalkreproError
+from walkrepro.evaluation import metrics
 
 EXAMPLE = ROOT / "examples" / "walkrepro-example-plugin"
 
@@ -113,8 +114,8 @@ def test_an_outside_plugin_adds_a_paper_its_specs_can_name(
     """A paper an outside plugin declares is a valid paper.key, named in figures and listed
     after walkrepro's papers, before the sanity experiments; an undeclared key lists the
     declared ones."""
-    from walkrepro.figures.style import paper_name
-    from walkrepro.specfiles import load_spec
+    from walkrepro.present.figures.style import paper_name
+    from walkrepro.specs.files import load_spec
 
     install_fake_plugin(monkeypatch, {}, (LAB_PAPER,))
     assert list(plugins.papers()) == ["lee2021", "faraji", "jo_oh", "lab2025", "walkrepro"]

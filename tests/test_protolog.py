@@ -1,4 +1,4 @@
-"""Tests of walkrepro.protolog: the numeric topics' protobuf schemas and wire encoders."""
+"""Tests of walkrepro.log.protolog: the numeric topics' protobuf schemas and wire encoders."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from walkrepro import protolog
+from walkrepro.log import protolog
 
 SENSORS = {
     "t": 0.25,

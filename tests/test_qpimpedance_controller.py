@@ -9,7 +9,7 @@ from pydantic import ValidationError
 from walkrepro.controllers import controller_class
 from walkrepro.papers.jo_oh.controller import SIGNAL_LAYOUT, SIGNALS, SUPPORTS
 from walkrepro.papers.jo_oh.tasks import FOOT_SIGNALS, TICK_SIGNALS
-from walkrepro.robot import load_robot
+from walkrepro.sim.robot import load_robot
 
 
 def test_standing_tick_puts_the_weight_on_both_feet(kist_home_snapshot) -> None:

@@ -24,7 +24,7 @@ from walkrepro.papers.jo_oh.centroidal_qp import (
     solve_with_qpsolvers,
     solver_options,
 )
-from walkrepro.robot import load_robot
+from walkrepro.sim.robot import load_robot
 
 MU = 0.6
 CORNERS = np.array([[sx * 0.12, sy * 0.065, 0.0] for sx in (1, -1) for sy in (1, -1)])

@@ -12,11 +12,11 @@ import pinocchio as pin
 import pytest
 
 from walkrepro.controllers import controller_class
+from walkrepro.log.signals import Signals
 from walkrepro.papers.jo_oh import tasks
 from walkrepro.papers.jo_oh.centroidal_qp import solve_centroidal
 from walkrepro.papers.jo_oh.controller import SIGNAL_LAYOUT
-from walkrepro.robot import frame_classical_acceleration, load_robot, pin_state_into
-from walkrepro.signals import Signals
+from walkrepro.sim.robot import frame_classical_acceleration, load_robot, pin_state_into
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 

@@ -1,4 +1,4 @@
-"""Tests of walkrepro.record: the MCAP log contract, written and read back."""
+"""Tests of walkrepro.log.record: the MCAP log contract, written and read back."""
 
 from __future__ import annotations
 
@@ -17,9 +17,9 @@ from google.protobuf.json_format import MessageToDict
 from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory
 
-from walkrepro import record
 from walkrepro.errors import UnknownNameError, WalkreproError
-from walkrepro.record import (
+from walkrepro.log import record
+from walkrepro.log.record import (
     OUTCOME_NOT_CLOSED,
     TOPIC_CONTACTS,
     TOPIC_EVENTS,
@@ -126,7 +126,7 @@ def as_bits(obj: Any) -> Any:
 
 
 def use_encoder(monkeypatch: pytest.MonkeyPatch, name: str) -> None:
-    """Selects the stdlib or the (optional) orjson JSON backend of walkrepro.record."""
+    """Selects the stdlib or the (optional) orjson JSON backend of walkrepro.log.record."""
     if name == "orjson":
         orjson = pytest.importorskip("orjson")
         monkeypatch.setattr(record, "orjson", orjson)
@@ -297,7 +297,7 @@ def test_signals_keep_their_kinds_and_leave_out_what_is_undefined(tmp_path: Path
     """Signals are laid out by the first tick: numpy and Python numbers keep their values
     (integers stay integers), arrays their bits; a scalar a later tick leaves out (or sets to
     NaN) is not in that tick's message; a new name, another shape, a string are errors."""
-    from walkrepro.signals import SignalLayout, Signals
+    from walkrepro.log.signals import SignalLayout, Signals
 
     path = tmp_path / "signals.mcap"
     with new_writer(path) as log:
@@ -607,7 +607,7 @@ def _raw_messages(path: Path) -> list[tuple[int, int, int, int, bytes]]:
 def test_write_signals_writes_the_bytes_of_write(tmp_path: Path, encoder: str) -> None:
     """write_signals(t, signals) gives byte for byte what write() gives {"t": t, **signals},
     from a dict or from Signals of the same layout."""
-    from walkrepro.signals import SignalLayout, Signals
+    from walkrepro.log.signals import SignalLayout, Signals
 
     layout = SignalLayout([("state", 0, True), ("com", 3, False), ("v", 0, False)])
     cases: list[tuple[Any, dict[str, Any]]] = [

@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from walkrepro import gl, video
 from walkrepro.cli import app
 from walkrepro.errors import WalkreproError
+from walkrepro.present import video
+from walkrepro.runtime import gl
 
 NO_GL = gl.INSTALL_HINT.format(tried="probed at collection")
 
@@ -65,7 +66,7 @@ def test_a_disturbance_is_an_arrow_ending_at_the_pushed_body() -> None:
 def test_a_drawn_arrow_ends_at_the_pushed_body() -> None:
     """In the rendered image, the red arrow spans from its tail to the body's centre of mass
     (seen from the side, 1 m of force arrow over the image's x axis)."""
-    from walkrepro.render import Offscreen
+    from walkrepro.present.render import Offscreen
 
     model = mujoco.MjModel.from_xml_string(
         '<mujoco><visual><global offwidth="640" offheight="360"/></visual><statistic extent="2"/>'
@@ -119,8 +120,9 @@ def test_render_video_writes_a_playable_mp4_of_the_whole_run(tmp_path: Path) -> 
     1/fps of simulated time and the matching duration; every frame decodes."""
     import imageio_ffmpeg
 
-    from walkrepro.runner import run
-    from walkrepro.specfiles import load_spec, resolve_spec
+    from walkrepro.runs.resolve import resolve_spec
+    from walkrepro.runs.runner import run
+    from walkrepro.specs.files import load_spec
 
     spec = resolve_spec(load_spec("stand_dyros_red", ["sim.duration=0.5"])).spec
     log = tmp_path / "log.mcap"
@@ -178,8 +180,9 @@ def test_without_gl_a_run_keeps_everything_but_the_video(
 @pytest.mark.skipif(not gl.available(), reason=NO_GL)
 def test_contact_forces_can_be_drawn(tmp_path: Path) -> None:
     """With contact forces on, the feet's contact arrows change the picture of a standing robot."""
-    from walkrepro.runner import run
-    from walkrepro.specfiles import load_spec, resolve_spec
+    from walkrepro.runs.resolve import resolve_spec
+    from walkrepro.runs.runner import run
+    from walkrepro.specs.files import load_spec
 
     spec = resolve_spec(load_spec("stand_dyros_red", ["sim.duration=0.1"])).spec
     log = tmp_path / "log.mcap"

@@ -1,4 +1,4 @@
-"""Tests of walkrepro.replay: re-simulating a log reproduces it, and tampering is caught."""
+"""Tests of walkrepro.sim.replay: re-simulating a log reproduces it, and tampering is caught."""
 
 from __future__ import annotations
 
@@ -13,14 +13,14 @@ from typer.testing import CliRunner
 
 from walkrepro.cli import app
 from walkrepro.errors import WalkreproError
-from walkrepro.record import (
+from walkrepro.log.record import (
     TOPIC_EVENTS,
     TOPIC_INPUTS,
     TOPIC_STATE,
     LogWriter,
     read_log,
 )
-from walkrepro.replay import verify_log
+from walkrepro.sim.replay import verify_log
 
 # A free box that lands on the floor (contacts) and a 2-link pendulum driven by a motor and
 # a first-order filter actuator (so `act` is non-empty).
@@ -322,7 +322,7 @@ def test_a_log_from_the_mcap_library_writer_verifies(tmp_path: Path) -> None:
 
     from mcap.writer import Writer
 
-    from walkrepro.record import METADATA_NAME, SCENE_ATTACHMENT, SPEC_ATTACHMENT
+    from walkrepro.log.record import METADATA_NAME, SCENE_ATTACHMENT, SPEC_ATTACHMENT
 
     model = mujoco.MjModel.from_xml_string(SCENE_XML)
     data = mujoco.MjData(model)

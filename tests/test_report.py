@@ -19,10 +19,10 @@ from walkrepro import RESULTS_DIR
 from walkrepro.cli import app
 from walkrepro.errors import WalkreproError
 from walkrepro.plugins import papers
-from walkrepro.report import build_report
-from walkrepro.report.claims import Tally, claim_from_row, tally
-from walkrepro.report.sources import VIDEO_FILE
-from walkrepro.specfiles import load_spec
+from walkrepro.publish.report import build_report
+from walkrepro.publish.report.claims import Tally, claim_from_row, tally
+from walkrepro.publish.report.sources import VIDEO_FILE
+from walkrepro.specs.files import load_spec
 
 CHROMIUM, CHROMEDRIVER = Path("/usr/bin/chromium"), Path("/usr/bin/chromedriver")
 PAPER_KEYS = ("lee2021", "faraji", "jo_oh")
@@ -156,7 +156,7 @@ def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_the_committed_references_give_one_row_per_paper_with_checks_counts(site: Path) -> None:
     """The index has a row per paper, and each paper's counts equal the sum of its
     experiments' check.json counts plus its maps' claims as `walkrepro check` evaluates them."""
-    from walkrepro.sweep.command import map_verdicts
+    from walkrepro.studies.sweep.command import map_verdicts
 
     index = (site / "index.html").read_text()
     for key in PAPER_KEYS:

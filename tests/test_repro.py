@@ -14,11 +14,12 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from walkrepro import gl, record
 from walkrepro.cli import app
-from walkrepro.replay import verify_log
-from walkrepro.results import latest_run
-from walkrepro.specfiles import experiment_names
+from walkrepro.log import record
+from walkrepro.runs.results import latest_run
+from walkrepro.runtime import gl
+from walkrepro.sim.replay import verify_log
+from walkrepro.specs.files import experiment_names
 
 runner = CliRunner()
 

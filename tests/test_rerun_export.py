@@ -14,9 +14,9 @@ from typer.testing import CliRunner
 
 from walkrepro import PROJECT_ROOT
 from walkrepro.cli import app
-from walkrepro.foxglove import body_names
-from walkrepro.record import read_log
-from walkrepro.rerun_export import INSTALL, body_entity, centre_of_pressure
+from walkrepro.log.foxglove import body_names
+from walkrepro.log.record import read_log
+from walkrepro.present.rerun_export import INSTALL, body_entity, centre_of_pressure
 
 runner = CliRunner()
 #: stand_coman for 0.4 s, pushed at the torso from 0.1 s to 0.3 s.
@@ -181,8 +181,8 @@ def test_a_declared_line_the_log_lacks_is_left_out_and_said(
 ) -> None:
     """A declared line whose signal the log does not have (an older log) is left out with a
     note; the rest of the recording is written."""
-    from walkrepro import rerun_export
-    from walkrepro.plots import Plot, Series
+    from walkrepro.present import rerun_export
+    from walkrepro.present.plots import Plot, Series
 
     plot = Plot("p", "a plot", "m", (Series("/controller/signals.gone", "gone"),))
     monkeypatch.setattr(rerun_export, "_controller_plots", lambda log, controller: (plot,))

@@ -1,4 +1,4 @@
-"""Tests of walkrepro.robot and the MJCF reconstructions in robots/.
+"""Tests of walkrepro.sim.robot and the MJCF reconstructions in robots/.
 
 MuJoCo and Pinocchio must describe the same robot (mass, CoM, frames, mass matrix,
 forward dynamics), the models must match the published figures, and the home keyframe
@@ -17,10 +17,11 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from walkrepro import ROBOTS_DIR, contact_law
+from walkrepro import ROBOTS_DIR
 from walkrepro.errors import UnknownNameError
-from walkrepro.ledger import robot_ledger
-from walkrepro.robot import (
+from walkrepro.publish.ledger import robot_ledger
+from walkrepro.sim import contact_law
+from walkrepro.sim.robot import (
     FRAME_NAMES,
     SENSOR_NAMES,
     Robot,
@@ -648,8 +649,8 @@ def test_coman_lab_ft_sensors_see_the_ground_law() -> None:
     """Standing on the lab's law, the two F/T sensors of walkrepro's sensor model carry the
     robot's weight above the feet (MuJoCo's own force sensors leave out the law's force, a
     generalized force; the sensor model adds it)."""
-    from walkrepro.sensors import SensorModel
-    from walkrepro.spec import SensorsSpec
+    from walkrepro.sim.sensors import SensorModel
+    from walkrepro.specs.models import SensorsSpec
 
     robot = load_robot("coman_lab")
     model = scene_model(robot)
@@ -853,8 +854,8 @@ def test_controller_robot_carries_the_specs_servo_gains() -> None:
     """with_servo_gains copies the scene's servo gains (a spec's actuators.position_gain:
     the coman ablation in_place_paper_eq21 runs its hip pitch at 1111 Nm/rad, the robot model at 222) into a copy of the
     robot; the cached robot keeps its own, and a torque robot comes back unchanged."""
-    from walkrepro.specfiles import load_spec
-    from walkrepro.world import build_scene
+    from walkrepro.sim.world import build_scene
+    from walkrepro.specs.files import load_spec
 
     robot = load_robot("coman")
     scene = build_scene(robot, load_spec("in_place_paper_eq21").spec)
@@ -876,7 +877,7 @@ def test_log3_agrees_with_pinocchio() -> None:
     """walkrepro's one log₃ (robot.log3, inlined in the whole-body ticks as log3_entries)
     equals pin.log3 to 1e-12 near identity (its series), in between, and near a half turn
     (the axis from the largest diagonal term), on random axes."""
-    from walkrepro.robot import log3
+    from walkrepro.sim.robot import log3
 
     rng = np.random.default_rng(8)
     angles = [0.0, 1e-9, 1e-6, 1e-3, 0.3, 2.0, np.pi - 1e-3, np.pi - 1e-7, np.pi]

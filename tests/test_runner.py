@@ -7,12 +7,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from walkrepro import record, runner
 from walkrepro.controllers.base import Command, Controller
 from walkrepro.controllers.posture import PostureController
-from walkrepro.metrics import LogData, compute
-from walkrepro.replay import verify_log
-from walkrepro.specfiles import load_spec, resolve_spec
+from walkrepro.evaluation.metrics import LogData, compute
+from walkrepro.log import record
+from walkrepro.runs import runner
+from walkrepro.runs.resolve import resolve_spec
+from walkrepro.sim.replay import verify_log
+from walkrepro.specs.files import load_spec
 
 
 def spec_of(name: str, *overrides: str):  # noqa: ANN201 - ExperimentSpec
@@ -148,7 +150,7 @@ def test_the_contact_fall_criterion_can_be_turned_off(tmp_path: Path) -> None:
 
 
 def spec_robot_bodies() -> set[str]:
-    from walkrepro.robot import load_robot
+    from walkrepro.sim.robot import load_robot
 
     return set(load_robot("dyros_red").body_names())
 

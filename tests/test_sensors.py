@@ -8,13 +8,14 @@ import mujoco
 import numpy as np
 import pytest
 
-from walkrepro.contacts import ContactReader
-from walkrepro.robot import load_robot
-from walkrepro.runner import _set_home
-from walkrepro.sensors import SensorModel, SensorSnapshot
-from walkrepro.spec import SensorsSpec
-from walkrepro.specfiles import load_spec, resolve_spec
-from walkrepro.world import build_scene
+from walkrepro.runs.resolve import resolve_spec
+from walkrepro.runs.runner import _set_home
+from walkrepro.sim.contact_reader import ContactReader
+from walkrepro.sim.robot import load_robot
+from walkrepro.sim.sensors import SensorModel, SensorSnapshot
+from walkrepro.sim.world import build_scene
+from walkrepro.specs.files import load_spec
+from walkrepro.specs.models import SensorsSpec
 
 G = 9.81
 

@@ -1,11 +1,11 @@
-"""Tests of a controller's signal declaration as a structured record (walkrepro.signals)."""
+"""Tests of a controller's signal declaration as a structured record (walkrepro.log.signals)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from walkrepro.signals import SignalLayout, Signals
+from walkrepro.log.signals import SignalLayout, Signals
 
 FOOT = np.dtype([("fz", np.float64), ("refs", np.float64, (3,))])
 RECORD = np.dtype([("t_plan", np.float64), ("left", FOOT), ("right", FOOT), ("com", "f8", (2,))])

@@ -9,7 +9,8 @@ import pytest
 
 from walkrepro import EXPERIMENTS_DIR
 from walkrepro.errors import SpecError, UnknownNameError
-from walkrepro.specfiles import experiment_names, load_spec, resolve_spec
+from walkrepro.runs.resolve import resolve_spec
+from walkrepro.specs.files import experiment_names, load_spec
 
 GOOD = """\
 name: tiny
@@ -244,7 +245,8 @@ def test_relative_expectation_must_name_a_shipped_experiment(tmp_path: Path) -> 
 def test_a_spec_known_deviation_needs_its_observed_band(tmp_path: Path) -> None:
     """A spec whose known deviation gives only a reason is refused at resolution, naming the field."""
     from walkrepro.errors import SpecError
-    from walkrepro.specfiles import load_spec, resolve_spec
+    from walkrepro.runs.resolve import resolve_spec
+    from walkrepro.specs.files import load_spec
 
     text = (EXPERIMENTS_DIR / "stand_dyros_red.yaml").read_text()
     text = text.replace(
@@ -457,9 +459,9 @@ def test_obstacle_clear_of_the_robot_loads_silently(
 
 def test_scene_refuses_a_non_finite_obstacle() -> None:
     """A spec built in code with a NaN obstacle never reaches MuJoCo (world.py's own guard)."""
-    from walkrepro.robot import load_robot
-    from walkrepro.spec import ObstacleSpec
-    from walkrepro.world import build_scene
+    from walkrepro.sim.robot import load_robot
+    from walkrepro.sim.world import build_scene
+    from walkrepro.specs.models import ObstacleSpec
 
     spec = load_spec("stand_dyros_red").spec
     bad = ObstacleSpec.model_construct(

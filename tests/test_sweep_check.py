@@ -7,10 +7,10 @@ from pathlib import Path
 import pytest
 
 from walkrepro import EXPERIMENTS_DIR, RESULTS_DIR
-from walkrepro.checks import FAIL, KNOWN, PASS
-from walkrepro.specfiles import experiment_names, load_spec
-from walkrepro.sweep import store
-from walkrepro.sweep.command import _stale, map_verdicts
+from walkrepro.evaluation.checks import FAIL, KNOWN, PASS
+from walkrepro.specs.files import experiment_names, load_spec
+from walkrepro.studies.sweep import store
+from walkrepro.studies.sweep.command import _stale, map_verdicts
 
 DECLARING = [n for n in experiment_names() if load_spec(n).spec.sweeps]
 

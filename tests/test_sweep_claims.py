@@ -7,9 +7,9 @@ import math
 
 import pytest
 
-from walkrepro.checks import FAIL, KNOWN, PASS
-from walkrepro.sweep.claims import evaluate_claim, in_region, matches
-from walkrepro.sweep.model import SweepClaim, SweepSpec
+from walkrepro.evaluation.checks import FAIL, KNOWN, PASS
+from walkrepro.specs.sweeps import SweepClaim, SweepSpec
+from walkrepro.studies.sweep.claims import evaluate_claim, in_region, matches
 
 FIELDS = ("height", "tilt", "impedance")
 HEIGHTS, TILTS = (0.02, 0.04, 0.06), (0, 10, 20)
@@ -443,7 +443,7 @@ def test_an_expectation_cannot_declare_unmeasurable_cells() -> None:
     """unmeasurable_cells is a map claim's; an expectation says observed: not measurable."""
     from pydantic import ValidationError
 
-    from walkrepro.spec import Expectation
+    from walkrepro.specs.models import Expectation
 
     with pytest.raises(ValidationError, match="unmeasurable_cells belongs to a map claim"):
         Expectation.model_validate(

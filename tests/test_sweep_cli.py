@@ -15,7 +15,7 @@ import pytest
 from typer.testing import CliRunner
 
 from walkrepro.cli import app
-from walkrepro.sweep import store
+from walkrepro.studies.sweep import store
 
 runner = CliRunner()
 GRID = ["--grid", "sim.duration=0.1,0.15", "--grid", "controller.params.kp=300,400"]
@@ -154,16 +154,16 @@ def test_a_killed_worker_fails_the_sweep_and_resume_runs_its_cell(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """A cell whose worker is killed (SIGKILL) is recorded crashed and the sweep exits 1; --resume runs that cell again and completes the sweep."""
-    import walkrepro.experiment
+    import walkrepro.runs.experiment
 
-    execute = walkrepro.experiment.execute
+    execute = walkrepro.runs.experiment.execute
 
     def killed_on_the_second_cell(spec, *args, **kwargs):  # noqa: ANN001, ANN002, ANN003, ANN202
         if spec.sim.duration == 0.15:  # the worker (forked from this process) dies here
             os.kill(os.getpid(), signal.SIGKILL)
         return execute(spec, *args, **kwargs)
 
-    monkeypatch.setattr(walkrepro.experiment, "execute", killed_on_the_second_cell)
+    monkeypatch.setattr(walkrepro.runs.experiment, "execute", killed_on_the_second_cell)
     args = ["sweep", "stand_dyros_red", "--grid", "sim.duration=0.1,0.15", "--jobs", "1"]
     result = runner.invoke(app, [*args, "--out", str(tmp_path)])
     assert result.exit_code == 1, result.output
@@ -193,7 +193,7 @@ def test_resume_refuses_a_sweep_whose_grid_was_edited(
     tmp_path: Path, edit: tuple[str, str, str] | None, words: str
 ) -> None:
     """--resume of a sweep whose sweep.yaml values or base.yaml changed since it started is refused in one paragraph (exit 2); an unedited one resumes."""
-    from walkrepro.sweep.sweeper import plan_new
+    from walkrepro.studies.sweep.sweeper import plan_new
 
     axes = ["sim.duration=0.1,0.15", "controller.params.kp=300,400"]
     plan = plan_new("stand_dyros_red", axes, [], tmp_path)  # planned, nothing run

@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 
 from walkrepro.errors import WalkreproError
-from walkrepro.sweep.cells import CRASHED, CellResult, CellTask, run_cell
-from walkrepro.sweep.engines import ProcessEngine, RayEngine, import_ray, make_engine
-from walkrepro.sweep.grid import parse_grid_item, plan_cells
+from walkrepro.studies.sweep.cells import CRASHED, CellResult, CellTask, run_cell
+from walkrepro.studies.sweep.engines import ProcessEngine, RayEngine, import_ray, make_engine
+from walkrepro.studies.sweep.grid import parse_grid_item, plan_cells
 
 GRID = ["sim.duration=0.1,0.15", "controller.params.kp=300,400"]
 

@@ -9,8 +9,8 @@ import yaml
 
 from walkrepro import EXPERIMENTS_DIR
 from walkrepro.errors import WalkreproError
-from walkrepro.sweep.grid import Axis, parse_grid_item, parse_values, plan_cells, unit_of
-from walkrepro.sweep.model import Affine
+from walkrepro.specs.sweeps import Affine
+from walkrepro.studies.sweep.grid import Axis, parse_grid_item, parse_values, plan_cells, unit_of
 
 
 def test_comma_list_parses_each_item_as_yaml() -> None:

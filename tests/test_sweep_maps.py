@@ -9,10 +9,10 @@ from pathlib import Path
 import matplotlib.image as mpimg
 import pytest
 
-from walkrepro.sweep import store
-from walkrepro.sweep.cells import CellResult
-from walkrepro.sweep.grid import Axis, Cell
-from walkrepro.sweep.maps import plot_sweep
+from walkrepro.studies.sweep import store
+from walkrepro.studies.sweep.cells import CellResult
+from walkrepro.studies.sweep.grid import Axis, Cell
+from walkrepro.studies.sweep.maps import plot_sweep
 
 
 def _fake_sweep(directory: Path, axes: list[Axis]) -> list[Cell]:
@@ -89,7 +89,7 @@ def test_exponent_floats_round_trip_as_floats(tmp_path: Path) -> None:
 
 def test_a_declared_success_region_sets_the_drawn_boundary() -> None:
     """With ``success:`` a cell that stood but missed the region is outside; without it, only falls are."""
-    from walkrepro.sweep.maps import _boundary_label, _inside
+    from walkrepro.studies.sweep.maps import _boundary_label, _inside
 
     success = {"metric": "stepped_on_off:right_foot", "op": "==", "value": 1}
     stood_slid = {"outcome": "complete", "fell": 0.0, "stepped_on_off:right_foot": 0.0}
@@ -112,7 +112,7 @@ def test_a_reference_copy_of_the_cells_is_in_cell_order(tmp_path: Path) -> None:
 
 def test_a_map_labels_the_metric_with_its_value_unit_not_its_arguments() -> None:
     """A unit in the argument's parenthesis ("push time [s]") is not the value's unit."""
-    from walkrepro.sweep.maps import _metric_label
+    from walkrepro.studies.sweep.maps import _metric_label
 
     assert _metric_label("recovery_steps:4.0") == "recovery_steps:4.0"
     assert _metric_label("mean_forward_speed:2-4") == "mean_forward_speed:2-4 [m/s]"

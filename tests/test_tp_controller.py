@@ -8,8 +8,8 @@ import pytest
 
 from walkrepro.controllers import controller_class
 from walkrepro.papers.faraji.controller import TimeProjectionParams
-from walkrepro.robot import load_robot
-from walkrepro.sensors import SensorSnapshot
+from walkrepro.sim.robot import load_robot
+from walkrepro.sim.sensors import SensorSnapshot
 
 
 def _snapshot(robot, t: float) -> SensorSnapshot:
@@ -81,7 +81,7 @@ def test_posture_spring_compensation_matches_home_preload() -> None:
     import pytest as _pytest
 
     from walkrepro.papers.faraji.controller import TimeProjectionController
-    from walkrepro.robot import load_robot
+    from walkrepro.sim.robot import load_robot
 
     robot = load_robot("coman")
     controller = TimeProjectionController()

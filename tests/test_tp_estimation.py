@@ -15,7 +15,7 @@ from walkrepro.papers.faraji.estimation import (
     dead_zone,
     smooth_dead_zone,
 )
-from walkrepro.robot import load_robot
+from walkrepro.sim.robot import load_robot
 
 
 def test_dead_zone_attenuates_64_percent_at_threshold() -> None:

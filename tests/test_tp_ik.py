@@ -7,7 +7,7 @@ import pytest
 
 from walkrepro.papers.faraji.ik import LegChainError, LegGeometry, forward, leg_ik
 from walkrepro.papers.faraji.openloop import leg_root_body, threelp_params_from_robot
-from walkrepro.robot import load_robot
+from walkrepro.sim.robot import load_robot
 
 #: Both COMAN models: coman's yaw-roll-pitch hip and pitch-roll ankle, coman_lab's
 #: pitch-roll-yaw hip (yaw axis down the thigh) and roll-pitch ankle.

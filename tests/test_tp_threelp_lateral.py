@@ -51,7 +51,7 @@ import pytest
 from walkrepro.papers.faraji.gait import PeriodicGait
 from walkrepro.papers.faraji.openloop import threelp_params_from_robot
 from walkrepro.papers.faraji.threelp import ThreeLP, ThreeLPParams
-from walkrepro.robot import load_robot
+from walkrepro.sim.robot import load_robot
 
 #: Paper II: step time T [s], step width W [m], in-place speed [m/s].
 T, W, V = 0.4, 0.25, 0.0

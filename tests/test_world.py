@@ -5,9 +5,9 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from walkrepro.robot import load_robot
-from walkrepro.spec import ExperimentSpec
-from walkrepro.world import build_scene
+from walkrepro.sim.robot import load_robot
+from walkrepro.sim.world import build_scene
+from walkrepro.specs.models import ExperimentSpec
 
 
 def make_spec(**extra: object) -> ExperimentSpec:

@@ -33,10 +33,10 @@ __all__ = ["Experiment", "Run", "evaluate", "load", "run", "__version__"]
 
 
 def __getattr__(name: str) -> object:
-    """``walkrepro.Run``, what :func:`run` returns (:class:`walkrepro.experiment.RunSummary`),
+    """``walkrepro.Run``, what :func:`run` returns (:class:`walkrepro.runs.experiment.RunSummary`),
     imported when first asked for: its module imports MuJoCo and numpy."""
     if name == "Run":
-        from walkrepro.experiment import RunSummary
+        from walkrepro.runs.experiment import RunSummary
 
         return RunSummary
     raise AttributeError(f"module 'walkrepro' has no attribute {name!r}")

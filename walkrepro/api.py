@@ -2,14 +2,14 @@
 
 The same steps as ``walkrepro run`` and ``walkrepro check --run``, from Python, on the same
 code: :func:`load` is the CLI's spec loading and resolution
-(:func:`walkrepro.specfiles.load_spec`, :func:`~walkrepro.specfiles.resolve_spec`),
-:func:`run` is :func:`walkrepro.experiment.execute` (simulation, log, metrics and verdict
-from the log, figures), :func:`evaluate` is :func:`walkrepro.experiment.evaluate_log`.
+(:func:`walkrepro.specs.files.load_spec`, :func:`~walkrepro.runs.resolve.resolve_spec`),
+:func:`run` is :func:`walkrepro.runs.experiment.execute` (simulation, log, metrics and verdict
+from the log, figures), :func:`evaluate` is :func:`walkrepro.runs.experiment.evaluate_log`.
 
 Importing this module (and ``walkrepro``) imports neither MuJoCo, numpy nor numba, sets no
 environment variable and installs no signal handler. :func:`load` points numba's on-disk
 cache at walkrepro's source-keyed directory before the first kernel compiles
-(:func:`walkrepro.numbacache.install`, through ``numba.config``, not the environment). A
+(:func:`walkrepro.runtime.numbacache.install`, through ``numba.config``, not the environment). A
 :func:`run` takes Ctrl-C as a request to stop while it runs (the log is closed, the run
 directory kept, marked ``interrupted``) and puts the caller's handlers back when it ends.
 
@@ -35,12 +35,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from walkrepro.checks import Verdict
     from walkrepro.controllers import ControllerParams
-    from walkrepro.experiment import RunSummary
-    from walkrepro.robot import Robot
-    from walkrepro.spec import ExperimentSpec
-    from walkrepro.world import Scene
+    from walkrepro.evaluation.checks import Verdict
+    from walkrepro.runs.experiment import RunSummary
+    from walkrepro.sim.robot import Robot
+    from walkrepro.sim.world import Scene
+    from walkrepro.specs.models import ExperimentSpec
 
 #: Overrides as ``--set`` takes them (``"sim.duration=0.5"``), or as a mapping from the
 #: dotted field to its value (``{"sim.duration": 0.5}``).
@@ -82,7 +82,7 @@ def _library_setup() -> None:
     a missing library must not stop it), numba's cache in walkrepro's source-keyed directory
     through ``numba.config`` (a kernel that inlines an edited helper recompiles). The
     environment is left as it was."""
-    from walkrepro import gl, numbacache
+    from walkrepro.runtime import gl, numbacache
 
     gl.import_mujoco()
     numbacache.install(environ=False)
@@ -114,9 +114,10 @@ def load(name_or_path: str | Path, overrides: Overrides = None) -> Experiment:
     """
     _library_setup()
     from walkrepro.controllers import controller_params
-    from walkrepro.robot import load_robot
-    from walkrepro.specfiles import load_spec, resolve_spec
-    from walkrepro.world import build_scene
+    from walkrepro.runs.resolve import resolve_spec
+    from walkrepro.sim.robot import load_robot
+    from walkrepro.sim.world import build_scene
+    from walkrepro.specs.files import load_spec
 
     strings = _override_strings(overrides)
     loaded = resolve_spec(load_spec(name_or_path, strings))
@@ -152,7 +153,7 @@ def run(
             times per second.
 
     Returns:
-        The finished run (:class:`walkrepro.experiment.RunSummary`): ``run_dir``,
+        The finished run (:class:`walkrepro.runs.experiment.RunSummary`): ``run_dir``,
         ``log_path``, ``outcome``, ``metrics``, ``verdict``; ``interrupted`` when Ctrl-C
         stopped it.
 
@@ -160,8 +161,8 @@ def run(
         walkrepro.errors.WalkreproError: as :func:`load`; an exception inside the run is
             re-raised once its run directory records it.
     """
-    from walkrepro import results
-    from walkrepro.experiment import execute
+    from walkrepro.runs import results
+    from walkrepro.runs.experiment import execute
 
     if not isinstance(experiment, Experiment):
         experiment = load(experiment, overrides)
@@ -185,15 +186,15 @@ def evaluate(run_or_log: RunSummary | str | Path) -> Verdict:
         run_or_log: a run from :func:`run`, a run directory, or a ``log.mcap``.
 
     Returns:
-        The verdict (:class:`walkrepro.checks.Verdict`): ``passed``, ``rows`` (claim, paper
+        The verdict (:class:`walkrepro.evaluation.checks.Verdict`): ``passed``, ``rows`` (claim, paper
         value, measured value, status), ``outcome``.
 
     Raises:
         walkrepro.errors.WalkreproError: not a run directory or log.
     """
     _library_setup()  # a metric may compile a kernel
-    from walkrepro import results
-    from walkrepro.experiment import References, RunSummary, evaluate_log
+    from walkrepro.runs import results
+    from walkrepro.runs.experiment import References, RunSummary, evaluate_log
 
     path = run_or_log.run_dir if isinstance(run_or_log, RunSummary) else Path(run_or_log)
     directory, log = results.resolve_run(path)

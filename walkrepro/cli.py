@@ -20,12 +20,12 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from walkrepro import results
 from walkrepro.errors import WalkreproError
 from walkrepro.locations import REFERENCES_DIR
+from walkrepro.runs import results
 
 if TYPE_CHECKING:
-    from walkrepro.spec import ExperimentSpec
+    from walkrepro.specs.models import ExperimentSpec
 
 
 def command_setup() -> None:
@@ -33,20 +33,20 @@ def command_setup() -> None:
     walkrepro does none of it, so a program that uses the library keeps its own):
 
     - stop signals (Ctrl-C, SIGTERM) that come during the start-up imports are held and
-      handed to the run or sweep that follows (:mod:`walkrepro.interrupt`);
+      handed to the run or sweep that follows (:mod:`walkrepro.runtime.interrupt`);
     - ``OPENBLAS_NUM_THREADS=1`` unless the user set it: a run is one simulation loop on one
       core with matrices of at most 60 x 60, where OpenBLAS's worker threads only add
       hand-offs (≈ 2.5 µs on Paper I's 12 x 12 eigh at 2 kHz) and ``check --jobs N`` would
       oversubscribe the cores; OpenBLAS reads it when numpy loads, so before that;
-    - MuJoCo imported with no GL backend bound (:func:`walkrepro.gl.import_mujoco`);
+    - MuJoCo imported with no GL backend bound (:func:`walkrepro.runtime.gl.import_mujoco`);
     - numba's cache in walkrepro's source-keyed directory, through ``NUMBA_CACHE_DIR`` so
-      that worker processes inherit it (:mod:`walkrepro.numbacache`).
+      that worker processes inherit it (:mod:`walkrepro.runtime.numbacache`).
     """
-    from walkrepro.interrupt import hold_stop_signals_if_command
+    from walkrepro.runtime.interrupt import hold_stop_signals_if_command
 
     hold_stop_signals_if_command()
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    from walkrepro import gl, numbacache
+    from walkrepro.runtime import gl, numbacache
 
     gl.import_mujoco()
     numbacache.install()
@@ -75,7 +75,7 @@ def version_text() -> str:
     import mujoco
 
     from walkrepro._version import __version__
-    from walkrepro.provenance import git_commit, pinocchio_version
+    from walkrepro.runs.provenance import git_commit, pinocchio_version
 
     return (
         f"walkrepro {__version__} (git {git_commit()}), MuJoCo {mujoco.__version__}, "
@@ -197,7 +197,7 @@ def _needs_clean_tree(what: str, allow_dirty: bool) -> None:
     ``robots/`` or ``experiments/``: a reference must come from a commit a reader can check
     out. ``--allow-dirty`` lets local work go on; its results' provenance then says
     ``+dirty``."""
-    from walkrepro.provenance import RESULT_INPUTS, dirty_paths
+    from walkrepro.runs.provenance import RESULT_INPUTS, dirty_paths
 
     changed = dirty_paths(RESULT_INPUTS)
     if changed and not allow_dirty:
@@ -233,7 +233,7 @@ def friendly_errors(fn: F) -> F:
 def list_cmd() -> None:
     """List every experiment with its paper, figure, robot and controller (your own
     folder's too, with --experiments DIR)."""
-    from walkrepro.specfiles import all_experiment_names, load_spec
+    from walkrepro.specs.files import all_experiment_names, load_spec
 
     table = Table(title="walkrepro experiments")
     for col in ("experiment", "paper", "figure", "robot", "controller"):
@@ -262,7 +262,7 @@ def provenance(
     """List every number an experiment's run uses (robot, scene, spec, controller) with its
     provenance class (paper, source, assumed, calibrated) and source; exit 1 when one has
     none (docs/provenance.md)."""
-    from walkrepro.ledger import LISTED, UNCLASSIFIED, counts, experiment_ledger
+    from walkrepro.publish.ledger import LISTED, UNCLASSIFIED, counts, experiment_ledger
 
     console = _console()
     missing = 0
@@ -320,7 +320,7 @@ def run(
 
 def _complete_experiment(incomplete: str) -> list[str]:
     """Shell completion: the experiments whose names start with ``incomplete``."""
-    from walkrepro.specfiles import all_experiment_names
+    from walkrepro.specs.files import all_experiment_names
 
     return [n for n in all_experiment_names() if n.startswith(incomplete)]
 
@@ -386,11 +386,12 @@ def check(options: CheckOptions) -> None:
 
     The claims of each experiment's declared maps (spec ``sweeps:``) are checked too.
     """
-    from walkrepro import api, checks
-    from walkrepro.experiment import References, evaluate_log
-    from walkrepro.specfiles import experiment_names
-    from walkrepro.sweep.command import EngineChoice
-    from walkrepro.sweep.engines import ENGINES
+    from walkrepro import api
+    from walkrepro.evaluation import checks
+    from walkrepro.runs.experiment import References, evaluate_log
+    from walkrepro.specs.files import experiment_names
+    from walkrepro.studies.sweep.command import EngineChoice
+    from walkrepro.studies.sweep.engines import ENGINES
 
     if options.engine not in ENGINES:
         raise WalkreproError(
@@ -446,7 +447,7 @@ def check(options: CheckOptions) -> None:
         if figures:
             _plot_comparisons(summaries)
     if names and not overrides:  # committed maps were made without overrides
-        from walkrepro.sweep.command import map_verdicts
+        from walkrepro.studies.sweep.command import map_verdicts
 
         verdicts += map_verdicts(
             names,
@@ -472,7 +473,7 @@ def check(options: CheckOptions) -> None:
 def _update_docs() -> None:
     """Regenerate the documents made from the references (``walkrepro docs``): new
     references change the README's status table and the deviations' measured values."""
-    from walkrepro.docsgen import generated_files, write_docs
+    from walkrepro.publish.docsgen import generated_files, write_docs
 
     _needs_checkout("walkrepro docs")
 
@@ -519,9 +520,9 @@ def _run_batch(
     Ctrl-C stops the runs under way (each keeps a complete, interrupted run directory) and
     starts no more.
     """
-    from walkrepro.checks import count
-    from walkrepro.interrupt import InterruptFlag
-    from walkrepro.sweep.engines import make_engine
+    from walkrepro.evaluation.checks import count
+    from walkrepro.runtime.interrupt import InterruptFlag
+    from walkrepro.studies.sweep.engines import make_engine
 
     workers = max(1, min(engine.jobs, len(names)))
     where = f"{workers} process(es)" if engine.name == "process" else f"Ray ({workers} CPUs)"
@@ -615,9 +616,9 @@ def _update_references(summaries: list) -> None:
     """Snapshot strips (when a GL backend exists) and the committed references."""
     import shutil
 
-    from walkrepro.gl import RenderingUnavailable
-    from walkrepro.render import render_strip
-    from walkrepro.video import VIDEO_FILE
+    from walkrepro.present.render import render_strip
+    from walkrepro.present.video import VIDEO_FILE
+    from walkrepro.runtime.gl import RenderingUnavailable
 
     for s in summaries:
         # A snapshot strip over the run, like the papers' photo sequences.
@@ -652,11 +653,11 @@ def plot(
     ] = None,
 ) -> None:
     """Redraw the paper's figures from one run, or compare two runs, or a sweep's maps."""
-    from walkrepro.figures import plot_compare, plot_run
-    from walkrepro.sweep.store import is_sweep_dir
+    from walkrepro.present.figures import plot_compare, plot_run
+    from walkrepro.studies.sweep.store import is_sweep_dir
 
     if len(runs) == 1 and is_sweep_dir(runs[0]):
-        from walkrepro.sweep.maps import plot_sweep
+        from walkrepro.studies.sweep.maps import plot_sweep
 
         for path in plot_sweep(runs[0], out):
             _console().print(f"wrote {path}")
@@ -686,7 +687,7 @@ def verify(
     Exit 1 when the replay deviates beyond the tolerance, or when the log is truncated or
     damaged (what could be read is still replayed and reported).
     """
-    from walkrepro.replay import verify_log
+    from walkrepro.sim.replay import verify_log
 
     directory, log_path = results.resolve_run(log)
     if not log_path.is_file():
@@ -758,7 +759,7 @@ def render(
     """
     directory, log = results.resolve_run(run_path)
     if video:
-        from walkrepro.video import DEFAULT_HEIGHT, DEFAULT_WIDTH, VIDEO_FILE, render_video
+        from walkrepro.present.video import DEFAULT_HEIGHT, DEFAULT_WIDTH, VIDEO_FILE, render_video
 
         info = render_video(
             log,
@@ -772,7 +773,7 @@ def render(
             f"wrote {info.path} ({info.n_frames} frames, {info.duration:.2f} s at {info.fps} fps)"
         )
         return
-    from walkrepro.render import render_strip
+    from walkrepro.present.render import render_strip
 
     try:
         times = [float(x) for x in at.split(",") if x.strip()]
@@ -818,7 +819,7 @@ def export(
     """
     if not rerun:
         raise WalkreproError("export: choose a format: --rerun (the only one so far).")
-    from walkrepro.rerun_export import export_rerun, import_rerun
+    from walkrepro.present.rerun_export import export_rerun, import_rerun
 
     import_rerun()  # the missing SDK is the first thing to say
     directory, log = results.resolve_run(run_path)
@@ -859,7 +860,7 @@ def report(
 ) -> None:
     """Build the static HTML report: per paper, each claim with the paper's value, the
     measured value and the verdict, next to the figures, the video and the maps."""
-    from walkrepro.report import build_report
+    from walkrepro.publish.report import build_report
 
     site = build_report(source, out)
     for note in site.notes:
@@ -921,7 +922,7 @@ def sweep(options: SweepOptions) -> None:
 
     Every cell is validated before any runs. Without --grid, runs the spec's declared map.
     """
-    from walkrepro.sweep.command import EngineChoice, SweepRequest, sweep_command
+    from walkrepro.studies.sweep.command import EngineChoice, SweepRequest, sweep_command
 
     if options.update_reference:
         _needs_checkout("--update-reference")
@@ -977,8 +978,8 @@ def bench(
     """
     import json
 
-    from walkrepro.bench import bench_experiments, load_bench, machine_info
-    from walkrepro.specfiles import experiment_names
+    from walkrepro.specs.files import experiment_names
+    from walkrepro.studies.bench import bench_experiments, load_bench, machine_info
 
     names = list(experiments or experiment_names())
     specs = [_resolved(n, set_ or []) for n in names]
@@ -1061,16 +1062,16 @@ def calibrate(
     """Run a paper's declared calibration (experiments/calibration/<paper>.yaml) and compare
     it with the committed results, or write them with --update. Exit 1 when a calibration
     misses its target or differs from the committed one."""
-    from walkrepro.calibration.model import (
+    from walkrepro.runtime.interrupt import Received, stop_signals_raise
+    from walkrepro.specs.calibration_files import (
         calibration_papers,
         find_calibration,
         load_calibration,
         with_results,
         write_calibration,
     )
-    from walkrepro.calibration.rules import check_consistency
-    from walkrepro.calibration.run import CalibrateOptions, calibrate, compare
-    from walkrepro.interrupt import Received, stop_signals_raise
+    from walkrepro.studies.calibration.rules import check_consistency
+    from walkrepro.studies.calibration.run import CalibrateOptions, calibrate, compare
 
     if update:
         _needs_checkout("walkrepro calibrate --update")
@@ -1185,7 +1186,7 @@ def docs_cmd(
 ) -> None:
     """Regenerate docs/ (spec reference, experiments, known deviations) and the README's
     status table from the specs and the committed results."""
-    from walkrepro.docsgen import generated_files, stale_files, write_docs
+    from walkrepro.publish.docsgen import generated_files, stale_files, write_docs
 
     _needs_checkout("walkrepro docs")
     files = generated_files()
@@ -1207,7 +1208,8 @@ def docs_cmd(
 
 
 def _resolved(name: str, overrides: list[str]):  # noqa: ANN202 - returns ExperimentSpec
-    from walkrepro.specfiles import load_spec, resolve_spec
+    from walkrepro.runs.resolve import resolve_spec
+    from walkrepro.specs.files import load_spec
 
     return resolve_spec(load_spec(name, overrides)).spec
 
@@ -1215,7 +1217,7 @@ def _resolved(name: str, overrides: list[str]):  # noqa: ANN202 - returns Experi
 def _with_reference_video(names: list[str]) -> frozenset[str]:
     """The experiments among ``names`` whose committed reference keeps a video."""
     from walkrepro.locations import REFERENCES_DIR
-    from walkrepro.video import VIDEO_FILE
+    from walkrepro.present.video import VIDEO_FILE
 
     return frozenset(n for n in names if (REFERENCES_DIR / n / VIDEO_FILE).is_file())
 
@@ -1237,13 +1239,13 @@ def _run_one(  # noqa: ANN202
     directory is created as soon as the spec is valid, before the slow imports and set-up:
     a stop at any moment after that leaves a run directory with outcome ``interrupted``.
     """
-    from walkrepro.interrupt import InterruptFlag
+    from walkrepro.runtime.interrupt import InterruptFlag
 
     with InterruptFlag() as flag:
         spec = _resolved(name, overrides)
         run_dir = results.new_run_dir(out, spec.name)
         try:
-            from walkrepro.experiment import execute
+            from walkrepro.runs.experiment import execute
         except BaseException as exc:  # a second Ctrl-C during the import
             outcome = "interrupted" if isinstance(exc, KeyboardInterrupt) else "error"
             message = f"{outcome} before the run started"
@@ -1270,8 +1272,8 @@ def _run_one(  # noqa: ANN202
 
 def _plot_comparisons(summaries: list) -> None:  # list[RunSummary]
     """Comparison figures for each relative expectation whose two runs are in this batch."""
-    from walkrepro.figures import plot_compare
-    from walkrepro.spec import spec_from_yaml_text
+    from walkrepro.present.figures import plot_compare
+    from walkrepro.specs.models import spec_from_yaml_text
 
     logs = {s.verdict.experiment: s.result.log_path for s in summaries}
     for s in summaries:
@@ -1296,7 +1298,7 @@ def _print_verdicts(
     ``per_claim``, one line per claim: ``walkrepro run``), then the failing rows in full: a
     failure is never hidden.
     """
-    from walkrepro.checks import FAIL, claim_lines, count, failing_row_text, summary_line
+    from walkrepro.evaluation.checks import FAIL, claim_lines, count, failing_row_text, summary_line
 
     console = _console()
     if details:
@@ -1326,7 +1328,7 @@ def _print_verdicts(
 
 def _verdict_table(verdicts: list) -> Table:  # list[checks.Verdict]
     """Every row of ``verdicts`` as a table; long sources and notes fold, never cut."""
-    from walkrepro.checks import CALIBRATED, FAIL, KNOWN, PASS
+    from walkrepro.evaluation.checks import CALIBRATED, FAIL, KNOWN, PASS
 
     label = {
         PASS: "[green]reproduced[/]",

@@ -15,7 +15,7 @@ Declarations are strings, so that nothing is imported before it is needed:
 - the controller names are known from the declarations; a controller's module is imported
   when a spec names it;
 - the metric modules are imported on the first metric lookup (a spec's validation needs
-  every metric name), and register their metrics with :func:`walkrepro.metrics.metric`;
+  every metric name), and register their metrics with :func:`walkrepro.evaluation.metrics.metric`;
 - a paper's figure module is imported when a run of that paper draws its figures;
 - a controller's plot declarations are imported when a viewer export draws them
   (``walkrepro export --rerun``).
@@ -70,12 +70,12 @@ class Plugin:
         controllers: ``controller.type`` name -> ``"module:Class"``, a subclass of
             :class:`walkrepro.controllers.Controller`.
         metric_modules: modules whose import registers metrics with
-            :func:`walkrepro.metrics.metric`.
+            :func:`walkrepro.evaluation.metrics.metric`.
         figures: paper key (a spec's ``paper.key``) -> a module holding ``FIGURES`` (functions
             ``(LogData, out_dir) -> [paths]``) and optionally ``COMPARE`` (functions
             ``(LogData, LogData, out_dir) -> [paths]``).
         plots: ``controller.type`` name -> ``"module:ATTR"``, a tuple of
-            :class:`walkrepro.plots.Plot`: the controller's key signals with their units,
+            :class:`walkrepro.present.plots.Plot`: the controller's key signals with their units,
             which viewers of a run draw (``walkrepro export --rerun``).
         papers: the papers this plugin reproduces (:class:`Paper`): a spec's ``paper.key``
             must name one.
@@ -220,7 +220,7 @@ def load_metric_modules() -> None:
 
 
 #: walkrepro's core plugin: its sanity experiments (``paper.key: walkrepro``) and their posture
-#: controller. The core metrics register in :mod:`walkrepro.metrics` itself, the overview
+#: controller. The core metrics register in :mod:`walkrepro.evaluation.metrics` itself, the overview
 #: figure is every run's.
 CORE = Plugin(
     papers=(

@@ -227,7 +227,7 @@ def test_fixture_provenance_and_grid() -> None:
 def test_walkrepro_set_is_the_controllers_default() -> None:
     """The fixture's walkrepro set is what the faraji controller derives from coman today."""
     from walkrepro.papers.faraji.openloop import threelp_params_from_robot
-    from walkrepro.robot import load_robot
+    from walkrepro.sim.robot import load_robot
 
     assert params_of(fixture_set("coman_walkrepro")) == threelp_params_from_robot(
         load_robot("coman")

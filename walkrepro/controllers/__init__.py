@@ -16,7 +16,7 @@ from walkrepro.controllers.base import Command, Controller, ControllerParams
 from walkrepro.errors import UnknownNameError, WalkreproError
 
 if TYPE_CHECKING:
-    from walkrepro.spec import ControllerSpec
+    from walkrepro.specs.models import ControllerSpec
 
 
 def controller_names() -> list[str]:
@@ -51,7 +51,7 @@ def controller_params(controller: ControllerSpec) -> ControllerParams:
     """The typed parameters of a spec's controller: its ``params`` validated by the
     controller's own model (``Params``), the one place a spec's dict becomes that record.
 
-    :func:`walkrepro.specfiles.resolve_spec` calls it at load, turning a
+    :func:`walkrepro.runs.resolve.resolve_spec` calls it at load, turning a
     ``pydantic.ValidationError`` into file:line errors; the runner and the metrics that need
     the parameters get the same record from it (the models are frozen: one validated record
     per controller and parameter set, per process).

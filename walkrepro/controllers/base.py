@@ -16,9 +16,9 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict
 
 if TYPE_CHECKING:
-    from walkrepro.robot import Robot
-    from walkrepro.sensors import SensorSnapshot
-    from walkrepro.signals import Signals
+    from walkrepro.log.signals import Signals
+    from walkrepro.sim.robot import Robot
+    from walkrepro.sim.sensors import SensorSnapshot
 
 
 class ControllerParams(BaseModel):
@@ -35,7 +35,7 @@ class Command:
         ctrl: actuator inputs, shape (nu,), in actuator order: joint torques [Nm] for
             torque-controlled robots, motor position targets [rad] for position-controlled ones.
         signals: named internal signals to log on ``/controller/signals``: a
-            :class:`walkrepro.signals.Signals` (one vector in a fixed layout, the fast path),
+            :class:`walkrepro.log.signals.Signals` (one vector in a fixed layout, the fast path),
             or a dict of numbers and 1-D arrays with one set of names per run.
         events: discrete events to log on ``/events``; each a dict with at least ``kind``.
     """

@@ -22,9 +22,9 @@ import pinocchio as pin
 from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
-from walkrepro.origin import assumed
-from walkrepro.robot import Robot
-from walkrepro.sensors import SensorSnapshot
+from walkrepro.sim.robot import Robot
+from walkrepro.sim.sensors import SensorSnapshot
+from walkrepro.specs.origin import assumed
 
 SOLE_FRAMES = ("left_sole", "right_sole")
 

@@ -12,8 +12,8 @@ import numpy as np
 from pydantic import Field
 
 from walkrepro.controllers import Command, Controller, ControllerParams
-from walkrepro.robot import Robot
-from walkrepro.sensors import SensorSnapshot
+from walkrepro.sim.robot import Robot
+from walkrepro.sim.sensors import SensorSnapshot
 
 
 class JointPdParams(ControllerParams):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from walkrepro.metrics import LogData, metric
+from walkrepro.evaluation.metrics import LogData, metric
 
 
 @metric("pelvis_sag", "largest drop of the pelvis height below its start, before a fall [m]")

@@ -33,7 +33,7 @@ import pinocchio as pin
 from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
-from walkrepro.origin import assumed, calibrated, paper
+from walkrepro.log.signals import SignalLayout, Signals
 from walkrepro.papers.faraji import lift
 from walkrepro.papers.faraji.dlqr import Dlqr
 from walkrepro.papers.faraji.estimation import (
@@ -53,9 +53,9 @@ from walkrepro.papers.faraji.openloop import (
 )
 from walkrepro.papers.faraji.projection import TimeProjection, truncate_footstep
 from walkrepro.papers.faraji.threelp import ThreeLP
-from walkrepro.robot import Robot
-from walkrepro.sensors import SensorSnapshot
-from walkrepro.signals import SignalLayout, Signals
+from walkrepro.sim.robot import Robot
+from walkrepro.sim.sensors import SensorSnapshot
+from walkrepro.specs.origin import assumed, calibrated, paper
 
 GRAVITY = 9.81  # [m/s^2]
 #: Indices of the sagittal components in e = [p − f, p − s, ḟ, ṗ] (x, y interleaved).

@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from walkrepro.robot import Robot
+from walkrepro.sim.robot import Robot
 
 FOOT_FRAMES = ("left_sole", "right_sole")
 

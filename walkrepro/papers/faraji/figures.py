@@ -11,9 +11,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from walkrepro.figures import CompareFn, FigureFn, style
-from walkrepro.figures.style import save
-from walkrepro.metrics import LogData, NotMeasurable
+from walkrepro.evaluation.metrics import LogData, NotMeasurable
 from walkrepro.papers.faraji.metrics import (
     _feet_relative,
     _phase_times,
@@ -22,6 +20,8 @@ from walkrepro.papers.faraji.metrics import (
     corrective_steps,
     landings,
 )
+from walkrepro.present.figures import CompareFn, FigureFn, style
+from walkrepro.present.figures.style import save
 
 ERROR_NAMES = ("e₁ = p − f [m]", "e₂ = p − s [m]", "ė₁ [m/s]", "ė₂ [m/s]")
 
@@ -49,7 +49,7 @@ def fig13_gains(d: LogData, out_dir: Path) -> list[Path]:
         TimeProjectionController,
         TimeProjectionParams,
     )
-    from walkrepro.robot import load_robot
+    from walkrepro.sim.robot import load_robot
 
     ctrl = TimeProjectionController()
     ctrl.reset(load_robot(d.spec.robot), TimeProjectionParams(**d.spec.controller.params), 0.002)

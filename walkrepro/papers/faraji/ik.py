@@ -26,7 +26,7 @@ from typing import NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from walkrepro.robot import Robot
+from walkrepro.sim.robot import Robot
 
 SIDES = ("l", "r")
 #: The sole frame of each leg (the paper's "foot position": mid-foot on the ground); the

@@ -14,7 +14,7 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
-from walkrepro.metrics import (
+from walkrepro.evaluation.metrics import (
     FOOT_BODIES,
     GRAVITY,
     LIFT_TIME,
@@ -422,7 +422,7 @@ def footstep_scatter(rel: np.ndarray) -> float:
     arg=window_check,
 )
 def _speed_to_command(d: LogData, arg: str) -> float:
-    """Window as :func:`walkrepro.metrics.mean_forward_speed`. Fig. 19's claim is about the
+    """Window as :func:`walkrepro.evaluation.metrics.mean_forward_speed`. Fig. 19's claim is about the
     speed realised against the one commanded, so the ratio follows a ``--set`` of the
     command where a band in m/s would not. Signed: a backward command (speed < 0) walked
     backward gives a positive ratio, walked forward a negative one. Not measurable without
@@ -735,7 +735,7 @@ def loaded_mask(fz: np.ndarray, weight: float) -> np.ndarray:
 
     Loaded above ``TOUCHDOWN_WEIGHT_FRACTION · weight`` (10 %), unloaded below
     ``LIFTOFF_WEIGHT_FRACTION · weight`` (5 %), unchanged between (as
-    :func:`walkrepro.metrics.detect_steps`, whose step detection also asks for a clearance;
+    :func:`walkrepro.evaluation.metrics.detect_steps`, whose step detection also asks for a clearance;
     a load claim asks only for the load). The first sample is loaded above the 5 % mark.
 
     Args:

@@ -33,7 +33,7 @@ from walkrepro.papers.faraji.threelp import (
     U,
     reconstruction,
 )
-from walkrepro.robot import Robot
+from walkrepro.sim.robot import Robot
 
 
 def threelp_params_from_robot(robot: Robot, leg_inertia: bool = True) -> ThreeLPParams:
@@ -109,7 +109,7 @@ def series_stiffness(robot: Robot, joint: str) -> float:
     Paper II, Effective Ankle Stiffness: the servo's ≈ 1100 Nm/rad acts "in series" with
     the spring: k_eff = 1 / (1/k + 1/kp), kp = k_d/β of the motor model (Eqs. 19-20). kp
     is ``robot.mj_model``'s: the gain that runs when the runner passed the robot through
-    :func:`walkrepro.robot.with_servo_gains` (a spec's ``actuators`` override included).
+    :func:`walkrepro.sim.robot.with_servo_gains` (a spec's ``actuators`` override included).
     """
     if robot.spring_stiffness is None:
         return 0.0

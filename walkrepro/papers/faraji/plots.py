@@ -1,7 +1,7 @@
 """Paper II's key signals, for viewers of a run (``walkrepro export --rerun``): the
 time-projection footstep adjustment (Eqs. 15-18) and the pelvis speed."""
 
-from walkrepro.plots import Plot, Series
+from walkrepro.present.plots import Plot, Series
 
 _S = "/controller/signals."
 

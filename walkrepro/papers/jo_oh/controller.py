@@ -26,7 +26,7 @@ import pinocchio as pin
 from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
-from walkrepro.origin import assumed, calibrated, paper
+from walkrepro.log.signals import SignalLayout, Signals
 from walkrepro.papers.jo_oh.centroidal_qp import (
     CentroidalQP,
     CentroidalTasks,
@@ -66,9 +66,9 @@ from walkrepro.papers.jo_oh.tasks import (
     task_records,
     task_rows,
 )
-from walkrepro.robot import Robot, pin_state_buffer, pin_state_into
-from walkrepro.sensors import SensorSnapshot
-from walkrepro.signals import SignalLayout, Signals
+from walkrepro.sim.robot import Robot, pin_state_buffer, pin_state_into
+from walkrepro.sim.sensors import SensorSnapshot
+from walkrepro.specs.origin import assumed, calibrated, paper
 
 Vec3 = tuple[float, float, float]
 #: Support sets, each with its own QP (its β blocks differ).

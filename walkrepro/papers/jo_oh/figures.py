@@ -12,10 +12,10 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from walkrepro.figures import CompareFn, FigureFn, style
-from walkrepro.figures.style import save
-from walkrepro.metrics import GRAVITY, LogData
+from walkrepro.evaluation.metrics import GRAVITY, LogData
 from walkrepro.papers.jo_oh.metrics import CONTACT_FORCE, OBSTACLE_GLOB
+from walkrepro.present.figures import CompareFn, FigureFn, style
+from walkrepro.present.figures.style import save
 
 FOOT = "right"
 #: Time shown before and after the first obstacle contact [s] (Figs. 4–7 span ~1.5 s).

@@ -12,7 +12,7 @@ import math
 import mujoco
 import numpy as np
 
-from walkrepro.metrics import (
+from walkrepro.evaluation.metrics import (
     GRAVITY,
     TOUCHDOWN_WEIGHT_FRACTION,
     LogData,
@@ -20,7 +20,7 @@ from walkrepro.metrics import (
     choice_check,
     metric,
 )
-from walkrepro.world import FLOOR_NAME
+from walkrepro.sim.world import FLOOR_NAME
 
 #: World geoms that are obstacles (spec: names start with "obstacle").
 OBSTACLE_GLOB = "obstacle*"

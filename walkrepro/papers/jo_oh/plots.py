@@ -2,7 +2,7 @@
 foot's height and vertical velocity against the references of the impedance law (Eqs. 1-3)
 and its normal force, measured and the QP's."""
 
-from walkrepro.plots import Plot, Series
+from walkrepro.present.plots import Plot, Series
 
 _S = "/controller/signals."
 

@@ -17,7 +17,7 @@ the same arithmetic, in the same order, in a few µs. Its inputs are views of Pi
 ``Data`` after ``computeAllTerms`` (M, C ξ̇ + g, the joint Jacobians, frame and joint
 placements, the joints' velocities and drift accelerations), passed without copies. The
 frames' drifts J̇ ξ̇, log₃ and roll–pitch–yaw angles are formed here
-(:func:`~walkrepro.robot.frame_classical_acceleration`, :func:`~walkrepro.robot.log3`,
+(:func:`~walkrepro.sim.robot.frame_classical_acceleration`, :func:`~walkrepro.sim.robot.log3`,
 :func:`matrix_to_rpy`) in Pinocchio's operations, tested against its Python functions to
 1e-12, instead of eight calls from Python (≈ 0.4–1 µs each;
 ``benchmarks/pinocchio_ports.py``). The small kernels it calls are compiled functions too,
@@ -47,7 +47,7 @@ from numba.core import types
 from numba.experimental import structref
 
 from walkrepro.papers.jo_oh.centroidal_qp import CentroidalTasks, Task
-from walkrepro.robot import eigen_rotate, frame_classical_acceleration, frame_jacobian, log3
+from walkrepro.sim.robot import eigen_rotate, frame_classical_acceleration, frame_jacobian, log3
 
 GRAVITY = 9.81  # [m/s^2]
 
@@ -200,7 +200,7 @@ class SoleKinematics(NamedTuple):
 class RobotTerms(NamedTuple):
     """Pinocchio's terms of the tick (after ``computeAllTerms`` and ``updateFramePlacements``;
     the drifts J̇ ξ̇ follow from the joints' ``data.v``, ``data.a`` by
-    :func:`~walkrepro.robot.frame_classical_acceleration`), and ξ̇.
+    :func:`~walkrepro.sim.robot.frame_classical_acceleration`), and ξ̇.
 
     Attributes:
         joint_jacobians: ``data.J``, shape (6, nv).

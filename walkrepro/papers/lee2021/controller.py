@@ -28,12 +28,12 @@ import pinocchio as pin
 from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
-from walkrepro.origin import assumed, calibrated, paper
+from walkrepro.log.signals import SignalLayout, Signals
 from walkrepro.papers.lee2021 import kernels, wbc
 from walkrepro.papers.lee2021.fsm import DS_TO_SSD, SSA_TO_DS, SSD_TO_SSA, Phase
-from walkrepro.robot import Robot, pin_state_into
-from walkrepro.sensors import SensorSnapshot
-from walkrepro.signals import SignalLayout, Signals
+from walkrepro.sim.robot import Robot, pin_state_into
+from walkrepro.sim.sensors import SensorSnapshot
+from walkrepro.specs.origin import assumed, calibrated, paper
 
 GRAVITY = 9.81  # [m/s^2]
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED

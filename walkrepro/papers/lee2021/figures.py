@@ -13,11 +13,11 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from walkrepro.figures import CompareFn, FigureFn, style
-from walkrepro.figures.style import save
-from walkrepro.metrics import LogData
+from walkrepro.evaluation.metrics import LogData
 from walkrepro.papers.lee2021.metrics import switch_torque_jumps
-from walkrepro.robot import leg_actuators
+from walkrepro.present.figures import CompareFn, FigureFn, style
+from walkrepro.present.figures.style import save
+from walkrepro.sim.robot import leg_actuators
 
 #: Fig. 14 shows the first steps: the paper's robot falls after t ≈ 1 s without ε [s].
 FIG14_SPAN = 2.5

@@ -28,6 +28,7 @@ import numpy as np
 from numba import types
 from numba.experimental import structref
 
+from walkrepro.log.signals import SignalLayout
 from walkrepro.papers.lee2021.fsm import (
     DS_TO_SSD,
     FsmInput,
@@ -44,8 +45,7 @@ from walkrepro.papers.lee2021.wbc import (
     WbcTargets,
     whole_body_torques,
 )
-from walkrepro.robot import eigen_rotate, frame_classical_acceleration
-from walkrepro.signals import SignalLayout
+from walkrepro.sim.robot import eigen_rotate, frame_classical_acceleration
 
 #: Compiled, cached on disk; float division by zero gives inf/NaN as in numpy.
 _jit = numba.njit(cache=True, error_model="numpy")
@@ -350,7 +350,7 @@ def tick_state(nq: int, nv: int, n_actuators: int) -> np.ndarray:
             DS started; NaN out of DS) [m], steps_done, swing_target [m]: the E-FSM's state.
         rot_w: world-from-O_w, rewritten every tick.
         pin_state: Pinocchio's q (row 0, first nq entries) and v (row 1, first nv entries)
-            of the tick, written by the controller (:func:`walkrepro.robot.pin_state_into`).
+            of the tick, written by the controller (:func:`walkrepro.sim.robot.pin_state_into`).
         ft_wrench: per foot, the F/T reading of the tick (see :func:`measured_cop`), written
             by the controller.
         tau: out: actuator torques [Nm].

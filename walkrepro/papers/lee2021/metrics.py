@@ -2,8 +2,8 @@
 
 Paper I (Lee et al. 2021): the E-FSM controller logs ``efsm_phase`` (0 SSD, 1 SSA, 2 DS),
 ``swing_foot`` (1 right, −1 left, 0 DS), the expected and measured CoP and the reference
-torques. Steps are :attr:`walkrepro.metrics.LogData.footsteps`: touchdowns after the sole
-left the floor (:func:`walkrepro.metrics.detect_steps`), so a foot that is only unloaded
+torques. Steps are :attr:`walkrepro.evaluation.metrics.LogData.footsteps`: touchdowns after the sole
+left the floor (:func:`walkrepro.evaluation.metrics.detect_steps`), so a foot that is only unloaded
 (weight shift) or slid along the floor does not count.
 
 The CoM, the feet and the CoP these metrics judge are the simulated ones (logged state and
@@ -19,9 +19,8 @@ import math
 import mujoco
 import numpy as np
 
-from walkrepro import record
 from walkrepro.errors import UnknownNameError
-from walkrepro.metrics import (
+from walkrepro.evaluation.metrics import (
     SLIDE_DISTANCE,
     Footstep,
     LogData,
@@ -33,8 +32,9 @@ from walkrepro.metrics import (
     window_arg,
     window_check,
 )
-from walkrepro.robot import leg_actuators
-from walkrepro.world import FLOOR_NAME
+from walkrepro.log import record
+from walkrepro.sim.robot import leg_actuators
+from walkrepro.sim.world import FLOOR_NAME
 
 FEET = ("left", "right")
 #: A step advances when the foot lands this far ahead (x) of the other foot [m]: half the
@@ -157,7 +157,7 @@ def swing_apex(d: LogData, step: Footstep) -> float:
     The sole centre (site ``<side>_sole``, logged state) is the point whose height Table II
     sets (0.05 m raising, 0.005 m landing). The surfaces are the heights of the sole's
     lowest corner at lift-off and at touchdown (the larger of the two), as in
-    :func:`walkrepro.metrics.detect_steps`: a foot touches down on a corner, its centre
+    :func:`walkrepro.evaluation.metrics.detect_steps`: a foot touches down on a corner, its centre
     still ≈ 8 mm up in ``forward_walk``, so the centre then is not the surface.
     """
     track = d.sole_tracks[step.foot]
@@ -374,7 +374,7 @@ def switch_torque_jumps(
     Args:
         phase: ``efsm_phase`` per control tick, shape (N,).
         tau: ``tau_ref`` at the same ticks, shape (N, n_actuators) [Nm].
-        joints: the actuator indices judged (e.g. :func:`walkrepro.robot.leg_actuators`).
+        joints: the actuator indices judged (e.g. :func:`walkrepro.sim.robot.leg_actuators`).
 
     Returns:
         (ticks, jumps): the ticks k whose phase differs from tick k − 1's (the first tick
@@ -404,7 +404,7 @@ def _switch_torque_jump(d: LogData, arg: str) -> float:
     """Pre-fall. Reads ``tau_ref`` and ``efsm_phase``: §VI-D1's claim (Fig. 14) is about the
     left leg's reference torques, which jump where the E-FSM switches state without ε. The
     jump at a switch is the one into the first tick computed in the new state; the leg's
-    joints come from the log's model (:func:`walkrepro.robot.leg_actuators`). ``@FROM-TO``
+    joints come from the log's model (:func:`walkrepro.sim.robot.leg_actuators`). ``@FROM-TO``
     keeps the switches of one kind: ε acts on the contact switches (§IV-B: F_s fades before
     the landing of SSA → DS, the redistribution wrench before the lift-off of DS → SSD),
     not on SSD → SSA, where Table II steps the swing height target."""

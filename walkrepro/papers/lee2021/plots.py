@@ -1,7 +1,7 @@
 """Paper I's key signals, for viewers of a run (``walkrepro export --rerun``): the E-FSM
 state (Table I), the CoM x_m, the capture point (Eq. 2) and the CoP (Eq. 3) along x of O_w."""
 
-from walkrepro.plots import Plot, Series
+from walkrepro.present.plots import Plot, Series
 
 _S = "/controller/signals."
 

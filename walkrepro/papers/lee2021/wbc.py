@@ -32,7 +32,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from walkrepro.robot import frame_jacobian, log3
+from walkrepro.sim.robot import frame_jacobian, log3
 
 #: Relative singular-value cut-off of the pseudo-inverses (W is rank-deficient in DS).
 PINV_RCOND = 1e-9
@@ -525,7 +525,7 @@ class WbcDynamics(NamedTuple):
         jc_dot_v: J̇_c q̇ of the contacts (support sole, then the swing sole in DS), shape
             (6 or 12,).
         j_world: Pinocchio's joint Jacobians ``data.J``, shape (6, n) (see
-            :func:`walkrepro.robot.frame_jacobian`); the pelvis's are its first six columns.
+            :func:`walkrepro.sim.robot.frame_jacobian`); the pelvis's are its first six columns.
         j_com: CoM Jacobian, shape (3, n).
         v: generalized velocity, shape (n,).
     """

@@ -1,0 +1,490 @@
+"""The provenance ledger of a run: every number it uses, with its class and its source.
+
+Four places hold the classes (:mod:`walkrepro.specs.origin` defines them):
+
+- the robot: ``robots/<robot>/parameters.yaml``, the ledger ``robots/build_models.py``
+  builds ``robot.xml`` from (``inherits`` names the robot a variant extends);
+- the scene: MuJoCo's options and the contact of the floor and of every obstacle, read from
+  the compiled scene. An option the robot's ledger sets (``option_<attribute>``, written into
+  its MJCF by ``robots/build_models.py``) takes that entry's class; a value equal to MuJoCo's
+  own default is ``assumed: MuJoCo's default`` (with the paper's ``scene_default`` reason
+  when ``experiments/provenance/<paper>.yaml`` gives one: Paper III's simulator was MuJoCo);
+  a value a spec field sets (``world.cone``, ``world.condim``) is listed under that field;
+- the spec's sections (``sim``, ``world``, ``sensors``, ``actuators``) and the controller's
+  parameters: each field's default carries its class (``json_schema_extra``); a value a spec
+  sets is the experiment's scenario (fields marked so), a declared calibration's result
+  (``{calibrated: NAME}``), or classed in the spec's ``provenance:`` block or in
+  ``experiments/provenance/<paper>.yaml``;
+- a ``--set`` on the command line is listed as ``override``: the user's, not the paper's.
+
+A number with no class is listed as ``unclassified``; ``walkrepro provenance`` then exits 1,
+and ``tests/test_ledger.py`` fails on any shipped experiment that has one.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import mujoco
+import numpy as np
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from walkrepro.errors import SpecError
+from walkrepro.locations import EXPERIMENTS_DIR, ROBOTS_DIR
+from walkrepro.specs.models import LoadedSpec, Origin
+from walkrepro.specs.origin import CLASSES, SCENARIO, field_origin
+
+#: What a number without a class is listed as.
+UNCLASSIFIED = "unclassified"
+#: What a value given by ``--set`` is listed as.
+OVERRIDE = "override"
+#: Every listed class, in report order.
+LISTED = (*CLASSES, SCENARIO, OVERRIDE, UNCLASSIFIED)
+
+#: The spec sections whose fields are numbers of the run (the rest is the scenario: the
+#: experiment's obstacles, disturbances, expectations and maps).
+SPEC_SECTIONS = ("sim", "world", "sensors", "actuators")
+#: Spec fields that are the scenario whatever their value (obstacles and the departures
+#: of a whole experiment's contact are listed from the compiled scene instead).
+SCENARIO_FIELDS = frozenset({"world.obstacles", "world.contact"})
+
+
+@dataclass(frozen=True)
+class Number:
+    """One number a run uses.
+
+    Attributes:
+        group: ``robot``, ``scene``, ``sim``, ``world``, ``sensors``, ``actuators`` or
+            ``controller``.
+        name: the parameter's name in its group (a dotted spec path without the group).
+        value: the value as text.
+        klass: one of :data:`LISTED`.
+        source: the section, file or criterion behind the class.
+    """
+
+    group: str
+    name: str
+    value: str
+    klass: str
+    source: str
+
+
+# --------------------------------------------------------------------------------------
+# Ledger files
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+
+
+class SourceValue(_Strict):
+    """A lab's value that is not in force, with its citation."""
+
+    value: Any
+    source: str = Field(min_length=1)
+
+
+class RobotEntry(_Strict):
+    """One number of a robot's ledger (``robots/<robot>/parameters.yaml``)."""
+
+    value: Any
+    unit: str
+    klass: Literal["paper", "source", "assumed", "calibrated"] = Field(alias="class")
+    source: str = Field(min_length=1)
+    description: str = ""
+    source_value: SourceValue | None = Field(None, description="a lab's value not in force")
+
+
+class RobotLedger(_Strict):
+    """A robot's ledger: its parameters, and the robot whose ledger it extends."""
+
+    robot: str
+    inherits: str | None = None
+    parameters: dict[str, RobotEntry]
+
+
+class SharedValue(Origin):
+    """A value a paper's specs set, with its class (``experiments/provenance/<paper>.yaml``)."""
+
+    value: Any
+
+
+class PaperValues(_Strict):
+    """The classes of the values a paper's specs share, by dotted spec path."""
+
+    paper: str
+    scene_default: str | None = Field(
+        None, description="why MuJoCo's defaults are this paper's scene (its own simulator)"
+    )
+    values: dict[str, list[SharedValue]]
+
+
+def _read_yaml(path: Path) -> Any:
+    try:
+        return yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (OSError, yaml.YAMLError) as exc:
+        raise SpecError(f"{path}: cannot read the ledger ({exc}).") from None
+
+
+def _validated(model: type[BaseModel], path: Path) -> Any:
+    try:
+        return model.model_validate(_read_yaml(path))
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(p) for p in first["loc"])
+        raise SpecError(f"{path}, field {where}: {first['msg']}.") from None
+
+
+def robot_ledger(robot: str, robots_dir: Path = ROBOTS_DIR) -> dict[str, RobotEntry] | None:
+    """The robot's ledger entries, a variant's own over those it inherits; None if the
+    robot has no ``parameters.yaml``."""
+    path = robots_dir / robot / "parameters.yaml"
+    if not path.is_file():
+        return None
+    ledger: RobotLedger = _validated(RobotLedger, path)
+    entries: dict[str, RobotEntry] = {}
+    if ledger.inherits is not None:
+        inherited = robot_ledger(ledger.inherits, robots_dir)
+        if inherited is None:
+            raise SpecError(f"{path}: inherits {ledger.inherits!r}, which has no ledger.")
+        entries.update(inherited)
+    entries.update(ledger.parameters)
+    return entries
+
+
+def paper_values(paper: str, experiments_dir: Path = EXPERIMENTS_DIR) -> PaperValues | None:
+    """``experiments/provenance/<paper>.yaml``, or None."""
+    path = experiments_dir / "provenance" / f"{paper}.yaml"
+    return _validated(PaperValues, path) if path.is_file() else None
+
+
+# --------------------------------------------------------------------------------------
+# The numbers of a run
+
+
+def _text(value: Any) -> str:
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_text(v) for v in value) + "]"
+    if isinstance(value, np.ndarray):
+        return _text(value.tolist())
+    return str(value)
+
+
+def _same(a: Any, b: Any) -> bool:
+    try:
+        return bool(np.array_equal(np.asarray(a, dtype=float), np.asarray(b, dtype=float)))
+    except (TypeError, ValueError):
+        return a == b
+
+
+def _calibration_marks(data: Any, prefix: str = "") -> dict[str, str]:
+    """Dotted paths of the raw spec's ``{calibrated: NAME}`` values -> NAME."""
+    marks: dict[str, str] = {}
+    if isinstance(data, Mapping):
+        if set(data) == {"calibrated"} and isinstance(data["calibrated"], str):
+            return {prefix: data["calibrated"]}
+        for key, value in data.items():
+            marks.update(_calibration_marks(value, f"{prefix}.{key}" if prefix else str(key)))
+    return marks
+
+
+def _set_paths(data: Any, prefix: str = "") -> Iterator[str]:
+    """Every leaf path the raw spec sets (a mapping's keys, not a list's items)."""
+    if isinstance(data, Mapping) and not (set(data) == {"calibrated"}):
+        for key, value in data.items():
+            yield from _set_paths(value, f"{prefix}.{key}" if prefix else str(key))
+    else:
+        yield prefix
+
+
+class _Classifier:
+    """Classes a value a spec sets: its own block, the paper's shared file, a calibration."""
+
+    def __init__(self, loaded: LoadedSpec, raw: Any):
+        spec = loaded.spec
+        self.own = spec.provenance
+        shared = paper_values(spec.paper.key)
+        self.shared = shared.values if shared is not None else {}
+        self.marks = _calibration_marks(raw)
+        self.set_paths = set(_set_paths(raw))
+        self.overridden = {".".join(str(p) for p in path) for path in loaded.overridden}
+        self.paper = spec.paper.key
+
+    def is_set(self, path: str) -> bool:
+        return any(p == path or p.startswith(path + ".") for p in self.set_paths)
+
+    def classify(
+        self, path: str, value: Any, default: Any, extra: Any, has_default: bool = True
+    ) -> tuple[str, str]:
+        """(class, source) of the value at ``path``."""
+        origin, scenario = field_origin(extra)
+        if path in self.overridden:
+            return OVERRIDE, "--set on the command line"
+        if not self.is_set(path):
+            if origin is not None:
+                return origin["class"], f"default: {origin['source']}"
+            if scenario is not None:
+                return SCENARIO, scenario
+            return UNCLASSIFIED, "a default with no class"
+        if path in self.marks:
+            return (
+                "calibrated",
+                f"experiments/calibration/{self.paper}.yaml: {self.marks[path]}",
+            )
+        if scenario is not None:
+            return SCENARIO, scenario
+        if path in self.own:
+            return self.own[path].klass, self.own[path].source
+        for shared in self.shared.get(path, []):
+            if _same(shared.value, value):
+                return shared.klass, f"{shared.source} (experiments/provenance/{self.paper}.yaml)"
+        if has_default and origin is not None and _same(value, default):
+            return origin["class"], f"default: {origin['source']}"
+        return UNCLASSIFIED, f"set by the spec with no class ({path})"
+
+
+def _model_numbers(
+    model: BaseModel, group: str, prefix: str, classifier: _Classifier
+) -> Iterator[Number]:
+    """The fields of a pydantic model instance (nested models and dicts entry by entry)."""
+    for name, info in type(model).model_fields.items():
+        path = f"{prefix}.{name}"
+        if path in SCENARIO_FIELDS:
+            continue
+        value = getattr(model, name)
+        label = path.split(".", 1)[1]
+        if isinstance(value, BaseModel):
+            yield from _model_numbers(value, group, path, classifier)
+        elif isinstance(value, dict):
+            for key, item in value.items():
+                klass, source = classifier.classify(
+                    f"{path}.{key}", item, None, info.json_schema_extra, has_default=False
+                )
+                yield Number(group, f"{label}.{key}", _text(item), klass, source)
+            if not value:
+                klass, source = classifier.classify(path, value, {}, info.json_schema_extra)
+                yield Number(group, label, "{}", klass, source)
+        else:
+            default = None if info.is_required() else info.get_default(call_default_factory=True)
+            klass, source = classifier.classify(path, value, default, info.json_schema_extra)
+            yield Number(group, label, _text(value), klass, source)
+
+
+def _robot_numbers(robot: str) -> Iterator[Number]:
+    entries = robot_ledger(robot)
+    if entries is None:
+        yield Number(
+            "robot",
+            "(every parameter)",
+            "?",
+            UNCLASSIFIED,
+            f"robots/{robot}/parameters.yaml is missing",
+        )
+        return
+    for name, entry in entries.items():
+        if name.startswith(OPTION_PREFIX):
+            continue  # listed with the scene's options (scene_origins)
+        value = f"{_text(entry.value)} {entry.unit}".strip()
+        source = entry.source
+        if entry.source_value is not None:
+            source += (
+                f" [a lab's value NOT in force: {_text(entry.source_value.value)}, "
+                f"{entry.source_value.source}]"
+            )
+        yield Number("robot", name, value, entry.klass, source)
+
+
+#: Robot ledger entries ``option_<attribute>`` set the robot's MJCF ``<option>``.
+OPTION_PREFIX = "option_"
+
+
+def scene_origins(robot: str) -> dict[str, dict[str, str]]:
+    """``option.<attribute>`` -> ``{"class", "source"}`` of every option the robot's ledger
+    sets (``robots/<robot>/parameters.yaml``, entries ``option_<attribute>``)."""
+    entries = robot_ledger(robot) or {}
+    return {
+        f"option.{name[len(OPTION_PREFIX) :]}": {
+            "class": entry.klass,
+            "source": f"{entry.source} (robots/{robot}/parameters.yaml: {name})",
+        }
+        for name, entry in entries.items()
+        if name.startswith(OPTION_PREFIX)
+    }
+
+
+#: MuJoCo's default options and floor-plane geom, for comparison.
+_DEFAULT_MODEL = mujoco.MjModel.from_xml_string(
+    '<mujoco><worldbody><geom type="plane" size="1 1 1"/></worldbody></mujoco>'
+)
+#: Scene options listed (``timestep`` is the spec's ``sim.timestep``).
+OPTIONS = (
+    "integrator",
+    "cone",
+    "solver",
+    "jacobian",
+    "iterations",
+    "tolerance",
+    "ls_iterations",
+    "ls_tolerance",
+    "noslip_iterations",
+    "noslip_tolerance",
+    "ccd_iterations",
+    "ccd_tolerance",
+    "impratio",
+    "gravity",
+    "wind",
+    "density",
+    "viscosity",
+    "o_margin",
+    "o_solref",
+    "o_solimp",
+    "o_friction",
+    "disableflags",
+    "enableflags",
+)
+#: Contact fields of the floor geom listed (friction's sliding part is world.floor_friction).
+FLOOR_FIELDS = ("friction", "solref", "solimp", "solmix", "condim", "margin", "gap")
+#: Contact fields of an obstacle's geom listed (its sliding friction is the floor's,
+#: ``world.floor_friction``, or its own ``friction``: spec fields, listed there; so is its own
+#: ``solref`` when the spec sets one).
+OBSTACLE_FIELDS = ("friction", "solref", "solimp", "solmix", "condim", "margin", "gap")
+
+
+def _scene_numbers(
+    model: mujoco.MjModel,
+    origins: Mapping[str, dict[str, str]],
+    obstacles: tuple[str, ...] = (),
+    default_reason: str | None = None,
+    own_solref: frozenset[str] = frozenset(),
+) -> Iterator[Number]:
+    """MuJoCo's options and the contact of the floor and the obstacles as compiled: MuJoCo's
+    default, or declared."""
+    default_note = f"MuJoCo's default (mujoco {mujoco.__version__})"
+    if default_reason:
+        default_note = f"{default_reason}: {default_note}"
+
+    def classed(name: str, value: Any, default: Any) -> Number:
+        if name in origins:
+            origin = origins[name]
+            return Number("scene", name, _text(value), origin["class"], origin["source"])
+        if _same(value, default):
+            return Number("scene", name, _text(value), "assumed", default_note)
+        return Number("scene", name, _text(value), UNCLASSIFIED, "departs from MuJoCo's default")
+
+    for name in OPTIONS:
+        yield classed(
+            f"option.{name}", np.copy(getattr(model.opt, name)), getattr(_DEFAULT_MODEL.opt, name)
+        )
+    floor = model.geom("floor").id
+    for name in FLOOR_FIELDS:
+        value = np.copy(getattr(model, f"geom_{name}")[floor])
+        default = getattr(_DEFAULT_MODEL, f"geom_{name}")[0]
+        if name == "friction":  # the sliding part is the spec's world.floor_friction
+            value, default = value[1:], default[1:]
+            name = "friction.torsional_rolling"
+        yield classed(f"floor.{name}", value, default)
+    for obstacle in obstacles:
+        geom = model.geom(obstacle).id
+        for name in OBSTACLE_FIELDS:
+            if name == "solref" and obstacle in own_solref:
+                continue  # the spec's own solref, listed under world.obstacles
+            value = np.copy(getattr(model, f"geom_{name}")[geom])
+            default = getattr(_DEFAULT_MODEL, f"geom_{name}")[0]
+            if name == "friction":
+                value, default = value[1:], default[1:]
+                name = "friction.torsional_rolling"
+            yield classed(f"{obstacle}.{name}", value, default)
+
+
+def experiment_numbers(loaded: LoadedSpec, raw: Any, scene_model: mujoco.MjModel) -> list[Number]:
+    """Every number the experiment's run uses, with its class and source.
+
+    Args:
+        loaded: the resolved spec (with ``--set`` overrides applied).
+        raw: the spec file's YAML as plain data (it tells which values the spec sets and
+            which it takes from a declared calibration).
+        scene_model: the run's compiled scene (:func:`walkrepro.sim.world.build_scene`).
+    """
+    from walkrepro.controllers import controller_params
+
+    spec = loaded.spec
+    classifier = _Classifier(loaded, raw)
+    numbers = list(_robot_numbers(spec.robot))
+    origins = scene_origins(spec.robot)
+    obstacles = tuple(o.name for o in spec.world.obstacles)
+    for field, scene_names in (
+        ("cone", ("option.cone",)),
+        ("condim", ("floor.condim", *(f"{o}.condim" for o in obstacles))),
+    ):
+        if getattr(spec.world, field) is not None:
+            for name in scene_names:
+                origins[name] = {"class": SCENARIO, "source": f"the spec's world.{field}"}
+    shared = paper_values(spec.paper.key)
+    default_reason = shared.scene_default if shared is not None else None
+    own_solref = frozenset(o.name for o in spec.world.obstacles if o.solref is not None)
+    numbers += _scene_numbers(scene_model, origins, obstacles, default_reason, own_solref)
+    for section in SPEC_SECTIONS:
+        numbers += _model_numbers(getattr(spec, section), section, section, classifier)
+    for obstacle in spec.world.obstacles:
+        for field in ("friction", "solref"):
+            value = getattr(obstacle, field)
+            if value is None:
+                continue
+            path = f"world.obstacles.{obstacle.name}.{field}"
+            own = classifier.own.get(path)
+            klass, source = (own.klass, own.source) if own else (UNCLASSIFIED, "set with no class")
+            numbers.append(Number("world", path.split(".", 1)[1], _text(value), klass, source))
+    params = controller_params(spec.controller)
+    numbers += _model_numbers(params, "controller", "controller.params", classifier)
+    return numbers
+
+
+def unused_entries(loaded: LoadedSpec, raw: Any) -> list[str]:
+    """Paths of the spec's ``provenance:`` block that name no value the spec sets (an entry
+    without a number)."""
+    paths = set(_set_paths(raw))
+    obstacles = {
+        f"world.obstacles.{o.name}.{field}"
+        for o in loaded.spec.world.obstacles
+        for field in ("friction", "solref")
+        if getattr(o, field) is not None
+    }
+    return sorted(p for p in loaded.spec.provenance if p not in paths and p not in obstacles)
+
+
+def unclassified_fields(model: type[BaseModel]) -> list[str]:
+    """Fields of a parameter model whose default has no class and that are not scenario."""
+    out = []
+    for name, info in model.model_fields.items():
+        origin, scenario = field_origin(info.json_schema_extra)
+        if origin is None and scenario is None:
+            out.append(name)
+    return out
+
+
+def counts(numbers: list[Number]) -> dict[str, int]:
+    """How many numbers of each listed class (zeros included), in :data:`LISTED` order."""
+    c = Counter(n.klass for n in numbers)
+    return {k: c.get(k, 0) for k in LISTED}
+
+
+def experiment_ledger(name: str, overrides: tuple[str, ...] = ()) -> list[Number]:
+    """:func:`experiment_numbers` of a shipped experiment or spec file, as ``run`` sees it."""
+    from walkrepro.runs.resolve import resolve_spec
+    from walkrepro.sim.robot import load_robot
+    from walkrepro.sim.world import build_scene
+    from walkrepro.specs import yamlload
+    from walkrepro.specs.files import find_spec_file, load_spec
+
+    path = find_spec_file(name)
+    raw, _ = yamlload.load_with_node(path.read_text(encoding="utf-8"))
+    loaded = resolve_spec(load_spec(name, overrides))
+    scene = build_scene(load_robot(loaded.spec.robot), loaded.spec)
+    return experiment_numbers(loaded, raw, scene.model)

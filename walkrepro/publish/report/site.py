@@ -1,0 +1,298 @@
+"""Write the report: an index, one page per paper, the robots' pages and the copied assets.
+
+Layout of the output directory (every link relative, so it opens from ``file://``)::
+
+    index.html                 one row per paper: reproduced, calibrated, known, failed
+    style.css
+    <paper>.html               every experiment of the paper: claims, figures, video, maps
+    robots/<robot>.html        the robot model's README (its sources) and its robot.xml
+    assets/<experiment>/...    copied figures and video
+    assets/maps/<map>.png      copied maps
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+from collections import defaultdict
+from dataclasses import dataclass
+from html import escape
+from pathlib import Path
+
+from walkrepro import plugins
+from walkrepro.errors import WalkreproError
+from walkrepro.locations import IS_CHECKOUT, REFERENCES_DIR, RESULTS_DIR
+from walkrepro.publish.ledger import counts
+from walkrepro.publish.report import html
+from walkrepro.publish.report.claims import Tally, experiment_claims, tally
+from walkrepro.publish.report.maps import MapResult, experiment_maps
+from walkrepro.publish.report.robots import markdown_to_html, robot_readme
+from walkrepro.publish.report.sources import ExperimentResult, find_results
+
+#: The maps' directory inside a results tree.
+MAPS_DIR = "maps"
+#: The papers' order in the index; walkrepro's own sanity experiments come last.
+SANITY = "walkrepro"
+
+
+@dataclass(frozen=True)
+class ReportSite:
+    """A written report.
+
+    Attributes:
+        index: the index page.
+        pages: every page written (index, papers, robots).
+        tallies: claims by verdict per paper key (experiments and maps together).
+        notes: what was skipped, and why.
+    """
+
+    index: Path
+    pages: tuple[Path, ...]
+    tallies: dict[str, Tally]
+    notes: tuple[str, ...]
+
+
+def build_report(source: Path = REFERENCES_DIR, out: Path | None = None) -> ReportSite:
+    """Build the static site from ``source`` into ``out`` (default ``source/../report``; for an installed walkrepro's shipped references,
+    ``./results/report``).
+
+    ``source`` is ``results/`` (the committed references) or a ``walkrepro check --out``
+    directory; the maps come from ``source/maps`` if it exists, else from ``results/maps``.
+    The output directory is replaced as a whole.
+
+    Raises:
+        WalkreproError: ``source`` holds no results, or ``out`` cannot be written.
+    """
+    source = source.resolve()
+    if out is None:
+        # An installed walkrepro's references sit inside the package: its report goes
+        # beside the user's results instead.
+        in_package = not IS_CHECKOUT and source == REFERENCES_DIR.resolve()
+        out = RESULTS_DIR / "report" if in_package else source.parent / "report"
+    out = out.resolve()
+    if out == source or source.is_relative_to(out):
+        raise WalkreproError(f"--out {out}: would overwrite the results it reads ({source}).")
+    found, notes = find_results(source)
+    maps_root = source / MAPS_DIR if (source / MAPS_DIR).is_dir() else REFERENCES_DIR / MAPS_DIR
+    by_paper: dict[str, list[ExperimentResult]] = defaultdict(list)
+    for r in found:
+        by_paper[r.spec.paper.key].append(r)
+    keys = [k for k in plugins.papers() if k in by_paper and k != SANITY] + (
+        [SANITY] if SANITY in by_paper else []
+    )
+
+    work = out.with_name(out.name + ".partial")
+    if work.exists():
+        shutil.rmtree(work)
+    try:
+        work.mkdir(parents=True)
+    except OSError as exc:
+        raise WalkreproError(f"--out {out}: cannot write the report here ({exc}).") from None
+    (work / html.CSS_FILE).write_text(html.CSS)
+    pages, tallies, robots = [], {}, set()
+    for key in keys:
+        experiments = sorted(by_paper[key], key=_order)
+        page, tallies[key] = _paper_page(work, key, experiments, maps_root)
+        pages.append(page)
+        robots.update(r.spec.robot for r in experiments)
+    for robot in sorted(robots):
+        pages.append(_robot_page(work, robot))
+    index = work / "index.html"
+    index.write_text(_index(keys, by_paper, tallies, source, notes))
+    if out.exists():
+        shutil.rmtree(out)
+    work.rename(out)
+    moved = tuple(out / p.relative_to(work) for p in [index, *pages])
+    return ReportSite(out / "index.html", moved, tallies, tuple(notes))
+
+
+def _order(r: ExperimentResult) -> tuple:
+    """Experiments in the paper's order: by first figure number, then the shorter name (the
+    paper's own experiment before its variants), then name."""
+    first = re.search(r"\d+", r.spec.paper.figure)
+    return (int(first.group(0)) if first else 10**6, len(r.name), r.name)
+
+
+def paper_title(key: str) -> str:
+    """The paper's citation as the report shows it."""
+    if key == SANITY:
+        return "Sanity experiments (no paper figure)"
+    paper = plugins.papers().get(key)
+    return paper.citation if paper is not None else key
+
+
+def _where(r: ExperimentResult) -> str:
+    parts = []
+    if r.spec.paper.section:
+        parts.append(f"§{r.spec.paper.section}")
+    if r.spec.paper.figure:
+        parts.append(f"Fig. {r.spec.paper.figure}")
+    return ", ".join(parts)
+
+
+def _copy(path: Path, site: Path, rel: str) -> str:
+    """Copy ``path`` to ``site/rel`` and return ``rel`` (a relative link)."""
+    target = site / rel
+    target.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copy2(path, target)
+    return rel
+
+
+def _paper_page(
+    site: Path, key: str, experiments: list[ExperimentResult], maps_root: Path
+) -> tuple[Path, Tally]:
+    """One paper's page: each experiment's claims next to its figures, its video and maps."""
+    total = Tally()
+    sections, toc = [], []
+    for r in experiments:
+        claims = experiment_claims(r.check)
+        maps = experiment_maps(r.spec, maps_root)
+        numbers = _numbers_of(r.name)
+        counted = tally(claims)
+        for m in maps:
+            counted = counted + tally(m.claims)
+        total = total + counted
+        toc.append(
+            f'<tr><td><a href="#{escape(r.name)}">{escape(r.name)}</a></td>'
+            f"<td>{escape(_where(r))}</td>{html.tally_cells(counted)}"
+            f"{html.provenance_cell(counts(numbers) if numbers is not None else None)}</tr>"
+        )
+        sections.append(_experiment_section(site, r, claims, maps, numbers))
+    robots = sorted({r.spec.robot for r in experiments})
+    robot_links = ", ".join(
+        f'<a href="robots/{escape(robot)}.html">{escape(robot)}</a>' for robot in robots
+    )
+    body = (
+        '<nav><a href="index.html">← all papers</a></nav>\n'
+        f"<h1>{escape(paper_title(key))}</h1>\n"
+        f'<p class="muted">{len(experiments)} experiments · robot model and sources: '
+        f"{robot_links} · claims: {total.reproduced} reproduced, {total.calibrated} calibrated, "
+        f"{total.known} known deviations, {total.failed} failed</p>\n"
+        f"<table>\n<tr><th>experiment</th><th>paper</th>{html.TALLY_HEAD}"
+        f"{html.PROVENANCE_HEAD}</tr>\n" + "\n".join(toc) + "\n</table>\n" + "\n".join(sections)
+    )
+    page = site / f"{key}.html"
+    page.write_text(html.page(paper_title(key), body))
+    return page, total
+
+
+def _numbers_of(name: str) -> list | None:
+    """The provenance ledger of experiment ``name`` (walkrepro provenance), or None where it
+    cannot be built (a run of a spec that is no longer shipped)."""
+    from walkrepro.publish.ledger import experiment_ledger
+
+    try:
+        return experiment_ledger(name)
+    except WalkreproError:
+        return None
+
+
+def _experiment_section(
+    site: Path, r: ExperimentResult, claims: list, maps: list[MapResult], numbers: list | None
+) -> str:
+    """An experiment: what it reproduces, the claims table beside the redrawn figures, the
+    video, and its maps."""
+    assets = f"assets/{r.name}"
+    figures = [(_copy(f, site, f"{assets}/{f.name}"), f.stem.replace("_", " ")) for f in r.figures]
+    media = ""
+    if r.video is not None:
+        media = html.video_player(
+            _copy(r.video, site, f"{assets}/{r.video.name}"), f"{r.name}, simulated time"
+        )
+    if r.recording is not None:
+        media += html.recording_link(_copy(r.recording, site, f"{assets}/{r.recording.name}"))
+    outcome = r.check.get("outcome", "")
+    meta = (
+        f"{escape(_where(r))} · robot "
+        f'<a href="robots/{escape(r.spec.robot)}.html">{escape(r.spec.robot)}</a> · '
+        f"controller <code>{escape(r.spec.controller.type)}</code> · run {escape(str(outcome))}"
+    )
+    parts = [
+        f'<h2 id="{escape(r.name)}">{escape(r.name)}</h2>',
+        f'<p class="muted">{meta}</p>',
+        f"<p>{escape(r.spec.description.strip())}</p>",
+        html.provenance_table(numbers) if numbers is not None else "",
+        '<div class="experiment">',
+        f"<div>{html.claims_table(claims)}</div>",
+        f"<div>{media}{html.figure_gallery(figures)}</div>",
+        "</div>",
+    ]
+    for m in maps:
+        image = ""
+        if m.image is not None:
+            rel = _copy(m.image, site, f"assets/{MAPS_DIR}/{m.name}.png")
+            image = html.figure_gallery([(rel, f"map {m.name}")])
+        parts += [
+            f'<h3 id="map-{escape(m.name)}">Map {escape(m.name)}</h3>',
+            f'<p class="muted">{escape(m.description.strip())}</p>' if m.description else "",
+            '<div class="experiment">',
+            f"<div>{html.claims_table(m.claims)}</div>",
+            f"<div>{image}</div>",
+            "</div>",
+        ]
+    return "\n".join(p for p in parts if p)
+
+
+def _robot_page(site: Path, robot: str) -> Path:
+    """A robot's README (what every number is and where it comes from) and its MJCF."""
+    readme = robot_readme(robot)
+    body = ['<nav><a href="../index.html">← all papers</a></nav>']
+    if readme is None:
+        body.append(f"<h1>{escape(robot)}</h1><p>No README for this robot.</p>")
+    else:
+        body.append(f'<div class="robot">{markdown_to_html(readme.read_text())}</div>')
+        xml = readme.parent / "robot.xml"
+        if xml.is_file():
+            rel = _copy(xml, site, f"robots/{robot}/robot.xml")
+            body.append(
+                f'<p>The MuJoCo model: <a href="{escape(rel.removeprefix("robots/"))}">'
+                "robot.xml</a>.</p>"
+            )
+    page = site / "robots" / f"{robot}.html"
+    page.parent.mkdir(parents=True, exist_ok=True)
+    page.write_text(html.page(f"{robot}: robot model", "\n".join(body), f"../{html.CSS_FILE}"))
+    return page
+
+
+def _index(
+    keys: list[str],
+    by_paper: dict[str, list[ExperimentResult]],
+    tallies: dict[str, Tally],
+    source: Path,
+    notes: list[str],
+) -> str:
+    """The index: one row per paper, with its claims by verdict."""
+    rows = [
+        f'<tr><td><a href="{escape(k)}.html">{escape(paper_title(k))}</a></td>'
+        f'<td class="num">{len(by_paper[k])}</td>{html.tally_cells(tallies[k])}</tr>'
+        for k in keys
+    ]
+    total = sum((tallies[k] for k in keys), Tally())
+    rows.append(
+        f'<tr><th>all</th><td class="num">{sum(len(by_paper[k]) for k in keys)}</td>'
+        f"{html.tally_cells(total)}</tr>"
+    )
+    robots = sorted({r.spec.robot for k in keys for r in by_paper[k]})
+    robot_links = ", ".join(
+        f'<a href="robots/{escape(robot)}.html">{escape(robot)}</a>' for robot in robots
+    )
+    commits = sorted({str(r.run.get("commit", ""))[:10] for k in keys for r in by_paper[k]} - {""})
+    made = f" Runs made at commit(s) {escape(', '.join(commits))}." if commits else ""
+    skipped = (
+        "<h2>Skipped</h2><ul>" + "".join(f"<li>{escape(n)}</li>" for n in notes) + "</ul>"
+        if notes
+        else ""
+    )
+    body = (
+        "<h1>walkrepro: reproduction report</h1>\n"
+        "<p>Three biped-walking papers reproduced in MuJoCo. Each paper's page lists every "
+        "claim the reproduction checks: the paper's section, figure and value, the measured "
+        "value and the verdict (for a known deviation, the reason), next to the redrawn "
+        "figures, a video of the run and the maps.</p>\n"
+        f"<table>\n<tr><th>paper</th><th>experiments</th>{html.TALLY_HEAD}</tr>\n"
+        + "\n".join(rows)
+        + "\n</table>\n"
+        f"<p>Robot models, with the source of every number: {robot_links}.</p>\n"
+        f'<p class="muted">Built from {escape(str(source))} (nothing re-run).{made}</p>\n' + skipped
+    )
+    return html.page("walkrepro: reproduction report", body)

@@ -1,0 +1,220 @@
+"""An experiment resolved against what is installed: every name in a loaded spec
+checked against the real registries (robot, bodies, actuators, controller and its
+parameters, metrics, partner experiments), the obstacles against the robot's home pose.
+
+Reading a spec file (:mod:`walkrepro.specs.files`) needs only the spec's own model; this
+step needs the robot (:mod:`walkrepro.sim`), the controllers and the metrics, so it stands
+above them.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import sys
+from typing import Any
+
+from pydantic import ValidationError
+
+from walkrepro.errors import SpecError, UnknownNameError
+from walkrepro.specs.files import all_experiment_names
+from walkrepro.specs.models import (
+    ControllerSpec,
+    LoadedSpec,
+    _check_plain_data,
+    _format_validation,
+)
+
+# --------------------------------------------------------------------------------------
+# Resolution against registries
+
+
+def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
+    """Check every name in the spec against the real registries and validate params.
+
+    Returns the same spec with ``controller.params`` normalised by the controller's model.
+
+    Raises:
+        SpecError / UnknownNameError: naming file, line, field and the valid names.
+    """
+    # Imported here: the registries import heavy modules (mujoco, pinocchio).
+    import mujoco
+
+    from walkrepro.controllers import controller_class, controller_names, controller_params
+    from walkrepro.evaluation.metrics import (
+        MetricArgError,
+        check_metric_arg,
+        metric_names,
+        split_metric,
+    )
+    from walkrepro.sim.robot import list_robots, load_robot
+
+    spec = loaded.spec
+    if spec.robot not in list_robots():
+        raise UnknownNameError("robot", spec.robot, list_robots(), loaded.where(("robot",)))
+    if spec.controller.type not in controller_names():
+        raise UnknownNameError(
+            "controller",
+            spec.controller.type,
+            controller_names(),
+            loaded.where(("controller", "type")),
+        )
+    cls = controller_class(spec.controller.type)
+    params_where = ("controller", "params")
+    for name, value in spec.controller.params.items():
+        field = cls.Params.model_fields.get(name)
+        if isinstance(value, bool) and field is not None and field.annotation in (float, int):
+            raise SpecError(
+                f"{loaded.where((*params_where, name))}: expected a number, not a boolean "
+                f"(got {value!r})."
+            )
+    try:
+        params = controller_params(spec.controller)
+    except ValidationError as exc:
+        raise SpecError(
+            _format_validation(exc, loaded.source, loaded.lines, loaded.overridden, params_where)
+        ) from None
+    # The controller's model may turn a string such as "nan" into a float.
+    _check_plain_data(
+        params.model_dump(), loaded.source, loaded.lines, loaded.overridden, params_where
+    )
+
+    robot = load_robot(spec.robot)
+    bodies = robot.body_names()
+    for i, dist in enumerate(spec.disturbances):
+        if dist.body not in bodies:
+            raise UnknownNameError(
+                "body", dist.body, bodies, loaded.where(("disturbances", i, "body"))
+            )
+        frames = ("world", *cls.FRAMES)
+        if dist.frame not in frames:
+            raise UnknownNameError(
+                "frame", dist.frame, frames, loaded.where(("disturbances", i, "frame"))
+            )
+    actuator_names = robot.joint_names
+    for pattern in spec.actuators.position_gain:
+        matched = fnmatch.filter(actuator_names, pattern)
+        if not matched:
+            raise UnknownNameError(
+                "actuator",
+                pattern,
+                actuator_names,
+                loaded.where(("actuators", "position_gain", pattern)),
+            )
+        if robot.control_mode != "position":
+            raise SpecError(
+                f"{loaded.where(('actuators', 'position_gain'))}: robot {robot.name!r} has torque "
+                "actuators; position_gain applies to position servos only."
+            )
+    if spec.actuators.torque_lag is not None:
+        filtered = mujoco.mjtDyn.mjDYN_FILTEREXACT
+        if not all(int(d) == filtered for d in robot.mj_model.actuator_dyntype):
+            raise SpecError(
+                f"{loaded.where(('actuators', 'torque_lag'))}: robot {robot.name!r} has no "
+                "torque-loop dynamics to set (its actuators are not first-order filters)."
+            )
+    for pattern in spec.sensors.joint_backlash:
+        if not fnmatch.filter(actuator_names, pattern):
+            raise UnknownNameError(
+                "actuator",
+                pattern,
+                actuator_names,
+                loaded.where(("sensors", "joint_backlash", pattern)),
+            )
+    valid_metrics = metric_names()
+
+    def check_metric(full: str, path: tuple[str | int, ...]) -> None:
+        """A registered metric whose argument it can read, else an error at ``path``."""
+        base, _ = split_metric(full)
+        if base not in valid_metrics:
+            raise UnknownNameError("metric", base, valid_metrics, loaded.where(path))
+        try:
+            check_metric_arg(full)
+        except MetricArgError as exc:
+            raise SpecError(f"{loaded.where(path)}: {exc}") from None
+
+    for i, exp in enumerate(spec.expect):
+        if exp.known_deviation is not None and exp.known_deviation.observed is None:
+            raise SpecError(
+                f"{loaded.where(('expect', i, 'known_deviation'))}: a known deviation needs "
+                "the band the reproduction measures today, e.g. known_deviation: {observed: "
+                "[0.065, 0.070], reason: '...'}; its row fails when the value leaves the band."
+            )
+        check_metric(exp.metric, ("expect", i, "metric"))
+        if exp.relative_to is not None:
+            where = ("expect", i, "relative_to")
+            if exp.relative_to.experiment not in all_experiment_names():
+                raise UnknownNameError(
+                    "experiment",
+                    exp.relative_to.experiment,
+                    all_experiment_names(),
+                    loaded.where((*where, "experiment")),
+                )
+            check_metric(exp.reference_metric, (*where, "metric"))
+    for i, sweep in enumerate(spec.sweeps):
+        if sweep.metric is not None:
+            check_metric(sweep.metric, ("sweeps", i, "metric"))
+        if sweep.success is not None:
+            check_metric(sweep.success.metric, ("sweeps", i, "success", "metric"))
+        for j, claim in enumerate(sweep.claims):
+            check_metric(claim.region.metric, ("sweeps", i, "claims", j, "region", "metric"))
+            # A selector on a field the grid does not vary matches no cell, and a claim over
+            # no cells would hold whatever the map shows.
+            for key in ("where", "contains", "than"):
+                for field in getattr(claim, key) or {}:
+                    if field not in sweep.grid:
+                        raise SpecError(
+                            f"{loaded.where(('sweeps', i, 'claims', j, key))}: {field!r} is not "
+                            f"a field of this map's grid ({', '.join(sweep.grid)}); a claim "
+                            "selects cells by their grid values."
+                        )
+    if spec.sim.duration < spec.sim.control_period:
+        raise SpecError(
+            f"{loaded.where(('sim', 'duration'))}: duration must cover one control period."
+        )
+    for i, dist in enumerate(spec.disturbances):
+        if dist.start >= spec.sim.duration:
+            raise SpecError(
+                f"{loaded.where(('disturbances', i, 'start'))}: starts after the run ends "
+                f"(duration {spec.sim.duration} s)."
+            )
+    _check_obstacle_overlap(loaded, robot)
+    normalised = spec.model_copy(
+        update={
+            "controller": ControllerSpec(
+                type=spec.controller.type, params=params.model_dump(mode="json")
+            )
+        }
+    )
+    return loaded.model_copy(update={"spec": normalised})
+
+
+def _check_obstacle_overlap(loaded: LoadedSpec, robot: Any) -> None:
+    """Refuse an obstacle that overlaps the robot's collision geoms at the home pose.
+
+    MuJoCo would resolve the overlap at the first step by launching the robot out of the
+    box. An obstacle with ``allow_overlap: true`` is let through with a warning on stderr.
+
+    Raises:
+        SpecError: naming the obstacle's file, line and field, and the robot geoms it hits.
+    """
+    if not loaded.spec.world.obstacles:
+        return
+    from walkrepro.sim.world import home_overlaps  # imports mujoco
+
+    overlaps = home_overlaps(robot, loaded.spec)
+    for i, obstacle in enumerate(loaded.spec.world.obstacles):
+        hits = overlaps.get(obstacle.name)
+        if not hits:
+            continue
+        depth = max(hits.values())
+        message = (
+            f"{loaded.where(('world', 'obstacles', i))}: obstacle {obstacle.name!r} overlaps "
+            f"the robot at its home pose ({', '.join(sorted(hits))}; up to {depth * 1000:.1f} "
+            "mm deep), so MuJoCo would launch the robot out of it at the first step"
+        )
+        if not obstacle.allow_overlap:
+            raise SpecError(
+                f"{message}. Move or shrink the obstacle, or set allow_overlap: true on it "
+                "if the overlap is intended."
+            )
+        print(f"warning: {message} (allowed by allow_overlap: true).", file=sys.stderr)

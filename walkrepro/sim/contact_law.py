@@ -1,0 +1,362 @@
+"""A point-contact ground law computed by walkrepro and applied as forces: the ground
+contact of COMAN's lab's simulator (Paper II; NicolasVdN/CoManRobotran @ 0207863b,
+``simu_def.h``, ``user_ExtForces.c``, ``init_GCM.c``), usable by any robot whose lab used it.
+
+Each sole carries a grid of contact points (in the sole body's frame). For a point below the
+ground plane z = 0, at depth δ = −z > 0 with vertical velocity ż [m/s]:
+
+- **normal force** (Hunt–Crossley type, zero at touchdown):
+  F_z = k δ max(0, 1 − ż / v₀)  [N], with k [N/m] and v₀ [m/s];
+- **tangential force**: a spring-damper to the point's *anchor* a (where it touched down),
+  F_t = −k_t (p_xy − a) − b_t ṗ_xy  [N]; when |F_t| > μ F_z the point slides: F_t is scaled
+  to μ F_z and the anchor moves so that the spring alone gives the scaled force
+  (a = p_xy + F_t / k_t, the damping part kept out of the anchor's memory).
+
+A point above the ground releases its anchor. The forces of one sole are summed into one
+force and one moment about the body's centre of mass and added to ``qfrc_passive`` by
+``mj_applyFT`` inside MuJoCo's passive-force callback (``mjcb_passive``): the law runs at the
+same point of every physics step in ``mj_step1`` (the runner) and in ``mj_step`` (``walkrepro
+verify``), so a log replays bit for bit. Its state, every point's anchor and contact flag,
+lives in ``MjData.userdata`` (``3 n`` numbers from :attr:`GroundContact.offset`), which
+``mj_resetData`` clears and the physics carries from step to step.
+
+The forces are explicit (computed from the state before the step, like MuJoCo's passive
+springs and like the lab's simulator): stiff springs on light bodies are unstable above a
+timestep. Measured on a 200-point sole landing from 1 cm (``tests/test_contact_law.py``): a
+1 kg body settles at the lab's 0.5 ms and diverges at 1 ms; 6.4 kg (a COMAN leg) and 14 kg
+settle at 1 ms and diverge at 2 ms. Cost: ``benchmarks/contact_law.py`` (two 200-point
+soles: ≈ 40 µs per step on this machine, against ≈ 9 µs for MuJoCo's step of the same
+model). No robot uses the law yet: COMAN's rebuild from its lab's model will (issue
+"Paper II on the lab's own COMAN"). MuJoCo's own constraint must be off between those soles and
+the ground (the scene gives them ``contype = conaffinity = 0`` against the floor), else the
+foot would be held twice.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import mujoco
+import numba
+import numpy as np
+
+
+@dataclass(frozen=True)
+class PointContactLaw:
+    """The law's parameters (each one a ledger entry of the robot that uses it).
+
+    Attributes:
+        stiffness: normal stiffness k per point [N/m].
+        velocity_scale: v₀ of the Hunt–Crossley damping factor (1 − ż/v₀) [m/s].
+        tangential_stiffness: k_t per point [N/m].
+        tangential_damping: b_t per point [N s/m].
+        friction: Coulomb coefficient μ [-].
+    """
+
+    stiffness: float
+    velocity_scale: float
+    tangential_stiffness: float
+    tangential_damping: float
+    friction: float
+
+    def __post_init__(self) -> None:
+        for name in ("stiffness", "velocity_scale", "tangential_stiffness", "friction"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"the contact law's {name} must be > 0")
+        if self.tangential_damping < 0:
+            raise ValueError("the contact law's tangential_damping must be >= 0")
+
+
+def sole_grid(
+    x_range: tuple[float, float], y_range: tuple[float, float], z: float, spacing: float
+) -> np.ndarray:
+    """Contact points on a rectangular sole, ``spacing`` apart, inclusive of both edges.
+
+    Args:
+        x_range: (back, front) of the sole in its body's frame [m].
+        y_range: (right, left) [m].
+        z: the sole's bottom in the body's frame [m].
+        spacing: grid step [m] (the lab's: 0.01).
+
+    Returns:
+        (n, 3) points in the body's frame [m].
+    """
+    nx = int(round((x_range[1] - x_range[0]) / spacing)) + 1
+    ny = int(round((y_range[1] - y_range[0]) / spacing)) + 1
+    xs = np.linspace(x_range[0], x_range[1], nx)
+    ys = np.linspace(y_range[0], y_range[1], ny)
+    gx, gy = np.meshgrid(xs, ys, indexing="ij")
+    return np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, z)])
+
+
+#: ``userdata`` slots after a sole's points: its wrench of the last step (force, torque).
+WRENCH_SLOTS = 6
+
+
+@dataclass
+class _Sole:
+    body: int
+    points: np.ndarray  # (n, 3) in the body frame [m]
+    offset: int  # first userdata slot of this sole's state
+
+
+@dataclass
+class GroundContact:
+    """The law bound to a compiled model: which bodies carry which points, where their state
+    lives in ``userdata``.
+
+    Args:
+        model: the compiled scene (``nuserdata`` ≥ :meth:`userdata_size`).
+        law: the law's parameters.
+        points: body name -> (n, 3) contact points in that body's frame [m].
+        offset: first ``userdata`` slot the law may use.
+    """
+
+    model: mujoco.MjModel
+    law: PointContactLaw
+    points: Mapping[str, np.ndarray]
+    offset: int = 0
+    soles: list[_Sole] = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.soles = []
+        slot = self.offset
+        for name, pts in self.points.items():
+            pts = np.asarray(pts, dtype=float).reshape(-1, 3)
+            self.soles.append(_Sole(self.model.body(name).id, pts, slot))
+            slot += 3 * len(pts) + WRENCH_SLOTS
+        if slot > self.model.nuserdata:
+            raise ValueError(
+                f"the contact law needs {slot} userdata slots; the model has "
+                f"{self.model.nuserdata} (set nuserdata when building the scene)"
+            )
+
+    @staticmethod
+    def userdata_size(points: Mapping[str, np.ndarray]) -> int:
+        """``userdata`` slots the law's state needs: 3 per point (anchor x, y; contact flag)
+        and the sole's last wrench (6)."""
+        return sum(3 * len(np.asarray(p).reshape(-1, 3)) + WRENCH_SLOTS for p in points.values())
+
+    @property
+    def bodies(self) -> tuple[int, ...]:
+        """The ids of the bodies that carry soles."""
+        return tuple(sole.body for sole in self.soles)
+
+    def wrench(self, data: mujoco.MjData, body: int) -> np.ndarray:
+        """The ground's wrench on ``body`` in the last step: (force [N], torque about the world
+        origin [N m]), world frame, as :class:`walkrepro.sim.contact_reader.ContactReader` reports a
+        contact pair; zero when the sole is in the air."""
+        for sole in self.soles:
+            if sole.body == body:
+                start = sole.offset + 3 * len(sole.points)
+                return np.array(data.userdata[start : start + WRENCH_SLOTS])
+        raise KeyError(f"body {body} carries no sole of the ground law")
+
+    def apply(self, data: mujoco.MjData) -> None:
+        """Add every sole's contact force to ``data.qfrc_passive`` and advance the anchors.
+
+        Called from MuJoCo's passive stage: positions (``xpos``, ``xmat``, ``xipos``) and
+        velocities of this step are current.
+        """
+        law = self.law
+        params = np.array(
+            [
+                law.stiffness,
+                law.velocity_scale,
+                law.tangential_stiffness,
+                law.tangential_damping,
+                law.friction,
+            ]
+        )
+        vel6 = np.empty(6)
+        wrench = np.empty(6)
+        for sole in self.soles:
+            # The body frame's (angular, linear) velocity at its origin, in world axes.
+            mujoco.mj_objectVelocity(
+                self.model, data, mujoco.mjtObj.mjOBJ_XBODY, sole.body, vel6, 0
+            )
+            n = len(sole.points)
+            state = data.userdata[sole.offset : sole.offset + 3 * n].reshape(n, 3)
+            com = data.xipos[sole.body]
+            touching = sole_wrench(
+                SoleKinematics(data.xpos[sole.body], data.xmat[sole.body], vel6, com),
+                sole.points,
+                state,
+                params,
+                wrench,
+            )
+            recorded = data.userdata[sole.offset + 3 * n : sole.offset + 3 * n + WRENCH_SLOTS]
+            if touching:
+                mujoco.mj_applyFT(
+                    self.model, data, wrench[:3], wrench[3:], com, sole.body, data.qfrc_passive
+                )
+                # The torque about the world origin: τ_o = τ_c + c × f.
+                recorded[:3] = wrench[:3]
+                recorded[3:] = wrench[3:] + np.cross(com, wrench[:3])
+            else:
+                recorded[:] = 0.0
+
+
+class SoleKinematics(NamedTuple):
+    """A sole body's state at this step, in the world frame.
+
+    Attributes:
+        origin: the body frame's origin [m], (3,).
+        rotation: the body frame's orientation, row-major 3 × 3 as ``xmat``, (9,).
+        velocity: (ω [rad/s], v [m/s]) of the body frame at its origin, (6,).
+        com: the body's centre of mass [m], (3,): the point the wrench is summed about.
+    """
+
+    origin: np.ndarray
+    rotation: np.ndarray
+    velocity: np.ndarray
+    com: np.ndarray
+
+
+@numba.njit(cache=True)
+def sole_wrench(
+    body: SoleKinematics,
+    points: np.ndarray,
+    state: np.ndarray,
+    params: np.ndarray,
+    wrench: np.ndarray,
+) -> bool:
+    """The law's net force and moment of one sole; advances each point's anchor.
+
+    Args:
+        body: the sole body's kinematics.
+        points: (n, 3) contact points in the body frame [m].
+        state: (n, 3) per point: anchor x, y [m] in the world, contact flag (1 touching).
+            Updated in place: set at touchdown, moved while sliding, cleared above ground.
+        params: (k, v₀, k_t, b_t, μ) of :class:`PointContactLaw`.
+        wrench: out, (force [N], moment about ``body.com`` [N m]) in the world frame.
+
+    Returns:
+        whether any point touches the ground.
+    """
+    k, v0, kt, bt, mu = params[0], params[1], params[2], params[3], params[4]
+    R = body.rotation  # row-major 3 × 3
+    o, w, vo, c = body.origin, body.velocity[:3], body.velocity[3:], body.com
+    wrench[:] = 0.0
+    touching = False
+    # Scalar components throughout: a per-point small-array allocation costs more than the
+    # law itself (155 µs against 6 µs per 200-point sole, measured).
+    for i in range(points.shape[0]):
+        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+        # r = R p_body: the point relative to the body origin, world axes [m].
+        rx = R[0] * px + R[1] * py + R[2] * pz
+        ry = R[3] * px + R[4] * py + R[5] * pz
+        rz = R[6] * px + R[7] * py + R[8] * pz
+        x, y, z = o[0] + rx, o[1] + ry, o[2] + rz  # the point in the world [m]
+        if z >= 0.0:
+            state[i, 0] = state[i, 1] = state[i, 2] = 0.0  # above ground: anchor released
+            continue
+        touching = True
+        # v = v_o + ω × r: the point's velocity [m/s].
+        vx = vo[0] + w[1] * rz - w[2] * ry
+        vy = vo[1] + w[2] * rx - w[0] * rz
+        vz = vo[2] + w[0] * ry - w[1] * rx
+        fz = k * (-z) * max(0.0, 1.0 - vz / v0)  # Hunt–Crossley normal force [N]
+        if state[i, 2] == 0.0:  # touchdown: the anchor is where the point landed
+            state[i, 0], state[i, 1], state[i, 2] = x, y, 1.0
+        fx = -kt * (x - state[i, 0]) - bt * vx  # anchored tangential spring-damper [N]
+        fy = -kt * (y - state[i, 1]) - bt * vy
+        norm = np.sqrt(fx * fx + fy * fy)
+        limit = mu * fz
+        if norm > limit:  # sliding: Coulomb's bound; the anchor follows the spring
+            fx *= limit / norm
+            fy *= limit / norm
+            state[i, 0] = x + fx / kt
+            state[i, 1] = y + fy / kt
+        # The force and its moment about the centre of mass, (p − c) × f.
+        dx, dy, dz = x - c[0], y - c[1], z - c[2]
+        wrench[0] += fx
+        wrench[1] += fy
+        wrench[2] += fz
+        wrench[3] += dy * fz - dz * fy
+        wrench[4] += dz * fx - dx * fz
+        wrench[5] += dx * fy - dy * fx
+    return touching
+
+
+# --------------------------------------------------------------------------------------
+# MuJoCo's passive callback is one per process: it dispatches to each model's law. It is set
+# only while a law is applied: MuJoCo also calls it while it compiles a model, when the Python
+# bindings cannot hand the model over (the compile then fails), so no model may be compiled
+# inside :func:`applied`.
+
+_LAWS: dict[int, GroundContact] = {}
+
+
+def _passive(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    contact = _LAWS.get(id(model))
+    if contact is not None:
+        contact.apply(data)
+
+
+#: The MJCF ``<custom><numeric>`` that carries a model's law: (k, v₀, k_t, b_t, μ). A robot
+#: whose lab's simulator used this law writes it into its ``robot.xml`` (build_models.py),
+#: with one ``SOLE_PREFIX + body`` numeric per sole (its points, x y z each, in the body frame)
+#: and ``<size nuserdata>`` for the anchors; the logged scene carries it, so a log replays
+#: with its own law.
+LAW_NUMERIC = "walkrepro_ground_law"
+SOLE_PREFIX = "walkrepro_ground_sole:"
+
+
+def from_model(model: mujoco.MjModel) -> GroundContact | None:
+    """The law a compiled model carries in its custom numerics, or None."""
+    names = [model.numeric(i).name for i in range(model.nnumeric)]
+    if LAW_NUMERIC not in names:
+        return None
+    k, v0, kt, bt, mu = (float(x) for x in model.numeric(LAW_NUMERIC).data[:5])
+    soles = {
+        name[len(SOLE_PREFIX) :]: np.asarray(model.numeric(name).data, dtype=float).reshape(-1, 3)
+        for name in names
+        if name.startswith(SOLE_PREFIX)
+    }
+    return GroundContact(model, PointContactLaw(k, v0, kt, bt, mu), soles)
+
+
+def mjcf(law: PointContactLaw, soles: Mapping[str, np.ndarray]) -> str:
+    """The ``<custom>`` element that declares ``law`` on ``soles`` in a model's MJCF (and
+    the ``<size nuserdata>`` its anchors need), for a robot's build."""
+    numerics = [
+        f'<numeric name="{LAW_NUMERIC}" data="{law.stiffness!r} {law.velocity_scale!r} '
+        f'{law.tangential_stiffness!r} {law.tangential_damping!r} {law.friction!r}"/>'
+    ]
+    for body, points in soles.items():
+        data = " ".join(repr(float(x)) for x in np.asarray(points, dtype=float).ravel())
+        numerics.append(f'<numeric name="{SOLE_PREFIX}{body}" data="{data}"/>')
+    size = GroundContact.userdata_size(soles)
+    return f'<size nuserdata="{size}"/>\n<custom>\n' + "\n".join(numerics) + "\n</custom>"
+
+
+def applied_to(model: mujoco.MjModel) -> contextlib.AbstractContextManager[None]:
+    """:func:`applied` for the law ``model`` carries, or a context that does nothing."""
+    contact = from_model(model)
+    return applied(contact) if contact is not None else contextlib.nullcontext()
+
+
+@contextlib.contextmanager
+def applied(contact: GroundContact) -> Iterator[None]:
+    """Apply ``contact`` in every MuJoCo step of its model (``mj_step``, ``mj_step1``,
+    ``mj_forward``) while the block runs; compile no model inside it.
+
+    The law's passive stage also advances its anchors, so each physics step must run it
+    exactly once: a ``mj_forward`` inside the block would advance them a second time (the
+    runner and the replay call only ``mj_step1``/``mj_step2`` or ``mj_step`` in it)."""
+    key = id(contact.model)
+    previous = mujoco.get_mjcb_passive()
+    if previous is not None and previous is not _passive:
+        raise RuntimeError("another passive-force callback is installed in this process")
+    _LAWS[key] = contact
+    mujoco.set_mjcb_passive(_passive)
+    try:
+        yield
+    finally:
+        _LAWS.pop(key, None)
+        if not _LAWS:
+            mujoco.set_mjcb_passive(None)
