@@ -122,6 +122,68 @@ def test_spec_is_a_leaf_of_walkrepro() -> None:
     }
 
 
+#: The package's floors, from the ground up (docs/architecture.md): a module imports modules of
+#: its own package or of a lower floor, never a higher floor's nor a neighbour's on its own.
+FLOORS = (
+    ("walkrepro._version", "walkrepro.errors", "walkrepro.locations"),
+    ("walkrepro.plugins", "walkrepro.runtime"),
+    ("walkrepro.log",),
+    ("walkrepro.specs",),
+    ("walkrepro.sim", "walkrepro.evaluation"),
+    ("walkrepro.controllers", "walkrepro.present"),
+    ("walkrepro.runs", PAPERS),
+    ("walkrepro.studies",),
+    ("walkrepro.publish",),
+    ("walkrepro.api",),
+    ("walkrepro.cli", "walkrepro"),
+    ("walkrepro.__main__",),
+)
+
+
+def floor_of(module: str) -> tuple[int, str]:
+    """The floor and the package (the longest listed prefix) that ``module`` stands in; a
+    module no row names stands with the package root, on the floor of the command."""
+    found = [
+        (len(part), floor, part)
+        for floor, parts in enumerate(FLOORS)
+        for part in parts
+        if module == part or module.startswith(f"{part}.")
+    ]
+    _, floor, part = max(found)
+    return floor, part
+
+
+def imports_up_or_across(graph: dict[str, set[str]]) -> list[str]:
+    """Every import that reaches a higher floor, or another package of the same floor."""
+    found = []
+    for module, edges in sorted(graph.items()):
+        for edge in sorted(edges):
+            (mine, home), (theirs, there) = floor_of(module), floor_of(edge)
+            if theirs > mine or (theirs == mine and there != home):
+                found.append(f"{module} -> {edge}")
+    return found
+
+
+def test_imports_run_down_the_floors() -> None:
+    """Data flows spec -> sim -> log -> evaluation -> presentation, and each package imports
+    only what stands below it: no import climbs back up a floor or crosses to a neighbour."""
+    assert imports_up_or_across(import_graph(module_files())) == []
+
+
+def test_the_floor_check_sees_an_import_up_and_across() -> None:
+    """The checker itself: the log importing the simulation climbs; the simulation importing
+    the evaluation crosses; a run importing the simulation, or the log itself, does neither."""
+    graph = {
+        "walkrepro.log.record": {"walkrepro.sim.robot", "walkrepro.log.signals"},
+        "walkrepro.sim.robot": {"walkrepro.evaluation.metrics"},
+        "walkrepro.runs.runner": {"walkrepro.sim.robot"},
+    }
+    assert imports_up_or_across(graph) == [
+        "walkrepro.log.record -> walkrepro.sim.robot",
+        "walkrepro.sim.robot -> walkrepro.evaluation.metrics",
+    ]
+
+
 @pytest.mark.parametrize(
     ("sources", "expected"),
     [
