@@ -2,7 +2,7 @@
 
 The same steps as ``walkrepro run`` and ``walkrepro check --run``, from Python, on the same
 code: :func:`load` is the CLI's spec loading and resolution
-(:func:`walkrepro.specs.files.load_spec`, :func:`~walkrepro.runs.resolve.resolve_spec`),
+(:func:`walkrepro.specs.files.load_spec`, :func:`~walkrepro.runs.resolve.resolve`),
 :func:`run` is :func:`walkrepro.runs.experiment.execute` (simulation, log, metrics and verdict
 from the log, figures), :func:`evaluate` is :func:`walkrepro.runs.experiment.evaluate_log`.
 
@@ -30,49 +30,18 @@ from __future__ import annotations
 import functools
 import json
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from walkrepro.runs.resolve import Experiment
+
 if TYPE_CHECKING:
-    from walkrepro.controllers import ControllerParams
     from walkrepro.evaluation.checks import Verdict
     from walkrepro.runs.experiment import RunSummary
-    from walkrepro.sim.robot import Robot
-    from walkrepro.sim.world import Scene
-    from walkrepro.specs.models import ExperimentSpec
 
 #: Overrides as ``--set`` takes them (``"sim.duration=0.5"``), or as a mapping from the
 #: dotted field to its value (``{"sim.duration": 0.5}``).
 Overrides = Sequence[str] | Mapping[str, Any] | None
-
-
-@dataclass(frozen=True)
-class Experiment:
-    """An experiment resolved once: what a run of it, its metrics and its figures take.
-
-    Attributes:
-        spec: the validated spec, its controller parameters normalised by the controller's
-            model (what a run logs as ``spec.yaml``).
-        robot: the robot's MuJoCo and Pinocchio models (``robots/<spec.robot>/``).
-        scene: the compiled scene: the robot with the spec's world, contact and timestep.
-        params: the controller's typed parameters (its ``Params`` model).
-        overrides: the ``--set`` strings the spec was loaded with (a run records them, so
-            that partner runs with the same overrides are matched later).
-        source: the spec file it was read from.
-    """
-
-    spec: ExperimentSpec
-    robot: Robot = field(repr=False)
-    scene: Scene = field(repr=False)
-    params: ControllerParams
-    overrides: tuple[str, ...] = ()
-    source: str = ""
-
-    @property
-    def name(self) -> str:
-        """The experiment's name (``spec.name``)."""
-        return self.spec.name
 
 
 @functools.cache
@@ -113,24 +82,11 @@ def load(name_or_path: str | Path, overrides: Overrides = None) -> Experiment:
             line and field (a ``SpecError``).
     """
     _library_setup()
-    from walkrepro.controllers import controller_params
-    from walkrepro.runs.resolve import resolve_spec
-    from walkrepro.sim.robot import load_robot
-    from walkrepro.sim.world import build_scene
+    from walkrepro.runs.resolve import resolve
     from walkrepro.specs.files import load_spec
 
     strings = _override_strings(overrides)
-    loaded = resolve_spec(load_spec(name_or_path, strings))
-    spec = loaded.spec
-    robot = load_robot(spec.robot)
-    return Experiment(
-        spec=spec,
-        robot=robot,
-        scene=build_scene(robot, spec),
-        params=controller_params(spec.controller),
-        overrides=strings,
-        source=loaded.source,
-    )
+    return resolve(load_spec(name_or_path, strings), strings)
 
 
 def run(
@@ -174,7 +130,7 @@ def run(
         progress,
         figures,
         experiment.overrides,
-        scene=experiment.scene,
+        resolved=experiment,
     )
 
 

@@ -1214,6 +1214,14 @@ def _resolved(name: str, overrides: list[str]):  # noqa: ANN202 - returns Experi
     return resolve_spec(load_spec(name, overrides)).spec
 
 
+def _experiment(name: str, overrides: list[str]):  # noqa: ANN202 - returns Experiment
+    """``name`` loaded and resolved once: its spec, robot, compiled scene and parameters."""
+    from walkrepro.runs.resolve import resolve
+    from walkrepro.specs.files import load_spec
+
+    return resolve(load_spec(name, overrides), overrides)
+
+
 def _with_reference_video(names: list[str]) -> frozenset[str]:
     """The experiments among ``names`` whose committed reference keeps a video."""
     from walkrepro.locations import REFERENCES_DIR
@@ -1242,7 +1250,8 @@ def _run_one(  # noqa: ANN202
     from walkrepro.runtime.interrupt import InterruptFlag
 
     with InterruptFlag() as flag:
-        spec = _resolved(name, overrides)
+        experiment = _experiment(name, overrides)
+        spec = experiment.spec
         run_dir = results.new_run_dir(out, spec.name)
         try:
             from walkrepro.runs.experiment import execute
@@ -1252,7 +1261,7 @@ def _run_one(  # noqa: ANN202
             results.abandon(run_dir, spec.to_yaml(), spec.name, outcome, message)
             raise
         if not show_progress:
-            return execute(spec, out, None, outputs, overrides, flag, run_dir)
+            return execute(spec, out, None, outputs, overrides, flag, run_dir, experiment)
         with Progress(
             TextColumn(f"[bold]{spec.name}[/]"),
             BarColumn(),
@@ -1267,7 +1276,7 @@ def _run_one(  # noqa: ANN202
             def progress(t: float, duration: float, rtf: float) -> None:
                 bar.update(task, completed=t, sim=f"{t:6.2f}/{duration:.2f} s", rtf=f"{rtf:5.2f}x")
 
-            return execute(spec, out, progress, outputs, overrides, flag, run_dir)
+            return execute(spec, out, progress, outputs, overrides, flag, run_dir, experiment)
 
 
 def _plot_comparisons(summaries: list) -> None:  # list[RunSummary]

@@ -17,9 +17,9 @@ from walkrepro.errors import WalkreproError
 from walkrepro.evaluation import checks, metrics
 from walkrepro.locations import REFERENCES_DIR
 from walkrepro.runs import provenance, results
+from walkrepro.runs.resolve import Experiment
 from walkrepro.runs.runner import ProgressCallback, RunResult, run
 from walkrepro.runtime.interrupt import InterruptFlag
-from walkrepro.sim.world import Scene
 from walkrepro.specs.models import ExperimentSpec
 
 
@@ -182,7 +182,7 @@ def execute(
     overrides: Sequence[str] = (),
     interrupt: InterruptFlag | None = None,
     run_dir: results.RunDir | None = None,
-    scene: Scene | None = None,
+    resolved: Experiment | None = None,
 ) -> RunSummary:
     """Run ``spec`` (already resolved) and write the complete run directory.
 
@@ -206,12 +206,13 @@ def execute(
             here.
         run_dir: a run directory the caller created (under ``out_root``); by default a new
             one.
-        scene: the scene already compiled from ``spec`` (:func:`walkrepro.load`); by
-            default the run compiles it.
+        resolved: ``spec`` resolved once into its robot, compiled scene and typed controller
+            parameters (:func:`walkrepro.runs.resolve.resolve`, :func:`walkrepro.load`); by
+            default the run assembles them from ``spec``.
     """
     if interrupt is None:
         with InterruptFlag() as own:
-            return execute(spec, out_root, progress, outputs, overrides, own, run_dir, scene)
+            return execute(spec, out_root, progress, outputs, overrides, own, run_dir, resolved)
     flag = interrupt
     # The flag is installed before the run directory exists: a stop from the moment the
     # directory appears is a request, and the directory is always finished.
@@ -230,7 +231,7 @@ def execute(
         else:
             stage = "running the simulation"
             try:
-                result = run(spec, log_path, progress, flag, scene)
+                result = run(spec, log_path, progress, flag, resolved)
             except KeyboardInterrupt:  # a second Ctrl-C in set-up, before the log was opened
                 result = RunResult(
                     spec.name, log_path, "interrupted", 0.0, 0.0, None, "interrupted in set-up"

@@ -1,6 +1,11 @@
-"""An experiment resolved against what is installed: every name in a loaded spec
-checked against the real registries (robot, bodies, actuators, controller and its
-parameters, metrics, partner experiments), the obstacles against the robot's home pose.
+"""An experiment resolved against what is installed, once, into the record a run takes.
+
+:func:`resolve` checks every name in a loaded spec against the real registries (robot,
+bodies, actuators, controller and its parameters, metrics, partner experiments) and the
+obstacles against the robot's home pose, and keeps what the checks built: the robot, the
+compiled scene and the controller's typed parameters, in one :class:`Experiment`. The loop
+(:func:`walkrepro.runs.runner.run`) takes that record, so the robot is looked up, the scene
+compiled and the parameters validated once per run.
 
 Reading a spec file (:mod:`walkrepro.specs.files`) needs only the spec's own model; this
 step needs the robot (:mod:`walkrepro.sim`), the controllers and the metrics, so it stands
@@ -11,33 +16,117 @@ from __future__ import annotations
 
 import fnmatch
 import sys
-from typing import Any
-
-from pydantic import ValidationError
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 from walkrepro.errors import SpecError, UnknownNameError
-from walkrepro.specs.files import all_experiment_names
-from walkrepro.specs.models import (
-    ControllerSpec,
-    LoadedSpec,
-    _check_plain_data,
-    _format_validation,
-)
+
+if TYPE_CHECKING:  # the record's types; importing this module stays light (walkrepro.api)
+    from walkrepro.controllers import ControllerParams
+    from walkrepro.sim.robot import Robot
+    from walkrepro.sim.world import Scene
+    from walkrepro.specs.models import ExperimentSpec, LoadedSpec
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """An experiment resolved once: what a run of it, its metrics and its figures take.
+
+    Attributes:
+        spec: the validated spec, its controller parameters normalised by the controller's
+            model (what a run logs as ``spec.yaml``).
+        robot: the robot's MuJoCo and Pinocchio models (``robots/<spec.robot>/``).
+        scene: the compiled scene: the robot with the spec's world, contact and timestep.
+        params: the controller's typed parameters (its ``Params`` model).
+        overrides: the ``--set`` strings the spec was loaded with (a run records them, so
+            that partner runs with the same overrides are matched later).
+        source: the spec file it was read from.
+    """
+
+    spec: ExperimentSpec
+    robot: Robot = field(repr=False)
+    scene: Scene = field(repr=False)
+    params: ControllerParams
+    overrides: tuple[str, ...] = ()
+    source: str = ""
+
+    @property
+    def name(self) -> str:
+        """The experiment's name (``spec.name``)."""
+        return self.spec.name
+
+
+def resolve(loaded: LoadedSpec, overrides: Sequence[str] = ()) -> Experiment:
+    """Check ``loaded`` against the registries and keep the robot, scene and parameters.
+
+    Args:
+        loaded: a spec as :func:`walkrepro.specs.files.load_spec` read it.
+        overrides: the ``--set`` strings it was loaded with (recorded, not applied again).
+
+    Raises:
+        SpecError / UnknownNameError: naming file, line, field and the valid names.
+    """
+    from walkrepro.sim.world import build_scene  # imports mujoco
+
+    checked, robot, params = _check_names(loaded)
+    scene = build_scene(robot, checked.spec)
+    _check_obstacle_overlap(loaded, robot, scene)
+    return Experiment(
+        spec=checked.spec,
+        robot=robot,
+        scene=scene,
+        params=params,
+        overrides=tuple(overrides),
+        source=loaded.source,
+    )
+
+
+def assemble(spec: ExperimentSpec) -> Experiment:
+    """The record of a spec that was resolved already (a sweep cell's, a bench run's, one
+    read back from a log): its robot, its scene and its parameters, with no check again."""
+    from walkrepro.controllers import controller_params
+    from walkrepro.sim.robot import load_robot
+    from walkrepro.sim.world import build_scene
+
+    robot = load_robot(spec.robot)
+    return Experiment(
+        spec=spec,
+        robot=robot,
+        scene=build_scene(robot, spec),
+        params=controller_params(spec.controller),
+    )
+
 
 # --------------------------------------------------------------------------------------
 # Resolution against registries
 
 
 def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
-    """Check every name in the spec against the real registries and validate params.
+    """Check every name in the spec against the real registries and validate params, for a
+    caller that keeps only the spec (a sweep's cells, the ledger): :func:`resolve`'s checks,
+    without keeping the scene.
 
     Returns the same spec with ``controller.params`` normalised by the controller's model.
 
     Raises:
         SpecError / UnknownNameError: naming file, line, field and the valid names.
     """
-    # Imported here: the registries import heavy modules (mujoco, pinocchio).
+    checked, robot, _ = _check_names(loaded)
+    if loaded.spec.world.obstacles:
+        from walkrepro.sim.world import build_scene
+
+        _check_obstacle_overlap(loaded, robot, build_scene(robot, loaded.spec))
+    return checked
+
+
+def _check_names(loaded: LoadedSpec) -> tuple[LoadedSpec, Robot, ControllerParams]:
+    """Every check but the obstacles': the spec with its parameters normalised, the robot,
+    and the parameters as the controller's model validated them."""
+    # Imported here: the registries import heavy modules (mujoco, pinocchio), and the
+    # record above is imported by walkrepro.api, which imports none.
     import mujoco
+    from pydantic import ValidationError
 
     from walkrepro.controllers import controller_class, controller_names, controller_params
     from walkrepro.evaluation.metrics import (
@@ -47,6 +136,8 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
         split_metric,
     )
     from walkrepro.sim.robot import list_robots, load_robot
+    from walkrepro.specs.files import all_experiment_names
+    from walkrepro.specs.models import ControllerSpec, _check_plain_data, _format_validation
 
     spec = loaded.spec
     if spec.robot not in list_robots():
@@ -177,7 +268,6 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
                 f"{loaded.where(('disturbances', i, 'start'))}: starts after the run ends "
                 f"(duration {spec.sim.duration} s)."
             )
-    _check_obstacle_overlap(loaded, robot)
     normalised = spec.model_copy(
         update={
             "controller": ControllerSpec(
@@ -185,10 +275,10 @@ def resolve_spec(loaded: LoadedSpec) -> LoadedSpec:
             )
         }
     )
-    return loaded.model_copy(update={"spec": normalised})
+    return loaded.model_copy(update={"spec": normalised}), robot, params
 
 
-def _check_obstacle_overlap(loaded: LoadedSpec, robot: Any) -> None:
+def _check_obstacle_overlap(loaded: LoadedSpec, robot: Any, scene: Scene) -> None:
     """Refuse an obstacle that overlaps the robot's collision geoms at the home pose.
 
     MuJoCo would resolve the overlap at the first step by launching the robot out of the
@@ -201,7 +291,7 @@ def _check_obstacle_overlap(loaded: LoadedSpec, robot: Any) -> None:
         return
     from walkrepro.sim.world import home_overlaps  # imports mujoco
 
-    overlaps = home_overlaps(robot, loaded.spec)
+    overlaps = home_overlaps(robot, scene.model, loaded.spec)
     for i, obstacle in enumerate(loaded.spec.world.obstacles):
         hits = overlaps.get(obstacle.name)
         if not hits:

@@ -26,17 +26,17 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from walkrepro.controllers import controller_class, controller_params
+from walkrepro.controllers import controller_class
 from walkrepro.log import record
 from walkrepro.log.foxglove import frame_every
 from walkrepro.runs.provenance import run_metadata
+from walkrepro.runs.resolve import Experiment, assemble
 from walkrepro.runtime.interrupt import InterruptFlag
 from walkrepro.sim import contact_law
 from walkrepro.sim.contact_reader import ContactReader, FallDetector
 from walkrepro.sim.disturbances import DisturbanceSchedule
-from walkrepro.sim.robot import Robot, load_robot, with_servo_gains
+from walkrepro.sim.robot import Robot, with_servo_gains
 from walkrepro.sim.sensors import SensorModel
-from walkrepro.sim.world import Scene, build_scene
 from walkrepro.specs.models import ExperimentSpec
 
 #: Called as ``progress(sim_time, duration, real_time_factor)`` a few times per second.
@@ -175,7 +175,7 @@ def run(
     log_path: Path,
     progress: ProgressCallback | None = None,
     interrupt: InterruptFlag | None = None,
-    scene: Scene | None = None,
+    resolved: Experiment | None = None,
 ) -> RunResult:
     """Simulate ``spec`` and write its log to ``log_path``.
 
@@ -183,14 +183,15 @@ def run(
     ``interrupted`` (with no state at all if it came before the first step). ``interrupt``
     is the caller's flag (``walkrepro.runs.experiment`` holds one over the whole run); without
     one, the run installs its own. Any other exception marks the log ``error`` and is
-    re-raised after the log is closed. ``scene`` is the scene compiled from ``spec``, when
-    the caller has it (:func:`walkrepro.load`); by default it is compiled here.
+    re-raised after the log is closed. ``resolved`` is ``spec`` resolved once
+    (:func:`walkrepro.runs.resolve.resolve`: its robot, compiled scene and typed controller
+    parameters), when the caller has it; by default they are assembled here from ``spec``.
     """
     if interrupt is None:
         with InterruptFlag() as own:
-            return run(spec, log_path, progress, own, scene)
-    robot = load_robot(spec.robot)
-    scene = scene if scene is not None else build_scene(robot, spec)
+            return run(spec, log_path, progress, own, resolved)
+    resolved = resolved if resolved is not None else assemble(spec)
+    robot, scene = resolved.robot, resolved.scene
     model = scene.model
     data = mujoco.MjData(model)
     _set_home(robot, model, data)
@@ -200,7 +201,7 @@ def run(
     controller = cls()
     controller.reset(
         with_servo_gains(robot, model),  # the spec's servo gains, as the controller runs them
-        controller_params(spec.controller),
+        resolved.params,
         spec.sim.control_period,
     )
     sensors = SensorModel(robot, model, spec.sensors, spec.sim.control_period, spec.sim.seed)

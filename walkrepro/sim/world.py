@@ -96,18 +96,20 @@ def build_scene(robot: Robot, spec: ExperimentSpec) -> Scene:
     return Scene(xml=xml, model=mujoco.MjModel.from_xml_string(xml))
 
 
-def home_overlaps(robot: Robot, spec: ExperimentSpec) -> dict[str, dict[str, float]]:
+def home_overlaps(
+    robot: Robot, model: mujoco.MjModel, spec: ExperimentSpec
+) -> dict[str, dict[str, float]]:
     """Robot collision geoms each obstacle penetrates when the robot stands at ``home``.
 
-    The scene is built as a run builds it, the robot set to its home keyframe and MuJoCo's
-    collision detection run (``mj_forward``); a contact between an obstacle and a robot geom
-    deeper than :data:`OVERLAP_TOLERANCE` is an overlap.
+    ``model`` is the scene's (:func:`build_scene` of ``robot`` and ``spec``), set to the
+    robot's home keyframe and MuJoCo's collision detection run (``mj_forward``) on fresh
+    data; a contact between an obstacle and a robot geom deeper than
+    :data:`OVERLAP_TOLERANCE` is an overlap.
 
     Returns:
         obstacle name -> {robot geom (``body/geom``) -> penetration depth [m]}; obstacles
         that overlap nothing are absent.
     """
-    model = build_scene(robot, spec).model
     data = mujoco.MjData(model)
     data.qpos[: robot.home_qpos.size] = robot.home_qpos  # as the runner starts a run
     mujoco.mj_forward(model, data)
