@@ -19,7 +19,17 @@ from walkrepro.cli import app
 
 ROOT = Path(__file__).resolve().parents[1]
 #: What a wheel is not built from: git, build products, runs and their logs.
-NOT_SOURCES = (".git", "build", "dist", "*.egg-info", "__pycache__", ".*_cache", "runs", "report")
+NOT_SOURCES = (".git", "build", "dist", "*.egg-info", "__pycache__", ".*_cache")
+#: The folders runs and reports are written to, by path: the package's own ``runs/`` (the
+#: loop) and ``publish/report/`` are sources.
+NOT_SOURCE_DIRS = (ROOT / "results" / "runs", ROOT / "runs", ROOT / "report")
+
+
+def _not_sources(folder: str, names: list[str]) -> set[str]:
+    """``shutil.copytree``'s ``ignore``: the patterns above, and the run and report folders."""
+    ignored = set(shutil.ignore_patterns(*NOT_SOURCES)(folder, names))
+    return ignored | {name for name in names if Path(folder) / name in NOT_SOURCE_DIRS}
+
 
 #: A user's own spec: the CLI tests' short standing run under another name.
 USER_SPEC = SPEC.replace("name: tiny_stand", "name: my_stand")
@@ -104,7 +114,7 @@ def test_an_installed_wheel_runs_a_shipped_experiment_from_any_directory(tmp_pat
     # Built from a copy: an in-tree build leaves build/lib behind, whose stale files a later
     # wheel would carry.
     source = tmp_path / "source"
-    shutil.copytree(ROOT, source, ignore=shutil.ignore_patterns(*NOT_SOURCES))
+    shutil.copytree(ROOT, source, ignore=_not_sources)
     dist = tmp_path / "dist"
     subprocess.run(
         [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(dist), str(source)],
