@@ -20,7 +20,7 @@ setup(
     package_dir=SHIPPED,
     package_data={
         "walkrepro._shipped.robots": ["*/robot.xml", "*/README.md"],
-        "walkrepro._shipped.experiments": ["*.yaml", "calibration/*.yaml"],
+        "walkrepro._shipped.experiments": ["*.yaml", "calibration/*.yaml", "claims/*.yaml"],
         "walkrepro._shipped.references": [
             "*/metrics.json",
             "*/check.json",

@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 from walkrepro.specs.deviation import NOT_MEASURABLE
@@ -46,6 +46,10 @@ class CheckRow:
             deviation left its band, which way), or why the metric is not measurable.
         observed: a known deviation's observed band ``(low, high)`` or ``"not measurable"``,
             else None.
+        claim: the id of the paper claim the row tests (its register:
+            ``experiments/claims/<paper>.yaml``), or None.
+        own: the kind of walkrepro's own claim the row is (``generalisation``,
+            ``sensitivity``, ``ablation``, ``sanity``), or None.
     """
 
     metric: str
@@ -56,6 +60,8 @@ class CheckRow:
     source: str
     note: str
     observed: tuple[float, float] | str | None = None
+    claim: str | None = None
+    own: str | None = None
 
     @property
     def band(self) -> str:
@@ -260,7 +266,11 @@ def evaluate(
     """
     why = reasons or {}
     rows = tuple(
-        _row(e, metrics.get(e.metric, math.nan), references, why.get(e.metric, ""))
+        replace(
+            _row(e, metrics.get(e.metric, math.nan), references, why.get(e.metric, "")),
+            claim=e.claim,
+            own=e.own,
+        )
         for e in spec.expect
     )
     return Verdict(experiment=spec.name, outcome=outcome, rows=rows)

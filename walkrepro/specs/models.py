@@ -34,6 +34,7 @@ from walkrepro.specs import yamlload
 from walkrepro.specs.deviation import KnownDeviation
 from walkrepro.specs.origin import assumed, scenario
 from walkrepro.specs.sweeps import SweepParameter, SweepSpec
+from walkrepro.specs.tags import ClaimTag
 
 
 def _not_bool(value: Any) -> Any:
@@ -586,7 +587,7 @@ class RelativeTo(_Strict):
     scale: Real = 1.0
 
 
-class Expectation(_Strict):
+class Expectation(ClaimTag, _Strict):
     """One of the paper's expectations: ``metric op value``, with its source in the paper.
 
     The value is either given (``value``) or taken from another experiment's run

@@ -11,6 +11,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from walkrepro.specs.deviation import KnownDeviation
+from walkrepro.specs.tags import ClaimTag
 
 Op = Literal["<", "<=", ">", ">=", "==", "between"]
 #: A grid's values: ``"20,40,60"``, a range ``"start:stop:count"``, a number or a YAML list.
@@ -76,7 +77,7 @@ class Region(_Strict):
         )
 
 
-class SweepClaim(_Strict):
+class SweepClaim(ClaimTag, _Strict):
     """A paper claim about a region of a sweep's map.
 
     Kinds:

@@ -150,6 +150,8 @@ def evaluate_claim(
         source=source,
         note=text,
         observed=observed,
+        claim=claim.claim,
+        own=claim.own,
     )
 
 

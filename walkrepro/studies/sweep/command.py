@@ -167,6 +167,8 @@ def map_verdicts(
     each map is swept again under ``out`` on ``engine`` (default: ``jobs`` processes) and
     evaluated on the new cells.
     """
+    from dataclasses import replace
+
     from walkrepro.evaluation.checks import FAIL, CheckRow, Verdict
     from walkrepro.locations import REFERENCES_DIR
     from walkrepro.specs.files import load_spec
@@ -211,13 +213,10 @@ def map_verdicts(
             stale = _stale(info, declared)
             if stale:
                 rows = [
-                    CheckRow(
-                        metric=r.metric,
-                        op=r.op,
-                        paper=r.paper,
-                        measured=r.measured,
+                    replace(
+                        r,
                         status=FAIL,
-                        source=r.source,
+                        observed=None,
                         note=f"stale reference map ({stale}); re-run walkrepro sweep {name} "
                         f"--map {declared.name} --update-reference. {r.note}",
                     )
