@@ -255,7 +255,7 @@ def test_check_prints_one_line_per_experiment_and_failing_rows_in_full(tmp_path:
     assert "  fail  tiny_stand · fell == 1: measured 0" in lines, text
     assert f"        source: {long_source.strip()}" in lines, text
     assert "== 0" not in text, text
-    assert lines[-1] == "1 reproduced, 0 calibrated, 0 known deviations, 1 failed", text
+    assert lines[-1] == "all rows: 1 reproduced, 0 calibrated, 0 known deviations, 1 failed", text
     code, details = invoke("check", "--run", str(run), "--details")
     assert code == 1 and "paper expectations" in details and "reproduced" in details, details
     assert details.splitlines()[-1] == lines[-1]
@@ -272,7 +272,7 @@ def test_passing_check_is_two_lines(tmp_path: Path) -> None:
     assert code == 0, text
     assert text.splitlines() == [
         "ok    tiny_stand  complete    1 reproduced, 0 calibrated, 0 known deviations, 0 failed",
-        "1 reproduced, 0 calibrated, 0 known deviations, 0 failed",
+        "all rows: 1 reproduced, 0 calibrated, 0 known deviations, 0 failed",
     ]
 
 

@@ -290,6 +290,81 @@ def provenance(
 
 @app.command()
 @friendly_errors
+def claims(
+    papers: Annotated[
+        list[str] | None,
+        typer.Argument(help="Paper keys (lee2021, faraji, jo_oh); default: every register."),
+    ] = None,
+    details: Annotated[
+        bool, typer.Option("--details", help="Also print the paper's words and each row.")
+    ] = False,
+) -> None:
+    """Each paper's claim register (experiments/claims/<paper>.yaml) with every claim's
+    status from the committed references: reproduced, calibrated, deviating, failed, not
+    covered or uncheckable, its rows and their measured values (docs/claims.md). Exit 1 when
+    a claim fails."""
+    from walkrepro.locations import REFERENCES_DIR
+    from walkrepro.publish.claim_register import FAILED, paper_totals
+    from walkrepro.specs.claims import find_register, register_papers
+
+    console = _console()
+    keys = list(papers or register_papers())
+    for key in keys:
+        find_register(key)  # an unknown paper lists the valid ones before anything runs
+    found = paper_totals(REFERENCES_DIR)
+    failed = False
+    for key in keys:
+        totals, results = found[key]
+        console.print(f"[bold]{escape(_paper_label(key))}[/]", highlight=False)
+        width = max((len(r.claim.id) for r in results), default=0)
+        for r in results:
+            colour = _CLAIM_COLOURS.get(r.status, "default")
+            rows = "; ".join(t.text for t in r.rows) if details else _rows_brief(r.rows)
+            why = f" ({r.claim.uncheckable})" if r.claim.uncheckable and details else ""
+            console.print(
+                f"  [{colour}]{r.status:<11}[/] {escape(r.claim.id):<{width}}  "
+                f"{escape(r.claim.where)}  {escape(rows)}{escape(why)}",
+                highlight=False,
+                soft_wrap=True,
+            )
+            if details:
+                console.print(f"      “{escape(r.claim.words)}”", highlight=False, soft_wrap=True)
+        console.print(
+            f"{key}: the paper's claims: {totals.claims_text()}; walkrepro's own rows: {totals.own}",
+            highlight=False,
+        )
+        failed |= totals.by_status[FAILED] > 0
+    if failed:
+        raise typer.Exit(code=1)
+
+
+_CLAIM_COLOURS = {
+    "reproduced": "green",
+    "calibrated": "blue",
+    "deviating": "yellow",
+    "failed": "red",
+    "not covered": "magenta",
+}
+
+
+def _paper_label(key: str) -> str:
+    from walkrepro import plugins
+
+    paper = plugins.papers().get(key)
+    return f"{paper.label} ({key})" if paper is not None else key
+
+
+def _rows_brief(rows: tuple) -> str:
+    """The rows behind a claim, short: ``experiment metric = value`` for the first, and how
+    many more."""
+    if not rows:
+        return ""
+    first = rows[0].text
+    return first if len(rows) == 1 else f"{first} (+{len(rows) - 1} rows)"
+
+
+@app.command()
+@friendly_errors
 def run(
     experiment: Annotated[str, typer.Argument(help="Experiment name or path to a spec YAML.")],
     set_: SetOption = None,
@@ -1330,9 +1405,13 @@ def _print_verdicts(
         for v in verdicts:
             for text in failing_row_text(v):
                 console.print(f"[red]{escape(text)}[/]", highlight=False, soft_wrap=True)
+    from walkrepro.publish.claim_register import batch_lines
+
+    for line in batch_lines(verdicts):
+        console.print(escape(line), highlight=False, soft_wrap=True)
     counts = count(verdicts)
     colour = "red" if counts.failed else ("yellow" if counts.known else "green")
-    console.print(f"[bold {colour}]{counts}[/]")
+    console.print(f"[bold {colour}]all rows: {counts}[/]")
 
 
 def _verdict_table(verdicts: list) -> Table:  # list[checks.Verdict]

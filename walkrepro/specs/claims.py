@@ -15,8 +15,9 @@ Loading reports errors as the spec loader does: file, line and field, no traceba
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
@@ -31,6 +32,9 @@ from walkrepro.specs.models import (
     known_paper,
     require_unique,
 )
+
+if TYPE_CHECKING:
+    from walkrepro.specs.models import ExperimentSpec
 
 #: Where the shipped registers live: ``experiments/claims/<paper>.yaml``.
 CLAIMS_DIR_NAME = "claims"
@@ -159,5 +163,49 @@ def find_register(paper: str, directory: Path | None = None) -> LoadedRegister:
     """
     path = register_path(paper, directory)
     if not path.is_file():
-        raise UnknownNameError("paper with a claim register", paper, register_papers(directory))
+        raise UnknownNameError("claim register", paper, register_papers(directory))
     return load_register(path)
+
+
+def tagging_problems(
+    specs: Iterable[ExperimentSpec], registers: Mapping[str, Register]
+) -> list[str]:
+    """What keeps the specs and the registers from counting every claim (docs/claims.md).
+
+    Returns one line per problem: a row or map claim with no tag; a ``claim:`` tag naming
+    an id its paper's register lacks (or a paper with no register); a register claim that no
+    row tests and that carries no ``uncheckable`` reason. Empty when all is counted.
+
+    Args:
+        specs: the experiments (every shipped one, for the whole picture).
+        registers: each paper's register by paper key.
+    """
+    problems: list[str] = []
+    tested: set[tuple[str, str]] = set()
+    for spec in specs:
+        register = registers.get(spec.paper.key)
+        ids = {c.id for c in register.claims} if register is not None else set()
+        rows = [(f"expect row {i} ({e.metric})", e) for i, e in enumerate(spec.expect)]
+        rows += [
+            (f"map {s.name} claim {k} ({c.kind})", c)
+            for s in spec.sweeps
+            for k, c in enumerate(s.claims)
+        ]
+        for where, row in rows:
+            if row.claim is None and row.own is None:
+                problems.append(f"{spec.name}, {where}: untagged (claim: <id> or own: <kind>)")
+            elif row.claim is not None and row.claim not in ids:
+                problems.append(
+                    f"{spec.name}, {where}: claim {row.claim!r} is not in the register of "
+                    f"{spec.paper.key} (experiments/claims/{spec.paper.key}.yaml)"
+                )
+            elif row.claim is not None:
+                tested.add((spec.paper.key, row.claim))
+    for key, register in registers.items():
+        for c in register.claims:
+            if (key, c.id) not in tested and not c.uncheckable:
+                problems.append(
+                    f"{key}: claim {c.id!r} ({c.where}) is tested by no row and gives no "
+                    "uncheckable: <reason>"
+                )
+    return problems
