@@ -1416,7 +1416,7 @@ def _print_verdicts(
 
 def _verdict_table(verdicts: list) -> Table:  # list[checks.Verdict]
     """Every row of ``verdicts`` as a table; long sources and notes fold, never cut."""
-    from walkrepro.evaluation.checks import CALIBRATED, FAIL, KNOWN, PASS
+    from walkrepro.evaluation.checks import CALIBRATED, FAIL, KNOWN, PASS, tag_text
 
     label = {
         PASS: "[green]reproduced[/]",
@@ -1425,16 +1425,18 @@ def _verdict_table(verdicts: list) -> Table:  # list[checks.Verdict]
         KNOWN: "[yellow]known deviation[/]",
     }
     table = Table(title="paper expectations")
-    for col in ("experiment", "metric", "paper", "measured", "observed", "result", "source / note"):
+    columns = ("experiment", "metric", "tests", "paper", "measured", "observed", "result")
+    for col in (*columns, "source / note"):
         table.add_column(col, overflow="fold")
     for v in verdicts:
         if not v.run_ok:
-            table.add_row(v.experiment, "run", "", v.outcome, "", label[FAIL], "")
+            table.add_row(v.experiment, "run", "", "", v.outcome, "", label[FAIL], "")
         for r in v.rows:
             note = f" — {r.note}" if r.note else ""
             table.add_row(
                 v.experiment,
                 r.metric,
+                tag_text(r),
                 r.band,
                 f"{r.measured:.4g}",
                 r.observed_band,

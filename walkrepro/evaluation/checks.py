@@ -183,7 +183,9 @@ def claim_lines(verdict: Verdict) -> list[str]:
     """One line per row of ``verdict``: status, claim (the metric), the paper's value, the
     measured value, and a known deviation's observed band; columns aligned.
 
-    E.g. ``known deviation  walk_speed  paper [0.2, 0.3]  measured 0.18  observed [0.17, 0.19]``.
+    E.g. ``known deviation  walk_speed  paper [0.2, 0.3]  measured 0.18  observed [0.17, 0.19]
+    claim walk.speed`` (the last column: the register claim the row tests, or walkrepro's own
+    kind).
     The source and the note are left to the full rows (``--details``, and every failing row).
     """
     rows = verdict.rows
@@ -196,9 +198,16 @@ def claim_lines(verdict: Verdict) -> list[str]:
         observed = f"  observed {r.observed_band}" if r.observed else ""
         lines.append(
             f"  {STATUS_WORDS[r.status]:<{status_w}}  {r.metric:<{metric_w}}  paper "
-            f"{r.band:<{band_w}}  measured {measured:<10}{observed}".rstrip()
+            f"{r.band:<{band_w}}  measured {measured:<10}{observed}  {tag_text(r)}".rstrip()
         )
     return lines
+
+
+def tag_text(row: CheckRow) -> str:
+    """What a row tests, as its line shows it: ``claim <id>``, ``own <kind>`` or ``""``."""
+    if row.claim is not None:
+        return f"claim {row.claim}"
+    return f"own {row.own}" if row.own is not None else ""
 
 
 def failing_row_text(verdict: Verdict) -> list[str]:
