@@ -302,11 +302,25 @@ def _max_adjustment(d: LogData, arg: str) -> float:
     return float(np.max(np.abs(v)))
 
 
-@metric("max_footstep_adjustment_raw", "largest |footstep adjustment| before truncation [m]")
+@metric(
+    "max_footstep_adjustment_raw",
+    "largest |footstep adjustment| before truncation [m] (arg 't0-t1': over that window, "
+    "which the run must reach without a fall)",
+    arg=window_check,
+)
 def _max_adjustment_raw(d: LogData, arg: str) -> float:
-    """Pre-fall. Reads ``footstep_raw`` (the adjustment before truncation, Fig. 16)."""
-    _, v = d.require_signal("footstep_raw")
-    return float(np.max(np.abs(v)))
+    """Pre-fall. Reads ``footstep_raw`` (the adjustment before truncation, Fig. 17).
+
+    With a window ``t0-t1`` the data must reach its end: a robot falling inside it asks
+    for any footstep while it falls, so a raw adjustment read there says nothing about a
+    recovery (Fig. 17's strong push is recovered "despite a safety threshold").
+    """
+    lo, hi = _window_or_run(d, arg)
+    t, v = d.require_signal("footstep_raw")
+    inside = (t >= lo) & (t <= hi)
+    if not inside.any():
+        raise NotMeasurable(f"no footstep adjustment logged in the window {arg}")
+    return float(np.max(np.abs(v[inside])))
 
 
 class Landings(NamedTuple):
@@ -613,8 +627,8 @@ def _tracking_delay(d: LogData, arg: str) -> float:
     read back. Here that is the lag of the link angle of the logged state (motor plus
     spring for a series-elastic joint) behind the servo's target (``ctrl``, logged every
     physics step), which is everything between the controller's output and the link's
-    motion (servo, motor, spring, load), plus the spec's sensing delay (``sensors.delay``,
-    by which every reading reaches the controller late). Window ``@t0-t1`` (default: the
+    motion (servo, motor, spring, load). A sensing delay the spec adds (``sensors.delay``)
+    is not counted: it is an input of the run, and a row on it could not fail. Window ``@t0-t1`` (default: the
     whole pre-fall run); the smallest lag over the matching joints, each of which must
     follow its command (correlation ≥ :data:`MIN_TRACKING_CORRELATION`).
     """
@@ -641,7 +655,7 @@ def _tracking_delay(d: LogData, arg: str) -> float:
                 f"{MIN_TRACKING_CORRELATION})"
             )
         lags.append(lag)
-    return float(min(lags)) + d.spec.sensors.delay
+    return float(min(lags))
 
 
 # ---- dead-zone thresholds against the open-loop error spread (Fig. 9, Eq. 27) -------------
