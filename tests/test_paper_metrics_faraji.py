@@ -627,3 +627,58 @@ def test_the_neck_is_the_torso_top_or_the_shoulder_axes() -> None:
     lab = load_robot("coman_lab").mj_model
     shoulder = lab.body("l_shoulder_pitch_link").id
     assert _neck_offset(lab) == pytest.approx(float(lab.body_pos[shoulder, 2]))
+
+
+# ---- rotation after a strong push (Fig. 17) and knee speed saturation (Fig. 6) -------------
+
+
+def _turning(
+    tmp_path: Path, yaw_rate: float, knee_speed: float, outcome: str = "complete"
+) -> LogData:
+    """4 s at home: the pelvis turns about the vertical at ``yaw_rate`` [rad/s] from 2 s and
+    the knees' motor shafts swing at up to ``knee_speed`` [rad/s] (a 1.25 Hz sine)."""
+    robot = load_robot(ROBOT)
+    model = mujoco.MjModel.from_xml_path(str(robot.xml_path))
+    dofs = [int(model.jnt_dofadr[model.joint(f"{s}_knee_motor").id]) for s in "lr"]
+    q0 = Poser(ROBOT).home
+    ticks = []
+    for k in range(int(round(4.0 / DT)) + 1):
+        t = k * DT
+        yaw = yaw_rate * max(0.0, t - 2.0)
+        qpos, qvel = q0.copy(), np.zeros(model.nv)
+        qpos[3:7] = [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
+        qvel[dofs] = knee_speed * math.sin(2 * math.pi * 1.25 * t)
+        ticks.append(Tick(t, qpos=qpos, qvel=qvel))
+    if outcome == "fell":
+        ticks[-1].events = [{"kind": "fall", "reason": "pelvis low"}]
+    spec = make_spec(ROBOT, 4.0, controller={"type": "timeprojection", "params": {}})
+    return write_log(tmp_path / "turn.mcap", ticks, spec, outcome)
+
+
+def test_pelvis_that_turns_after_the_push(tmp_path: Path) -> None:
+    """A pelvis turning at 0.1 rad/s from 2 s has turned 0.2 rad by 4 s (Fig. 17 holds)."""
+    d = _turning(tmp_path, 0.1, 0.0)
+    assert measured(d, "pelvis_yaw_change:1-4") == pytest.approx(0.2, abs=2e-3)
+
+
+def test_pelvis_that_keeps_its_heading(tmp_path: Path) -> None:
+    """A pelvis that never turns has no rotation (Fig. 17's claim fails)."""
+    assert measured(_turning(tmp_path, 0.0, 0.0), "pelvis_yaw_change:1-4") == pytest.approx(0.0)
+
+
+def test_pelvis_rotation_of_a_fall_is_not_measured(tmp_path: Path) -> None:
+    """A run that falls inside the window has no rotation to report."""
+    d = _turning(tmp_path, 0.1, 0.0, outcome="fell")
+    assert "before the end of the window" in unmeasurable_reason(d, "pelvis_yaw_change:1-8")
+
+
+def test_knee_motor_at_the_voltage_bound(tmp_path: Path) -> None:
+    """Knee shafts swinging at up to 2.43 rad/s peak at the paper's bound (Fig. 6 holds)."""
+    d = _turning(tmp_path, 0.0, 2.43)
+    assert measured(d, "peak_knee_motor_speed:0.5-3.5") == pytest.approx(2.43, abs=1e-3)
+
+
+def test_slow_knee_motor_is_not_saturated(tmp_path: Path) -> None:
+    """Knee shafts swinging at 1 rad/s stay far below the 2.43 rad/s bound (Fig. 6 fails)."""
+    d = _turning(tmp_path, 0.0, 1.0)
+    assert measured(d, "peak_knee_motor_speed") == pytest.approx(1.0, abs=1e-3)

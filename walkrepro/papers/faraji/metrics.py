@@ -1142,3 +1142,67 @@ def _max_touchdown_lead(d: LogData, arg: str) -> float:
     complete swing when happening earlier than expected". The largest of
     :func:`touchdown_leads` in the window (see ``touchdown_lead``)."""
     return float(np.max(_leads(d, arg)))
+
+
+@metric(
+    "touchdown_lead_spread",
+    "standard deviation over the swings of the touchdown's lead on the gait's phase change "
+    "it belongs to [s] (as touchdown_lead; arg 't0-t1'): how irregular the touchdowns are "
+    "against the fixed timing",
+    arg=window_check,
+)
+def _touchdown_lead_spread(d: LogData, arg: str) -> float:
+    """Paper II, In-Place Walking without dead-zones and Fig. 15: "actual phase change
+    moments might happen earlier or later", "unexpected touchdown events". The standard
+    deviation of :func:`touchdown_leads` in the window (at least two swings)."""
+    leads = _leads(d, arg)
+    if leads.size < 2:
+        raise NotMeasurable(f"{leads.size} touchdown in the window {arg}: no spread")
+    return float(np.std(leads))
+
+
+@metric(
+    "pelvis_yaw_change",
+    "largest |pelvis yaw − its yaw at t0| over the window 't0-t1' [rad] (arg required; the "
+    "run must reach t1)",
+    arg=window_check,
+)
+def _pelvis_yaw_change(d: LogData, arg: str) -> float:
+    """Paper II, Strong Pushes and Fig. 17: "a transverse slippage happens in the right foot
+    which rotates the robot slightly". The rotation about the vertical of the floating base
+    (the pelvis, ``qpos[3:7]``, w-x-y-z) from the window's start, unwrapped; a fall inside
+    the window makes it not measurable."""
+    if not arg:
+        raise MetricArgError("needs a window, e.g. pelvis_yaw_change:4-8")
+    lo, hi = _window_or_run(d, arg)
+    inside = (d.t >= lo) & (d.t <= hi)
+    if inside.sum() < 2:
+        raise NotMeasurable(f"fewer than two states in the window {arg}")
+    w, x, y, z = d.qpos[inside, 3:7].T
+    yaw = np.unwrap(np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))
+    return float(np.max(np.abs(yaw - yaw[0])))
+
+
+@metric(
+    "peak_knee_motor_speed",
+    "largest |velocity| of the knees' motor shafts (joints '*_knee_motor') [rad/s] (arg "
+    "'t0-t1': over that window, which the run must reach)",
+    arg=window_check,
+)
+def _peak_knee_motor_speed(d: LogData, arg: str) -> float:
+    """Paper II, Actuator Limitations and Fig. 6: "a leg lift of 2 – 3 cm cannot be
+    completely realized due to saturated knee velocities" (θ̇_max = ± 2.43 rad/s at 15 V).
+    The logged motor-side joint velocities (``qvel``) of the series-elastic knees, the
+    shaft the 15 V bound acts on."""
+    lo, hi = _window_or_run(d, arg)
+    model = d.model
+    dofs = [
+        int(model.jnt_dofadr[j])
+        for j in range(model.njnt)
+        if (mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or "").endswith("_knee_motor")
+    ]
+    if not dofs:
+        raise NotMeasurable("the robot has no knee motor joints ('*_knee_motor')")
+    d.require_states(2)
+    inside = (d.t >= lo) & (d.t <= hi)
+    return float(np.max(np.abs(d.qvel[np.ix_(inside, dofs)])))
