@@ -276,3 +276,17 @@ def test_touchdown_lead_needs_the_gait_clock(tmp_path: Path) -> None:
     ticks = [Tick(round(k * DT, 6)) for k in range(20)]
     d = write_log(tmp_path / "clock.mcap", ticks, make_spec(ROBOT, 0.2))
     assert "0 phase change(s) logged" in unmeasurable_reason(d, "touchdown_lead")
+
+
+# ---- touchdown irregularity without dead-zones (Fig. 15) -------------------------------------
+
+
+def test_regular_touchdowns_have_no_spread(paper_gait: LogData) -> None:
+    """Feet that all land on the phase changes have a touchdown spread of 0 (Fig. 15 fails)."""
+    assert measured(paper_gait, "touchdown_lead_spread") == pytest.approx(0.0, abs=1e-9)
+
+
+def test_early_and_late_touchdowns_spread(tmp_path: Path) -> None:
+    """Feet landing 40 ms early and 40 ms late in turn spread by 40 ms (Fig. 15 holds)."""
+    d = _gait_log(tmp_path / "irregular.mcap", lead=lambda j: 0.04 if j % 2 else -0.04)
+    assert measured(d, "touchdown_lead_spread") == pytest.approx(0.04, abs=2e-3)

@@ -302,11 +302,25 @@ def _max_adjustment(d: LogData, arg: str) -> float:
     return float(np.max(np.abs(v)))
 
 
-@metric("max_footstep_adjustment_raw", "largest |footstep adjustment| before truncation [m]")
+@metric(
+    "max_footstep_adjustment_raw",
+    "largest |footstep adjustment| before truncation [m] (arg 't0-t1': over that window, "
+    "which the run must reach without a fall)",
+    arg=window_check,
+)
 def _max_adjustment_raw(d: LogData, arg: str) -> float:
-    """Pre-fall. Reads ``footstep_raw`` (the adjustment before truncation, Fig. 16)."""
-    _, v = d.require_signal("footstep_raw")
-    return float(np.max(np.abs(v)))
+    """Pre-fall. Reads ``footstep_raw`` (the adjustment before truncation, Fig. 17).
+
+    With a window ``t0-t1`` the data must reach its end: a robot falling inside it asks
+    for any footstep while it falls, so a raw adjustment read there says nothing about a
+    recovery (Fig. 17's strong push is recovered "despite a safety threshold").
+    """
+    lo, hi = _window_or_run(d, arg)
+    t, v = d.require_signal("footstep_raw")
+    inside = (t >= lo) & (t <= hi)
+    if not inside.any():
+        raise NotMeasurable(f"no footstep adjustment logged in the window {arg}")
+    return float(np.max(np.abs(v[inside])))
 
 
 class Landings(NamedTuple):
@@ -613,8 +627,8 @@ def _tracking_delay(d: LogData, arg: str) -> float:
     read back. Here that is the lag of the link angle of the logged state (motor plus
     spring for a series-elastic joint) behind the servo's target (``ctrl``, logged every
     physics step), which is everything between the controller's output and the link's
-    motion (servo, motor, spring, load), plus the spec's sensing delay (``sensors.delay``,
-    by which every reading reaches the controller late). Window ``@t0-t1`` (default: the
+    motion (servo, motor, spring, load). A sensing delay the spec adds (``sensors.delay``)
+    is not counted: it is an input of the run, and a row on it could not fail. Window ``@t0-t1`` (default: the
     whole pre-fall run); the smallest lag over the matching joints, each of which must
     follow its command (correlation ≥ :data:`MIN_TRACKING_CORRELATION`).
     """
@@ -641,7 +655,7 @@ def _tracking_delay(d: LogData, arg: str) -> float:
                 f"{MIN_TRACKING_CORRELATION})"
             )
         lags.append(lag)
-    return float(min(lags)) + d.spec.sensors.delay
+    return float(min(lags))
 
 
 # ---- dead-zone thresholds against the open-loop error spread (Fig. 9, Eq. 27) -------------
@@ -1128,3 +1142,67 @@ def _max_touchdown_lead(d: LogData, arg: str) -> float:
     complete swing when happening earlier than expected". The largest of
     :func:`touchdown_leads` in the window (see ``touchdown_lead``)."""
     return float(np.max(_leads(d, arg)))
+
+
+@metric(
+    "touchdown_lead_spread",
+    "standard deviation over the swings of the touchdown's lead on the gait's phase change "
+    "it belongs to [s] (as touchdown_lead; arg 't0-t1'): how irregular the touchdowns are "
+    "against the fixed timing",
+    arg=window_check,
+)
+def _touchdown_lead_spread(d: LogData, arg: str) -> float:
+    """Paper II, In-Place Walking without dead-zones and Fig. 15: "actual phase change
+    moments might happen earlier or later", "unexpected touchdown events". The standard
+    deviation of :func:`touchdown_leads` in the window (at least two swings)."""
+    leads = _leads(d, arg)
+    if leads.size < 2:
+        raise NotMeasurable(f"{leads.size} touchdown in the window {arg}: no spread")
+    return float(np.std(leads))
+
+
+@metric(
+    "pelvis_yaw_change",
+    "largest |pelvis yaw − its yaw at t0| over the window 't0-t1' [rad] (arg required; the "
+    "run must reach t1)",
+    arg=window_check,
+)
+def _pelvis_yaw_change(d: LogData, arg: str) -> float:
+    """Paper II, Strong Pushes and Fig. 17: "a transverse slippage happens in the right foot
+    which rotates the robot slightly". The rotation about the vertical of the floating base
+    (the pelvis, ``qpos[3:7]``, w-x-y-z) from the window's start, unwrapped; a fall inside
+    the window makes it not measurable."""
+    if not arg:
+        raise MetricArgError("needs a window, e.g. pelvis_yaw_change:4-8")
+    lo, hi = _window_or_run(d, arg)
+    inside = (d.t >= lo) & (d.t <= hi)
+    if inside.sum() < 2:
+        raise NotMeasurable(f"fewer than two states in the window {arg}")
+    w, x, y, z = d.qpos[inside, 3:7].T
+    yaw = np.unwrap(np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))
+    return float(np.max(np.abs(yaw - yaw[0])))
+
+
+@metric(
+    "peak_knee_motor_speed",
+    "largest |velocity| of the knees' motor shafts (joints '*_knee_motor') [rad/s] (arg "
+    "'t0-t1': over that window, which the run must reach)",
+    arg=window_check,
+)
+def _peak_knee_motor_speed(d: LogData, arg: str) -> float:
+    """Paper II, Actuator Limitations and Fig. 6: "a leg lift of 2 – 3 cm cannot be
+    completely realized due to saturated knee velocities" (θ̇_max = ± 2.43 rad/s at 15 V).
+    The logged motor-side joint velocities (``qvel``) of the series-elastic knees, the
+    shaft the 15 V bound acts on."""
+    lo, hi = _window_or_run(d, arg)
+    model = d.model
+    dofs = [
+        int(model.jnt_dofadr[j])
+        for j in range(model.njnt)
+        if (mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or "").endswith("_knee_motor")
+    ]
+    if not dofs:
+        raise NotMeasurable("the robot has no knee motor joints ('*_knee_motor')")
+    d.require_states(2)
+    inside = (d.t >= lo) & (d.t <= hi)
+    return float(np.max(np.abs(d.qvel[np.ix_(inside, dofs)])))
