@@ -319,16 +319,15 @@ def claims(
         width = max((len(r.claim.id) for r in results), default=0)
         for r in results:
             colour = _CLAIM_COLOURS.get(r.status, "default")
-            rows = "; ".join(t.text for t in r.rows) if details else _rows_brief(r.rows)
-            why = f" ({r.claim.uncheckable})" if r.claim.uncheckable and details else ""
+            brief = "" if details else f"  {_rows_brief(r.rows)}"
+            line = f"  [{colour}]{r.status:<11}[/] {escape(r.claim.id):<{width}}{escape(brief)}"
             console.print(
-                f"  [{colour}]{r.status:<11}[/] {escape(r.claim.id):<{width}}  "
-                f"{escape(r.claim.where)}  {escape(rows)}{escape(why)}",
+                line.rstrip(),
                 highlight=False,
                 soft_wrap=True,
             )
             if details:
-                console.print(f"      “{escape(r.claim.words)}”", highlight=False, soft_wrap=True)
+                _print_claim_details(console, r)
         console.print(
             f"{key}: the paper's claims: {totals.claims_text()}; walkrepro's own rows: {totals.own}",
             highlight=False,
@@ -336,6 +335,16 @@ def claims(
         failed |= totals.by_status[FAILED] > 0
     if failed:
         raise typer.Exit(code=1)
+
+
+def _print_claim_details(console: Console, result: Any) -> None:  # ClaimResult
+    """A claim's where, words, uncheckable reason and every row, indented under it."""
+    lines = [f"{result.claim.where} ({result.claim.kind}): “{result.claim.words}”"]
+    if result.claim.uncheckable:
+        lines.append(f"uncheckable: {result.claim.uncheckable}")
+    lines += [f"row: {t.text}" for t in result.rows]
+    for line in lines:
+        console.print(f"      {escape(line)}", highlight=False, soft_wrap=True)
 
 
 _CLAIM_COLOURS = {

@@ -54,10 +54,15 @@ class RowVerdict:
 
     @property
     def text(self) -> str:
-        """``experiment metric = value (status)``."""
+        """``experiment metric = value (status)``; a map claim: ``exp · map MAP: claim =
+        contradicting cells (status)``."""
         value = self.measured
         shown = "not measured" if value is None or value != value else f"{value:.4g}"
-        return f"{self.experiment} {self.metric} = {shown} ({self.status})"
+        metric = self.metric
+        if MAP_MARK in self.experiment:  # the label repeats the map's name: "map NAME: ..."
+            metric = metric.split(": ", 1)[-1]
+            return f"{self.experiment}: {metric} = {shown} ({self.status})"
+        return f"{self.experiment} {metric} = {shown} ({self.status})"
 
 
 @dataclass(frozen=True)
