@@ -162,22 +162,23 @@ def _collision(
     pelvis_speed: float,
     contact: bool = True,
     outcome: str = "complete",
+    sideways: bool = False,
 ) -> LogData:
     """The right foot touches the box at 0.1–0.15 s (unless not ``contact``); the left foot
     swings 5 cm in 0.2–0.5 s while the pelvis, and the feet with it, move at ``pelvis_speed``
-    [m/s] (0.6 s)."""
+    [m/s] (0.6 s), forward or ``sideways`` (+y)."""
     ticks = []
     lx, ly, _ = home_sole(ROBOT, "left_foot")
     rx, ry, _ = home_sole(ROBOT, "right_foot")
     for k in range(60):
         t = k * DT
         s = min(max((t - 0.2) / 0.3, 0.0), 1.0)
-        px = pelvis_speed * t
-        left = (lx + px + 0.05 * s, ly, 0.04 * math.sin(math.pi * s))
+        px, py = (0.0, pelvis_speed * t) if sideways else (pelvis_speed * t, 0.0)
+        left = (lx + px + 0.05 * s, ly + py, 0.04 * math.sin(math.pi * s))
         pairs = standing_pairs(ROBOT, ["right_foot"] if 0.2 <= t < 0.5 else FEET)
         if contact and 10 <= k < 15:
             pairs["right_foot/obstacle_box"] = [-20.0, 0.0, 0.0, 0.0, 0.0, 0.0]
-        qpos = poser((px, 0, 0), left_foot=left, right_foot=(rx + px, ry, 0.0))
+        qpos = poser((px, py, 0), left_foot=left, right_foot=(rx + px, ry + py, 0.0))
         ticks.append(Tick(t, qpos=qpos, pairs=pairs))
     if outcome == "fell":
         ticks[-1].events = [{"kind": "fall", "reason": "pelvis low"}]
@@ -199,21 +200,27 @@ def test_no_contact_no_collision_time(poser: Poser, tmp_path: Path) -> None:
 def test_stepping_in_place_after_the_collision(poser: Poser, tmp_path: Path) -> None:
     """A pelvis that stays put while the left foot steps has moved < 0.1 m: in place."""
     d = _collision(poser, tmp_path, 0.0)
-    assert measured(d, "pelvis_shift_after_contact:right_foot/obstacle*") < 0.01
+    assert measured(d, "pelvis_advance_after_contact:right_foot/obstacle*") < 0.01
 
 
 def test_walking_on_after_the_collision(poser: Poser, tmp_path: Path) -> None:
     """A pelvis that walks on at 0.4 m/s (0.2 m after the contact) fails "in the same place"."""
     d = _collision(poser, tmp_path, 0.4)
-    shift = measured(d, "pelvis_shift_after_contact:right_foot/obstacle*")
+    shift = measured(d, "pelvis_advance_after_contact:right_foot/obstacle*")
     assert shift == pytest.approx(0.4 * (0.59 - 0.1), abs=0.01)
     assert shift > 0.1
+
+
+def test_sideways_sway_stays_in_place(poser: Poser, tmp_path: Path) -> None:
+    """A pelvis swaying 0.2 m sideways (stepping in place shifts the weight) is still in place."""
+    d = _collision(poser, tmp_path, 0.4, sideways=True)
+    assert measured(d, "pelvis_advance_after_contact:right_foot/obstacle*") < 0.01
 
 
 def test_pelvis_shift_not_measurable_after_a_fall(poser: Poser, tmp_path: Path) -> None:
     """A run that falls after the collision does not answer "in the same place"."""
     d = _collision(poser, tmp_path, 0.0, outcome="fell")
-    assert "fell" in unmeasurable_reason(d, "pelvis_shift_after_contact:right_foot/obstacle*")
+    assert "fell" in unmeasurable_reason(d, "pelvis_advance_after_contact:right_foot/obstacle*")
 
 
 # ---- §VI-C: the hold until the release starts, and DS after the release -------------------

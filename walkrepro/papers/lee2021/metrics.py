@@ -572,21 +572,23 @@ def _first_contact_time(d: LogData, arg: str) -> float:
 
 
 @metric(
-    "pelvis_shift_after_contact",
-    "horizontal distance the pelvis moves from the first contact on pairs 'body/geom' = arg "
-    "(default right_foot/obstacle*) to the end of the run [m]",
+    "pelvis_advance_after_contact",
+    "distance the pelvis moves along the walking direction (world x) from the first contact "
+    "on pairs 'body/geom' = arg (default right_foot/obstacle*) to the end of the run [m]",
     arg=any_argument,
 )
-def _pelvis_shift_after_contact(d: LogData, arg: str) -> float:
+def _pelvis_advance_after_contact(d: LogData, arg: str) -> float:
     """Completed (§VI-B: the robot "walks repetitively in the same place after the right foot
-    is blocked", judged over the rest of the run): the pelvis's horizontal displacement, from
-    the logged state, between the first contact and the run's last state."""
+    is blocked", judged over the rest of the run): |Δx| of the pelvis, from the logged state,
+    between the first contact and the run's last state. Along the walking direction (world
+    x in every Paper I spec) only: stepping in place sways the pelvis sideways by up to the
+    step width, which is no leaving of the place."""
     d.require_states()
     d.require_contacts()
     t_hit = _first_obstacle_contact(d, arg or "right_foot/obstacle*")
     d.require_completed("the run after the collision was completed")
     i0 = int(d.state_index(np.array([t_hit]))[0])
-    return float(np.linalg.norm(d.qpos[-1, :2] - d.qpos[i0, :2]))
+    return float(abs(d.qpos[-1, 0] - d.qpos[i0, 0]))
 
 
 @metric(
