@@ -18,6 +18,7 @@ import math
 
 import mujoco
 import numpy as np
+import scipy.stats
 
 from walkrepro.errors import UnknownNameError
 from walkrepro.evaluation.metrics import (
@@ -251,6 +252,58 @@ def _first_ssd_duration(d: LogData, arg: str) -> float:
     return visits[0][1] - visits[0][0]
 
 
+def duration_distance_correlation(
+    visits: list[tuple[float, float]], t: np.ndarray, com_x: np.ndarray, cop_x: np.ndarray
+) -> float:
+    """Spearman rank correlation of visit durations with their mean CoM–CoP distance [-].
+
+    Args:
+        visits: (start, end) [s] of the E-FSM state's complete visits.
+        t: single-support sample times (N,) [s]; com_x, cop_x: CoM and measured CoP along
+            x of O_w at those times (N,) [m], cop_x NaN where the floor carries nothing.
+
+    Returns:
+        in [−1, 1]: < 0 when the visits with the CoM nearer its CoP last longer (Eq. 1: the
+        CoM's acceleration is proportional to x_m − x_p). Visits without a measured CoP are
+        left out.
+
+    Raises:
+        NotMeasurable: fewer than three visits with a CoP, or all durations or all distances
+            equal (no ranking).
+    """
+    durations, distances = [], []
+    for a, b in visits:
+        keep = (t >= a) & (t < b) & np.isfinite(cop_x)
+        if np.any(keep):
+            durations.append(b - a)
+            distances.append(float(np.mean(np.abs(com_x[keep] - cop_x[keep]))))
+    if len(durations) < 3:
+        raise NotMeasurable(f"{len(durations)} visit(s) with a measured CoP, fewer than 3")
+    if np.ptp(durations) == 0 or np.ptp(distances) == 0:
+        raise NotMeasurable("the visits' durations or distances are all equal")
+    return float(scipy.stats.spearmanr(durations, distances).statistic)
+
+
+@metric(
+    "duration_cop_distance_corr",
+    "Spearman correlation of an E-FSM state's visit durations (arg SSD|SSA) with the mean "
+    "|x_m − x_p| along x of O_w over each visit (Fig. 7b: < 0, nearer CoM and CoP, longer "
+    "state) [-]",
+    arg=choice_check("SSD", "SSA"),
+)
+def _duration_cop_distance_corr(d: LogData, arg: str) -> float:
+    """Pre-fall. §VI-A, Fig. 7(b): where the CoM–CoP distance is marginal the CoM
+    decelerates slowly and SSD lasts longer; where it is greater SSD and SSA are shorter.
+    Durations from the E-FSM's phases (``efsm_phase``: the claim is about its states), the
+    first visit left out as in ``phase_duration_spread``; CoM and CoP are the simulated
+    ones (logged state, floor contact wrench, :class:`SingleSupport`)."""
+    phase = PHASES[arg or "SSD"]
+    ss = SingleSupport(d)
+    on = ss.phase == phase
+    visits = _visits(d, phase)[1:]
+    return duration_distance_correlation(visits, ss.t[on], ss.com_x[on], ss.cop_x[on])
+
+
 def _com_world(d: LogData) -> np.ndarray:
     """The robot's CoM in the world at every logged state, (N, 3) [m] (cached on ``d``)."""
     cached = d.__dict__.get("_lee_com_world")
@@ -426,20 +479,62 @@ def _switch_torque_jump(d: LogData, arg: str) -> float:
     return float(np.max(jumps))
 
 
+#: A supporting foot moves (violates the stationary contact, §VI-D2) above this sole
+#: centre speed [m/s]: the speed below which a blocked swing foot counts as still.
+SUPPORT_MOVING_SPEED = 0.02
+
+
 @metric(
     "cop_error_p90",
-    "90th percentile of |expected − measured CoP| while walking (Fig. 15) [m]",
+    "90th percentile of |expected − measured CoP| while walking (Fig. 15); arg "
+    "'support_moving': only the ticks at which a supporting foot moves [m]",
+    arg=choice_check("support_moving"),
 )
 def _cop_error_p90(d: LogData, arg: str) -> float:
     """Pre-fall. Reads ``cop_exp_world`` (the expected CoP of Eqs. 18, 22 from the reference
-    torques) and ``cop_meas_world`` (the F/T sensors' CoP): Fig. 15 compares exactly these."""
-    _, exp = d.require_signal("cop_exp_world")
+    torques) and ``cop_meas_world`` (the F/T sensors' CoP): Fig. 15 compares exactly these.
+    With ``support_moving``, only the ticks at which a foot the E-FSM counts as supporting
+    (``swing_foot``: both in DS, the other foot in single support) moves, its sole centre
+    faster than ``SUPPORT_MOVING_SPEED`` in the logged state (§VI-D2: the error "tends not
+    to vary noticeably even when a supporting foot moves")."""
+    t, exp = d.require_signal("cop_exp_world")
     _, meas = d.require_signal("cop_meas_world")
     _, valid = d.require_signal("cop_meas_valid")
-    err = np.linalg.norm(exp - meas, axis=1)[valid > 0]
+    keep = valid > 0
+    if arg == "support_moving":
+        keep &= support_moving(d, t)
+    err = np.linalg.norm(exp - meas, axis=1)[keep]
+    if not err.size and arg:
+        raise NotMeasurable(
+            f"no tick with a measured CoP while a supporting foot moved{d.stopped_note()}"
+        )
     if not err.size:
         raise NotMeasurable("the measured CoP was never valid (no foot loaded)")
     return float(np.percentile(err, 90))
+
+
+def support_moving(d: LogData, times: np.ndarray) -> np.ndarray:
+    """Whether a supporting foot's sole centre moves faster than ``SUPPORT_MOVING_SPEED``.
+
+    Args:
+        d: the log; ``swing_foot`` says which feet support (1: the right swings, so the left
+            supports; −1: the reverse; 0: DS, both support).
+        times: control ticks (n,) [s].
+
+    Returns:
+        shape (n,) bool.
+    """
+    d.require_states(2)
+    t_sw, swing = d.require_signal("swing_foot")
+    swing = swing[np.clip(np.searchsorted(t_sw, times), 0, t_sw.size - 1)]
+    i = d.state_index(times)
+    moving = {}
+    for side, track in _sole_tracks(d).items():
+        speed = np.r_[0.0, np.linalg.norm(np.diff(track, axis=0), axis=1) / np.diff(d.t)]
+        moving[side] = speed[i] > SUPPORT_MOVING_SPEED
+    left_supports = swing != -1.0
+    right_supports = swing != 1.0
+    return (left_supports & moving["left"]) | (right_supports & moving["right"])
 
 
 def _first_obstacle_contact(d: LogData, pattern: str) -> float:
@@ -462,6 +557,38 @@ def _steps_after_contact(d: LogData, arg: str) -> float:
     t_hit = _first_obstacle_contact(d, arg or "right_foot/obstacle*")
     d.require_completed("the run after the collision was completed")
     return float(sum(1 for s in d.footsteps if s.t > t_hit))
+
+
+@metric(
+    "first_contact_time",
+    "time of the first contact on pairs 'body/geom' = arg (default right_foot/obstacle*) [s]",
+    arg=any_argument,
+)
+def _first_contact_time(d: LogData, arg: str) -> float:
+    """Pre-fall (§VI-B: "the collision at t ≈ 4.5 s"): the first logged contact force above
+    ``OBSTACLE_CONTACT_FORCE`` on the pairs; not measurable when there is none."""
+    d.require_contacts()
+    return _first_obstacle_contact(d, arg or "right_foot/obstacle*")
+
+
+@metric(
+    "pelvis_advance_after_contact",
+    "distance the pelvis moves along the walking direction (world x) from the first contact "
+    "on pairs 'body/geom' = arg (default right_foot/obstacle*) to the end of the run [m]",
+    arg=any_argument,
+)
+def _pelvis_advance_after_contact(d: LogData, arg: str) -> float:
+    """Completed (§VI-B: the robot "walks repetitively in the same place after the right foot
+    is blocked", judged over the rest of the run): |Δx| of the pelvis, from the logged state,
+    between the first contact and the run's last state. Along the walking direction (world
+    x in every Paper I spec) only: stepping in place sways the pelvis sideways by up to the
+    step width, which is no leaving of the place."""
+    d.require_states()
+    d.require_contacts()
+    t_hit = _first_obstacle_contact(d, arg or "right_foot/obstacle*")
+    d.require_completed("the run after the collision was completed")
+    i0 = int(d.state_index(np.array([t_hit]))[0])
+    return float(abs(d.qpos[-1, 0] - d.qpos[i0, 0]))
 
 
 @metric(
@@ -493,11 +620,29 @@ def _ds_entries(d: LogData) -> list[float]:
     return [e["t"] for e in d.events if e.get("kind") == "fsm" and e.get("to") == "DS"]
 
 
-@metric("ds_entries_during_push", "E-FSM transitions into DS while the push acts")
+def _release_start(d: LogData, t1: float) -> float:
+    """When the spec's first disturbance starts to let go [s]: a ramp's fall starts
+    ``ramp_time`` before the window's end ``t1`` (a hand that "reduces the pushing force",
+    §VI-C); any other profile lets go at ``t1``."""
+    dist = d.spec.disturbances[0]
+    return t1 - float(dist.ramp_time) if dist.profile == "ramp" else t1
+
+
+@metric(
+    "ds_entries_during_push",
+    "E-FSM transitions into DS while the push acts; arg 'held': only until the release "
+    "starts (a ramp's fall)",
+    arg=choice_check("held"),
+)
 def _ds_entries_during_push(d: LogData, arg: str) -> float:
     """Window (the whole push must be logged). Reads the E-FSM's transition events: Fig.
-    12(a)'s claim is that the E-FSM stays in SSA while the upper body is held."""
+    12(a)'s claim is that the E-FSM stays in SSA while the upper body is held. With ``held``
+    the window ends where the hand starts to let go (Fig. 13: "the transit from the
+    SSA-state to the DS-state does not occur" while the human holds; §VI-C: DS follows once
+    the human "reduces the pushing force")."""
     t0, t1 = _push_window(d)
+    if arg == "held":
+        t1 = _release_start(d, t1)
     return float(sum(1 for t in _ds_entries(d) if t0 < t <= t1))
 
 
@@ -508,6 +653,18 @@ def _ds_delay_after_push(d: LogData, arg: str) -> float:
     12(a)(b): DS starts when the CP reaches x_s − r)."""
     _, t1 = _push_window(d)
     return _next_ds_delay(d, t1, "the E-FSM entered DS after the push")
+
+
+@metric(
+    "ds_delay_after_release",
+    "time from the start of the push's release (a ramp's fall) to the next DS [s] (inf: never)",
+)
+def _ds_delay_after_release(d: LogData, arg: str) -> float:
+    """Completed: as ``ds_delay_after_push``, counted from where the hand starts to let go
+    (§VI-C: the human "reduces the pushing force on the robot from t ≈ 27.4 s" and DS
+    commences at t ≈ 28.2 s). A DS entered before the release started does not count."""
+    _, t1 = _push_window(d)
+    return _next_ds_delay(d, _release_start(d, t1), "the E-FSM entered DS after the release")
 
 
 @metric("ds_delay_after_onset", "time from the push's onset to the next DS [s] (inf: never)")
