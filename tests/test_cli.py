@@ -374,12 +374,15 @@ def test_forward_walks_verdict_fits_in_thirty_lines(capsys: pytest.CaptureFixtur
             source=r["source"],
             note=r["note"],
             observed=tuple(observed) if isinstance(observed, list) else observed,
+            claim=r.get("claim"),
+            own=r.get("own"),
         )
 
     verdict = Verdict("forward_walk", saved["outcome"], tuple(row(r) for r in saved["rows"]))
     _print_verdicts([verdict], details=False, per_claim=True)
     printed = capsys.readouterr().out.strip().splitlines()
-    assert len(printed) == len(verdict.rows) + 1 + sum(
+    # one line per row, the paper's claims line, the all-rows line, and the failures' details
+    assert len(printed) == len(verdict.rows) + 2 + sum(
         3 if r.note else 2 for r in verdict.rows if r.status == "fail"
     )
     assert len(printed) + 4 <= 30  # + run directory, figures, video, the progress bar

@@ -119,6 +119,7 @@ def test_spec_is_a_leaf_of_walkrepro() -> None:
         "walkrepro.errors",
         "walkrepro.specs.origin",
         "walkrepro.specs.sweeps",
+        "walkrepro.specs.tags",
     }
 
 
