@@ -213,8 +213,27 @@ def test_an_uncovered_claim_without_a_reason_is_a_problem(tmp_path: Path) -> Non
     spec = _spec([_row(claim="walk.speed")])
     assert _problems(spec, tmp_path) == [
         "lee2021: claim 'walk.no-fall' (Fig. 6) is tested by no row and gives no "
-        "uncheckable: <reason>"
+        "reason (uncheckable: <why> or not_covered: <why>)"
     ]
+
+
+def test_an_uncovered_claim_with_a_reason_counts_not_covered(tmp_path: Path) -> None:
+    """``not_covered: <why>`` lets a checkable claim go without a row, counted not covered."""
+    text = REGISTER.replace(
+        '    kind: no_fall\n', '    kind: no_fall\n    not_covered: "needs a longer walk"\n'
+    )
+    spec = _spec([_row(claim="walk.speed")])
+    registers = {"lee2021": load_register(_register(tmp_path, text)).model}
+    assert tagging_problems([spec], registers) == []
+
+
+def test_a_claim_cannot_be_both_uncheckable_and_not_covered(tmp_path: Path) -> None:
+    text = REGISTER.replace(
+        '    uncheckable: "about the lab\'s hardware"\n',
+        '    uncheckable: "about the lab\'s hardware"\n    not_covered: "later"\n',
+    )
+    with pytest.raises(SpecError, match="not both"):
+        load_register(_register(tmp_path, text))
 
 
 # --------------------------------------------------------------------------------------

@@ -342,6 +342,8 @@ def _print_claim_details(console: Console, result: Any) -> None:  # ClaimResult
     lines = [f"{result.claim.where} ({result.claim.kind}): “{result.claim.words}”"]
     if result.claim.uncheckable:
         lines.append(f"uncheckable: {result.claim.uncheckable}")
+    if result.claim.not_covered:
+        lines.append(f"not covered: {result.claim.not_covered}")
     lines += [f"row: {t.text}" for t in result.rows]
     for line in lines:
         console.print(f"      {escape(line)}", highlight=False, soft_wrap=True)

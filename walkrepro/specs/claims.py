@@ -19,7 +19,14 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from walkrepro.errors import SpecError, UnknownNameError
 from walkrepro.locations import EXPERIMENTS_DIR
@@ -63,6 +70,8 @@ class Claim(_Strict):
             conditions) or no_fall.
         uncheckable: why no reproduction here can check it (None: it is checkable, and a
             row must test it).
+        not_covered: why a checkable claim has no row yet (what the row would need); it
+            counts ``not covered``. A claim with neither reason must have a row.
     """
 
     id: str = Field(pattern=ID_PATTERN)
@@ -70,6 +79,13 @@ class Claim(_Strict):
     words: str = Field(min_length=1)
     kind: ClaimKind
     uncheckable: str | None = Field(None, min_length=1)
+    not_covered: str | None = Field(None, min_length=1)
+
+    @model_validator(mode="after")
+    def _one_reason(self) -> Claim:
+        if self.uncheckable and self.not_covered:
+            raise ValueError("a claim is uncheckable or not covered, not both")
+        return self
 
 
 class Register(_Strict):
@@ -174,7 +190,8 @@ def tagging_problems(
 
     Returns one line per problem: a row or map claim with no tag; a ``claim:`` tag naming
     an id its paper's register lacks (or a paper with no register); a register claim that no
-    row tests and that carries no ``uncheckable`` reason. Empty when all is counted.
+    row tests and that carries neither an ``uncheckable`` nor a ``not_covered`` reason. Empty
+    when all is counted.
 
     Args:
         specs: the experiments (every shipped one, for the whole picture).
@@ -203,9 +220,9 @@ def tagging_problems(
                 tested.add((spec.paper.key, row.claim))
     for key, register in registers.items():
         for c in register.claims:
-            if (key, c.id) not in tested and not c.uncheckable:
+            if (key, c.id) not in tested and not (c.uncheckable or c.not_covered):
                 problems.append(
                     f"{key}: claim {c.id!r} ({c.where}) is tested by no row and gives no "
-                    "uncheckable: <reason>"
+                    "reason (uncheckable: <why> or not_covered: <why>)"
                 )
     return problems
