@@ -220,7 +220,7 @@ def test_an_uncovered_claim_without_a_reason_is_a_problem(tmp_path: Path) -> Non
 def test_an_uncovered_claim_with_a_reason_counts_not_covered(tmp_path: Path) -> None:
     """``not_covered: <why>`` lets a checkable claim go without a row, counted not covered."""
     text = REGISTER.replace(
-        '    kind: no_fall\n', '    kind: no_fall\n    not_covered: "needs a longer walk"\n'
+        "    kind: no_fall\n", '    kind: no_fall\n    not_covered: "needs a longer walk"\n'
     )
     spec = _spec([_row(claim="walk.speed")])
     registers = {"lee2021": load_register(_register(tmp_path, text)).model}

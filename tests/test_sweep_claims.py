@@ -452,6 +452,10 @@ def test_an_expectation_cannot_declare_unmeasurable_cells() -> None:
                 "op": "==",
                 "value": 0,
                 "source": "x",
-                "known_deviation": {"reason": "r", "observed": [1, 1], "unmeasurable_cells": [1, 1]},
+                "known_deviation": {
+                    "reason": "r",
+                    "observed": [1, 1],
+                    "unmeasurable_cells": [1, 1],
+                },
             }
         )
