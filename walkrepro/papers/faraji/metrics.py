@@ -1206,3 +1206,200 @@ def _peak_knee_motor_speed(d: LogData, arg: str) -> float:
     d.require_states(2)
     inside = (d.t >= lo) & (d.t <= hi)
     return float(np.max(np.abs(d.qvel[np.ix_(inside, dofs)])))
+
+
+# ---- early swing: the toes' release and the clearance (Figs. 11-12) -------------------------
+
+
+def _phase_fraction(arg: str) -> None:
+    try:
+        frac = float(arg)
+    except ValueError:
+        raise MetricArgError(
+            f"argument {arg!r} is not a fraction of the step time, e.g. 0.1 (t = 0.1 T)"
+        ) from None
+    if not 0.0 <= frac <= 1.0:
+        raise MetricArgError(f"the fraction of the step time {frac:g} is not in [0, 1]")
+
+
+#: Argument check of ``swing_foot_load`` and ``swing_toe_load``: a fraction of the step time,
+#: then optionally ``@t0-t1``.
+_swing_load_arg = qualified_check(_phase_fraction, parse_window)
+
+
+def _sole_frames(d: LogData, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Sole centres (n, foot: left, right, xyz) [m] and the soles' horizontal forward unit
+    axes (n, foot, xy) in the world, at given times, from the logged state."""
+    model, left, right, _ = _site_ids(d.log.scene_xml)
+    data = mujoco.MjData(model)
+    centres, axes = np.zeros((times.size, 2, 3)), np.zeros((times.size, 2, 2))
+    for k, i in enumerate(d.state_index(times)):
+        data.qpos[:] = d.qpos[i]
+        mujoco.mj_kinematics(model, data)
+        for j, site in enumerate((left, right)):
+            centres[k, j] = data.site_xpos[site]
+            forward = data.site_xmat[site].reshape(3, 3)[:2, 0]  # the sole's x axis, horizontal
+            axes[k, j] = forward / max(float(np.linalg.norm(forward)), 1e-12)
+    return centres, axes
+
+
+def early_swing_loads(fz: np.ndarray, cop_ahead: np.ndarray | None, weight: float) -> np.ndarray:
+    """Vertical load of each starting swing foot as a fraction of the weight [-], counting
+    only contact on the toe half of the sole when ``cop_ahead`` is given.
+
+    Args:
+        fz: vertical contact force on the foot that begins its swing, one per phase change,
+            shape (n,) [N].
+        cop_ahead: that foot's centre of pressure ahead of its sole centre along the sole's
+            forward axis, shape (n,) [m], or None to count any contact.
+        weight: robot weight m g [N].
+    """
+    load = np.maximum(fz, 0.0) / weight
+    if cop_ahead is not None:
+        load = np.where(cop_ahead > 0.0, load, 0.0)
+    return load
+
+
+def _early_swing_load(d: LogData, arg: str, toes: bool) -> float:
+    """The largest :func:`early_swing_loads` over the window's phase changes (see
+    ``swing_foot_load``)."""
+    _swing_load_arg(arg)
+    head, _, window = arg.partition("@")
+    frac = float(head)
+    lo, hi = _window_or_run(d, window)
+    d.require_states()
+    d.require_contacts()
+    events = [
+        e
+        for e in d.events
+        if e.get("kind") == "phase" and e.get("swing") in ("left", "right") and lo <= e["t"] <= hi
+    ]
+    phases = _phase_times(d)
+    if phases.size < 2 or not events:
+        raise NotMeasurable(
+            f"no phase change of the fixed-timing gait in the window {window or 'of the run'}"
+            f"{d.stopped_note()}"
+        )
+    step_time = float(np.median(np.diff(phases)))  # T [s]
+    times = np.array([e["t"] + frac * step_time for e in events])
+    if times[-1] > d.data_end:
+        raise NotMeasurable(f"the data end at t = {d.data_end:.3f} s, before t = {times[-1]:.3f} s")
+    k = np.minimum(np.searchsorted(d.contact_t, times), d.contact_t.size - 1)
+    feet = [0 if e["swing"] == "left" else 1 for e in events]
+    fz = np.array([d.foot_normal_force(FOOT_BODIES[f])[i] for f, i in zip(feet, k, strict=True)])
+    cop_ahead = None
+    if toes:
+        centres, axes = _sole_frames(d, d.contact_t[k])
+        cop_ahead = np.zeros(len(events))
+        for n, (f, i) in enumerate(zip(feet, k, strict=True)):
+            w = d.contact_wrench(f"{FOOT_BODIES[f]}/*")[i]
+            if w[2] <= 0.0:
+                continue
+            cop = np.array([-w[4] / w[2], w[3] / w[2]])  # the floor's CoP (z = 0) [m]
+            cop_ahead[n] = float((cop - centres[n, f, :2]) @ axes[n, f])
+    return float(np.max(early_swing_loads(fz, cop_ahead, d.robot_mass * GRAVITY)))
+
+
+@metric(
+    "swing_foot_load",
+    "largest vertical contact force, as a fraction of the weight, on the foot that begins "
+    "its swing at a phase change, read at phase + f·T (arg 'f', optionally '@t0-t1': phase "
+    "changes in the window; T the gait's median phase interval) [-]",
+    arg=_swing_load_arg,
+)
+def _swing_foot_load(d: LogData, arg: str) -> float:
+    """Paper II, Fig. 11 caption: "The adaptive lift, depending on the current posture,
+    provides an extra lift on the commanded posture which leads to enough ground clearance
+    shown at t = 0.2T." A foot clear of the ground carries no load: below the core's lift-off
+    mark (5 % of the weight) it is unloaded.
+
+    The phase changes are the fixed-timing gait's ``phase`` events, each naming the foot
+    that swings in the step it starts (``swing``); the load is that foot's logged vertical
+    contact force (every floor geom) at the first contact message at or after phase + f·T.
+    Window (phase changes in it; the data must reach its end), else pre-fall."""
+    return _early_swing_load(d, arg, toes=False)
+
+
+@metric(
+    "swing_toe_load",
+    "as swing_foot_load, counting the foot's load only when its centre of pressure lies "
+    "ahead of its sole centre (the toe half) [-] (arg 'f', optionally '@t0-t1')",
+    arg=_swing_load_arg,
+)
+def _swing_toe_load(d: LogData, arg: str) -> float:
+    """Paper II, Adaptive Foot Lift and Figs. 11-12: after a push that moves the pelvis
+    forward, "in the early next swing phase, although the robot attempts to lift the foot
+    through fixed and adaptive strategies, the ankle spring is still releasing, causing the
+    toes to keep touching the ground at time t = 0.1T".
+
+    As ``swing_foot_load``; the centre of pressure is the foot's logged floor wrench
+    (torque about the world origin) on the floor plane z = 0, x = −τ_y/F_z, y = τ_x/F_z, and
+    "ahead" is along the sole's forward axis (site ``<side>_sole``, horizontal), so a heel
+    contact counts 0."""
+    return _early_swing_load(d, arg, toes=True)
+
+
+# ---- the resting posture against its ghost (Fig. 5) -----------------------------------------
+
+
+def spring_joints(model: mujoco.MjModel) -> list[int]:
+    """Qpos addresses of the series springs: each joint ``<name>`` with a motor joint
+    ``<name>_motor`` in series (link angle = motor + spring)."""
+    out = []
+    for j in range(model.njnt):
+        name = model.joint(j).name
+        if name and mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"{name}_motor") >= 0:
+            out.append(int(model.jnt_qposadr[j]))
+    return out
+
+
+def com_over_feet(model: mujoco.MjModel, data: mujoco.MjData, qpos: np.ndarray) -> np.ndarray:
+    """The robot's CoM in the feet frame [m]: origin midway between the sole centres, axes
+    of the left sole (site ``left_sole``), so a posture whose feet are tilted is read as if
+    they stood flat."""
+    data.qpos[:] = qpos
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_comPos(model, data)
+    left, right = model.site("left_sole").id, model.site("right_sole").id
+    origin = 0.5 * (data.site_xpos[left] + data.site_xpos[right])
+    rot = data.site_xmat[left].reshape(3, 3)
+    return rot.T @ (data.subtree_com[model.body("pelvis").id] - origin)
+
+
+@metric(
+    "ghost_com_offset",
+    "mean over the window (arg 't0-t1', default the run) of the forward CoM position over "
+    "the feet of the actual posture (link angles) minus that of the ghost posture (motor "
+    "angles, every series spring at rest) [m]: negative when the springs move the CoM back",
+    arg=window_check,
+)
+def _ghost_com_offset(d: LogData, arg: str) -> float:
+    """Paper II, Fig. 5 caption: "When commanding a resting posture with the CoP in the middle
+    of support polygon, spring compressions lead to a different posture. Ankle spring
+    compressions make the robot lean forward while knee spring compressions make it lean
+    backward. [...] The actual CoM might also move backward for 1 – 2 cm." The ghost robot
+    is "referring to pre-spring motor positions" (Fig. 3).
+
+    Each logged state gives two postures: the actual one (``qpos``) and its ghost, the same
+    state with every series spring (:func:`spring_joints`) at zero deflection. Each CoM is
+    read in its own feet frame (:func:`com_over_feet`: the ghost stands on its own soles);
+    the metric is the mean forward (sole x) difference, actual minus ghost. Window (the
+    data must reach its end), else pre-fall."""
+    lo, hi = _window_or_run(d, arg)
+    d.require_states()
+    model = d.model
+    springs = spring_joints(model)
+    if not springs:
+        raise NotMeasurable("the robot has no series-elastic joints: its ghost is itself")
+    inside = np.flatnonzero((d.t >= lo) & (d.t <= hi))
+    if not inside.size:
+        raise NotMeasurable(f"no state logged in the window {arg}")
+    data = mujoco.MjData(model)
+    offsets = []
+    for i in inside:
+        ghost = d.qpos[i].copy()
+        ghost[springs] = 0.0
+        offsets.append(
+            com_over_feet(model, data, d.qpos[i])[0] - com_over_feet(model, data, ghost)[0]
+        )
+    return float(np.mean(offsets))
