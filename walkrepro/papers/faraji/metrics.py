@@ -1282,8 +1282,13 @@ def _early_swing_load(d: LogData, arg: str, toes: bool) -> float:
         )
     step_time = float(np.median(np.diff(phases)))  # T [s]
     times = np.array([e["t"] + frac * step_time for e in events])
-    if times[-1] > d.data_end:
-        raise NotMeasurable(f"the data end at t = {d.data_end:.3f} s, before t = {times[-1]:.3f} s")
+    if window:
+        d.require_until(float(times[-1]), f"phase + {frac:g} T of the window's last phase change")
+    else:  # pre-fall: the phase changes whose instant the data reach
+        keep = times <= d.data_end
+        events, times = [e for e, k in zip(events, keep, strict=True) if k], times[keep]
+        if not events:
+            raise NotMeasurable(f"no phase change read at phase + {frac:g} T{d.stopped_note()}")
     k = np.minimum(np.searchsorted(d.contact_t, times), d.contact_t.size - 1)
     feet = [0 if e["swing"] == "left" else 1 for e in events]
     fz = np.array([d.foot_normal_force(FOOT_BODIES[f])[i] for f, i in zip(feet, k, strict=True)])
