@@ -22,7 +22,7 @@ from test_metrics import (
     write_log,
 )
 
-from walkrepro.evaluation.metrics import LogData
+from walkrepro.evaluation.metrics import LogData, MetricArgError, check_metric_arg
 
 ROBOT = "kist_humanoid"
 TOP = 0.04  # [m] block height
@@ -385,3 +385,84 @@ def test_negative_power_is_not_work_done(tmp_path: Path) -> None:
     assert not measured(_work_log(tmp_path, 20.0, 0.5), name) < 3.0
     reason = unmeasurable_reason(_work_log(tmp_path, 20.0, 0.5, t_end=0.85), name)
     assert "the next swing after right_foot's obstacle step did not start" in reason
+
+
+# ---- the sole's tilt on the tilted step (Figs. 6, 7) ---------------------------------------
+
+#: The paper's swing time left after its contact (Fig. 4: 5.33 s to 5.592 s) [s], the rows'
+#: bound for "regulated fast".
+FAST = 0.262
+
+
+def _tilt_log(
+    tmp_path: Path, until: float, rate: float = 0.0, wobble: float = 0.0, axis: int = 0
+) -> LogData:
+    """The right foot meets the block at 0.5 s; the robot turns as one body about the world
+    ``axis`` (0 x, 1 y): its angular velocity alternates ±``rate`` [rad/s] and its tilt is 20°
+    ± ``wobble`` [rad] for ``until`` [s] after the contact, then 0 rad/s and 20° flat."""
+    home = _robot(ROBOT).home_qpos
+    ticks = []
+    for k in range(int(round(1.5 / DT))):
+        t = round(k * DT, 6)
+        qpos, qvel = home.copy(), np.zeros(home.size - 1)
+        pairs = standing_pairs(ROBOT, ["left_foot"] if t >= T_CONTACT else FEET)
+        if t >= T_CONTACT:
+            pairs["right_foot/obstacle_block"] = [0.0, 0.0, 300.0, 0.0, 0.0, 0.0]
+            shaking = t < T_CONTACT + until
+            sign = -1.0 if k % 2 else 1.0
+            angle = math.radians(20.0) + (sign * wobble if shaking else 0.0)
+            qpos[3:7] = [math.cos(angle / 2), 0.0, 0.0, 0.0]
+            qpos[4 + axis] = math.sin(angle / 2)
+            if shaking:
+                qvel[3 + axis] = sign * rate  # the free joint's angular velocity, body frame
+        ticks.append(Tick(t, qpos=qpos, qvel=qvel, pairs=pairs))
+    return write_log(tmp_path / "tilt.mcap", ticks, _spec(1.5))
+
+
+def test_a_roll_rate_damped_fast_settles_within_the_bound(tmp_path: Path) -> None:
+    """A sole rolling at ±1 rad/s for 0.1 s after the contact settles in 0.1 s (< 0.262 s,
+    Fig. 6(b)); one rolling for 0.4 s does not."""
+    name = "sole_rate_settling_time:right_foot@x"
+    fast = measured(_tilt_log(tmp_path, 0.1, rate=1.0), name)
+    slow = measured(_tilt_log(tmp_path, 0.4, rate=1.0), name)
+    assert fast == pytest.approx(0.1 - DT, abs=DT) and fast < FAST
+    assert slow == pytest.approx(0.4 - DT, abs=DT) and not slow < FAST
+
+
+def test_the_rate_bound_is_the_sole_edge_speed_across_the_axis(tmp_path: Path) -> None:
+    """0.5 rad/s moves the sole's edge at 0.033 m/s for a roll (half-width 0.065 m, settled)
+    and at 0.06 m/s for a pitch (half-length 0.12 m, still moving): the bound is 0.05 m/s at
+    the edge."""
+    roll = measured(_tilt_log(tmp_path, 0.4, rate=0.5), "sole_rate_settling_time:right_foot@x")
+    pitch = _tilt_log(tmp_path, 0.4, rate=0.5, axis=1)
+    assert roll == 0.0
+    assert measured(pitch, "sole_rate_settling_time:right_foot@y") == pytest.approx(
+        0.4 - DT, abs=DT
+    )
+
+
+def test_a_tilt_that_stops_wobbling_settles(tmp_path: Path) -> None:
+    """A sole wobbling ±3° about its 20° for 0.1 s settles its tilt in 0.1 s (Fig. 6(a)); one
+    wobbling 0.4 s does not settle fast; a ±0.5° wobble is within the 1° band (0 s)."""
+    name = "sole_tilt_settling_time:right_foot@x"
+    fast = measured(_tilt_log(tmp_path, 0.1, wobble=math.radians(3.0)), name)
+    slow = measured(_tilt_log(tmp_path, 0.4, wobble=math.radians(3.0)), name)
+    small = measured(_tilt_log(tmp_path, 0.4, wobble=math.radians(0.5)), name)
+    assert fast == pytest.approx(0.1 - DT, abs=DT) and fast < FAST
+    assert slow == pytest.approx(0.4 - DT, abs=DT) and not slow < FAST
+    assert small == 0.0
+
+
+def test_tilt_settling_needs_the_whole_window(tmp_path: Path) -> None:
+    """A run that ends before 0.6 s after the contact does not answer the claim; a wrong axis
+    is a clean argument error."""
+    ticks = [Tick(round(k * DT, 6)) for k in range(int(round(0.8 / DT)))]
+    for tick in ticks:
+        if tick.t >= T_CONTACT:
+            tick.pairs = {"right_foot/obstacle_block": [0.0, 0.0, 300.0, 0.0, 0.0, 0.0]}
+    d = write_log(tmp_path / "short.mcap", ticks, _spec(0.8))
+    assert "before the settling window" in unmeasurable_reason(
+        d, "sole_tilt_settling_time:right_foot@y"
+    )
+    with pytest.raises(MetricArgError, match="none of x, y"):
+        check_metric_arg("sole_rate_settling_time:right_foot@z")

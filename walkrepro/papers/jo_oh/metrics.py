@@ -19,6 +19,7 @@ from walkrepro.evaluation.metrics import (
     NotMeasurable,
     choice_check,
     metric,
+    qualified_check,
 )
 from walkrepro.sim.world import FLOOR_NAME
 
@@ -160,12 +161,125 @@ def _swing_z_settling_time(d: LogData, arg: str) -> float:
     return settling_time(t, vz, t_contact)
 
 
-def settling_time(t: np.ndarray, vz: np.ndarray, t_contact: float) -> float:
-    """Time from ``t_contact`` until |vz| stays below SETTLED_SPEED (0 if it always is) [s]."""
-    moving = np.flatnonzero(np.abs(vz) >= SETTLED_SPEED)
+def settling_time(
+    t: np.ndarray, value: np.ndarray, t_contact: float, bound: float = SETTLED_SPEED
+) -> float:
+    """Time from ``t_contact`` until |value| stays below ``bound`` (default SETTLED_SPEED
+    [m/s]; 0 if it always is) [s]."""
+    moving = np.flatnonzero(np.abs(value) >= bound)
     if not moving.size:
         return 0.0
     return float(t[moving[-1]] - t_contact)
+
+
+#: The sole's tilt has settled once it stays within this of its value at the end of the
+#: settling window [rad]: 1°, the smallest tilt §IV-B names ("a small tilting angle (< 1°)").
+SETTLED_TILT = math.radians(1.0)
+#: Axes of the sole's tilt (world frame): x, the roll of Fig. 6; y, the pitch of Fig. 7.
+TILT_AXES = ("x", "y")
+
+_foot_axis_arg = qualified_check(
+    choice_check("left_foot", "right_foot"), choice_check(*TILT_AXES, required=True)
+)
+
+
+def _foot_axis(arg: str) -> tuple[str, int]:
+    """``<foot>@<axis>`` (default right_foot@x) as the foot and the axis index (0 x, 1 y)."""
+    foot, _, axis = (arg or "right_foot@x").partition("@")
+    return foot or "right_foot", TILT_AXES.index(axis or "x")
+
+
+def sole_half_extent(model: mujoco.MjModel, foot: str, axis: int) -> float:
+    """Half the sole's extent across the tilt axis [m]: the distance from the sole's centre
+    to its edge that a rotation about ``axis`` (0 x, 1 y) moves, from the foot body's largest
+    box geom (its half-width for a roll about x, its half-length for a pitch about y)."""
+    body = model.body(foot).id
+    boxes = [
+        model.geom_size[g]
+        for g in range(model.ngeom)
+        if model.geom_bodyid[g] == body and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX
+    ]
+    if not boxes:
+        raise NotMeasurable(f"{foot} has no box geom to take the sole's size from")
+    return float(max(size[1 - axis] for size in boxes))
+
+
+def sole_tilt(d: LogData, foot: str, i0: int, i1: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Times [s], the sole's tilt angles [rad] and angular velocities [rad/s] about the world
+    x and y axes for states i0..i1, each (i1 − i0, 2).
+
+    The tilt about x is the roll atan2(R_zy, R_zz), about y the pitch atan2(−R_zx,
+    √(R_zy² + R_zz²)) of the sole site's rotation R in O_w (Fig. 6(a), 7(a)); the angular
+    velocity is the site's, in O_w (Fig. 6(b), 7(b)).
+    """
+    model = d.model
+    data = mujoco.MjData(model)
+    site = model.site(f"{foot.split('_')[0]}_sole").id
+    vel = np.zeros(6)
+    angle = np.zeros((i1 - i0, 2))
+    rate = np.zeros((i1 - i0, 2))
+    for k, i in enumerate(range(i0, i1)):
+        data.qpos[:] = d.qpos[i]
+        data.qvel[:] = d.qvel[i]
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        mujoco.mj_comVel(model, data)
+        mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_SITE, site, vel, 0)
+        r = data.site_xmat[site].reshape(3, 3)
+        angle[k] = (
+            math.atan2(r[2, 1], r[2, 2]),
+            math.atan2(-r[2, 0], math.hypot(r[2, 1], r[2, 2])),
+        )
+        rate[k] = vel[:2]
+    return d.t[i0:i1], angle, rate
+
+
+def _tilt_window(d: LogData, foot: str) -> tuple[float, int, int]:
+    """The first obstacle contact [s] and the state indices of the settling window after it."""
+    t_contact = _contact_time(d, foot)
+    d.require_until(
+        t_contact + SETTLE_WINDOW, "the settling window after the obstacle contact ended"
+    )
+    i0, i1 = np.searchsorted(d.t, [t_contact, t_contact + SETTLE_WINDOW])
+    if i1 <= i0:
+        raise NotMeasurable("no state logged in the settling window")
+    return t_contact, int(i0), int(i1)
+
+
+@metric(
+    "sole_rate_settling_time",
+    "time from the foot's first obstacle contact until the sole's angular velocity about the "
+    "world axis (arg <foot>@<axis>, default right_foot@x) stays below the rate that moves the "
+    f"sole's edge at {SETTLED_SPEED} m/s, within {SETTLE_WINDOW} s [s] (Fig. 6(b), 7(b))",
+    arg=_foot_axis_arg,
+)
+def _sole_rate_settling_time(d: LogData, arg: str) -> float:
+    """Window: SETTLE_WINDOW after the first obstacle contact (> 10 N), which the data must
+    cover (a fall within it makes the metric not measurable). The rate bound is SETTLED_SPEED
+    (the z velocity's, Fig. 5(b)) at the sole's edge: SETTLED_SPEED / the sole's half extent
+    across the axis (:func:`sole_half_extent`), e.g. 0.05 / 0.065 = 0.77 rad/s for a roll."""
+    foot, axis = _foot_axis(arg)
+    t_contact, i0, i1 = _tilt_window(d, foot)
+    t, _, rate = sole_tilt(d, foot, i0, i1)
+    bound = SETTLED_SPEED / sole_half_extent(d.model, foot, axis)
+    return settling_time(t, rate[:, axis], t_contact, bound)
+
+
+@metric(
+    "sole_tilt_settling_time",
+    "time from the foot's first obstacle contact until the sole's tilt about the world axis "
+    "(arg <foot>@<axis>, default right_foot@x) stays within 1° of its value at the end of the "
+    f"{SETTLE_WINDOW} s window [s] (Fig. 6(a), 7(a))",
+    arg=_foot_axis_arg,
+)
+def _sole_tilt_settling_time(d: LogData, arg: str) -> float:
+    """Window: SETTLE_WINDOW after the first obstacle contact (> 10 N), which the data must
+    cover; it ends before the foot's next lift-off (a 0.7 s step), so the tilt it settles to
+    is the one the foot stands at on the obstacle."""
+    foot, axis = _foot_axis(arg)
+    t_contact, i0, i1 = _tilt_window(d, foot)
+    t, angle, _ = sole_tilt(d, foot, i0, i1)
+    return settling_time(t, angle[:, axis] - angle[-1, axis], t_contact, SETTLED_TILT)
 
 
 def _contact_time(d: LogData, foot: str) -> float:
