@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import pytest
 from test_metrics import (
@@ -24,7 +25,12 @@ from test_metrics import (
 )
 
 from walkrepro.evaluation.metrics import LogData, NotMeasurable
-from walkrepro.papers.lee2021.metrics import duration_distance_correlation
+from walkrepro.papers.lee2021.metrics import (
+    capture_points,
+    duration_distance_correlation,
+    landing_heights,
+    swing_travel,
+)
 
 ROBOT = "dyros_red"
 FEET = ("left_foot", "right_foot")
@@ -279,3 +285,181 @@ def test_ds_delay_from_a_sudden_release(tmp_path: Path) -> None:
 def test_ds_delay_after_release_never(tmp_path: Path) -> None:
     """A completed run with no DS after the release gives inf (the row fails)."""
     assert measured(_ramp_push(tmp_path, [0.6]), "ds_delay_after_release") == math.inf
+
+
+# ---- §VI-A, Fig. 7(c): the foot does not land completely at the end of SSA ---------------
+
+
+def test_landing_heights_at_the_switches() -> None:
+    """The landing foot's height is read at the first DS tick of each SSA → DS switch, for
+    the foot that swung in that SSA."""
+    phase = np.array([0, 1, 1, 2, 2, 0, 1, 2], dtype=float)
+    swing = np.array([1, 1, 1, 0, 0, -1, -1, 0], dtype=float)
+    left = np.array([0, 0, 0, 0, 0, 0.03, 0.02, 0.004])
+    right = np.array([0.02, 0.01, 0.006, 0.008, 0.0, 0, 0, 0])
+    assert np.allclose(landing_heights(phase, swing, left, right), [0.008, 0.004])
+
+
+def _landing(poser: Poser, tmp_path: Path, height: float) -> LogData:
+    """Two steps of the right foot: SSA (0.2 s) with the sole centre coming down to
+    ``height`` [m] above the floor, then DS (0.1 s) with it there, then SSD again."""
+    rx, ry, _ = home_sole(ROBOT, "right_foot")
+    ticks, k = [], 0
+    for _ in range(2):
+        for phase, swing, n in ((1.0, 1.0, 20), (2.0, 0.0, 10), (0.0, 1.0, 10)):
+            for j in range(n):
+                z = height + (0.02 * (1 - j / n) if phase == 1.0 else 0.0)
+                z = 0.03 if phase == 0.0 else z
+                ticks.append(Tick(round(k * DT, 6), qpos=poser(right_foot=(rx, ry, z)),
+                                  signals={"efsm_phase": phase, "swing_foot": swing}))  # fmt: skip
+                k += 1
+    return write_log(tmp_path / "land.mcap", ticks, _spec())
+
+
+def test_a_foot_still_above_the_floor_at_the_switch(poser: Poser, tmp_path: Path) -> None:
+    """A sole centre 8 mm up when DS begins has not landed completely: > 1 mm."""
+    assert measured(_landing(poser, tmp_path, 0.008), "landing_height") == pytest.approx(0.008)
+
+
+def test_a_foot_landed_flat_at_the_switch(poser: Poser, tmp_path: Path) -> None:
+    """A sole flat on the floor when DS begins fails the claim (≤ 1 mm)."""
+    assert measured(_landing(poser, tmp_path, 0.0), "landing_height") == pytest.approx(
+        0.0, abs=1e-6
+    )
+
+
+def test_no_landing_height_without_a_switch(tmp_path: Path) -> None:
+    """A log whose E-FSM never leaves SSA has no SSA → DS switch to judge."""
+    ticks = [Tick(k * DT, signals={"efsm_phase": 1.0, "swing_foot": 1.0}) for k in range(20)]
+    d = write_log(tmp_path / "ssa.mcap", ticks, _spec())
+    assert "never switched SSA → DS" in unmeasurable_reason(d, "landing_height")
+
+
+# ---- Fig. 13(d): the swing foot moves while the upper body is held ------------------------
+
+
+def _held_swing(poser: Poser, tmp_path: Path, travel: float) -> LogData:
+    """A hand on the pelvis from 0.5 to 1.0 s, letting go over its last 0.2 s; the right foot
+    swings throughout and moves ``travel`` [m] forward (x) while held (0.5–0.8 s), and 10 cm
+    more while the hand lets go."""
+    rx, ry, _ = home_sole(ROBOT, "right_foot")
+    ticks = []
+    for k in range(120):
+        t = round(k * DT, 6)
+        s = min(max((t - 0.5) / 0.3, 0.0), 1.0)
+        x = rx + travel * s + (0.1 * (t - 0.8) / 0.2 if t > 0.8 else 0.0)
+        events = []
+        if t == 0.5:
+            events.append({"kind": "disturbance_on", "name": "push"})
+        if t == 1.0:
+            events.append({"kind": "disturbance_off", "name": "push"})
+        ticks.append(Tick(t, qpos=poser(right_foot=(x, ry, 0.03)), events=events,
+                          signals={"efsm_phase": 1.0, "swing_foot": 1.0}))  # fmt: skip
+    hold = {"name": "push", "body": "pelvis", "frame": "world", "force": [-50, 0, 0],
+            "start": 0.5, "duration": 0.5, "profile": "ramp", "ramp_time": 0.2}  # fmt: skip
+    return write_log(tmp_path / "held.mcap", ticks, _spec(disturbances=[hold]))
+
+
+def test_the_swing_foot_moves_while_held(poser: Poser, tmp_path: Path) -> None:
+    """A swing foot that moves 5 cm while the hand holds moves (> 2 cm)."""
+    d = _held_swing(poser, tmp_path, 0.05)
+    assert measured(d, "swing_travel_during_push:held") == pytest.approx(0.05, abs=1e-3)
+
+
+def test_the_swing_foot_still_while_held(poser: Poser, tmp_path: Path) -> None:
+    """A swing foot that stays put while held fails Fig. 13(d); its motion during the
+    release (from 0.8 s) does not count with ``held``, and does without it."""
+    d = _held_swing(poser, tmp_path, 0.0)
+    assert measured(d, "swing_travel_during_push:held") < 1e-3
+    assert measured(d, "swing_travel_during_push") > 0.05
+
+
+def test_swing_travel_of_each_swing_foot() -> None:
+    """Each foot's travel is counted from where it was when it first swung; DS samples none."""
+    swing = np.array([1, 1, 0, -1, -1], dtype=float)
+    right = np.array([[0, 0, 0], [0.01, 0, 0], [0.5, 0, 0], [0.5, 0, 0], [0.5, 0, 0]])
+    left = np.array([[0, 0, 0], [0, 0, 0], [0, 0, 0], [0.1, 0, 0], [0.1, 0.03, 0.04]])
+    assert swing_travel(swing, left, right) == pytest.approx(0.05)
+
+
+# ---- §III-B3: the CP in SSD, and the CoP against x_p^des in DS ----------------------------
+
+
+def test_capture_point_of_eq2() -> None:
+    """x_CP = x_m + ẋ_m sqrt(z_m0 / g): a CoM at 0.05 m moving at −0.2 m/s, 0.8 m high."""
+    cp = capture_points(np.array([0.05]), np.array([-0.2]), 0.8)
+    assert cp[0] == pytest.approx(0.05 - 0.2 * math.sqrt(0.8 / 9.81))
+
+
+def _ssd_drift(poser: Poser, tmp_path: Path, speed: float) -> LogData:
+    """SSD with the right foot swinging (the left supports) for 0.3 s, the whole robot
+    moving toward the support foot (+y, −x of O_w) at ``speed`` [m/s]."""
+    rx, ry, _ = home_sole(ROBOT, "right_foot")
+    lx, ly, _ = home_sole(ROBOT, "left_foot")
+    ticks = []
+    for k in range(30):
+        t = round(k * DT, 6)
+        dy = speed * t
+        qvel = np.zeros(poser.model.nv)
+        qvel[1] = speed
+        qpos = poser((0.0, dy, 0.0), left_foot=(lx, ly + dy, 0.0), right_foot=(rx, ry + dy, 0.03))
+        ticks.append(Tick(t, qpos=qpos, qvel=qvel, pairs=standing_pairs(ROBOT, ["left_foot"]),
+                          signals={"efsm_phase": 0.0, "swing_foot": 1.0}))  # fmt: skip
+    return write_log(tmp_path / "ssd_drift.mcap", ticks, _spec())
+
+
+def test_min_cp_of_a_still_com_is_the_com(poser: Poser, tmp_path: Path) -> None:
+    """A still robot's CP is its CoM: the smallest CP equals the smallest CoM x in O_w."""
+    d = _ssd_drift(poser, tmp_path, 0.0)
+    assert measured(d, "min_cp_x_ssd") == pytest.approx(measured(d, "min_com_x_ss"), abs=1e-9)
+
+
+def test_min_cp_leads_a_moving_com(poser: Poser, tmp_path: Path) -> None:
+    """A CoM moving at 0.5 m/s toward the support foot puts the CP ≈ 0.14 m further on (its
+    O_w x-axis points from the support to the swing foot, −y here): beyond the support centre."""
+    still = measured(_ssd_drift(poser, tmp_path, 0.0), "min_cp_x_ssd")
+    d = _ssd_drift(poser, tmp_path, 0.5)
+    lead = still - measured(d, "min_cp_x_ssd")
+    assert lead == pytest.approx(0.5 * math.sqrt(_com_height(d) / 9.81), abs=2e-3)
+    assert measured(d, "min_cp_x_ssd") < 0
+
+
+def _com_height(d: LogData) -> float:
+    """The CoM height at the log's first state [m]."""
+    data = mujoco.MjData(d.model)
+    data.qpos[:] = d.qpos[0]
+    mujoco.mj_kinematics(d.model, data)
+    mujoco.mj_comPos(d.model, data)
+    return float(data.subtree_com[d.model.body("pelvis").id][2])
+
+
+def _ds_tracking(tmp_path: Path, lag: float) -> LogData:
+    """DS for 0.3 s with x_p^des moving from the left sole centre toward the right one, and
+    the floor's CoP ``lag`` [m] behind it along that line (SSA ticks before it, ignored)."""
+    lx, ly, _ = home_sole(ROBOT, "left_foot")
+    rx, ry, _ = home_sole(ROBOT, "right_foot")
+    u = np.array([rx - lx, ry - ly]) / math.hypot(rx - lx, ry - ly)
+    weight = sum(w[2] for w in standing_pairs(ROBOT).values())
+    ticks = []
+    for k in range(40):
+        t = round(k * DT, 6)
+        ds = k >= 10
+        s = (k - 10) / 30 if ds else 0.0
+        des = np.array([lx, ly]) + s * math.hypot(rx - lx, ry - ly) * u
+        cop = des - (lag if ds else 0.05) * u
+        pairs = {"left_foot/floor": floor_wrench(cop[0], cop[1], weight)}
+        ticks.append(Tick(t, pairs=pairs, signals={"efsm_phase": 2.0 if ds else 1.0,
+                                                    "swing_foot": 0.0 if ds else 1.0,
+                                                    "xp_des_world": list(des)}))  # fmt: skip
+    return write_log(tmp_path / "ds.mcap", ticks, _spec())
+
+
+def test_ds_cop_follows_the_desired_cop(tmp_path: Path) -> None:
+    """A floor CoP 2 mm behind x_p^des in DS tracks it within 2 mm; the SSA ticks' 5 cm
+    offset does not count."""
+    assert measured(_ds_tracking(tmp_path, 0.002), "ds_cop_tracking_p90") == pytest.approx(0.002)
+
+
+def test_ds_cop_lags_the_desired_cop(tmp_path: Path) -> None:
+    """A floor CoP 3 cm behind x_p^des is a CoP not generated as desired: 3 cm."""
+    assert measured(_ds_tracking(tmp_path, 0.03), "ds_cop_tracking_p90") == pytest.approx(0.03)

@@ -26,6 +26,9 @@ SWITCH_COLOURS = {
     (2.0, 0.0): style.PALETTE[0],
     (0.0, 1.0): style.PALETTE[2],
     (1.0, 2.0): style.PALETTE[3],
+    # SSD → SSA → DS within one tick (fsm_step: the CoM already stopped and the CP already
+    # at x_s − r when SSD begins), logged as SSD → DS.
+    (0.0, 2.0): style.PALETTE[4],
 }
 PHASE_NAMES = style.EFSM_STATES
 #: Colours of the quantities Figs. 7 and 12 share, the same in every panel.

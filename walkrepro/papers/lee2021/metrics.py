@@ -47,6 +47,8 @@ PHASES = {"SSD": 0.0, "SSA": 1.0, "DS": 2.0}
 OBSTACLE_CONTACT_FORCE = 1.0
 #: Margin parameter ζ of Eq. (3) [m] when the spec does not set ``zeta`` (§VI: ζ = 0.03 m).
 ZETA = 0.03
+#: g of the LIPM, Eqs. (1)-(2) [m/s²] (the controller's, walkrepro/papers/lee2021/fsm.py).
+GRAVITY = 9.81
 
 
 def _sole_tracks(d: LogData) -> dict[str, np.ndarray]:
@@ -188,6 +190,55 @@ def _swing_apex(d: LogData, arg: str) -> float:
     if not adv:
         raise NotMeasurable(f"no advancing step{d.stopped_note()}")
     return float(reduce([swing_apex(d, s) for s in adv]))
+
+
+#: A sole lands completely when its centre is at most this high above the floor at the
+#: SSA → DS switch [m]: a sole flat on the floor has its centre at z ≤ 0 (the contact only
+#: penetrates); 1 mm, a fifth of Table II's 5 mm landing offset, tells a foot still above the
+#: floor or tilted on it from one landed flat.
+LANDED_HEIGHT = 0.001
+
+
+def landing_heights(
+    phase: np.ndarray, swing: np.ndarray, left_z: np.ndarray, right_z: np.ndarray
+) -> np.ndarray:
+    """Height of the landing sole centre at each SSA → DS switch of the E-FSM [m].
+
+    Args:
+        phase: ``efsm_phase`` per control tick (N,) (0 SSD, 1 SSA, 2 DS).
+        swing: ``swing_foot`` at the same ticks (N,) (1: the right swings, −1: the left).
+        left_z, right_z: each sole centre's height above the floor at the same ticks (N,) [m].
+
+    Returns:
+        shape (n_switches,): at the first DS tick of each switch, the height of the foot that
+        swung in the SSA just ended (§VI-A, Fig. 7(c): the swing foot "does not land
+        completely on the ground at the end of the SSA-state").
+    """
+    k = np.nonzero((phase[1:] == PHASES["DS"]) & (phase[:-1] == PHASES["SSA"]))[0] + 1
+    right = swing[k - 1] == 1.0
+    return np.where(right, right_z[k], left_z[k])
+
+
+@metric(
+    "landing_height",
+    "median over the E-FSM's SSA → DS switches of the landing (swing) sole centre's height "
+    f"above the floor (Fig. 7c; > {LANDED_HEIGHT} m: not landed completely) [m]",
+)
+def _landing_height(d: LogData, arg: str) -> float:
+    """Pre-fall. §VI-A, Fig. 7(c): "the robot foot does not land completely on the ground at
+    the end of the SSA-state". The switch is the E-FSM's (``efsm_phase``, ``swing_foot``:
+    the claim is about the end of its SSA state); the height is the sole centre's (site
+    ``<side>_sole``, the point Table II's 0.005 m landing target sets) above the floor
+    plane z = 0 of O_g, from the logged state (Paper I's walks are on that floor)."""
+    d.require_states()
+    t, phase = d.require_signal("efsm_phase")
+    _, swing = d.require_signal("swing_foot")
+    i = d.state_index(t)
+    tracks = _sole_tracks(d)
+    heights = landing_heights(phase, swing, tracks["left"][i, 2], tracks["right"][i, 2])
+    if not heights.size:
+        raise NotMeasurable(f"the E-FSM never switched SSA → DS{d.stopped_note()}")
+    return float(np.median(heights))
 
 
 @metric(
@@ -351,6 +402,32 @@ class SingleSupport:
         self.t, self.phase = t_sig[ss], phase[ss]
         self.com_x = ow_x(_com_world(d)[i, :2], p_sup, p_sw)
         self.cop_x = ow_x(_measured_cop(d, self.t), p_sup, p_sw)
+        self._d, self._p_sup, self._p_sw = d, p_sup, p_sw
+
+    def cp_x(self, keep: np.ndarray) -> np.ndarray:
+        """Capture point along x of O_w at the samples ``keep`` selects, Eq. (2) [m].
+
+        x_CP = x_m + ẋ_m sqrt(z_m0 / g): the CoM and its velocity from the logged state
+        (``qpos``, ``qvel``), ẋ_m along the sample's own O_w x-axis (O_w moves with the swing
+        foot, but x_CP is the point where the CoM would stop, so its velocity is the CoM's in
+        the world); z_m0 the CoM's height at the first logged state (Table II: the CoM's
+        z-position task holds its initial value).
+        """
+        vel = _com_velocity_world(self._d, self.t[keep])[:, :2]
+        p_sup, p_sw = self._p_sup[keep], self._p_sw[keep]
+        axis = (p_sw - p_sup) / np.linalg.norm(p_sw - p_sup, axis=1, keepdims=True)
+        z_m0 = float(_com_world(self._d)[0, 2])
+        return capture_points(self.com_x[keep], np.sum(vel * axis, axis=1), z_m0)
+
+
+def capture_points(com_x: np.ndarray, com_vx: np.ndarray, z_m0: float) -> np.ndarray:
+    """x_CP = x_m + ẋ_m sqrt(z_m0 / g), Eq. (2) [m].
+
+    Args:
+        com_x: CoM along x of O_w (n,) [m]; com_vx: its velocity along that axis (n,) [m/s];
+        z_m0: the LIPM's CoM height [m].
+    """
+    return com_x + com_vx * math.sqrt(z_m0 / GRAVITY)
 
 
 def ow_x(points: np.ndarray, p_sup: np.ndarray, p_sw: np.ndarray) -> np.ndarray:
@@ -417,6 +494,26 @@ def _eq3_cop_lead(d: LogData, arg: str) -> float:
     """
     ss = SingleSupport(d)
     return eq3_cop_lead(ss.com_x, ss.cop_x, _zeta(d))
+
+
+@metric(
+    "min_cp_x_ssd",
+    "smallest capture point x_CP (Eq. 2, from the logged CoM state) along x of O_w in the "
+    "E-FSM's SSD (< 0: past the support centre; below the sole's back edge: beyond the "
+    "support polygon) [m]",
+)
+def _min_cp_x_ssd(d: LogData, arg: str) -> float:
+    """Pre-fall. §III-B3: with too small a Δx_p^des "the CP in the SSD-state after the
+    DS-state can move beyond the support polygon"; §III-B1: SSD decelerates the CoM so that
+    it stops in the support polygon (B1). The SSD samples are the E-FSM's (``efsm_phase``:
+    the claim is about its SSD state); the CoM, its velocity and O_w are from the logged
+    state (:meth:`SingleSupport.cp_x`), not the controller's ``cp_w``. The first SSD (from
+    rest, Fig. 8) is included: it is as much an SSD after a DS as the others."""
+    ss = SingleSupport(d)
+    keep = ss.phase == PHASES["SSD"]
+    if not np.any(keep):
+        raise NotMeasurable(f"the E-FSM was never in SSD{d.stopped_note()}")
+    return float(np.min(ss.cp_x(keep)))
 
 
 def switch_torque_jumps(
@@ -510,6 +607,29 @@ def _cop_error_p90(d: LogData, arg: str) -> float:
         )
     if not err.size:
         raise NotMeasurable("the measured CoP was never valid (no foot loaded)")
+    return float(np.percentile(err, 90))
+
+
+@metric(
+    "ds_cop_tracking_p90",
+    "90th percentile over the E-FSM's DS ticks of |x_p^des − x_p|, the desired CoP of Eq. (4) "
+    "against the measured CoP (floor contact wrench), in the world's xy-plane [m]",
+)
+def _ds_cop_tracking_p90(d: LogData, arg: str) -> float:
+    """Pre-fall. §III-B3: "When the term Δx_p^des is too large, the CoP cannot be generated
+    as desired": in DS, Eq. (4) moves x_p^des by Δx_p^des per control period, and this is how
+    far the CoP the floor exerts (:func:`_measured_cop`, from the logged contact wrench)
+    stays from it. Reads ``xp_des_world`` and ``efsm_phase``: the claim is about the E-FSM's
+    desired CoP in its DS state. Ticks at which the floor carries nothing are left out."""
+    t, phase = d.require_signal("efsm_phase")
+    t_des, xp_des = d.require_signal("xp_des_world")
+    if t_des.size != t.size or not np.array_equal(t_des, t):
+        raise NotMeasurable("efsm_phase and xp_des_world were not logged at the same ticks")
+    keep = phase == PHASES["DS"]
+    err = np.linalg.norm(xp_des[keep] - _measured_cop(d, t[keep]), axis=1)
+    err = err[np.isfinite(err)]
+    if not err.size:
+        raise NotMeasurable(f"no DS tick with a measured CoP{d.stopped_note()}")
     return float(np.percentile(err, 90))
 
 
@@ -761,6 +881,51 @@ def _hold_com_speed(d: LogData, arg: str) -> float:
     vel = _com_velocity_world(d, t[keep])
     vx = np.cos(yaw[keep]) * vel[:, 0] + np.sin(yaw[keep]) * vel[:, 1]
     return float(np.mean(np.abs(vx)))
+
+
+def swing_travel(swing: np.ndarray, left: np.ndarray, right: np.ndarray) -> float:
+    """Largest distance a swing foot's sole centre moves from where it was when it first
+    swung in the samples [m].
+
+    Args:
+        swing: ``swing_foot`` per sample (n,) (1: the right swings, −1: the left, 0: DS).
+        left, right: each sole centre in the world at the same samples (n, 3) [m].
+
+    Returns:
+        the largest |p(t) − p(t_first)| over the samples in which the foot is the swing foot,
+        over both feet; 0 when no foot swings.
+    """
+    best = 0.0
+    for code, track in ((1.0, right), (-1.0, left)):
+        on = np.nonzero(swing == code)[0]
+        if on.size:
+            best = max(best, float(np.max(np.linalg.norm(track[on] - track[on[0]], axis=1))))
+    return best
+
+
+@metric(
+    "swing_travel_during_push",
+    "largest distance the E-FSM's swing foot's sole centre moves from where it was at the "
+    "push's onset, while the push acts; arg 'held': only until the release starts [m]",
+    arg=choice_check("held"),
+)
+def _swing_travel_during_push(d: LogData, arg: str) -> float:
+    """Window (the whole push must be logged). Fig. 13(d): the "swing foot moves when the
+    upper body is disturbed". The swing foot is the E-FSM's (``swing_foot``: the caption
+    names the swing foot); its sole centre (site ``<side>_sole``) is the logged state's.
+    With ``held`` the window ends where the hand starts to let go, as in
+    ``ds_entries_during_push:held``. Not measurable when no foot swings in the window."""
+    t0, t1 = _push_window(d)
+    if arg == "held":
+        t1 = _release_start(d, t1)
+    d.require_states()
+    t, swing = d.require_signal("swing_foot")
+    keep = (t >= t0) & (t <= t1)
+    if not np.any(swing[keep] != 0.0):
+        raise NotMeasurable("no foot was the E-FSM's swing foot while the push acted")
+    i = d.state_index(t[keep])
+    tracks = _sole_tracks(d)
+    return swing_travel(swing[keep], tracks["left"][i], tracks["right"][i])
 
 
 def _com_velocity_world(d: LogData, times: np.ndarray) -> np.ndarray:
