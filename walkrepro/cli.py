@@ -144,7 +144,22 @@ AllowDirtyOption = Annotated[
     ),
 ]
 OutOption = Annotated[
-    Path, typer.Option("--out", help="Root directory for run outputs.", show_default=True)
+    Path,
+    typer.Option(
+        "--out",
+        help="Root directory for run outputs: a new or empty directory, or one walkrepro "
+        "wrote (it holds a .walkrepro-output file); any other is refused unless --force.",
+        show_default=True,
+    ),
+]
+#: Lets a command write into a directory (or over a file) that walkrepro did not write.
+ForceOption = Annotated[
+    bool,
+    typer.Option(
+        "--force",
+        help="Write into --out even if it holds files walkrepro did not write (a replaced "
+        "output's old contents are deleted).",
+    ),
 ]
 
 
@@ -389,8 +404,12 @@ def run(
             "note); default: one line per claim, failing rows in full.",
         ),
     ] = False,
+    force: ForceOption = False,
 ) -> None:
     """Run one experiment headless: log, metrics, verdict and figures in a new run directory."""
+    from walkrepro.runs import outdir
+
+    outdir.claim_root(out, outdir.RUNS, force or out == results.DEFAULT_ROOT, create=False)
     summary = _run_one(experiment, set_ or [], out, (figures, figures), show_progress=True)
     _print_verdicts([summary.verdict], details, per_claim=True)
     _console().print(f"run directory: [bold]{summary.run_dir}[/]")
@@ -442,6 +461,7 @@ class CheckOptions:
         ),
     ] = False
     allow_dirty: AllowDirtyOption = False
+    force: ForceOption = False
     sweeps: Annotated[
         bool,
         typer.Option(
@@ -495,6 +515,11 @@ def check(options: CheckOptions) -> None:
     if options.update_reference:
         _needs_checkout("--update-reference")
         _needs_clean_tree("check --update-reference", options.allow_dirty)
+    if options.experiments or not options.run_dir:  # it writes runs under --out
+        from walkrepro.runs import outdir
+
+        default = options.out == results.DEFAULT_ROOT
+        outdir.claim_root(options.out, outdir.RUNS, options.force or default, create=False)
     verdicts: list[checks.Verdict] = []
     for path in options.run_dir or []:
         verdicts.append(api.evaluate(path))
@@ -735,12 +760,21 @@ def plot(
         typer.Argument(help="Run directory or log (two to compare runs), or a sweep directory."),
     ],
     out: Annotated[
-        Path | None, typer.Option(help="Figure directory (default: RUN/figures).")
+        Path | None,
+        typer.Option(
+            help="Figure directory (default: RUN/figures): new, empty, or one walkrepro "
+            "wrote; any other is refused unless --force."
+        ),
     ] = None,
+    force: ForceOption = False,
 ) -> None:
     """Redraw the paper's figures from one run, or compare two runs, or a sweep's maps."""
     from walkrepro.present.figures import plot_compare, plot_run
+    from walkrepro.runs import outdir
     from walkrepro.studies.sweep.store import is_sweep_dir
+
+    if out is not None:
+        outdir.claim_root(out, outdir.FIGURES, force)
 
     if len(runs) == 1 and is_sweep_dir(runs[0]):
         from walkrepro.studies.sweep.maps import plot_sweep
@@ -837,19 +871,25 @@ def render(
     contact_forces: Annotated[
         bool, typer.Option("--contact-forces", help="Draw contact forces in the video.")
     ] = False,
+    force: Annotated[
+        bool, typer.Option("--force", help="Replace the --out file if it exists.")
+    ] = False,
 ) -> None:
     """Render a snapshot strip of a run, or with --video an MP4 of it, headless.
 
     The video follows the pelvis from the side, colours each link, draws disturbance forces
     as red arrows and overlays the time and the controller's state.
     """
+    from walkrepro.runs import outdir
+
     directory, log = results.resolve_run(run_path)
     if video:
         from walkrepro.present.video import DEFAULT_HEIGHT, DEFAULT_WIDTH, VIDEO_FILE, render_video
 
+        target = outdir.check_file(out or directory / VIDEO_FILE, force, ours=out is None)
         info = render_video(
             log,
-            out or directory / VIDEO_FILE,
+            target,
             fps=fps,
             width=width or DEFAULT_WIDTH,
             height=height or DEFAULT_HEIGHT,
@@ -867,12 +907,9 @@ def render(
         raise WalkreproError(
             f"--at {at!r}: expected comma-separated times in seconds, e.g. 0,2,4."
         ) from None
+    target = out or directory / results.FIGURES_DIR / "snapshots.png"
     path = render_strip(
-        log,
-        times,
-        out or directory / results.FIGURES_DIR / "snapshots.png",
-        width or 480,
-        height or 640,
+        log, times, outdir.check_file(target, force, ours=out is None), width or 480, height or 640
     )
     _console().print(f"wrote {path}")
 
@@ -916,7 +953,10 @@ def export(
         )
     check = directory / results.CHECK_FILE  # the verdict of a run directory's log
     verdict = check if log.name == results.LOG_FILE and check.is_file() else None
-    done = export_rerun(log, out or log.with_suffix(".rrd"), verdict, force)
+    from walkrepro.runs import outdir
+
+    target = outdir.check_file(out or log.with_suffix(".rrd"), force)
+    done = export_rerun(log, target, verdict, force)
     for note in done.skipped:
         _console(stderr=True).print(f"[yellow]skipped:[/] {escape(note)}", highlight=False)
     size = done.path.stat().st_size / 1e6
@@ -940,15 +980,17 @@ def report(
     out: Annotated[
         Path | None,
         typer.Option(
-            help="Site directory, replaced as a whole (default: next to --from, report/)."
+            help="Site directory, replaced as a whole (default: next to --from, report/): a "
+            "new or empty directory or an earlier report; any other is refused unless --force."
         ),
     ] = None,
+    force: ForceOption = False,
 ) -> None:
     """Build the static HTML report: per paper, each claim with the paper's value, the
     measured value and the verdict, next to the figures, the video and the maps."""
     from walkrepro.publish.report import build_report
 
-    site = build_report(source, out)
+    site = build_report(source, out, force)
     for note in site.notes:
         _console(stderr=True).print(f"[yellow]skipped:[/] {escape(note)}", highlight=False)
     for key, t in site.tallies.items():
@@ -998,6 +1040,7 @@ class SweepOptions:
         typer.Option("--update-reference", help="Copy the finished map to results/maps/<map>/."),
     ] = False
     allow_dirty: AllowDirtyOption = False
+    force: ForceOption = False
 
 
 @app.command()
@@ -1023,6 +1066,7 @@ def sweep(options: SweepOptions) -> None:
         resume=options.resume,
         keep_logs=options.keep_logs,
         update_reference=options.update_reference,
+        force=options.force or options.out == results.DEFAULT_ROOT,
     )
     engine = EngineChoice(options.engine, options.jobs, options.address)
     code = sweep_command(_console(stderr=True), request, engine)
@@ -1333,11 +1377,13 @@ def _run_one(  # noqa: ANN202
     directory is created as soon as the spec is valid, before the slow imports and set-up:
     a stop at any moment after that leaves a run directory with outcome ``interrupted``.
     """
+    from walkrepro.runs import outdir
     from walkrepro.runtime.interrupt import InterruptFlag
 
     with InterruptFlag() as flag:
         experiment = _experiment(name, overrides)
         spec = experiment.spec
+        outdir.claim_root(out, outdir.RUNS, force=True)  # the command checked it
         run_dir = results.new_run_dir(out, spec.name)
         try:
             from walkrepro.runs.experiment import execute

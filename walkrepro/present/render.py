@@ -29,6 +29,8 @@ def render_strip(log_path: Path, times: list[float], out: Path, width: int, heig
     The camera looks at the pelvis from the robot's left side (the walking direction goes
     to the right of the image), so forward progress and foot clearance are both visible.
     """
+    if not times:
+        raise WalkreproError("--at: give at least one time [s] to render, e.g. --at 0,2,4.")
     log = record.read_log(log_path)
     states = log.messages(record.TOPIC_STATE)
     if not states:
@@ -65,9 +67,14 @@ def render_strip(log_path: Path, times: list[float], out: Path, width: int, heig
     spec_name = log.metadata.get("experiment", log_path.stem)
     fig.suptitle(f"{spec_name} — snapshots (outcome: {log.metadata.get('outcome', 'unknown')})")
     fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=120)
-    plt.close(fig)
+    from walkrepro.runs import outdir
+
+    outdir.check_file(out, force=True)  # a directory or a read-only place: a clean error
+    try:
+        with outdir.writing_file(out) as partial:
+            fig.savefig(partial, dpi=120)
+    finally:
+        plt.close(fig)
     return out
 
 

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import re
 import time
 from dataclasses import dataclass
@@ -43,6 +42,7 @@ from walkrepro.evaluation.metrics import FOOT_BODIES
 from walkrepro.log import record
 from walkrepro.log.foxglove import GeomShape, body_names, geom_shape
 from walkrepro.present.plots import Plot, Series, read_series, signal_plots
+from walkrepro.runs import outdir
 from walkrepro.specs.models import spec_from_yaml_text
 
 #: The timeline: simulated time.
@@ -135,8 +135,6 @@ def export_rerun(log_path: Path, out: Path, check_file: Path | None, force: bool
     """
     rr = import_rerun()
     start = time.perf_counter()
-    if out.exists() and not force:
-        raise WalkreproError(f"{out} exists; pass --force to replace it, or --out another file.")
     log = record.read_log(log_path)
     states = log.arrays(record.TOPIC_STATE)
     if not states:
@@ -149,10 +147,9 @@ def export_rerun(log_path: Path, out: Path, check_file: Path | None, force: bool
     plots = [(RUN_GROUP, p) for p in _run_plots(model, pushes)]
     plots += [(spec.controller.type, p) for p in _controller_plots(log, spec.controller.type)]
 
-    out.parent.mkdir(parents=True, exist_ok=True)
-    partial = out.with_name(f".{out.name}.{os.getpid()}.partial")
+    outdir.check_file(out, force)  # a directory, an existing file, a read-only place
     rec = rr.RecordingStream("walkrepro", recording_id=f"{spec.name}-{log_path.parent.name}")
-    try:
+    with outdir.writing_file(out) as partial:
         rec.save(partial, default_blueprint=_blueprint(model, plots, check_file is not None))
         rec.send_recording_name(spec.name)
         origin = log.metadata.get("log_time_origin")
@@ -168,9 +165,6 @@ def export_rerun(log_path: Path, out: Path, check_file: Path | None, force: bool
             rec.log("verdict", verdict, static=True)
         rec.flush()
         rec.disconnect()
-        partial.replace(out)
-    finally:
-        partial.unlink(missing_ok=True)
     return RerunExport(
         out,
         len(poses.t),

@@ -328,31 +328,31 @@ def render_video(
     if t_state is None or not len(t_state):
         raise WalkreproError(f"{log_path}: the log holds no /sim/state messages to render.")
     times = frame_times(float(t_state[-1]), fps)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    partial = out.with_name(out.name + ".part")
-    writer = imageio_ffmpeg.write_frames(
-        str(partial),
-        (width, height),
-        fps=fps,
-        codec="libx264",
-        quality=None,
-        macro_block_size=2,
-        pix_fmt_out="yuv420p",
-        ffmpeg_log_level="error",
-        output_params=["-crf", str(crf), "-preset", "slow", "-movflags", "+faststart", "-f", "mp4"],
-    )
-    writer.send(None)  # start the encoder
-    n = 0
-    try:
-        for frame in _frames(log, times, width, height, contact_forces):
-            writer.send(np.ascontiguousarray(frame))
-            n += 1
-    except BaseException:
-        writer.close()
-        partial.unlink(missing_ok=True)
-        raise
-    writer.close()
-    partial.replace(out)
+    from walkrepro.runs import outdir
+
+    outdir.check_file(out, force=True)  # a directory or a read-only place: a clean error
+    with outdir.writing_file(out) as partial:
+        writer = imageio_ffmpeg.write_frames(
+            str(partial),
+            (width, height),
+            fps=fps,
+            codec="libx264",
+            quality=None,
+            macro_block_size=2,
+            pix_fmt_out="yuv420p",
+            ffmpeg_log_level="error",
+            output_params=[
+                *("-crf", str(crf), "-preset", "slow", "-movflags", "+faststart", "-f", "mp4")
+            ],
+        )
+        writer.send(None)  # start the encoder
+        n = 0
+        try:
+            for frame in _frames(log, times, width, height, contact_forces):
+                writer.send(np.ascontiguousarray(frame))
+                n += 1
+        finally:
+            writer.close()
     return VideoInfo(out, n, fps, n / fps)
 
 
