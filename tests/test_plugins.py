@@ -193,7 +193,7 @@ def test_the_example_package_runs_and_checks_a_shipped_experiment(tmp_path: Path
     # controller holds, and the check says so (exit 1).
     assert checked.returncode == 1, checked.stdout + checked.stderr
     assert "1 reproduced, 0 calibrated, 0 known deviations, 1 failed" in checked.stdout
-    assert "fail  stand_dyros_red · pelvis_drift < 0.02" in checked.stdout
+    assert "failed  stand_dyros_red · pelvis_drift < 0.02" in checked.stdout
 
     own = walkrepro(
         "--experiments", str(EXAMPLE / "experiments"), "check", "--details", "--out", str(out)

@@ -143,7 +143,9 @@ def evaluate(run_or_log: RunSummary | str | Path) -> Verdict:
 
     Returns:
         The verdict (:class:`walkrepro.evaluation.checks.Verdict`): ``passed``, ``rows`` (claim, paper
-        value, measured value, status), ``outcome``.
+        value, measured value, ``status`` as ``check.json`` stores it, ``word`` as the CLI
+        says it: reproduced, calibrated, known deviation, failed), ``outcome``;
+        ``print(verdict)`` prints it as ``walkrepro run`` does.
 
     Raises:
         walkrepro.errors.WalkreproError: not a run directory or log.

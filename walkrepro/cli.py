@@ -406,7 +406,12 @@ def run(
     ] = False,
     force: ForceOption = False,
 ) -> None:
-    """Run one experiment headless: log, metrics, verdict and figures in a new run directory."""
+    """Run one experiment headless: log, metrics, verdict and figures in a new run directory.
+
+    Exit code: 0 when every claim holds (a known deviation inside its observed band holds),
+    1 when a claim fails or is not measurable or the run ended in an error, 2 for a usage
+    error (bad spec, --out refused), 130/143 after Ctrl-C/SIGTERM; as `walkrepro check`.
+    """
     from walkrepro.runs import outdir
 
     outdir.claim_root(out, outdir.RUNS, force or out == results.DEFAULT_ROOT, create=False)
@@ -420,6 +425,8 @@ def run(
         raise typer.Exit(code=summary.exit_code)
     if summary.result.outcome == "error":
         _console(stderr=True).print(f"[bold red]error:[/] {escape(summary.result.message)}")
+        raise typer.Exit(code=1)
+    if not summary.verdict.passed:  # a CI can use the exit code, as with `check`
         raise typer.Exit(code=1)
 
 
@@ -1478,7 +1485,7 @@ def _verdict_table(verdicts: list) -> Table:  # list[checks.Verdict]
     label = {
         PASS: "[green]reproduced[/]",
         CALIBRATED: "[blue]calibrated[/]",
-        FAIL: "[red]fail[/]",
+        FAIL: "[red]failed[/]",
         KNOWN: "[yellow]known deviation[/]",
     }
     table = Table(title="paper expectations")
@@ -1495,7 +1502,7 @@ def _verdict_table(verdicts: list) -> Table:  # list[checks.Verdict]
                 r.metric,
                 tag_text(r),
                 r.band,
-                f"{r.measured:.4g}",
+                r.measured_text,
                 r.observed_band,
                 label[r.status],
                 escape(f"{r.source}{note}"),

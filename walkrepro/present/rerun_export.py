@@ -536,9 +536,11 @@ def _verdict_text(check_file: Path) -> str:
         check = json.loads(check_file.read_text())
     except (OSError, json.JSONDecodeError) as exc:
         return f"(cannot read {check_file.name}: {exc})"
+    from walkrepro.evaluation.checks import STATUS_WORDS
+
     lines = [
         f"# {check.get('experiment', '?')}: {check.get('outcome', '?')}, "
-        f"{'passed' if check.get('passed') else 'not passed'}",
+        f"{'every claim holds' if check.get('passed') else 'a claim failed'}",
         "",
         "| metric | paper | measured | verdict | source |",
         "|---|---|---|---|---|",
@@ -547,10 +549,12 @@ def _verdict_text(check_file: Path) -> str:
         measured = row.get("measured")
         value = (
             f"{measured:.4g}"
-            if isinstance(measured, float) and math.isfinite(measured)
-            else str(measured)
+            if isinstance(measured, int | float) and math.isfinite(measured)
+            else "not measurable"
         )
-        cells = (row.get("metric"), row.get("band"), value, row.get("status"), row.get("source"))
+        status = row.get("status")
+        word = STATUS_WORDS.get(status, status)
+        cells = (row.get("metric"), row.get("band"), value, word, row.get("source"))
         lines.append("| " + " | ".join(str(c).replace("|", "/") for c in cells) + " |")
     return "\n".join(lines) + "\n"
 
