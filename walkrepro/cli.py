@@ -421,6 +421,7 @@ def run(
     for what, name in (("figures", results.FIGURES_DIR), ("video", "video.mp4")):
         if (summary.run_dir / name).exists():
             _console().print(f"{what}: {summary.run_dir / name}", highlight=False)
+    _print_missing(summary.run_dir, summary.stages, summary.signum if summary.interrupted else None)
     if summary.interrupted:  # 130 after Ctrl-C, 143 after SIGTERM
         raise typer.Exit(code=summary.exit_code)
     if summary.result.outcome == "error":
@@ -428,6 +429,26 @@ def run(
         raise typer.Exit(code=1)
     if not summary.verdict.passed:  # a CI can use the exit code, as with `check`
         raise typer.Exit(code=1)
+
+
+def _print_missing(run_dir: Path, stages: dict[str, str], signum: int | None = None) -> None:
+    """On stderr: which stage a stop interrupted, and each output the run lacks (its
+    ``run.json`` records the same)."""
+    import signal
+
+    console = _console(stderr=True)
+    if signum is not None:
+        name = signal.Signals(signum).name
+        during = [n for n, status in stages.items() if status == results.INTERRUPTED]
+        where = f"the {during[0]} stage" if during else "the run"
+        console.print(
+            f"[yellow]interrupted ({name}) during {where}[/]; {run_dir / results.RUN_FILE} "
+            "records what was done.",
+            highlight=False,
+            soft_wrap=True,
+        )
+    for text in results.missing_outputs({"stages": stages}):
+        console.print(f"[yellow]missing:[/] {escape(text)}", highlight=False, soft_wrap=True)
 
 
 def _complete_experiment(incomplete: str) -> list[str]:
@@ -530,6 +551,8 @@ def check(options: CheckOptions) -> None:
     verdicts: list[checks.Verdict] = []
     for path in options.run_dir or []:
         verdicts.append(api.evaluate(path))
+        directory, _ = results.resolve_run(path)
+        _print_missing(directory, results.read_record(directory).get("stages") or {})
     names = list(options.experiments or [])
     if not names and not options.run_dir:
         names = experiment_names()
@@ -659,6 +682,8 @@ def _run_batch(
             f"in {wall:.0f} s ({verdict}) → {summary.run_dir}",
             highlight=False,
         )
+        signum = summary.signum if summary.interrupted else None
+        _print_missing(summary.run_dir, summary.stages, signum)
 
     if workers == 1 and engine.name == "process":
         for name in names:

@@ -296,6 +296,7 @@ def render_video(
     height: int = DEFAULT_HEIGHT,
     contact_forces: bool = False,
     crf: int = DEFAULT_CRF,
+    stop: Callable[[], bool] | None = None,
 ) -> VideoInfo:
     """Render the whole run to an H.264 MP4 that plays at real time.
 
@@ -312,6 +313,8 @@ def render_video(
         contact_forces: also draw contact forces (MuJoCo's ``mjVIS_CONTACTFORCE``; the
             logged ``ctrl`` is set so the forces are the run's).
         crf: x264's constant rate factor (quality; higher is smaller).
+        stop: polled between frames; when it returns true the video is abandoned
+            (``KeyboardInterrupt``, the partial file removed, ``out`` untouched).
 
     Raises:
         WalkreproError: the log holds no states, or the size is odd.
@@ -349,6 +352,8 @@ def render_video(
         n = 0
         try:
             for frame in _frames(log, times, width, height, contact_forces):
+                if stop is not None and stop():
+                    raise KeyboardInterrupt
                 writer.send(np.ascontiguousarray(frame))
                 n += 1
         finally:
@@ -356,18 +361,21 @@ def render_video(
     return VideoInfo(out, n, fps, n / fps)
 
 
-def render_run_video(log_path: Path, run_dir: Path) -> Path | None:
+def render_run_video(
+    log_path: Path, run_dir: Path, stop: Callable[[], bool] | None = None
+) -> Path | None:
     """The video of a finished run, ``run_dir/video.mp4``, if this machine can render.
 
     Without an OpenGL backend the run keeps everything else: a one-line note goes to stderr
-    and None is returned (rendering is optional; the install hint is in the note).
+    and None is returned (rendering is optional; the install hint is in the note). ``stop``
+    is polled between frames; once true, the video is abandoned (``KeyboardInterrupt``).
     """
     import sys
 
     from walkrepro.runtime.gl import RenderingUnavailable
 
     try:
-        return render_video(log_path, run_dir / VIDEO_FILE).path
+        return render_video(log_path, run_dir / VIDEO_FILE, stop=stop).path
     except RenderingUnavailable as exc:
         print(f"no video: {exc}", file=sys.stderr)
         return None

@@ -28,7 +28,7 @@ from walkrepro.publish.report.claims import Tally, experiment_claims, tally
 from walkrepro.publish.report.maps import MapResult, experiment_maps
 from walkrepro.publish.report.robots import markdown_to_html, robot_readme
 from walkrepro.publish.report.sources import ExperimentResult, find_results
-from walkrepro.runs import outdir
+from walkrepro.runs import outdir, results
 
 #: The maps' directory inside a results tree.
 MAPS_DIR = "maps"
@@ -204,9 +204,11 @@ def _experiment_section(
         f'<a href="robots/{escape(r.spec.robot)}.html">{escape(r.spec.robot)}</a> · '
         f"controller <code>{escape(r.spec.controller.type)}</code> · run {escape(str(outcome))}"
     )
+    missing = results.missing_outputs(r.run)  # a stage the run was stopped in, or lacked
     parts = [
         f'<h2 id="{escape(r.name)}">{escape(r.name)}</h2>',
         f'<p class="muted">{meta}</p>',
+        f'<p class="missing">missing: {escape("; ".join(missing))}</p>' if missing else "",
         f"<p>{escape(r.spec.description.strip())}</p>",
         html.provenance_table(numbers) if numbers is not None else "",
         '<div class="experiment">',
