@@ -152,6 +152,15 @@ OutOption = Annotated[
         show_default=True,
     ),
 ]
+#: Lets a reader use a cut or damaged log for what it holds (walkrepro/log/integrity.py).
+PartialOption = Annotated[
+    bool,
+    typer.Option(
+        "--partial",
+        help="Use a cut or damaged log for what it holds (without it, such a log is an error "
+        "naming what it holds and lacks); every output then says partial.",
+    ),
+]
 #: Lets a command write into a directory (or over a file) that walkrepro did not write.
 ForceOption = Annotated[
     bool,
@@ -469,6 +478,7 @@ class CheckOptions:
     run_dir: Annotated[
         list[Path] | None, typer.Option("--run", help="Re-check an existing run directory or log.")
     ] = None
+    partial: PartialOption = False
     set_: SetOption = None
     out: OutOption = results.DEFAULT_ROOT
     jobs: Annotated[int, typer.Option(help="Parallel runs (processes).")] = os.cpu_count() or 1
@@ -550,7 +560,7 @@ def check(options: CheckOptions) -> None:
         outdir.claim_root(options.out, outdir.RUNS, options.force or default, create=False)
     verdicts: list[checks.Verdict] = []
     for path in options.run_dir or []:
-        verdicts.append(api.evaluate(path))
+        verdicts.append(api.evaluate(path, partial=options.partial))
         directory, _ = results.resolve_run(path)
         _print_missing(directory, results.read_record(directory).get("stages") or {})
     names = list(options.experiments or [])
@@ -799,6 +809,7 @@ def plot(
         ),
     ] = None,
     force: ForceOption = False,
+    partial: PartialOption = False,
 ) -> None:
     """Redraw the paper's figures from one run, or compare two runs, or a sweep's maps."""
     from walkrepro.present.figures import plot_compare, plot_run
@@ -819,10 +830,10 @@ def plot(
     resolved = [results.resolve_run(r) for r in runs]
     if len(resolved) == 1:
         directory, log = resolved[0]
-        written = plot_run(log, out or directory / results.FIGURES_DIR)
+        written = plot_run(log, out or directory / results.FIGURES_DIR, partial)
     else:
         written = plot_compare(
-            resolved[0][1], resolved[1][1], out or resolved[0][0] / results.FIGURES_DIR
+            resolved[0][1], resolved[1][1], out or resolved[0][0] / results.FIGURES_DIR, partial
         )
     for path in written:
         _console().print(f"wrote {path}")
@@ -906,6 +917,7 @@ def render(
     force: Annotated[
         bool, typer.Option("--force", help="Replace the --out file if it exists.")
     ] = False,
+    partial: PartialOption = False,
 ) -> None:
     """Render a snapshot strip of a run, or with --video an MP4 of it, headless.
 
@@ -926,6 +938,7 @@ def render(
             width=width or DEFAULT_WIDTH,
             height=height or DEFAULT_HEIGHT,
             contact_forces=contact_forces,
+            partial=partial,
         )
         _console().print(
             f"wrote {info.path} ({info.n_frames} frames, {info.duration:.2f} s at {info.fps} fps)"
@@ -940,9 +953,8 @@ def render(
             f"--at {at!r}: expected comma-separated times in seconds, e.g. 0,2,4."
         ) from None
     target = out or directory / results.FIGURES_DIR / "snapshots.png"
-    path = render_strip(
-        log, times, outdir.check_file(target, force, ours=out is None), width or 480, height or 640
-    )
+    target = outdir.check_file(target, force, ours=out is None)
+    path = render_strip(log, times, target, width or 480, height or 640, partial)
     _console().print(f"wrote {path}")
 
 
@@ -965,6 +977,7 @@ def export(
     force: Annotated[
         bool, typer.Option("--force", help="Replace the output file if it exists.")
     ] = False,
+    partial: PartialOption = False,
 ) -> None:
     """Export a run's log for another viewer, from the log alone (no re-simulation).
 
@@ -988,7 +1001,7 @@ def export(
     from walkrepro.runs import outdir
 
     target = outdir.check_file(out or log.with_suffix(".rrd"), force)
-    done = export_rerun(log, target, verdict, force)
+    done = export_rerun(log, target, verdict, force, partial)
     for note in done.skipped:
         _console(stderr=True).print(f"[yellow]skipped:[/] {escape(note)}", highlight=False)
     size = done.path.stat().st_size / 1e6

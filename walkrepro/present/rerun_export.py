@@ -115,7 +115,9 @@ class RerunExport:
     skipped: tuple[str, ...] = ()
 
 
-def export_rerun(log_path: Path, out: Path, check_file: Path | None, force: bool) -> RerunExport:
+def export_rerun(
+    log_path: Path, out: Path, check_file: Path | None, force: bool, partial: bool = False
+) -> RerunExport:
     """Writes the Rerun recording of the log at ``log_path`` to ``out`` (see the module
     docstring).
 
@@ -127,6 +129,10 @@ def export_rerun(log_path: Path, out: Path, check_file: Path | None, force: bool
         out: the ``.rrd`` to write.
         check_file: the run's ``check.json``, shown as the verdict (None: no verdict).
         force: replace ``out`` if it exists.
+        partial: export a cut or damaged log for what it holds: the recording's name and
+            its verdict panel then say ``PARTIAL`` (and the run's earlier verdict is not
+            shown as if it held); without it such a log is refused
+            (:class:`walkrepro.log.integrity.DamagedLogError`).
 
     Raises:
         WalkreproError: the Rerun SDK is missing, ``out`` exists and ``force`` is off, or
@@ -135,7 +141,9 @@ def export_rerun(log_path: Path, out: Path, check_file: Path | None, force: bool
     """
     rr = import_rerun()
     start = time.perf_counter()
-    log = record.read_log(log_path)
+    from walkrepro.log.integrity import read_checked_log
+
+    log, found = read_checked_log(log_path, partial)
     states = log.arrays(record.TOPIC_STATE)
     if not states:
         raise WalkreproError(f"{log_path}: no {record.TOPIC_STATE} messages; nothing to show.")
@@ -149,9 +157,10 @@ def export_rerun(log_path: Path, out: Path, check_file: Path | None, force: bool
 
     outdir.check_file(out, force)  # a directory, an existing file, a read-only place
     rec = rr.RecordingStream("walkrepro", recording_id=f"{spec.name}-{log_path.parent.name}")
-    with outdir.writing_file(out) as partial:
-        rec.save(partial, default_blueprint=_blueprint(model, plots, check_file is not None))
-        rec.send_recording_name(spec.name)
+    with outdir.writing_file(out) as temporary:
+        panel = check_file is not None or not found.whole
+        rec.save(temporary, default_blueprint=_blueprint(model, plots, panel))
+        rec.send_recording_name(f"{spec.name} ({found.short()})" if not found.whole else spec.name)
         origin = log.metadata.get("log_time_origin")
         if origin is not None:
             rec.send_recording_start_time_nanos(int(origin))
@@ -160,7 +169,10 @@ def export_rerun(log_path: Path, out: Path, check_file: Path | None, force: bool
         _send_disturbance_arrows(rr, rec, pushes, model, poses)
         skipped = _send_plots(rr, rec, log, plots, _derived_series(contacts, pushes))
         _send_events(rr, rec, log)
-        if check_file is not None:
+        if not found.whole:  # the verdict of the whole run is not this log's
+            text = f"# {spec.name}: PARTIAL\n\n{found.describe()}.\n"
+            rec.log("verdict", rr.TextDocument(text, media_type="text/markdown"), static=True)
+        elif check_file is not None:
             verdict = rr.TextDocument(_verdict_text(check_file), media_type="text/markdown")
             rec.log("verdict", verdict, static=True)
         rec.flush()

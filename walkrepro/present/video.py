@@ -217,8 +217,10 @@ def _frames(
     width: int,
     height: int,
     contact_forces: bool,
+    note: str = "",
 ) -> Iterator[np.ndarray]:
-    """The frames at ``times`` (RGB, height x width x 3)."""
+    """The frames at ``times`` (RGB, height x width x 3); ``note`` is a second title line
+    (a damaged log's ``PARTIAL: ...``)."""
     states = log.arrays(record.TOPIC_STATE)
     t_state = states["t"]
     model = mujoco.MjModel.from_xml_string(log.scene_xml)
@@ -235,7 +237,7 @@ def _frames(
     events = sorted(log.messages(record.TOPIC_EVENTS), key=lambda e: float(e["t"]))
     ctrl = log.arrays(record.TOPIC_INPUTS, ("step", "ctrl")) if contact_forces else {}
     dt = model.opt.timestep
-    title = log.metadata.get("experiment", log.path.stem)
+    title = log.metadata.get("experiment", log.path.stem) + (f"\n{note}" if note else "")
 
     data.qpos[:] = states["qpos"][0]
     mujoco.mj_kinematics(model, data)
@@ -297,6 +299,7 @@ def render_video(
     contact_forces: bool = False,
     crf: int = DEFAULT_CRF,
     stop: Callable[[], bool] | None = None,
+    partial: bool = False,
 ) -> VideoInfo:
     """Render the whole run to an H.264 MP4 that plays at real time.
 
@@ -315,6 +318,9 @@ def render_video(
         crf: x264's constant rate factor (quality; higher is smaller).
         stop: polled between frames; when it returns true the video is abandoned
             (``KeyboardInterrupt``, the partial file removed, ``out`` untouched).
+        partial: render a cut or damaged log for what it holds (each frame's title then
+            says ``PARTIAL``); without it such a log is refused
+            (:class:`walkrepro.log.integrity.DamagedLogError`).
 
     Raises:
         WalkreproError: the log holds no states, or the size is odd.
@@ -326,7 +332,9 @@ def render_video(
         raise WalkreproError(f"video size {width}x{height}: H.264 needs an even width and height.")
     if fps <= 0:
         raise WalkreproError(f"--fps {fps}: needs a positive number of frames per second.")
-    log = record.read_log(log_path)
+    from walkrepro.log.integrity import read_checked_log
+
+    log, found = read_checked_log(log_path, partial)
     t_state = log.arrays(record.TOPIC_STATE, ("t",)).get("t")
     if t_state is None or not len(t_state):
         raise WalkreproError(f"{log_path}: the log holds no /sim/state messages to render.")
@@ -351,7 +359,7 @@ def render_video(
         writer.send(None)  # start the encoder
         n = 0
         try:
-            for frame in _frames(log, times, width, height, contact_forces):
+            for frame in _frames(log, times, width, height, contact_forces, found.short()):
                 if stop is not None and stop():
                     raise KeyboardInterrupt
                 writer.send(np.ascontiguousarray(frame))

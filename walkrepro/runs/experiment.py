@@ -97,7 +97,12 @@ class References:
                 log, origin = run_dir / results.LOG_FILE, f"run {run_dir}"
         if log is not None:
             if log not in self._logs:
-                self._logs[log] = metrics.LogData.from_path(log)
+                from walkrepro.log.integrity import DamagedLogError
+
+                try:
+                    self._logs[log] = metrics.LogData.from_path(log)
+                except DamagedLogError as exc:
+                    return math.nan, f"{origin}, whose log is damaged: {exc}"
             found = metrics.evaluate(self._logs[log], [metric])
             if metric in found.reasons:
                 return (
@@ -433,18 +438,23 @@ def _unmeasured(
 
 
 def evaluate_log(
-    log_path: Path, run_dir: Path, references: checks.ReferenceLookup | None = None
+    log_path: Path,
+    run_dir: Path,
+    references: checks.ReferenceLookup | None = None,
+    partial: bool = False,
 ) -> tuple[dict[str, float], checks.Verdict]:
     """Compute metrics and the verdict from a log; write ``metrics.json`` and ``check.json``.
 
     ``references`` finds partner runs for relative expectations; by default the committed
     references (the right partner for a run made without overrides). A run stopped before
     its log was opened has no log: its ``run.json`` and ``spec.yaml`` give the verdict
-    (every metric null, with the reason).
+    (every metric null, with the reason). A cut or damaged log is refused
+    (:class:`walkrepro.log.integrity.DamagedLogError`) unless ``partial``: its verdict's
+    outcome is then ``partial`` (never a pass) and what it cannot measure says why.
     """
     if not log_path.is_file() and (run_dir / results.RUN_FILE).is_file():
         return _evaluate_unlogged(run_dir, references or References())
-    data = metrics.LogData.from_path(log_path)
+    data = metrics.LogData.from_path(log_path, partial)
     found = metrics.evaluate(data, metric_names(data.spec))
     verdict = checks.evaluate(
         data.spec, found.values, data.outcome, references or References(), found.reasons
