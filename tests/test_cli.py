@@ -96,7 +96,7 @@ def test_unwritable_output_directory(tmp_path: Path) -> None:
     path.write_text(SPEC)
     assert_friendly(
         *invoke("run", str(path), "--out", str(blocker / "runs")),
-        "cannot write run outputs",
+        "cannot write here",
         "--out",
     )
 
@@ -253,7 +253,7 @@ def test_check_prints_one_line_per_experiment_and_failing_rows_in_full(tmp_path:
     assert sum(line.startswith("FAIL  tiny_stand") for line in lines) == 1, text
     # The failing row, whole (its long source on one line, never cut); the passing row not.
     assert "  failed  tiny_stand · fell == 1: measured 0" in lines, text
-    assert f"        source: {long_source.strip()}" in lines, text
+    assert f"          source: {long_source.strip()}" in lines, text
     assert "== 0" not in text, text
     assert lines[-1] == "all rows: 1 reproduced, 0 calibrated, 0 known deviations, 1 failed", text
     code, details = invoke("check", "--run", str(run), "--details")

@@ -123,6 +123,23 @@ def _unwritable(option: str, path: Path, exc: OSError | None = None) -> Walkrepr
     )
 
 
+def _creatable(path: Path, option: str) -> None:
+    """Raise unless ``path`` exists or could be created: its nearest existing ancestor is a
+    directory that can be written."""
+    ancestor = path
+    while not ancestor.exists() and ancestor != ancestor.parent:
+        ancestor = ancestor.parent
+    if ancestor == path:
+        return
+    if not ancestor.is_dir():
+        raise WalkreproError(
+            f"{option} {path}: cannot write here: {ancestor} is a file, not a directory. "
+            f"Choose a writable location with {option} PATH."
+        )
+    if not os.access(ancestor, os.W_OK | os.X_OK):
+        raise _unwritable(option, path)
+
+
 def claim_root(
     root: Path,
     kind: str = RUNS,
@@ -158,6 +175,9 @@ def claim_root(
                 f"own output directories (with a {MARKER} file) or empty ones. Choose a new "
                 f"or empty directory, or {_FORCE}."
             )
+    if not create:
+        _creatable(root, option)
+        return root
     try:
         root.mkdir(parents=True, exist_ok=True)
         if marker_kind(root) != kind:
