@@ -330,3 +330,26 @@ def test_a_failed_export_leaves_no_partial_file(tmp_path: Path) -> None:
             raise RuntimeError("boom")
     assert out.read_text() == "old" and sorted(p.name for p in tmp_path.iterdir()) == ["x.rrd"]
     shutil.rmtree(tmp_path, ignore_errors=True)
+
+
+def test_run_given_a_run_directory_says_what_it_is(run_dir: Path, tmp_path: Path) -> None:
+    """`walkrepro run DIR` on a run directory names it and the command to use (exit 2)."""
+    code, text = _invoke("run", str(run_dir))
+    assert code == 2 and "that is a run directory" in text and "check --run" in text
+    code, text = _invoke("run", str(tmp_path))
+    assert code == 2 and "that is a directory" in text
+
+
+def test_python_overrides_are_not_called_set(tmp_path: Path) -> None:
+    """Errors of walkrepro.load's overrides name them as overrides, not as --set; the CLI's
+    still say --set."""
+    import walkrepro
+
+    with pytest.raises(WalkreproError) as raised:
+        walkrepro.load("stand_coman", {"sim.duration": -1})
+    assert "--set" not in str(raised.value) and "set by an override" in str(raised.value)
+    with pytest.raises(WalkreproError) as raised:
+        walkrepro.load("stand_coman", ["sim.duration"])
+    assert "--set" not in str(raised.value) and "override 'sim.duration'" in str(raised.value)
+    code, text = _invoke("run", "stand_coman", "--set", "sim.duration=-1")
+    assert code == 2 and "(set with --set)" in text

@@ -84,9 +84,11 @@ def load(name_or_path: str | Path, overrides: Overrides = None) -> Experiment:
     _library_setup()
     from walkrepro.runs.resolve import resolve
     from walkrepro.specs.files import load_spec
+    from walkrepro.specs.models import API_OVERRIDES, overrides_named
 
     strings = _override_strings(overrides)
-    return resolve(load_spec(name_or_path, strings), strings)
+    with overrides_named(API_OVERRIDES):  # the caller typed no --set
+        return resolve(load_spec(name_or_path, strings), strings)
 
 
 def run(
