@@ -312,6 +312,8 @@ def test_render_out_keeps_a_users_file_and_says_a_read_only_place(
     assert code == 2 and "that is a directory" in text
     code, text = _invoke("render", str(run_dir), "--at", "", "--out", str(tmp_path / "s.png"))
     assert code == 2 and "at least one time" in text
+    code, text = _invoke("render", str(run_dir), "--width", "-5", "--out", str(tmp_path / "s.png"))
+    assert code == 2 and "--width" in text
     code, text = _invoke("render", str(run_dir), "--at", "0", "--out", str(picture), "--force")
     assert code == 0, text
     assert picture.read_bytes()[:4] == b"\x89PNG"

@@ -905,12 +905,14 @@ def render(
         ),
     ] = None,
     width: Annotated[
-        int | None, typer.Option(help="Frame width [px] (default: 480 strip, 640 video).")
+        int | None,
+        typer.Option(min=2, help="Frame width [px] (default: 480 strip, 640 video)."),
     ] = None,
     height: Annotated[
-        int | None, typer.Option(help="Frame height [px] (default: 640 strip, 360 video).")
+        int | None,
+        typer.Option(min=2, help="Frame height [px] (default: 640 strip, 360 video)."),
     ] = None,
-    fps: Annotated[int, typer.Option(help="Video frames per simulated second.")] = 30,
+    fps: Annotated[int, typer.Option(min=1, help="Video frames per simulated second.")] = 30,
     contact_forces: Annotated[
         bool, typer.Option("--contact-forces", help="Draw contact forces in the video.")
     ] = False,
