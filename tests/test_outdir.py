@@ -15,8 +15,7 @@ from typer.testing import CliRunner
 
 from walkrepro.cli import app
 from walkrepro.errors import WalkreproError
-from walkrepro.runs import outdir
-from walkrepro.runtime import gl
+from walkrepro.runtime import gl, outdir
 
 runner = CliRunner()
 STAND = ["stand_coman", "--set", "sim.duration=0.1"]

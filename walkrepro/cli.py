@@ -421,7 +421,7 @@ def run(
     1 when a claim fails or is not measurable or the run ended in an error, 2 for a usage
     error (bad spec, --out refused), 130/143 after Ctrl-C/SIGTERM; as `walkrepro check`.
     """
-    from walkrepro.runs import outdir
+    from walkrepro.runtime import outdir
 
     outdir.claim_root(out, outdir.RUNS, force or out == results.DEFAULT_ROOT, create=False)
     summary = _run_one(experiment, set_ or [], out, (figures, figures), show_progress=True)
@@ -554,7 +554,7 @@ def check(options: CheckOptions) -> None:
         _needs_checkout("--update-reference")
         _needs_clean_tree("check --update-reference", options.allow_dirty)
     if options.experiments or not options.run_dir:  # it writes runs under --out
-        from walkrepro.runs import outdir
+        from walkrepro.runtime import outdir
 
         default = options.out == results.DEFAULT_ROOT
         outdir.claim_root(options.out, outdir.RUNS, options.force or default, create=False)
@@ -813,7 +813,7 @@ def plot(
 ) -> None:
     """Redraw the paper's figures from one run, or compare two runs, or a sweep's maps."""
     from walkrepro.present.figures import plot_compare, plot_run
-    from walkrepro.runs import outdir
+    from walkrepro.runtime import outdir
     from walkrepro.studies.sweep.store import is_sweep_dir
 
     if out is not None:
@@ -926,7 +926,7 @@ def render(
     The video follows the pelvis from the side, colours each link, draws disturbance forces
     as red arrows and overlays the time and the controller's state.
     """
-    from walkrepro.runs import outdir
+    from walkrepro.runtime import outdir
 
     directory, log = results.resolve_run(run_path)
     if video:
@@ -1000,7 +1000,7 @@ def export(
         )
     check = directory / results.CHECK_FILE  # the verdict of a run directory's log
     verdict = check if log.name == results.LOG_FILE and check.is_file() else None
-    from walkrepro.runs import outdir
+    from walkrepro.runtime import outdir
 
     target = outdir.check_file(out or log.with_suffix(".rrd"), force)
     done = export_rerun(log, target, verdict, force, partial)
@@ -1424,7 +1424,7 @@ def _run_one(  # noqa: ANN202
     directory is created as soon as the spec is valid, before the slow imports and set-up:
     a stop at any moment after that leaves a run directory with outcome ``interrupted``.
     """
-    from walkrepro.runs import outdir
+    from walkrepro.runtime import outdir
     from walkrepro.runtime.interrupt import InterruptFlag
 
     with InterruptFlag() as flag:

@@ -74,7 +74,7 @@ def render_strip(
     head = f"{spec_name} — snapshots (outcome: {outcome})"
     fig.suptitle(f"{head}\n{found.short()}" if not found.whole else head)
     fig.tight_layout()
-    from walkrepro.runs import outdir
+    from walkrepro.runtime import outdir
 
     outdir.check_file(out, force=True)  # a directory or a read-only place: a clean error
     try:

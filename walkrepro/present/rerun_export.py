@@ -42,7 +42,7 @@ from walkrepro.evaluation.metrics import FOOT_BODIES
 from walkrepro.log import record
 from walkrepro.log.foxglove import GeomShape, body_names, geom_shape
 from walkrepro.present.plots import Plot, Series, read_series, signal_plots
-from walkrepro.runs import outdir
+from walkrepro.runtime import outdir
 from walkrepro.specs.models import spec_from_yaml_text
 
 #: The timeline: simulated time.

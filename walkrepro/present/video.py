@@ -339,7 +339,7 @@ def render_video(
     if t_state is None or not len(t_state):
         raise WalkreproError(f"{log_path}: the log holds no /sim/state messages to render.")
     times = frame_times(float(t_state[-1]), fps)
-    from walkrepro.runs import outdir
+    from walkrepro.runtime import outdir
 
     outdir.check_file(out, force=True)  # a directory or a read-only place: a clean error
     with outdir.writing_file(out) as partial:

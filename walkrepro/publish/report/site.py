@@ -28,7 +28,8 @@ from walkrepro.publish.report.claims import Tally, experiment_claims, tally
 from walkrepro.publish.report.maps import MapResult, experiment_maps
 from walkrepro.publish.report.robots import markdown_to_html, robot_readme
 from walkrepro.publish.report.sources import ExperimentResult, find_results
-from walkrepro.runs import outdir, results
+from walkrepro.runs import results
+from walkrepro.runtime import outdir
 
 #: The maps' directory inside a results tree.
 MAPS_DIR = "maps"
@@ -61,7 +62,7 @@ def build_report(
 
     ``source`` is ``results/`` (the committed references) or a ``walkrepro check --out``
     directory; the maps come from ``source/maps`` if it exists, else from ``results/maps``.
-    The output directory is replaced as a whole, atomically (:func:`walkrepro.runs.outdir.replacing`):
+    The output directory is replaced as a whole, atomically (:func:`walkrepro.runtime.outdir.replacing`):
     only when it is walkrepro's earlier report or empty, or with ``force``; a failure leaves
     it as it was.
 

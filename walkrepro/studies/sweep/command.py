@@ -65,7 +65,7 @@ class EngineChoice:
 def sweep_command(console: Any, request: SweepRequest, engine: EngineChoice) -> int:
     """Plan (validating every cell), run and map a sweep; returns the exit code: 0, 1 when
     cells crashed (their worker died), 130 or 143 when Ctrl-C or SIGTERM stopped it."""
-    from walkrepro.runs import outdir
+    from walkrepro.runtime import outdir
     from walkrepro.studies.sweep.maps import plot_sweep
 
     experiment, resume = request.experiment, request.resume
