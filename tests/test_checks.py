@@ -198,7 +198,38 @@ def test_summary_line_names_the_experiment_its_outcome_and_counts() -> None:
     failed = evaluate(make_spec(ok, bad), {"fell": 0.0, "footsteps": 3.0}, "fell")
     assert summary_line(failed).startswith("FAIL") and "fell" in summary_line(failed)
     (text,) = failing_row_text(failed)
-    assert text.splitlines() == ["  fail  t · footsteps >= 11: measured 3", "        source: s"]
+    assert text.splitlines() == [
+        "  failed  t · footsteps >= 11: measured 3",
+        "          source: s",
+    ]
     assert not failing_row_text(good)
     broken = evaluate(make_spec(ok), {"fell": 0.0}, "interrupted")
-    assert failing_row_text(broken) == ["  fail  t · run: outcome interrupted"]
+    assert failing_row_text(broken) == ["  failed  t · run: outcome interrupted"]
+
+
+def test_every_output_says_the_same_words_and_not_measurable() -> None:
+    """A row's word is the CLI's (reproduced, calibrated, known deviation, failed) in the
+    Python API too; a missing value reads ``not measurable``, never ``nan``; print(verdict)
+    is the CLI's lines."""
+    from walkrepro.evaluation.checks import STATUS_WORDS, claim_lines
+
+    ok = Expectation(metric="fell", op="==", value=0, source="s")
+    bad = Expectation(metric="footsteps", op=">=", value=11, source="s", note="needs steps")
+    v = evaluate(make_spec(ok, bad), {"fell": 0.0}, "fell", reasons={"footsteps": "no steps"})
+    assert [r.word for r in v.rows] == ["reproduced", "failed"]
+    assert set(STATUS_WORDS.values()) == {"reproduced", "calibrated", "known deviation", "failed"}
+    assert v.rows[1].measured_text == "not measurable"
+    assert "not measurable" in claim_lines(v)[1] and "nan" not in str(v)
+    assert str(v).splitlines()[1:] == claim_lines(v)
+    assert "pass" not in str(v).split() and "fail" not in str(v).split()
+
+
+def test_notes_are_separate_sentences() -> None:
+    """The spec's note and the reasons added to it never run together."""
+    e = Expectation(
+        metric="footsteps", op=">=", value=11, source="s", note="steps after a fall not measurable"
+    )
+    v = evaluate(make_spec(e), {}, "interrupted", reasons={"footsteps": "run interrupted at 1 s"})
+    assert v.rows[0].note == (
+        "steps after a fall not measurable. Not measurable: run interrupted at 1 s."
+    )

@@ -96,7 +96,7 @@ def test_unwritable_output_directory(tmp_path: Path) -> None:
     path.write_text(SPEC)
     assert_friendly(
         *invoke("run", str(path), "--out", str(blocker / "runs")),
-        "cannot write run outputs",
+        "cannot write here",
         "--out",
     )
 
@@ -252,8 +252,8 @@ def test_check_prints_one_line_per_experiment_and_failing_rows_in_full(tmp_path:
     lines = text.splitlines()
     assert sum(line.startswith("FAIL  tiny_stand") for line in lines) == 1, text
     # The failing row, whole (its long source on one line, never cut); the passing row not.
-    assert "  fail  tiny_stand · fell == 1: measured 0" in lines, text
-    assert f"        source: {long_source.strip()}" in lines, text
+    assert "  failed  tiny_stand · fell == 1: measured 0" in lines, text
+    assert f"          source: {long_source.strip()}" in lines, text
     assert "== 0" not in text, text
     assert lines[-1] == "all rows: 1 reproduced, 0 calibrated, 0 known deviations, 1 failed", text
     code, details = invoke("check", "--run", str(run), "--details")
@@ -337,19 +337,19 @@ def test_run_prints_one_line_per_claim_and_failing_rows_in_full(tmp_path: Path) 
     path.write_text(TWO_CLAIMS)
     out = tmp_path / "runs"
     code, text = invoke("run", str(path), "--out", str(out), "--no-figures")
-    assert code == 0, text  # a failing claim is a verdict, not a failed command
+    assert code == 1, text  # a failing claim fails the command, as `check` does
     lines = text.strip().splitlines()
     claims = [line for line in lines if " paper " in line and " measured " in line]
     assert len(claims) == 2
     assert claims[0].split()[:5] == ["reproduced", "fell", "paper", "==", "0"]
-    assert claims[1].split()[:5] == ["fail", "pelvis_drift", "paper", "<", "0"]
+    assert claims[1].split()[:5] == ["failed", "pelvis_drift", "paper", "<", "0"]
     assert "source: test: an impossible claim" in text  # the failing row in full
     assert "test: an impossible claim" not in "\n".join(claims)
     assert "1 reproduced, 0 calibrated, 0 known deviations, 1 failed" in text
     assert lines[-1].startswith("run directory: ")
     assert len(lines) == 2 + 3 + 1 + 1  # claims, the failing row's 3 lines, count, directory
     code, details = invoke("run", str(path), "--out", str(out), "--no-figures", "--details")
-    assert code == 0 and "source / note" in details and "paper expectations" in details
+    assert code == 1 and "source / note" in details and "paper expectations" in details
 
 
 def test_forward_walks_verdict_fits_in_thirty_lines(capsys: pytest.CaptureFixture) -> None:

@@ -63,7 +63,7 @@ def test_check_without_names_runs_the_user_folder_only(user_folder: Path, tmp_pa
         app, ["--experiments", str(user_folder), "check", "--out", str(out), "--jobs", "1"]
     )
     assert result.exit_code == 0, result.output
-    assert [p.name for p in out.iterdir()] == ["my_stand"]
+    assert [p.name for p in out.iterdir() if p.name != ".walkrepro-output"] == ["my_stand"]
     assert "1 reproduced, 0 calibrated, 0 known deviations, 0 failed" in result.output
 
 

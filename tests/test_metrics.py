@@ -643,3 +643,57 @@ def test_unreadable_argument_of_an_old_spec_is_not_measurable(tmp_path: Path) ->
     r = evaluate(d, ["mean_forward_speed:2-x"])
     assert math.isnan(r.values["mean_forward_speed:2-x"])
     assert "t0-t1" in r.reasons["mean_forward_speed:2-x"]
+
+
+def _fallen_variant(path: Path, after: float) -> LogData:
+    """A walking-like log that falls at t = 1.0 s, identical before the fall; after it the
+    pelvis drops by ``after`` [m], both feet carry ``after`` × 1 kN more, the signals and
+    the pushes change, and more events come."""
+    home = _robot("dyros_red").home_qpos
+    ticks = []
+    for k in range(201):
+        t = k * DT
+        late = k > 100
+        qpos = home.copy()
+        qpos[0] = 0.1 * t
+        if late:
+            qpos[2] -= after
+        pairs = standing_pairs()
+        if late:
+            pairs = {key: [v + after * 1e3 for v in w] for key, w in pairs.items()}
+        ticks.append(
+            Tick(
+                t,
+                qpos=qpos,
+                pairs=pairs,
+                signals={"fsm_state": 1.0 + (after if late else 0.0), "com": [0.0, 0.0, 0.8]},
+                events=[{"kind": "fall", "reason": "pelvis low"}]
+                if k == 100
+                else ([{"kind": "phase", "state": 2.0}] if late and k % 10 == 0 else []),
+                xfrc={"pelvis": [after * 100, 0, 0, 0, 0, 0]} if late else {},
+            )
+        )
+    return write_log(path, ticks, outcome="fell", extra={"fall_time": "1.0"})
+
+
+def test_no_metric_reads_anything_after_the_fall(tmp_path: Path) -> None:
+    """Every registered metric (core and the papers') gives the same value, or the same
+    reason, on two fallen logs that differ only after the fall: nothing is measured after a
+    fall, whatever the metric."""
+    from walkrepro.evaluation.metrics import _registry
+
+    a = _fallen_variant(tmp_path / "a.mcap", 0.0)
+    b = _fallen_variant(tmp_path / "b.mcap", 0.5)
+
+    def outcome(d: LogData, name: str) -> str:
+        try:
+            r = evaluate(d, [name])
+        except Exception as exc:  # noqa: BLE001 - a synthetic log lacks a paper's signals
+            return f"{type(exc).__name__}: {exc}".replace(str(d.log.path), "LOG")
+        return repr(r.values[name]) if name not in r.reasons else r.reasons[name]
+
+    names = sorted(_registry())
+    assert len(names) > 40
+    differ = {n: (outcome(a, n), outcome(b, n)) for n in names}
+    differ = {n: v for n, v in differ.items() if v[0] != v[1]}
+    assert differ == {}

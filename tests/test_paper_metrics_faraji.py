@@ -682,3 +682,16 @@ def test_slow_knee_motor_is_not_saturated(tmp_path: Path) -> None:
     """Knee shafts swinging at 1 rad/s stay far below the 2.43 rad/s bound (Fig. 6 fails)."""
     d = _turning(tmp_path, 0.0, 1.0)
     assert measured(d, "peak_knee_motor_speed") == pytest.approx(1.0, abs=1e-3)
+
+
+def test_landing_adjustment_of_a_fallen_run_is_not_measurable(tmp_path: Path) -> None:
+    """A bound on every landing is not confirmed by the landings before a fall: on a run
+    that fell, max_landing_adjustment is not measurable (a complete run measures it)."""
+    offsets = UNDISTURBED + [0.1, 0.1]
+    assert measured(_landing_log(tmp_path, offsets), "max_landing_adjustment") == pytest.approx(
+        0.1, abs=1e-4
+    )
+    fell = _landing_log(tmp_path, offsets, outcome="fell")
+    assert "before every landing of the run could be measured" in unmeasurable_reason(
+        fell, "max_landing_adjustment"
+    )

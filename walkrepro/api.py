@@ -84,9 +84,11 @@ def load(name_or_path: str | Path, overrides: Overrides = None) -> Experiment:
     _library_setup()
     from walkrepro.runs.resolve import resolve
     from walkrepro.specs.files import load_spec
+    from walkrepro.specs.models import API_OVERRIDES, overrides_named
 
     strings = _override_strings(overrides)
-    return resolve(load_spec(name_or_path, strings), strings)
+    with overrides_named(API_OVERRIDES):  # the caller typed no --set
+        return resolve(load_spec(name_or_path, strings), strings)
 
 
 def run(
@@ -134,28 +136,43 @@ def run(
     )
 
 
-def evaluate(run_or_log: RunSummary | str | Path) -> Verdict:
+def evaluate(run_or_log: RunSummary | str | Path, *, partial: bool = False) -> Verdict:
     """Recompute a run's metrics and verdict from its log alone, as ``walkrepro check
     --run`` does, and rewrite its ``metrics.json`` and ``check.json``.
 
     Args:
         run_or_log: a run from :func:`run`, a run directory, or a ``log.mcap``.
+        partial: use a cut or damaged log for what it holds (the verdict's outcome is then
+            ``partial``); without it such a log is refused.
 
     Returns:
         The verdict (:class:`walkrepro.evaluation.checks.Verdict`): ``passed``, ``rows`` (claim, paper
-        value, measured value, status), ``outcome``.
+        value, measured value, ``status`` as ``check.json`` stores it, ``word`` as the CLI
+        says it: reproduced, calibrated, known deviation, failed), ``outcome``;
+        ``print(verdict)`` prints it as ``walkrepro run`` does.
 
     Raises:
-        walkrepro.errors.WalkreproError: not a run directory or log.
+        walkrepro.errors.WalkreproError: not a run, run directory or log; a log that is
+            cut or damaged, without ``partial``
+            (:class:`walkrepro.log.integrity.DamagedLogError`, naming what it holds).
     """
+    import os
+
+    from walkrepro.errors import WalkreproError
+
     _library_setup()  # a metric may compile a kernel
     from walkrepro.runs import results
     from walkrepro.runs.experiment import References, RunSummary, evaluate_log
 
+    if not isinstance(run_or_log, RunSummary | str | os.PathLike):
+        raise WalkreproError(
+            f"walkrepro.evaluate({run_or_log!r}): give a run (what walkrepro.run returns), a "
+            f"run directory or a log.mcap path, not a {type(run_or_log).__name__}."
+        )
     path = run_or_log.run_dir if isinstance(run_or_log, RunSummary) else Path(run_or_log)
     directory, log = results.resolve_run(path)
     # Partners of relative expectations: runs with the same overrides beside this one
     # (<root>/<experiment>/<run>), else the committed references.
     made_with = results.recorded_overrides(directory)
     lookup = References(overrides=made_with, search_root=directory.parent.parent)
-    return evaluate_log(log, directory, lookup)[1]
+    return evaluate_log(log, directory, lookup, partial)[1]

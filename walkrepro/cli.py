@@ -144,7 +144,31 @@ AllowDirtyOption = Annotated[
     ),
 ]
 OutOption = Annotated[
-    Path, typer.Option("--out", help="Root directory for run outputs.", show_default=True)
+    Path,
+    typer.Option(
+        "--out",
+        help="Root directory for run outputs: a new or empty directory, or one walkrepro "
+        "wrote (it holds a .walkrepro-output file); any other is refused unless --force.",
+        show_default=True,
+    ),
+]
+#: Lets a reader use a cut or damaged log for what it holds (walkrepro/log/integrity.py).
+PartialOption = Annotated[
+    bool,
+    typer.Option(
+        "--partial",
+        help="Use a cut or damaged log for what it holds (without it, such a log is an error "
+        "naming what it holds and lacks); every output then says partial.",
+    ),
+]
+#: Lets a command write into a directory (or over a file) that walkrepro did not write.
+ForceOption = Annotated[
+    bool,
+    typer.Option(
+        "--force",
+        help="Write into --out even if it holds files walkrepro did not write (a replaced "
+        "output's old contents are deleted).",
+    ),
 ]
 
 
@@ -389,19 +413,51 @@ def run(
             "note); default: one line per claim, failing rows in full.",
         ),
     ] = False,
+    force: ForceOption = False,
 ) -> None:
-    """Run one experiment headless: log, metrics, verdict and figures in a new run directory."""
+    """Run one experiment headless: log, metrics, verdict and figures in a new run directory.
+
+    Exit code: 0 when every claim holds (a known deviation inside its observed band holds),
+    1 when a claim fails or is not measurable or the run ended in an error, 2 for a usage
+    error (bad spec, --out refused), 130/143 after Ctrl-C/SIGTERM; as `walkrepro check`.
+    """
+    from walkrepro.runtime import outdir
+
+    outdir.claim_root(out, outdir.RUNS, force or out == results.DEFAULT_ROOT, create=False)
     summary = _run_one(experiment, set_ or [], out, (figures, figures), show_progress=True)
     _print_verdicts([summary.verdict], details, per_claim=True)
     _console().print(f"run directory: [bold]{summary.run_dir}[/]")
     for what, name in (("figures", results.FIGURES_DIR), ("video", "video.mp4")):
         if (summary.run_dir / name).exists():
             _console().print(f"{what}: {summary.run_dir / name}", highlight=False)
+    _print_missing(summary.run_dir, summary.stages, summary.signum if summary.interrupted else None)
     if summary.interrupted:  # 130 after Ctrl-C, 143 after SIGTERM
         raise typer.Exit(code=summary.exit_code)
     if summary.result.outcome == "error":
         _console(stderr=True).print(f"[bold red]error:[/] {escape(summary.result.message)}")
         raise typer.Exit(code=1)
+    if not summary.verdict.passed:  # a CI can use the exit code, as with `check`
+        raise typer.Exit(code=1)
+
+
+def _print_missing(run_dir: Path, stages: dict[str, str], signum: int | None = None) -> None:
+    """On stderr: which stage a stop interrupted, and each output the run lacks (its
+    ``run.json`` records the same)."""
+    import signal
+
+    console = _console(stderr=True)
+    if signum is not None:
+        name = signal.Signals(signum).name
+        during = [n for n, status in stages.items() if status == results.INTERRUPTED]
+        where = f"the {during[0]} stage" if during else "the run"
+        console.print(
+            f"[yellow]interrupted ({name}) during {where}[/]; {run_dir / results.RUN_FILE} "
+            "records what was done.",
+            highlight=False,
+            soft_wrap=True,
+        )
+    for text in results.missing_outputs({"stages": stages}):
+        console.print(f"[yellow]missing:[/] {escape(text)}", highlight=False, soft_wrap=True)
 
 
 def _complete_experiment(incomplete: str) -> list[str]:
@@ -422,6 +478,7 @@ class CheckOptions:
     run_dir: Annotated[
         list[Path] | None, typer.Option("--run", help="Re-check an existing run directory or log.")
     ] = None
+    partial: PartialOption = False
     set_: SetOption = None
     out: OutOption = results.DEFAULT_ROOT
     jobs: Annotated[int, typer.Option(help="Parallel runs (processes).")] = os.cpu_count() or 1
@@ -442,6 +499,7 @@ class CheckOptions:
         ),
     ] = False
     allow_dirty: AllowDirtyOption = False
+    force: ForceOption = False
     sweeps: Annotated[
         bool,
         typer.Option(
@@ -495,9 +553,16 @@ def check(options: CheckOptions) -> None:
     if options.update_reference:
         _needs_checkout("--update-reference")
         _needs_clean_tree("check --update-reference", options.allow_dirty)
+    if options.experiments or not options.run_dir:  # it writes runs under --out
+        from walkrepro.runtime import outdir
+
+        default = options.out == results.DEFAULT_ROOT
+        outdir.claim_root(options.out, outdir.RUNS, options.force or default, create=False)
     verdicts: list[checks.Verdict] = []
     for path in options.run_dir or []:
-        verdicts.append(api.evaluate(path))
+        verdicts.append(api.evaluate(path, partial=options.partial))
+        directory, _ = results.resolve_run(path)
+        _print_missing(directory, results.read_record(directory).get("stages") or {})
     names = list(options.experiments or [])
     if not names and not options.run_dir:
         names = experiment_names()
@@ -627,6 +692,8 @@ def _run_batch(
             f"in {wall:.0f} s ({verdict}) → {summary.run_dir}",
             highlight=False,
         )
+        signum = summary.signum if summary.interrupted else None
+        _print_missing(summary.run_dir, summary.stages, signum)
 
     if workers == 1 and engine.name == "process":
         for name in names:
@@ -735,12 +802,22 @@ def plot(
         typer.Argument(help="Run directory or log (two to compare runs), or a sweep directory."),
     ],
     out: Annotated[
-        Path | None, typer.Option(help="Figure directory (default: RUN/figures).")
+        Path | None,
+        typer.Option(
+            help="Figure directory (default: RUN/figures): new, empty, or one walkrepro "
+            "wrote; any other is refused unless --force."
+        ),
     ] = None,
+    force: ForceOption = False,
+    partial: PartialOption = False,
 ) -> None:
     """Redraw the paper's figures from one run, or compare two runs, or a sweep's maps."""
     from walkrepro.present.figures import plot_compare, plot_run
+    from walkrepro.runtime import outdir
     from walkrepro.studies.sweep.store import is_sweep_dir
+
+    if out is not None:
+        outdir.claim_root(out, outdir.FIGURES, force)
 
     if len(runs) == 1 and is_sweep_dir(runs[0]):
         from walkrepro.studies.sweep.maps import plot_sweep
@@ -753,10 +830,10 @@ def plot(
     resolved = [results.resolve_run(r) for r in runs]
     if len(resolved) == 1:
         directory, log = resolved[0]
-        written = plot_run(log, out or directory / results.FIGURES_DIR)
+        written = plot_run(log, out or directory / results.FIGURES_DIR, partial)
     else:
         written = plot_compare(
-            resolved[0][1], resolved[1][1], out or resolved[0][0] / results.FIGURES_DIR
+            resolved[0][1], resolved[1][1], out or resolved[0][0] / results.FIGURES_DIR, partial
         )
     for path in written:
         _console().print(f"wrote {path}")
@@ -828,32 +905,42 @@ def render(
         ),
     ] = None,
     width: Annotated[
-        int | None, typer.Option(help="Frame width [px] (default: 480 strip, 640 video).")
+        int | None,
+        typer.Option(min=2, help="Frame width [px] (default: 480 strip, 640 video)."),
     ] = None,
     height: Annotated[
-        int | None, typer.Option(help="Frame height [px] (default: 640 strip, 360 video).")
+        int | None,
+        typer.Option(min=2, help="Frame height [px] (default: 640 strip, 360 video)."),
     ] = None,
-    fps: Annotated[int, typer.Option(help="Video frames per simulated second.")] = 30,
+    fps: Annotated[int, typer.Option(min=1, help="Video frames per simulated second.")] = 30,
     contact_forces: Annotated[
         bool, typer.Option("--contact-forces", help="Draw contact forces in the video.")
     ] = False,
+    force: Annotated[
+        bool, typer.Option("--force", help="Replace the --out file if it exists.")
+    ] = False,
+    partial: PartialOption = False,
 ) -> None:
     """Render a snapshot strip of a run, or with --video an MP4 of it, headless.
 
     The video follows the pelvis from the side, colours each link, draws disturbance forces
     as red arrows and overlays the time and the controller's state.
     """
+    from walkrepro.runtime import outdir
+
     directory, log = results.resolve_run(run_path)
     if video:
         from walkrepro.present.video import DEFAULT_HEIGHT, DEFAULT_WIDTH, VIDEO_FILE, render_video
 
+        target = outdir.check_file(out or directory / VIDEO_FILE, force, ours=out is None)
         info = render_video(
             log,
-            out or directory / VIDEO_FILE,
+            target,
             fps=fps,
             width=width or DEFAULT_WIDTH,
             height=height or DEFAULT_HEIGHT,
             contact_forces=contact_forces,
+            partial=partial,
         )
         _console().print(
             f"wrote {info.path} ({info.n_frames} frames, {info.duration:.2f} s at {info.fps} fps)"
@@ -867,13 +954,9 @@ def render(
         raise WalkreproError(
             f"--at {at!r}: expected comma-separated times in seconds, e.g. 0,2,4."
         ) from None
-    path = render_strip(
-        log,
-        times,
-        out or directory / results.FIGURES_DIR / "snapshots.png",
-        width or 480,
-        height or 640,
-    )
+    target = out or directory / results.FIGURES_DIR / "snapshots.png"
+    target = outdir.check_file(target, force, ours=out is None)
+    path = render_strip(log, times, target, width or 480, height or 640, partial)
     _console().print(f"wrote {path}")
 
 
@@ -896,6 +979,7 @@ def export(
     force: Annotated[
         bool, typer.Option("--force", help="Replace the output file if it exists.")
     ] = False,
+    partial: PartialOption = False,
 ) -> None:
     """Export a run's log for another viewer, from the log alone (no re-simulation).
 
@@ -916,7 +1000,10 @@ def export(
         )
     check = directory / results.CHECK_FILE  # the verdict of a run directory's log
     verdict = check if log.name == results.LOG_FILE and check.is_file() else None
-    done = export_rerun(log, out or log.with_suffix(".rrd"), verdict, force)
+    from walkrepro.runtime import outdir
+
+    target = outdir.check_file(out or log.with_suffix(".rrd"), force)
+    done = export_rerun(log, target, verdict, force, partial)
     for note in done.skipped:
         _console(stderr=True).print(f"[yellow]skipped:[/] {escape(note)}", highlight=False)
     size = done.path.stat().st_size / 1e6
@@ -940,15 +1027,17 @@ def report(
     out: Annotated[
         Path | None,
         typer.Option(
-            help="Site directory, replaced as a whole (default: next to --from, report/)."
+            help="Site directory, replaced as a whole (default: next to --from, report/): a "
+            "new or empty directory or an earlier report; any other is refused unless --force."
         ),
     ] = None,
+    force: ForceOption = False,
 ) -> None:
     """Build the static HTML report: per paper, each claim with the paper's value, the
     measured value and the verdict, next to the figures, the video and the maps."""
     from walkrepro.publish.report import build_report
 
-    site = build_report(source, out)
+    site = build_report(source, out, force)
     for note in site.notes:
         _console(stderr=True).print(f"[yellow]skipped:[/] {escape(note)}", highlight=False)
     for key, t in site.tallies.items():
@@ -998,6 +1087,7 @@ class SweepOptions:
         typer.Option("--update-reference", help="Copy the finished map to results/maps/<map>/."),
     ] = False
     allow_dirty: AllowDirtyOption = False
+    force: ForceOption = False
 
 
 @app.command()
@@ -1023,6 +1113,7 @@ def sweep(options: SweepOptions) -> None:
         resume=options.resume,
         keep_logs=options.keep_logs,
         update_reference=options.update_reference,
+        force=options.force or options.out == results.DEFAULT_ROOT,
     )
     engine = EngineChoice(options.engine, options.jobs, options.address)
     code = sweep_command(_console(stderr=True), request, engine)
@@ -1333,11 +1424,13 @@ def _run_one(  # noqa: ANN202
     directory is created as soon as the spec is valid, before the slow imports and set-up:
     a stop at any moment after that leaves a run directory with outcome ``interrupted``.
     """
+    from walkrepro.runtime import outdir
     from walkrepro.runtime.interrupt import InterruptFlag
 
     with InterruptFlag() as flag:
         experiment = _experiment(name, overrides)
         spec = experiment.spec
+        outdir.claim_root(out, outdir.RUNS, force=True)  # the command checked it
         run_dir = results.new_run_dir(out, spec.name)
         try:
             from walkrepro.runs.experiment import execute
@@ -1432,7 +1525,7 @@ def _verdict_table(verdicts: list) -> Table:  # list[checks.Verdict]
     label = {
         PASS: "[green]reproduced[/]",
         CALIBRATED: "[blue]calibrated[/]",
-        FAIL: "[red]fail[/]",
+        FAIL: "[red]failed[/]",
         KNOWN: "[yellow]known deviation[/]",
     }
     table = Table(title="paper expectations")
@@ -1449,7 +1542,7 @@ def _verdict_table(verdicts: list) -> Table:  # list[checks.Verdict]
                 r.metric,
                 tag_text(r),
                 r.band,
-                f"{r.measured:.4g}",
+                r.measured_text,
                 r.observed_band,
                 label[r.status],
                 escape(f"{r.source}{note}"),

@@ -64,6 +64,18 @@ class CheckRow:
     own: str | None = None
 
     @property
+    def word(self) -> str:
+        """The status as every output says it: ``reproduced``, ``calibrated``, ``known
+        deviation`` or ``failed`` (:data:`STATUS_WORDS`; ``status`` keeps the stored
+        ``check.json`` value)."""
+        return STATUS_WORDS.get(self.status, self.status)
+
+    @property
+    def measured_text(self) -> str:
+        """The measured value as text (4 significant digits), or ``not measurable``."""
+        return NOT_MEASURABLE if math.isnan(self.measured) else f"{self.measured:.4g}"
+
+    @property
     def band(self) -> str:
         """The expectation as text, e.g. ``between 0.07 and 0.16``."""
         if self.op == "between":
@@ -137,6 +149,11 @@ class Verdict:
         """No failing row, and the run was not interrupted or broken."""
         return self.run_ok and all(r.status != FAIL for r in self.rows)
 
+    def __str__(self) -> str:
+        """The verdict as ``walkrepro run`` prints it: the experiment's line, then one line
+        per row, in the CLI's words (:data:`STATUS_WORDS`)."""
+        return "\n".join([summary_line(self), *claim_lines(self)])
+
     def to_json(self) -> dict:
         """Plain data for ``check.json``."""
         return {
@@ -170,12 +187,14 @@ def summary_line(verdict: Verdict, name_width: int = 0) -> str:
     return f"{mark}  {verdict.experiment:<{name_width}}  {verdict.outcome:<11} {count([verdict])}"
 
 
-#: How a one-line row names each status (the words of the count line).
+#: How every output names each status (the words of the count line): the CLI, the Python
+#: API (:attr:`CheckRow.word`), the report and the Rerun recording's verdict panel. A row
+#: whose metric gave no value shows ``not measurable`` as its measured value.
 STATUS_WORDS = {
     PASS: "reproduced",
     CALIBRATED: "calibrated",
     KNOWN: "known deviation",
-    FAIL: "fail",
+    FAIL: "failed",
 }
 
 
@@ -194,7 +213,7 @@ def claim_lines(verdict: Verdict) -> list[str]:
     band_w = max((len(r.band) for r in rows), default=0)
     lines = []
     for r in rows:
-        measured = f"{r.measured:.4g}"
+        measured = r.measured_text
         observed = f"  observed {r.observed_band}" if r.observed else ""
         lines.append(
             f"  {STATUS_WORDS[r.status]:<{status_w}}  {r.metric:<{metric_w}}  paper "
@@ -218,15 +237,15 @@ def failing_row_text(verdict: Verdict) -> list[str]:
     """
     texts = []
     if not verdict.run_ok:
-        texts.append(f"  fail  {verdict.experiment} · run: outcome {verdict.outcome}")
+        texts.append(f"  failed  {verdict.experiment} · run: outcome {verdict.outcome}")
     for r in verdict.rows:
         if r.status != FAIL:
             continue
         observed = f" (known deviation's observed band {r.observed_band})" if r.observed else ""
-        head = f"  fail  {verdict.experiment} · {r.metric} {r.band}: measured {r.measured:.4g}"
-        lines = [head + observed, f"        source: {r.source}"]
+        head = f"  failed  {verdict.experiment} · {r.metric} {r.band}: measured {r.measured_text}"
+        lines = [head + observed, f"          source: {r.source}"]
         if r.note:
-            lines.append(f"        note: {r.note}")
+            lines.append(f"          note: {r.note}")
         texts.append("\n".join(lines))
     return texts
 
@@ -246,6 +265,14 @@ def holds(op: str, measured: float, value: float | tuple[float, float]) -> bool:
         ">=": measured >= v,
         "==": measured == v,
     }[op]
+
+
+def _sentences(notes: list[str]) -> str:
+    """The notes of a row as separate sentences: each ends with a full stop (unless it ends
+    with other punctuation) before the next begins, so the spec's note and the reasons added
+    here never run together."""
+    parts = [n.strip() for n in notes if n and n.strip()]
+    return " ".join(p if p[-1] in ".!?" else f"{p}." for p in parts)
 
 
 def _has_nan(value: float | tuple[float, float]) -> bool:
@@ -304,7 +331,7 @@ def _row(
             )
     assert value is not None
     if math.isnan(measured):
-        notes.append(f"not measurable: {unmeasurable or 'the metric gave no value'}")
+        notes.append(f"Not measurable: {unmeasurable or 'the metric gave no value'}")
     dev = e.known_deviation
     if dev is None:
         status = PASS if holds(e.op, measured, value) else FAIL
@@ -315,21 +342,21 @@ def _row(
                 "model was calibrated to meet it, so it counts apart, not as reproduced."
             )
             status = CALIBRATED if status == PASS else FAIL
-        return CheckRow(e.metric, e.op, value, measured, status, source, " ".join(notes))
+        return CheckRow(e.metric, e.op, value, measured, status, source, _sentences(notes))
     if dev.observed is None:  # the spec of a log written before observed bands existed
         notes.append(f"Known deviation without an observed band (an older spec): {dev.reason}")
-        return CheckRow(e.metric, e.op, value, measured, FAIL, source, " ".join(notes))
+        return CheckRow(e.metric, e.op, value, measured, FAIL, source, _sentences(notes))
     if dev.observed == NOT_MEASURABLE:
         if math.isnan(measured):
             notes.append(f"Known deviation: {dev.reason}")
-            return CheckRow(e.metric, e.op, value, measured, KNOWN, source, " ".join(notes),
+            return CheckRow(e.metric, e.op, value, measured, KNOWN, source, _sentences(notes),
                             NOT_MEASURABLE)  # fmt: skip
         met = "meets the paper" if holds(e.op, measured, value) else "misses the paper"
         notes.append(
             f"The known deviation says not measurable, but it measures {measured:g} ({met}): "
             f"the deviation has changed; update the spec. Known deviation: {dev.reason}"
         )
-        return CheckRow(e.metric, e.op, value, measured, FAIL, source, " ".join(notes),
+        return CheckRow(e.metric, e.op, value, measured, FAIL, source, _sentences(notes),
                         NOT_MEASURABLE)  # fmt: skip
     lo, hi = dev.observed
     comparable = not math.isnan(measured) and not _has_nan(value)
@@ -351,7 +378,7 @@ def _row(
                 f"Regression: {side} the known deviation's observed band. "
                 f"Known deviation: {dev.reason}"
             )
-    return CheckRow(e.metric, e.op, value, measured, status, source, " ".join(notes), (lo, hi))
+    return CheckRow(e.metric, e.op, value, measured, status, source, _sentences(notes), (lo, hi))
 
 
 def write_junit(verdicts: list[Verdict], path: Path) -> None:

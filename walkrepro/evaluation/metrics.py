@@ -59,7 +59,7 @@ LIFT_TIME = 0.05
 #: without a step) [m]: four times the sole centre's shift when a flat foot rolls 10°.
 SLIDE_DISTANCE = 0.02
 #: Outcomes of :attr:`LogData.outcome`.
-OUTCOMES = ("complete", "fell", "interrupted", "error", "unknown")
+OUTCOMES = ("complete", "fell", "interrupted", "error", "unknown", "partial")
 
 
 class NotMeasurable(Exception):  # noqa: N818 (the interface's name)
@@ -192,16 +192,23 @@ class LogData:
     empty arrays of the right shape: ``t`` (0,), ``qpos`` (0, nq), ``qvel`` (0, nv).
 
     Attributes:
-        outcome: ``complete``, ``fell``, ``interrupted``, ``error`` or ``unknown`` (a log
-            whose writer never closed, or an outcome this version does not know).
+        outcome: ``complete``, ``fell``, ``interrupted``, ``error``, ``partial`` (a cut or
+            damaged log read with ``--partial``: :mod:`walkrepro.log.integrity`) or
+            ``unknown`` (an outcome this version does not know).
         fall_time: time of the ``fall`` event [s], or None.
         end_time: time of the last logged state before any cut [s] (NaN if none).
+        integrity: how whole the log is (:class:`walkrepro.log.integrity.LogIntegrity`).
     """
 
-    def __init__(self, log: record.Log) -> None:
+    def __init__(self, log: record.Log, partial: bool = False) -> None:
+        from walkrepro.log.integrity import PARTIAL, check
+
         self.log = log
+        self.integrity = check(log, partial)  # a damaged log only with partial
         outcome = log.metadata.get("outcome", "unknown")
         self.outcome = outcome if outcome in OUTCOMES else "unknown"
+        if not self.integrity.whole:
+            self.outcome = PARTIAL
         self.spec: ExperimentSpec = spec_from_yaml_text(log.spec_yaml, f"{log.path}:spec.yaml")
         events = log.messages(record.TOPIC_EVENTS)
         falls = [float(e["t"]) for e in events if e.get("kind") == "fall"]
@@ -221,9 +228,10 @@ class LogData:
         self._cut = cut
 
     @classmethod
-    def from_path(cls, path: Path) -> LogData:
-        """Read a log file."""
-        return cls(record.read_log(path))
+    def from_path(cls, path: Path, partial: bool = False) -> LogData:
+        """Read a log file; a cut or damaged one only with ``partial``
+        (:class:`walkrepro.log.integrity.DamagedLogError` otherwise)."""
+        return cls(record.read_log(path), partial)
 
     @cached_property
     def model(self) -> mujoco.MjModel:
@@ -383,6 +391,8 @@ class LogData:
         at = self.log.metadata.get("sim_time")
         end = float(at) if at is not None else self.end_time
         when = f" at t = {end:.3f} s" if not math.isnan(end) else ""
+        if self.outcome == "partial":
+            return self.integrity.describe()
         return {
             "fell": f"the robot fell{when}",
             "interrupted": f"run interrupted{when}",

@@ -23,13 +23,20 @@ from walkrepro.log import record
 from walkrepro.runtime import gl  # noqa: E402
 
 
-def render_strip(log_path: Path, times: list[float], out: Path, width: int, height: int) -> Path:
+def render_strip(
+    log_path: Path, times: list[float], out: Path, width: int, height: int, partial: bool = False
+) -> Path:
     """Render the logged state nearest to each time and save the frames side by side.
 
     The camera looks at the pelvis from the robot's left side (the walking direction goes
     to the right of the image), so forward progress and foot clearance are both visible.
+    A cut or damaged log is refused unless ``partial`` (the title then says ``PARTIAL``).
     """
-    log = record.read_log(log_path)
+    if not times:
+        raise WalkreproError("--at: give at least one time [s] to render, e.g. --at 0,2,4.")
+    from walkrepro.log.integrity import read_checked_log
+
+    log, found = read_checked_log(log_path, partial)
     states = log.messages(record.TOPIC_STATE)
     if not states:
         raise WalkreproError(f"{log_path}: the log holds no /sim/state messages to render.")
@@ -63,11 +70,18 @@ def render_strip(log_path: Path, times: list[float], out: Path, width: int, heig
         ax.set_title(f"t = {ti:.2f} s", fontsize=9)
         ax.axis("off")
     spec_name = log.metadata.get("experiment", log_path.stem)
-    fig.suptitle(f"{spec_name} — snapshots (outcome: {log.metadata.get('outcome', 'unknown')})")
+    outcome = "partial" if not found.whole else log.metadata.get("outcome", "unknown")
+    head = f"{spec_name} — snapshots (outcome: {outcome})"
+    fig.suptitle(f"{head}\n{found.short()}" if not found.whole else head)
     fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=120)
-    plt.close(fig)
+    from walkrepro.runtime import outdir
+
+    outdir.check_file(out, force=True)  # a directory or a read-only place: a clean error
+    try:
+        with outdir.writing_file(out) as partial:
+            fig.savefig(partial, dpi=120)
+    finally:
+        plt.close(fig)
     return out
 
 

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import re
 import time
 from dataclasses import dataclass
@@ -43,6 +42,7 @@ from walkrepro.evaluation.metrics import FOOT_BODIES
 from walkrepro.log import record
 from walkrepro.log.foxglove import GeomShape, body_names, geom_shape
 from walkrepro.present.plots import Plot, Series, read_series, signal_plots
+from walkrepro.runtime import outdir
 from walkrepro.specs.models import spec_from_yaml_text
 
 #: The timeline: simulated time.
@@ -115,7 +115,9 @@ class RerunExport:
     skipped: tuple[str, ...] = ()
 
 
-def export_rerun(log_path: Path, out: Path, check_file: Path | None, force: bool) -> RerunExport:
+def export_rerun(
+    log_path: Path, out: Path, check_file: Path | None, force: bool, partial: bool = False
+) -> RerunExport:
     """Writes the Rerun recording of the log at ``log_path`` to ``out`` (see the module
     docstring).
 
@@ -127,6 +129,10 @@ def export_rerun(log_path: Path, out: Path, check_file: Path | None, force: bool
         out: the ``.rrd`` to write.
         check_file: the run's ``check.json``, shown as the verdict (None: no verdict).
         force: replace ``out`` if it exists.
+        partial: export a cut or damaged log for what it holds: the recording's name and
+            its verdict panel then say ``PARTIAL`` (and the run's earlier verdict is not
+            shown as if it held); without it such a log is refused
+            (:class:`walkrepro.log.integrity.DamagedLogError`).
 
     Raises:
         WalkreproError: the Rerun SDK is missing, ``out`` exists and ``force`` is off, or
@@ -135,9 +141,9 @@ def export_rerun(log_path: Path, out: Path, check_file: Path | None, force: bool
     """
     rr = import_rerun()
     start = time.perf_counter()
-    if out.exists() and not force:
-        raise WalkreproError(f"{out} exists; pass --force to replace it, or --out another file.")
-    log = record.read_log(log_path)
+    from walkrepro.log.integrity import read_checked_log
+
+    log, found = read_checked_log(log_path, partial)
     states = log.arrays(record.TOPIC_STATE)
     if not states:
         raise WalkreproError(f"{log_path}: no {record.TOPIC_STATE} messages; nothing to show.")
@@ -149,12 +155,12 @@ def export_rerun(log_path: Path, out: Path, check_file: Path | None, force: bool
     plots = [(RUN_GROUP, p) for p in _run_plots(model, pushes)]
     plots += [(spec.controller.type, p) for p in _controller_plots(log, spec.controller.type)]
 
-    out.parent.mkdir(parents=True, exist_ok=True)
-    partial = out.with_name(f".{out.name}.{os.getpid()}.partial")
+    outdir.check_file(out, force)  # a directory, an existing file, a read-only place
     rec = rr.RecordingStream("walkrepro", recording_id=f"{spec.name}-{log_path.parent.name}")
-    try:
-        rec.save(partial, default_blueprint=_blueprint(model, plots, check_file is not None))
-        rec.send_recording_name(spec.name)
+    with outdir.writing_file(out) as temporary:
+        panel = check_file is not None or not found.whole
+        rec.save(temporary, default_blueprint=_blueprint(model, plots, panel))
+        rec.send_recording_name(f"{spec.name} ({found.short()})" if not found.whole else spec.name)
         origin = log.metadata.get("log_time_origin")
         if origin is not None:
             rec.send_recording_start_time_nanos(int(origin))
@@ -163,14 +169,14 @@ def export_rerun(log_path: Path, out: Path, check_file: Path | None, force: bool
         _send_disturbance_arrows(rr, rec, pushes, model, poses)
         skipped = _send_plots(rr, rec, log, plots, _derived_series(contacts, pushes))
         _send_events(rr, rec, log)
-        if check_file is not None:
+        if not found.whole:  # the verdict of the whole run is not this log's
+            text = f"# {spec.name}: PARTIAL\n\n{found.describe()}.\n"
+            rec.log("verdict", rr.TextDocument(text, media_type="text/markdown"), static=True)
+        elif check_file is not None:
             verdict = rr.TextDocument(_verdict_text(check_file), media_type="text/markdown")
             rec.log("verdict", verdict, static=True)
         rec.flush()
         rec.disconnect()
-        partial.replace(out)
-    finally:
-        partial.unlink(missing_ok=True)
     return RerunExport(
         out,
         len(poses.t),
@@ -542,9 +548,11 @@ def _verdict_text(check_file: Path) -> str:
         check = json.loads(check_file.read_text())
     except (OSError, json.JSONDecodeError) as exc:
         return f"(cannot read {check_file.name}: {exc})"
+    from walkrepro.evaluation.checks import STATUS_WORDS
+
     lines = [
         f"# {check.get('experiment', '?')}: {check.get('outcome', '?')}, "
-        f"{'passed' if check.get('passed') else 'not passed'}",
+        f"{'every claim holds' if check.get('passed') else 'a claim failed'}",
         "",
         "| metric | paper | measured | verdict | source |",
         "|---|---|---|---|---|",
@@ -553,10 +561,12 @@ def _verdict_text(check_file: Path) -> str:
         measured = row.get("measured")
         value = (
             f"{measured:.4g}"
-            if isinstance(measured, float) and math.isfinite(measured)
-            else str(measured)
+            if isinstance(measured, int | float) and math.isfinite(measured)
+            else "not measurable"
         )
-        cells = (row.get("metric"), row.get("band"), value, row.get("status"), row.get("source"))
+        status = row.get("status")
+        word = STATUS_WORDS.get(status, status)
+        cells = (row.get("metric"), row.get("band"), value, word, row.get("source"))
         lines.append("| " + " | ".join(str(c).replace("|", "/") for c in cells) + " |")
     return "\n".join(lines) + "\n"
 

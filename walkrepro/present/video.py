@@ -217,8 +217,10 @@ def _frames(
     width: int,
     height: int,
     contact_forces: bool,
+    note: str = "",
 ) -> Iterator[np.ndarray]:
-    """The frames at ``times`` (RGB, height x width x 3)."""
+    """The frames at ``times`` (RGB, height x width x 3); ``note`` is a second title line
+    (a damaged log's ``PARTIAL: ...``)."""
     states = log.arrays(record.TOPIC_STATE)
     t_state = states["t"]
     model = mujoco.MjModel.from_xml_string(log.scene_xml)
@@ -235,7 +237,7 @@ def _frames(
     events = sorted(log.messages(record.TOPIC_EVENTS), key=lambda e: float(e["t"]))
     ctrl = log.arrays(record.TOPIC_INPUTS, ("step", "ctrl")) if contact_forces else {}
     dt = model.opt.timestep
-    title = log.metadata.get("experiment", log.path.stem)
+    title = log.metadata.get("experiment", log.path.stem) + (f"\n{note}" if note else "")
 
     data.qpos[:] = states["qpos"][0]
     mujoco.mj_kinematics(model, data)
@@ -296,6 +298,8 @@ def render_video(
     height: int = DEFAULT_HEIGHT,
     contact_forces: bool = False,
     crf: int = DEFAULT_CRF,
+    stop: Callable[[], bool] | None = None,
+    partial: bool = False,
 ) -> VideoInfo:
     """Render the whole run to an H.264 MP4 that plays at real time.
 
@@ -312,6 +316,11 @@ def render_video(
         contact_forces: also draw contact forces (MuJoCo's ``mjVIS_CONTACTFORCE``; the
             logged ``ctrl`` is set so the forces are the run's).
         crf: x264's constant rate factor (quality; higher is smaller).
+        stop: polled between frames; when it returns true the video is abandoned
+            (``KeyboardInterrupt``, the partial file removed, ``out`` untouched).
+        partial: render a cut or damaged log for what it holds (each frame's title then
+            says ``PARTIAL``); without it such a log is refused
+            (:class:`walkrepro.log.integrity.DamagedLogError`).
 
     Raises:
         WalkreproError: the log holds no states, or the size is odd.
@@ -323,51 +332,58 @@ def render_video(
         raise WalkreproError(f"video size {width}x{height}: H.264 needs an even width and height.")
     if fps <= 0:
         raise WalkreproError(f"--fps {fps}: needs a positive number of frames per second.")
-    log = record.read_log(log_path)
+    from walkrepro.log.integrity import read_checked_log
+
+    log, found = read_checked_log(log_path, partial)
     t_state = log.arrays(record.TOPIC_STATE, ("t",)).get("t")
     if t_state is None or not len(t_state):
         raise WalkreproError(f"{log_path}: the log holds no /sim/state messages to render.")
     times = frame_times(float(t_state[-1]), fps)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    partial = out.with_name(out.name + ".part")
-    writer = imageio_ffmpeg.write_frames(
-        str(partial),
-        (width, height),
-        fps=fps,
-        codec="libx264",
-        quality=None,
-        macro_block_size=2,
-        pix_fmt_out="yuv420p",
-        ffmpeg_log_level="error",
-        output_params=["-crf", str(crf), "-preset", "slow", "-movflags", "+faststart", "-f", "mp4"],
-    )
-    writer.send(None)  # start the encoder
-    n = 0
-    try:
-        for frame in _frames(log, times, width, height, contact_forces):
-            writer.send(np.ascontiguousarray(frame))
-            n += 1
-    except BaseException:
-        writer.close()
-        partial.unlink(missing_ok=True)
-        raise
-    writer.close()
-    partial.replace(out)
+    from walkrepro.runtime import outdir
+
+    outdir.check_file(out, force=True)  # a directory or a read-only place: a clean error
+    with outdir.writing_file(out) as partial:
+        writer = imageio_ffmpeg.write_frames(
+            str(partial),
+            (width, height),
+            fps=fps,
+            codec="libx264",
+            quality=None,
+            macro_block_size=2,
+            pix_fmt_out="yuv420p",
+            ffmpeg_log_level="error",
+            output_params=[
+                *("-crf", str(crf), "-preset", "slow", "-movflags", "+faststart", "-f", "mp4")
+            ],
+        )
+        writer.send(None)  # start the encoder
+        n = 0
+        try:
+            for frame in _frames(log, times, width, height, contact_forces, found.short()):
+                if stop is not None and stop():
+                    raise KeyboardInterrupt
+                writer.send(np.ascontiguousarray(frame))
+                n += 1
+        finally:
+            writer.close()
     return VideoInfo(out, n, fps, n / fps)
 
 
-def render_run_video(log_path: Path, run_dir: Path) -> Path | None:
+def render_run_video(
+    log_path: Path, run_dir: Path, stop: Callable[[], bool] | None = None
+) -> Path | None:
     """The video of a finished run, ``run_dir/video.mp4``, if this machine can render.
 
     Without an OpenGL backend the run keeps everything else: a one-line note goes to stderr
-    and None is returned (rendering is optional; the install hint is in the note).
+    and None is returned (rendering is optional; the install hint is in the note). ``stop``
+    is polled between frames; once true, the video is abandoned (``KeyboardInterrupt``).
     """
     import sys
 
     from walkrepro.runtime.gl import RenderingUnavailable
 
     try:
-        return render_video(log_path, run_dir / VIDEO_FILE).path
+        return render_video(log_path, run_dir / VIDEO_FILE, stop=stop).path
     except RenderingUnavailable as exc:
         print(f"no video: {exc}", file=sys.stderr)
         return None

@@ -10,7 +10,7 @@ import functools
 import json
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from walkrepro.errors import WalkreproError
@@ -30,7 +30,9 @@ class RunSummary:
     ``relative`` says whether the verdict compares with other experiments' runs (so a
     batch re-evaluates it once every run of the batch is done). ``interrupted`` is true
     when Ctrl-C stopped the run or the work after it (metrics and verdict are then still
-    written; figures are skipped); ``signum`` is the signal that stopped it.
+    written; figures are skipped); ``signum`` is the signal that stopped it. ``stages`` is
+    each post-simulation stage's status as ``run.json`` records it
+    (:class:`walkrepro.runs.results.Stages`).
     """
 
     run_dir: Path
@@ -40,6 +42,7 @@ class RunSummary:
     relative: bool = False
     interrupted: bool = False
     signum: int | None = None
+    stages: dict[str, str] = field(default_factory=dict)
 
     @property
     def log_path(self) -> Path:
@@ -94,7 +97,12 @@ class References:
                 log, origin = run_dir / results.LOG_FILE, f"run {run_dir}"
         if log is not None:
             if log not in self._logs:
-                self._logs[log] = metrics.LogData.from_path(log)
+                from walkrepro.log.integrity import DamagedLogError
+
+                try:
+                    self._logs[log] = metrics.LogData.from_path(log)
+                except DamagedLogError as exc:
+                    return math.nan, f"{origin}, whose log is damaged: {exc}"
             found = metrics.evaluate(self._logs[log], [metric])
             if metric in found.reasons:
                 return (
@@ -236,28 +244,45 @@ def execute(
                 result = RunResult(
                     spec.name, log_path, "interrupted", 0.0, 0.0, None, "interrupted in set-up"
                 )
+        figures, video = outputs if isinstance(outputs, tuple) else (outputs, False)
+        stages = results.Stages(figures=figures, video=video)
+        record["stages"] = stages.record
         _write_run_record(run_dir.work, record, result)
-        stage = "computing the metrics and the verdict"
-        values, verdict = _evaluate_interruptible(
+
+        def begin(name: str, words: str) -> None:
+            nonlocal stage
+            stage = words
+            stages.set(name, results.STARTED)  # true even if the process is killed here
+            _write_run_record(run_dir.work, record, result)
+
+        def end(name: str, status: str) -> None:
+            stages.set(name, status)
+            _write_run_record(run_dir.work, record, result)
+
+        begin("metrics", "computing the metrics and the verdict")
+        values, verdict, measured = _evaluate_interruptible(
             spec, log_path, run_dir.work, result, References(overrides=overrides)
         )
-        figures, video = outputs if isinstance(outputs, tuple) else (outputs, False)
-        stage = "drawing the figures"
-        if figures and result.outcome != "interrupted" and not flag.requested:
-            from walkrepro.present.figures import plot_run
-
+        end("metrics", results.COMPLETED if measured else results.INTERRUPTED)
+        for name, wanted, draw in (
+            ("figures", figures, _draw_figures),
+            ("video", video, _render_video),
+        ):
+            if not wanted:
+                continue
+            if result.outcome == "interrupted" or flag.requested:
+                end(name, results.SKIPPED)
+                continue
+            begin(name, f"{'drawing the figures' if name == 'figures' else 'rendering the video'}")
             try:
-                plot_run(log_path, run_dir.work / results.FIGURES_DIR)
-            except KeyboardInterrupt:  # figures are optional: the run is kept without
-                flag.requested = True
-        stage = "rendering the video"
-        if video and result.outcome != "interrupted" and not flag.requested:
-            from walkrepro.present.video import render_run_video
+                status = draw(log_path, run_dir.work, flag)
+            except KeyboardInterrupt:  # optional outputs: the run is kept without them
+                flag.requested, status = True, results.INTERRUPTED
+                if flag.signum is None:
+                    import signal
 
-            try:  # the run's video, when a GL backend exists (else a one-line note)
-                render_run_video(log_path, run_dir.work)
-            except KeyboardInterrupt:
-                flag.requested = True
+                    flag.signum = signal.SIGINT
+            end(name, status)
     except BaseException as exc:
         _record_failure(spec, run_dir.work, record, result, stage, exc)
         final = run_dir.finish()
@@ -275,7 +300,25 @@ def execute(
         relative=relative,
         interrupted=stopped,
         signum=flag.signum if stopped else None,
+        stages=dict(stages.record),
     )
+
+
+def _draw_figures(log_path: Path, work: Path, flag: InterruptFlag) -> str:
+    """The paper's figures into ``work/figures``; returns the stage's status."""
+    from walkrepro.present.figures import plot_run
+
+    plot_run(log_path, work / results.FIGURES_DIR)
+    return results.INTERRUPTED if flag.requested else results.COMPLETED
+
+
+def _render_video(log_path: Path, work: Path, flag: InterruptFlag) -> str:
+    """The run's video, when a GL backend exists; a stop request ends it between frames
+    (the partial file is removed). Returns the stage's status."""
+    from walkrepro.present.video import render_run_video
+
+    done = render_run_video(log_path, work, stop=lambda: flag.requested)
+    return results.COMPLETED if done is not None else results.UNAVAILABLE
 
 
 def _stopped_before(flag: InterruptFlag) -> str:
@@ -321,6 +364,13 @@ def _record_failure(
     interrupted = isinstance(exc, KeyboardInterrupt)
     what = "interrupted" if interrupted else f"{type(exc).__name__}: {exc}"
     message = f"{what} (while {stage})"
+    stages = record.get("stages")
+    if isinstance(stages, dict):  # the stage under way ended here; the later ones never ran
+        for name, status in stages.items():
+            if status == results.STARTED:
+                stages[name] = results.INTERRUPTED if interrupted else results.FAILED
+            elif status == results.PENDING:
+                stages[name] = results.SKIPPED
     try:
         results.write_json(
             work / results.RUN_FILE,
@@ -355,16 +405,18 @@ def _evaluate_interruptible(
     run_dir: Path,
     result: RunResult,
     references: checks.ReferenceLookup,
-) -> tuple[dict[str, float], checks.Verdict]:
+) -> tuple[dict[str, float], checks.Verdict, bool]:
     """:func:`evaluate_log`, or, without a log or on a second Ctrl-C, every metric null
-    with the reason (a verdict is written either way)."""
+    with the reason (a verdict is written either way); the last item says whether the
+    metrics were computed."""
     try:
         if log_path.is_file():
-            return evaluate_log(log_path, run_dir, references)
+            return (*evaluate_log(log_path, run_dir, references), True)
         reason = "the run was interrupted before its log was opened"
+        return (*_unmeasured(spec, run_dir, result.outcome, reason, references), True)
     except KeyboardInterrupt:
         reason = "interrupted again while the metrics were computed"
-    return _unmeasured(spec, run_dir, result.outcome, reason, references)
+    return (*_unmeasured(spec, run_dir, result.outcome, reason, references), False)
 
 
 def _unmeasured(
@@ -386,18 +438,23 @@ def _unmeasured(
 
 
 def evaluate_log(
-    log_path: Path, run_dir: Path, references: checks.ReferenceLookup | None = None
+    log_path: Path,
+    run_dir: Path,
+    references: checks.ReferenceLookup | None = None,
+    partial: bool = False,
 ) -> tuple[dict[str, float], checks.Verdict]:
     """Compute metrics and the verdict from a log; write ``metrics.json`` and ``check.json``.
 
     ``references`` finds partner runs for relative expectations; by default the committed
     references (the right partner for a run made without overrides). A run stopped before
     its log was opened has no log: its ``run.json`` and ``spec.yaml`` give the verdict
-    (every metric null, with the reason).
+    (every metric null, with the reason). A cut or damaged log is refused
+    (:class:`walkrepro.log.integrity.DamagedLogError`) unless ``partial``: its verdict's
+    outcome is then ``partial`` (never a pass) and what it cannot measure says why.
     """
     if not log_path.is_file() and (run_dir / results.RUN_FILE).is_file():
         return _evaluate_unlogged(run_dir, references or References())
-    data = metrics.LogData.from_path(log_path)
+    data = metrics.LogData.from_path(log_path, partial)
     found = metrics.evaluate(data, metric_names(data.spec))
     verdict = checks.evaluate(
         data.spec, found.values, data.outcome, references or References(), found.reasons

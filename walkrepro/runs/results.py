@@ -43,6 +43,68 @@ class RunDir:
         return self.final
 
 
+#: A post-simulation stage's status in ``run.json``'s ``stages``.
+COMPLETED, INTERRUPTED, FAILED = "completed", "interrupted", "failed"
+#: ... not yet begun; begun and not ended (the process died in it: its output is missing).
+PENDING, STARTED = "pending", "started"
+#: ... not run because the run was stopped before it; not asked for (``--no-figures``);
+#: no OpenGL backend here (the video).
+SKIPPED, NOT_REQUESTED, UNAVAILABLE = "skipped", "not requested", "unavailable"
+#: The post-simulation stages, in order, and the output each one writes.
+STAGE_OUTPUTS = {"metrics": "metrics.json", "figures": "figures/", "video": "video.mp4"}
+
+
+class Stages:
+    """The post-simulation stages of a run and their status: ``run.json``'s ``stages``
+    (``{"metrics": "completed", "figures": "not requested", "video": "interrupted"}``).
+
+    The run rewrites ``run.json`` as each stage begins (``started``) and ends, so the record
+    is true after any stop: Ctrl-C, SIGTERM, even a kill in the middle of a stage (which
+    leaves ``started``).
+    """
+
+    def __init__(self, figures: bool, video: bool) -> None:
+        self.record: dict[str, str] = {
+            "metrics": PENDING,
+            "figures": PENDING if figures else NOT_REQUESTED,
+            "video": PENDING if video else NOT_REQUESTED,
+        }
+
+    def set(self, name: str, status: str) -> None:
+        """Record ``status`` for the stage ``name``."""
+        self.record[name] = status
+
+
+def missing_outputs(record: dict) -> list[str]:
+    """What a run was asked for and does not have, from its ``run.json`` (``record``): e.g.
+    ``["video.mp4 (the video stage was interrupted)"]``; empty for a run recorded before
+    stages were."""
+    stages = record.get("stages")
+    if not isinstance(stages, dict):
+        return []
+    return [
+        f"{STAGE_OUTPUTS.get(name, name)} (the {name} stage "
+        + {
+            STARTED: "began and never ended",
+            PENDING: "never ran",
+            SKIPPED: "was skipped: the run was stopped before it",
+            UNAVAILABLE: "could not run: no OpenGL backend",
+        }.get(status, f"was {status}")
+        + ")"
+        for name, status in stages.items()
+        if status not in (COMPLETED, NOT_REQUESTED)
+    ]
+
+
+def read_record(run_dir: Path) -> dict:
+    """A run directory's ``run.json`` ({} when it has none or it is unreadable)."""
+    try:
+        data = json.loads((run_dir / RUN_FILE).read_text())
+    except (OSError, ValueError):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
 def new_run_dir(root: Path, experiment: str) -> RunDir:
     """Create a fresh working directory for a run of ``experiment`` under ``root``.
 

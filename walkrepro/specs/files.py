@@ -55,6 +55,9 @@ def find_spec_file(name_or_path: str) -> Path:
     """An experiment name (``NAME.yaml`` in the user's folder, else in the shipped
     ``experiments/``) or a path to any spec file."""
     looks_like_path = name_or_path.endswith((".yaml", ".yml")) or "/" in name_or_path
+    given = Path(name_or_path)
+    if given.is_dir() and (looks_like_path or _is_output_dir(given)):
+        _not_a_spec(given)
     if looks_like_path:
         path = Path(name_or_path)
         if not path.is_file():
@@ -65,6 +68,27 @@ def find_spec_file(name_or_path: str) -> Path:
         if path.is_file():
             return path
     raise UnknownNameError("experiment", name_or_path, all_experiment_names())
+
+
+def _is_output_dir(path: Path) -> bool:
+    """A run or sweep directory (what ``run`` may be given by mistake)."""
+    return any((path / name).is_file() for name in ("run.json", "log.mcap", "sweep.yaml"))
+
+
+def _not_a_spec(path: Path) -> None:
+    """Raise the error for a directory given where a spec is expected, saying what it is."""
+    if (path / "run.json").is_file() or (path / "log.mcap").is_file():
+        raise SpecError(
+            f"{path}: that is a run directory, not a spec; re-check it with "
+            f"`walkrepro check --run {path}` (or plot, render, export, verify it); to run its "
+            f"experiment again, give its spec: {path / 'spec.yaml'}."
+        )
+    if (path / "sweep.yaml").is_file():
+        raise SpecError(
+            f"{path}: that is a sweep directory, not a spec; continue it with "
+            f"`walkrepro sweep --resume {path}`, or draw its maps with `walkrepro plot {path}`."
+        )
+    raise SpecError(f"{path}: that is a directory; give an experiment name or a spec file.")
 
 
 def load_spec(

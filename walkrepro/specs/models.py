@@ -12,8 +12,10 @@ two stages so every error can name the file, the line and the field:
 
 from __future__ import annotations
 
+import contextvars
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -867,6 +869,26 @@ def _check_across_sections(loaded: LoadedSpec) -> None:
         )
 
 
+#: How errors name an override: (prefix of the item, where the field's value came from).
+#: The command line's ``--set``; the Python API's overrides (:func:`overrides_named`).
+CLI_OVERRIDES = ("--set", "set with --set")
+API_OVERRIDES = ("override", "set by an override")
+_OVERRIDE_NAMES: contextvars.ContextVar[tuple[str, str]] = contextvars.ContextVar(
+    "override_names", default=CLI_OVERRIDES
+)
+
+
+@contextmanager
+def overrides_named(names: tuple[str, str]) -> Iterator[None]:
+    """Inside, spec errors name overrides as ``names`` (:data:`API_OVERRIDES` for
+    :func:`walkrepro.load`, whose user typed no ``--set``)."""
+    token = _OVERRIDE_NAMES.set(names)
+    try:
+        yield
+    finally:
+        _OVERRIDE_NAMES.reset(token)
+
+
 def _where(
     source: str,
     lines: Mapping[tuple[Any, ...], int],
@@ -876,7 +898,7 @@ def _where(
     field = ".".join(str(p) for p in path) or "(top level)"
     for o in overridden:
         if path[: len(o)] == o:
-            return f"{source}, field {field} (set with --set)"
+            return f"{source}, field {field} ({_OVERRIDE_NAMES.get()[1]})"
     for n in range(len(path), -1, -1):
         if path[:n] in lines:
             return f"{source}, line {lines[path[:n]]}, field {field}"
@@ -919,32 +941,40 @@ _TYPE_TAGS = {"float", "int", "str", "bool", "tuple", "list", "dict"}
 def _apply_override(data: dict[str, Any], item: str) -> tuple[Any, ...]:
     """Apply one ``a.b.0.c=value`` override in place; returns the key path."""
     if "=" not in item:
-        raise SpecError(f"--set {item!r}: expected FIELD=VALUE, e.g. sim.duration=3.")
+        raise SpecError(
+            f"{_OVERRIDE_NAMES.get()[0]} {item!r}: expected FIELD=VALUE, e.g. sim.duration=3."
+        )
     key, _, raw = item.partition("=")
     parts: list[Any] = [int(p) if p.isdigit() else p for p in key.strip().split(".")]
     if not all(str(p) for p in parts):
-        raise SpecError(f"--set {item!r}: empty field name in {key!r}.")
+        raise SpecError(f"{_OVERRIDE_NAMES.get()[0]} {item!r}: empty field name in {key!r}.")
     try:
         value = yamlload.load(raw) if raw.strip() else ""
     except RecursionError:
-        raise SpecError(f"--set {item!r}: the value is nested too deeply.") from None
+        raise SpecError(
+            f"{_OVERRIDE_NAMES.get()[0]} {item!r}: the value is nested too deeply."
+        ) from None
     except yamlload.DuplicateKeyError as exc:
-        raise SpecError(f"--set {item!r}: {exc.problem}.") from None
+        raise SpecError(f"{_OVERRIDE_NAMES.get()[0]} {item!r}: {exc.problem}.") from None
     except yaml.YAMLError as exc:
         if _TOO_DEEP in str(exc):
-            raise SpecError(f"--set {item!r}: the value is nested too deeply.") from None
+            raise SpecError(
+                f"{_OVERRIDE_NAMES.get()[0]} {item!r}: the value is nested too deeply."
+            ) from None
         value = raw
     node: Any = data
     for i, part in enumerate(parts[:-1]):
         nxt = parts[i + 1]
         if isinstance(node, list):
             if not isinstance(part, int) or part >= len(node):
-                raise SpecError(f"--set {item!r}: {key} has no list item {part}.")
+                raise SpecError(
+                    f"{_OVERRIDE_NAMES.get()[0]} {item!r}: {key} has no list item {part}."
+                )
             node = node[part]
         elif not isinstance(node, dict):
             inner = ".".join(str(p) for p in parts[:i])
             raise SpecError(
-                f"--set {item!r}: {inner} is a single value ({node!r}), not a mapping with "
+                f"{_OVERRIDE_NAMES.get()[0]} {item!r}: {inner} is a single value ({node!r}), not a mapping with "
                 f"a field {part!r}."
             )
         else:
@@ -954,14 +984,14 @@ def _apply_override(data: dict[str, Any], item: str) -> tuple[Any, ...]:
     last = parts[-1]
     if isinstance(node, list):
         if not isinstance(last, int) or last >= len(node):
-            raise SpecError(f"--set {item!r}: {key} has no list item {last}.")
+            raise SpecError(f"{_OVERRIDE_NAMES.get()[0]} {item!r}: {key} has no list item {last}.")
         node[last] = value
     elif isinstance(node, dict):
         node[last] = value
     else:
         inner = ".".join(str(p) for p in parts[:-1])
         raise SpecError(
-            f"--set {item!r}: {inner} is a single value ({node!r}), not a mapping with a "
+            f"{_OVERRIDE_NAMES.get()[0]} {item!r}: {inner} is a single value ({node!r}), not a mapping with a "
             f"field {last!r}."
         )
     return tuple(parts)

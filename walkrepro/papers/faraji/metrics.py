@@ -376,7 +376,11 @@ def landings(d: LogData) -> Landings:
     "15 cm truncation, measured where the foot lands)",
 )
 def _max_landing_adjustment(d: LogData, arg: str) -> float:
-    """Pre-fall; see :func:`landings`."""
+    """Completed (see :func:`landings`): the claim bounds every landing of the walk, and a
+    run that fell or stopped early has landings it never made, while its last ones are part
+    of the fall (the pelvis already pitched over); a maximum over the landings before the
+    fall would confirm the bound on part of the run only. Not measurable then."""
+    d.require_completed("every landing of the run could be measured")
     return float(np.max(np.abs(landings(d).adjustment)))
 
 

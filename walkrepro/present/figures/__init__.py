@@ -36,25 +36,35 @@ def _paper_figures(paper: str) -> tuple[list[FigureFn], list[CompareFn]]:
     return list(getattr(module, "FIGURES", [])), list(getattr(module, "COMPARE", []))
 
 
-def plot_run(log_path: Path, out_dir: Path) -> list[Path]:
-    """Draw every figure registered for the run's paper, plus the overview."""
-    from walkrepro.present.figures import overview
+def plot_run(log_path: Path, out_dir: Path, partial: bool = False) -> list[Path]:
+    """Draw every figure registered for the run's paper, plus the overview.
 
-    data = LogData.from_path(log_path)
+    A cut or damaged log is refused unless ``partial``; every figure's title then says
+    ``PARTIAL`` and what the log holds (:mod:`walkrepro.log.integrity`).
+    """
+    from walkrepro.log.integrity import partial_title
+    from walkrepro.present.figures import overview, style
+
+    data = LogData.from_path(log_path, partial)
     out_dir.mkdir(parents=True, exist_ok=True)
-    written = overview.overview(data, out_dir)
-    for fn in _paper_figures(data.spec.paper.key)[0]:
-        written += fn(data, out_dir)
+    with style.title_note(partial_title(data.integrity)):
+        written = overview.overview(data, out_dir)
+        for fn in _paper_figures(data.spec.paper.key)[0]:
+            written += fn(data, out_dir)
     return written
 
 
-def plot_compare(log_a: Path, log_b: Path, out_dir: Path) -> list[Path]:
-    """Draw the paper's comparison figures for two runs (and the overview of both)."""
-    from walkrepro.present.figures import overview
+def plot_compare(log_a: Path, log_b: Path, out_dir: Path, partial: bool = False) -> list[Path]:
+    """Draw the paper's comparison figures for two runs (and the overview of both); a
+    damaged log as :func:`plot_run`."""
+    from walkrepro.log.integrity import partial_title
+    from walkrepro.present.figures import overview, style
 
-    a, b = LogData.from_path(log_a), LogData.from_path(log_b)
+    a, b = LogData.from_path(log_a, partial), LogData.from_path(log_b, partial)
     out_dir.mkdir(parents=True, exist_ok=True)
-    written = overview.compare(a, b, out_dir)
-    for fn in _paper_figures(a.spec.paper.key)[1]:
-        written += fn(a, b, out_dir)
+    note = " ".join(x for x in (partial_title(a.integrity), partial_title(b.integrity)) if x)
+    with style.title_note(note):
+        written = overview.compare(a, b, out_dir)
+        for fn in _paper_figures(a.spec.paper.key)[1]:
+            written += fn(a, b, out_dir)
     return written

@@ -12,7 +12,9 @@ Every figure module draws with these helpers, so a figure of any paper reads the
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import contextvars
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -154,9 +156,27 @@ def support_sides(ax: plt.Axes, t: np.ndarray, state: np.ndarray) -> None:
         )
 
 
+_TITLE_NOTE: contextvars.ContextVar[str] = contextvars.ContextVar("title_note", default="")
+
+
+@contextmanager
+def title_note(note: str) -> Iterator[None]:
+    """Inside, every figure :func:`save` writes gets ``note`` as the last line of its title
+    (a figure drawn from a damaged log says ``PARTIAL (...)``, whichever module drew it)."""
+    token = _TITLE_NOTE.set(note)
+    try:
+        yield
+    finally:
+        _TITLE_NOTE.reset(token)
+
+
 def save(fig: plt.Figure, stem: Path) -> list[Path]:
     """Write ``stem.png`` and ``stem.svg`` and close the figure (legends outside the axes
     are kept in the picture)."""
+    note = _TITLE_NOTE.get()
+    if note:
+        head = fig._suptitle.get_text() if fig._suptitle is not None else ""  # noqa: SLF001
+        fig.suptitle(f"{head}\n{note}" if head else note, color="#b00000")
     stem.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
     paths = [stem.with_suffix(".png"), stem.with_suffix(".svg")]

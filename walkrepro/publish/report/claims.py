@@ -12,13 +12,11 @@ import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
-#: ``check.json`` statuses and the words the report uses for them.
-STATUS_LABELS: Mapping[str, str] = {
-    "pass": "reproduced",
-    "calibrated": "calibrated",
-    "known deviation": "known deviation",
-    "fail": "failed",
-}
+from walkrepro.evaluation.checks import STATUS_WORDS
+
+#: ``check.json`` statuses and the words the report uses for them: the CLI's
+#: (:data:`walkrepro.evaluation.checks.STATUS_WORDS`).
+STATUS_LABELS: Mapping[str, str] = STATUS_WORDS
 _REASON_MARK = "Known deviation: "
 
 

@@ -28,6 +28,8 @@ from walkrepro.publish.report.claims import Tally, experiment_claims, tally
 from walkrepro.publish.report.maps import MapResult, experiment_maps
 from walkrepro.publish.report.robots import markdown_to_html, robot_readme
 from walkrepro.publish.report.sources import ExperimentResult, find_results
+from walkrepro.runs import results
+from walkrepro.runtime import outdir
 
 #: The maps' directory inside a results tree.
 MAPS_DIR = "maps"
@@ -52,16 +54,21 @@ class ReportSite:
     notes: tuple[str, ...]
 
 
-def build_report(source: Path = REFERENCES_DIR, out: Path | None = None) -> ReportSite:
+def build_report(
+    source: Path = REFERENCES_DIR, out: Path | None = None, force: bool = False
+) -> ReportSite:
     """Build the static site from ``source`` into ``out`` (default ``source/../report``; for an installed walkrepro's shipped references,
     ``./results/report``).
 
     ``source`` is ``results/`` (the committed references) or a ``walkrepro check --out``
     directory; the maps come from ``source/maps`` if it exists, else from ``results/maps``.
-    The output directory is replaced as a whole.
+    The output directory is replaced as a whole, atomically (:func:`walkrepro.runtime.outdir.replacing`):
+    only when it is walkrepro's earlier report or empty, or with ``force``; a failure leaves
+    it as it was.
 
     Raises:
-        WalkreproError: ``source`` holds no results, or ``out`` cannot be written.
+        WalkreproError: ``source`` holds no results, or ``out`` cannot be written, or holds
+            files walkrepro did not write (without ``force``).
     """
     source = source.resolve()
     if out is None:
@@ -81,27 +88,18 @@ def build_report(source: Path = REFERENCES_DIR, out: Path | None = None) -> Repo
         [SANITY] if SANITY in by_paper else []
     )
 
-    work = out.with_name(out.name + ".partial")
-    if work.exists():
-        shutil.rmtree(work)
-    try:
-        work.mkdir(parents=True)
-    except OSError as exc:
-        raise WalkreproError(f"--out {out}: cannot write the report here ({exc}).") from None
-    (work / html.CSS_FILE).write_text(html.CSS)
-    pages, tallies, robots = [], {}, set()
-    for key in keys:
-        experiments = sorted(by_paper[key], key=_order)
-        page, tallies[key] = _paper_page(work, key, experiments, maps_root)
-        pages.append(page)
-        robots.update(r.spec.robot for r in experiments)
-    for robot in sorted(robots):
-        pages.append(_robot_page(work, robot))
-    index = work / "index.html"
-    index.write_text(_index(keys, by_paper, tallies, source, notes))
-    if out.exists():
-        shutil.rmtree(out)
-    work.rename(out)
+    with outdir.replacing(out, outdir.REPORT, force) as work:
+        (work / html.CSS_FILE).write_text(html.CSS)
+        pages, tallies, robots = [], {}, set()
+        for key in keys:
+            experiments = sorted(by_paper[key], key=_order)
+            page, tallies[key] = _paper_page(work, key, experiments, maps_root)
+            pages.append(page)
+            robots.update(r.spec.robot for r in experiments)
+        for robot in sorted(robots):
+            pages.append(_robot_page(work, robot))
+        index = work / "index.html"
+        index.write_text(_index(keys, by_paper, tallies, source, notes))
     moved = tuple(out / p.relative_to(work) for p in [index, *pages])
     return ReportSite(out / "index.html", moved, tallies, tuple(notes))
 
@@ -207,9 +205,11 @@ def _experiment_section(
         f'<a href="robots/{escape(r.spec.robot)}.html">{escape(r.spec.robot)}</a> · '
         f"controller <code>{escape(r.spec.controller.type)}</code> · run {escape(str(outcome))}"
     )
+    missing = results.missing_outputs(r.run)  # a stage the run was stopped in, or lacked
     parts = [
         f'<h2 id="{escape(r.name)}">{escape(r.name)}</h2>',
         f'<p class="muted">{meta}</p>',
+        f'<p class="missing">missing: {escape("; ".join(missing))}</p>' if missing else "",
         f"<p>{escape(r.spec.description.strip())}</p>",
         html.provenance_table(numbers) if numbers is not None else "",
         '<div class="experiment">',

@@ -37,6 +37,7 @@ class SweepRequest:
         out: root directory of new sweeps; resume: an earlier sweep's directory.
         keep_logs: keep every cell's run directory.
         update_reference: copy the finished map to ``results/maps/<map>/``.
+        force: write under ``out`` even if it holds files walkrepro did not write.
     """
 
     experiment: str | None
@@ -48,6 +49,7 @@ class SweepRequest:
     resume: Path | None = None
     keep_logs: bool = False
     update_reference: bool = False
+    force: bool = False
 
 
 @dataclass(frozen=True)
@@ -63,9 +65,12 @@ class EngineChoice:
 def sweep_command(console: Any, request: SweepRequest, engine: EngineChoice) -> int:
     """Plan (validating every cell), run and map a sweep; returns the exit code: 0, 1 when
     cells crashed (their worker died), 130 or 143 when Ctrl-C or SIGTERM stopped it."""
+    from walkrepro.runtime import outdir
     from walkrepro.studies.sweep.maps import plot_sweep
 
     experiment, resume = request.experiment, request.resume
+    # The engine first: a bad --engine or --jobs leaves no sweep directory behind.
+    runner = make_engine(engine.name, engine.jobs, engine.address)
     if resume is not None:
         if request.grid or request.overrides or request.metrics or request.map_name:
             raise WalkreproError(
@@ -81,6 +86,9 @@ def sweep_command(console: Any, request: SweepRequest, engine: EngineChoice) -> 
     else:
         if experiment is None:
             raise WalkreproError("give an EXPERIMENT to sweep (or --resume SWEEP_DIR).")
+        if request.update_reference and request.grid and request.map_name is None:
+            raise WalkreproError("--update-reference applies to a declared map (--map NAME) only.")
+        outdir.claim_root(request.out, outdir.RUNS, request.force, create=False)
         plan = plan_new(
             experiment,
             request.grid,
@@ -89,9 +97,9 @@ def sweep_command(console: Any, request: SweepRequest, engine: EngineChoice) -> 
             request.metrics,
             request.map_name,
         )
+        outdir.claim_root(request.out, outdir.RUNS, force=True)  # checked above: mark it
     if request.update_reference and not plan.info.get("map"):
         raise WalkreproError("--update-reference applies to a declared map (--map NAME) only.")
-    runner = make_engine(engine.name, engine.jobs, engine.address)
     todo = len(plan.missing)
     console.print(
         f"sweep of {plan.info['experiment']}: {len(plan.cells)} cells, {todo} to run "
