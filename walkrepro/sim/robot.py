@@ -57,6 +57,7 @@ import pinocchio as pin
 
 from walkrepro.errors import UnknownNameError
 from walkrepro.locations import ROBOTS_DIR
+from walkrepro.sim.springs import spring_law
 
 ControlMode = Literal["torque", "position"]
 
@@ -609,7 +610,7 @@ def load_robot(name: str) -> Robot:
     sole = mj_model.geom("left_foot_sole").size
     stiffness = None
     if series_elastic:
-        stiffness = np.array([mj_model.jnt_stiffness[mj_model.joint(j).id] for j in joint_names])
+        stiffness = np.array([spring_law(mj_model, j)[0] for j in joint_names])
 
     return Robot(
         name=name,
