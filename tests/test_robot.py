@@ -21,7 +21,6 @@ from walkrepro import ROBOTS_DIR
 from walkrepro.errors import UnknownNameError
 from walkrepro.publish.ledger import robot_ledger
 from walkrepro.sim import contact_law
-from walkrepro.sim.springs import spring_law
 from walkrepro.sim.robot import (
     FRAME_NAMES,
     SENSOR_NAMES,
@@ -31,6 +30,7 @@ from walkrepro.sim.robot import (
     load_robot,
     with_servo_gains,
 )
+from walkrepro.sim.springs import spring_law
 
 ROBOTS = (
     "coman",
@@ -420,7 +420,7 @@ def test_coman_links_move_like_the_rigid_twin_driven_by_spring_torques(name: str
     model = robot.mj_model
     twin = pin.Model(robot.pin_model)
     twin.armature[:] = 0.0  # the motor inertia sits behind the spring, not on the link
-    qpos_adr, qvel_adr = robot.link_joint_qpos_adr(), robot.link_joint_qvel_adr()
+    qvel_adr = robot.link_joint_qvel_adr()
     spring_v = qvel_adr.adr[qvel_adr.starts + 1]
     for seed in range(3):
         data = random_state(robot, seed)
@@ -487,7 +487,9 @@ def test_coman_home_springs_are_preloaded(name: str) -> None:
     data.qpos[:] = robot.home_qpos
     mujoco.mj_forward(model, data)
     spring_v = robot.link_joint_qvel_adr()
-    np.testing.assert_allclose(servo, data.qfrc_spring[spring_v.adr[spring_v.starts + 1]], atol=1e-6)
+    np.testing.assert_allclose(
+        servo, data.qfrc_spring[spring_v.adr[spring_v.starts + 1]], atol=1e-6
+    )
 
 
 # ---- published figures -------------------------------------------------------------------

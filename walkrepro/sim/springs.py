@@ -19,6 +19,8 @@ its torque acts equally and oppositely on the motor and on the link.
 
 from __future__ import annotations
 
+import fnmatch
+
 import mujoco
 
 #: Suffix of the fixed tendon that is a spring DoF's spring when its drive has a backlash.
@@ -51,3 +53,44 @@ def preload_deflection(torque: float, stiffness: float, backlash: float) -> floa
     """
     sign = float(torque > 0) - float(torque < 0)
     return -torque / stiffness - sign * backlash / 2
+
+
+def series_elastic_joints(model: mujoco.MjModel, banded: bool = False) -> list[str]:
+    """Names of the series-elastic joints (a spring DoF ``j`` whose actuator drives
+    ``j_motor``), in actuator order; with ``banded`` only those with a dead-band tendon."""
+    names = []
+    for i in range(model.nu):
+        name = model.actuator(i).name
+        target = int(model.actuator_trnid[i, 0])
+        motor = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, target) or ""
+        if (
+            motor != name + "_motor"
+            or mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name) < 0
+        ):
+            continue
+        if not banded or spring_tendon(model, name) >= 0:
+            names.append(name)
+    return names
+
+
+def set_springs(
+    mjspec: mujoco.MjSpec, spring: dict[str, float], backlash: dict[str, float]
+) -> None:
+    """Set K [Nm/rad] and dead band b [rad] of the series-elastic joints matching the globs
+    (a spec's ``actuators.spring`` / ``actuators.backlash``; later globs win).
+
+    K goes to the joint's dead-band tendon if it has one, else to the spring DoF's
+    stiffness; b to the tendon's spring length [−b/2, b/2]. The spec loader has checked
+    that every glob matches a joint that can take it.
+    """
+    tendons = {t.name: t for t in mjspec.tendons}
+    names = [a.name for a in mjspec.actuators if a.target == a.name + "_motor"]
+    for pattern, k in spring.items():
+        for name in fnmatch.filter(names, pattern):
+            tendon = tendons.get(name + SPRING_TENDON_SUFFIX)
+            element = tendon if tendon is not None else mjspec.joint(name)
+            # MjSpec's stiffness is (linear, higher-order terms); the spring is linear.
+            element.stiffness = [k, 0.0, 0.0]
+    for pattern, b in backlash.items():
+        for name in fnmatch.filter(names, pattern):
+            tendons[name + SPRING_TENDON_SUFFIX].springlength = [-b / 2, b / 2]
