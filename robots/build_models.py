@@ -46,6 +46,7 @@ from scipy.optimize import brentq
 
 from walkrepro.sim import contact_law
 from walkrepro.sim.contact_law import PointContactLaw
+from walkrepro.sim.springs import SPRING_TENDON_SUFFIX, preload_deflection, spring_law
 from walkrepro.specs.yamlload import load as load_yaml
 
 ROBOTS_DIR = Path(__file__).resolve().parent
@@ -381,6 +382,10 @@ class Joint:
     armature: float
     stiffness: float = 0.0
     frictionloss: float = 0.0
+    # Width b [rad] of a dead band in series with the spring (backlash), or None for none.
+    # With a band the spring is a fixed tendon on this DoF whose spring length is [-b/2, b/2]
+    # (MuJoCo's dead-band tendon spring): zero torque inside the band, K (|q| - b/2) outside.
+    backlash: float | None = None
 
 
 @dataclass
@@ -432,6 +437,7 @@ class JointSpec:
     spring_damping: float | None = (
         None  # this joint's spring damping [Nms/rad], else the SeaModel's
     )
+    backlash: float | None = None  # dead band b in series with the spring [rad] (coman_lab)
 
 
 @dataclass
@@ -1026,6 +1032,7 @@ def sea_joint(
             sea.spring_damping if spec.spring_damping is None else spec.spring_damping,
             0.0,
             spec.spring,
+            backlash=spec.backlash,
         ),
     ]
 
@@ -1245,6 +1252,7 @@ def build_coman_lab() -> RobotDesign:
         supply=p.num("supply"),
     )
     springs, spring_damping = p.table("spring"), p.table("spring_damping")
+    backlash = p.table("backlash")  # knee and ankle pitch (the paper's backlashes)
     gains = p.table("position_gain")
     kinds = LEG_JOINTS + ("waist_yaw", "waist_roll", "waist_pitch") + ARM_JOINTS
     ranges = {j: tuple(math.radians(a) for a in p.vec(f"range_{j}", 2)) for j in kinds}
@@ -1258,6 +1266,7 @@ def build_coman_lab() -> RobotDesign:
             spring=springs[base],
             kd=gains[base],
             spring_damping=spring_damping[base],
+            backlash=backlash.get(base),
         )
 
     # Actuators in robots/coman's order (the controllers address them by name).
@@ -1441,7 +1450,7 @@ def body_element(body: Body, robot: RobotDesign) -> ET.Element:
         if j.range is not None:
             attrs["range"] = fvec(j.range)
         attrs |= {"damping": fmt(j.damping), "armature": fmt(j.armature)}
-        if j.stiffness:
+        if j.stiffness and j.backlash is None:  # with a dead band the tendon is the spring
             attrs["stiffness"] = fmt(j.stiffness)
         if j.frictionloss:
             attrs["frictionloss"] = fmt(j.frictionloss)
@@ -1473,6 +1482,36 @@ def body_element(body: Body, robot: RobotDesign) -> ET.Element:
     return el
 
 
+def body_joints(body: Body) -> list[Joint]:
+    """Every joint of ``body``'s subtree, depth first (the MJCF's order)."""
+    return [*body.joints, *(j for child in body.children for j in body_joints(child))]
+
+
+def spring_tendons(root: ET.Element, pelvis: Body) -> None:
+    """A fixed tendon ``<joint>_spring`` for each spring DoF with a dead band (backlash).
+
+    The tendon's length is the spring DoF's angle q_s (coefficient 1), its stiffness the
+    spring constant K and its spring length the band [-b/2, b/2] (the law:
+    :mod:`walkrepro.sim.springs`).
+    """
+    banded = [j for j in body_joints(pelvis) if j.backlash is not None]
+    if not banded:
+        return
+    tendons = ET.SubElement(root, "tendon")
+    for j in banded:
+        half = j.backlash / 2  # type: ignore[operator]
+        fixed = ET.SubElement(
+            tendons,
+            "fixed",
+            {
+                "name": f"{j.name}{SPRING_TENDON_SUFFIX}",
+                "stiffness": fmt(j.stiffness),
+                "springlength": fvec((-half, half)),
+            },
+        )
+        ET.SubElement(fixed, "joint", {"joint": j.name, "coef": "1"})
+
+
 def mjcf_options(p: Ledger) -> dict[str, str]:
     """The ``<option>`` attributes the ledger's ``option_*`` entries set (keyword or number)."""
     out = {}
@@ -1498,6 +1537,7 @@ def build_xml(robot: RobotDesign, keyframe: tuple[np.ndarray, np.ndarray] | None
     pelvis.insert(1, ET.Element("freejoint", {"name": "root"}))
     world.append(pelvis)
 
+    spring_tendons(root, robot.pelvis)
     act = ET.SubElement(root, "actuator")
     for name, spec in robot.joints.items():
         if robot.drive is not None:
@@ -1653,7 +1693,7 @@ def preload_springs(
         t = tau[spring.dofadr[0]]
         assert abs(t - tau[motor.dofadr[0]]) < 1e-9  # same axis, same subtree
         q_link = q[motor.qposadr[0]]
-        q_s = -t / model.jnt_stiffness[spring.id]
+        q_s = preload_deflection(t, *spring_law(model, name))  # −K dz(q_s, b/2) = τ
         q_m = q_link - q_s
         q[spring.qposadr[0]] = q_s
         q[motor.qposadr[0]] = q_m

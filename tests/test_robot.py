@@ -30,6 +30,7 @@ from walkrepro.sim.robot import (
     load_robot,
     with_servo_gains,
 )
+from walkrepro.sim.springs import spring_law
 
 ROBOTS = (
     "coman",
@@ -405,7 +406,7 @@ def test_coman_motor_dof_is_driven_by_servo_and_spring_only(name: str) -> None:
             rhs = (
                 data.qfrc_actuator[m]
                 - model.dof_damping[m] * data.qvel[m]
-                + model.jnt_stiffness[spring.id] * data.qpos[spring.qposadr[0]]
+                - data.qfrc_spring[s]  # the spring's torque (linear or dead band) on the link
                 + model.dof_damping[s] * data.qvel[s]
             )
             assert lhs == pytest.approx(rhs, abs=1e-8), name
@@ -419,16 +420,14 @@ def test_coman_links_move_like_the_rigid_twin_driven_by_spring_torques(name: str
     model = robot.mj_model
     twin = pin.Model(robot.pin_model)
     twin.armature[:] = 0.0  # the motor inertia sits behind the spring, not on the link
-    qpos_adr, qvel_adr = robot.link_joint_qpos_adr(), robot.link_joint_qvel_adr()
-    spring_q, spring_v = qpos_adr.adr[qpos_adr.starts + 1], qvel_adr.adr[qvel_adr.starts + 1]
+    qvel_adr = robot.link_joint_qvel_adr()
+    spring_v = qvel_adr.adr[qvel_adr.starts + 1]
     for seed in range(3):
         data = random_state(robot, seed)
         q, v = robot.pin_state_from_mujoco(data.qpos, data.qvel)
         tau = np.zeros(twin.nv)
         damping_s = model.dof_damping[spring_v]
-        tau[robot.pin_v_idx] = (
-            -robot.spring_stiffness * data.qpos[spring_q] - damping_s * data.qvel[spring_v]
-        )
+        tau[robot.pin_v_idx] = data.qfrc_spring[spring_v] - damping_s * data.qvel[spring_v]
         a = pin.aba(twin, twin.createData(), q, v, tau)
         np.testing.assert_allclose(a[robot.pin_v_idx], qvel_adr.link_values(data.qacc), atol=1e-8)
         assert_base_acceleration_agrees(robot, data, v, a)
@@ -448,9 +447,7 @@ def test_coman_actuators_follow_the_voltage_model(name: str) -> None:
         motor = model.joint(f"{name}_motor")
         assert model.dof_armature[motor.dofadr[0]] == pytest.approx(0.23)
         assert model.dof_damping[motor.dofadr[0]] == pytest.approx(5.42 / beta, rel=1e-5)
-        assert (
-            model.jnt_stiffness[motor.id] == 0.0 and model.jnt_stiffness[model.joint(name).id] > 0
-        )
+        assert model.jnt_stiffness[motor.id] == 0.0 and spring_law(model, name)[0] > 0
     assert robot.control_mode == "position"
 
 
@@ -482,10 +479,17 @@ def test_coman_home_springs_are_preloaded(name: str) -> None:
     knees = [robot.joint_names.index(j) for j in ("l_knee", "r_knee")]
     np.testing.assert_allclose(robot.home_joint_pos[knees], 0.4)  # paper: knee ≈ 0.4 rad
     assert np.all(spring[knees] > 0.005)  # the knee springs deflect under the body weight
-    # Servo torque kp (ctrl − q_m) balances the spring torque −k q_s on every joint.
+    # Servo torque kp (ctrl − q_m) balances the spring torque on every joint (−k q_s, or
+    # the dead-band law's where the drive has a backlash: walkrepro.sim.springs).
     motor = robot.home_qpos[adr.adr[adr.starts]]
     servo = model.actuator_gainprm[:, 0] * (robot.home_ctrl - motor)
-    np.testing.assert_allclose(servo, -robot.spring_stiffness * spring, atol=1e-6)
+    data = mujoco.MjData(model)
+    data.qpos[:] = robot.home_qpos
+    mujoco.mj_forward(model, data)
+    spring_v = robot.link_joint_qvel_adr()
+    np.testing.assert_allclose(
+        servo, data.qfrc_spring[spring_v.adr[spring_v.starts + 1]], atol=1e-6
+    )
 
 
 # ---- published figures -------------------------------------------------------------------
@@ -640,7 +644,7 @@ def test_coman_lab_springs_are_the_labs() -> None:
     for name in robot.joint_names:
         base = name[2:] if name[:2] in ("l_", "r_") else name
         spring = model.joint(name)
-        assert model.jnt_stiffness[spring.id] == pytest.approx(lab[base][0]), name
+        assert spring_law(model, name)[0] == pytest.approx(lab[base][0]), name
         assert model.dof_damping[spring.dofadr[0]] == pytest.approx(lab[base][1]), name
         assert not model.jnt_limited[spring.id]  # the lab's springs have no stop
 

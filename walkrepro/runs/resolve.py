@@ -67,10 +67,12 @@ def resolve(loaded: LoadedSpec, overrides: Sequence[str] = ()) -> Experiment:
     Raises:
         SpecError / UnknownNameError: naming file, line, field and the valid names.
     """
+    from walkrepro.sim.robot import with_scene_springs
     from walkrepro.sim.world import build_scene  # imports mujoco
 
     checked, robot, params = _check_names(loaded)
     scene = build_scene(robot, checked.spec)
+    robot = with_scene_springs(robot, scene.model)  # a spec's springs: home re-solved
     _check_obstacle_overlap(loaded, robot, scene)
     return Experiment(
         spec=checked.spec,
@@ -86,14 +88,15 @@ def assemble(spec: ExperimentSpec) -> Experiment:
     """The record of a spec that was resolved already (a sweep cell's, a bench run's, one
     read back from a log): its robot, its scene and its parameters, with no check again."""
     from walkrepro.controllers import controller_params
-    from walkrepro.sim.robot import load_robot
+    from walkrepro.sim.robot import load_robot, with_scene_springs
     from walkrepro.sim.world import build_scene
 
     robot = load_robot(spec.robot)
+    scene = build_scene(robot, spec)
     return Experiment(
         spec=spec,
-        robot=robot,
-        scene=build_scene(robot, spec),
+        robot=with_scene_springs(robot, scene.model),  # a spec's springs: home re-solved
+        scene=scene,
         params=controller_params(spec.controller),
     )
 
@@ -196,6 +199,17 @@ def _check_names(loaded: LoadedSpec) -> tuple[LoadedSpec, Robot, ControllerParam
                 f"{loaded.where(('actuators', 'position_gain'))}: robot {robot.name!r} has torque "
                 "actuators; position_gain applies to position servos only."
             )
+    from walkrepro.sim.springs import series_elastic_joints
+
+    for field_name in ("spring", "backlash"):
+        for pattern in getattr(spec.actuators, field_name):
+            at = loaded.where(("actuators", field_name, pattern))
+            springs = series_elastic_joints(robot.mj_model, field_name == "backlash")
+            if not springs:
+                kind = "dead-band (backlash) springs" if field_name == "backlash" else "springs"
+                raise SpecError(f"{at}: robot {robot.name!r} has no {kind} to set.")
+            if not fnmatch.filter(springs, pattern):
+                raise UnknownNameError("series-elastic joint", pattern, springs, at)
     if spec.actuators.torque_lag is not None:
         filtered = mujoco.mjtDyn.mjDYN_FILTEREXACT
         if not all(int(d) == filtered for d in robot.mj_model.actuator_dyntype):

@@ -57,6 +57,7 @@ import pinocchio as pin
 
 from walkrepro.errors import UnknownNameError
 from walkrepro.locations import ROBOTS_DIR
+from walkrepro.sim.springs import preload_deflection, spring_law, spring_tendon
 
 ControlMode = Literal["torque", "position"]
 
@@ -609,7 +610,7 @@ def load_robot(name: str) -> Robot:
     sole = mj_model.geom("left_foot_sole").size
     stiffness = None
     if series_elastic:
-        stiffness = np.array([mj_model.jnt_stiffness[mj_model.joint(j).id] for j in joint_names])
+        stiffness = np.array([spring_law(mj_model, j)[0] for j in joint_names])
 
     return Robot(
         name=name,
@@ -652,6 +653,54 @@ def with_servo_gains(robot: Robot, scene_model: mujoco.MjModel) -> Robot:
         model.actuator(name).gainprm[:] = scene_model.actuator(name).gainprm
         model.actuator(name).biasprm[:] = scene_model.actuator(name).biasprm
     return dataclasses.replace(robot, mj_model=model)
+
+
+def with_scene_springs(robot: Robot, scene_model: mujoco.MjModel) -> Robot:
+    """``robot`` with the springs that run in ``scene_model`` and its home re-solved for them.
+
+    A spec's ``actuators.spring`` / ``actuators.backlash`` set the scene's springs
+    (:func:`walkrepro.sim.springs.set_springs`), not the shared :func:`load_robot` model's. At
+    home the link posture and each spring's torque τ on its link stay the robot's (the load
+    does not depend on the springs); the spring DoF takes the deflection that holds τ with
+    the scene's K and b (:func:`walkrepro.sim.springs.preload_deflection`), the motor DoF
+    q_m = q_link − q_s, and the servo target moves with q_m (its torque stays τ). Returns a
+    copy whose ``mj_model`` carries the scene's springs, ``spring_stiffness`` their K, and
+    ``home_qpos`` / ``home_ctrl`` the new pre-load; ``robot`` itself when nothing differs.
+    """
+    if robot.spring_stiffness is None:
+        return robot
+    own = robot.mj_model
+    names = robot.joint_names
+    laws = [spring_law(own, j) for j in names]
+    scene = [spring_law(scene_model, j) for j in names]
+    if laws == scene:
+        return robot
+    model = copy.copy(own)  # MjModel copies its arrays
+    data = mujoco.MjData(own)
+    data.qpos[:] = robot.home_qpos
+    mujoco.mj_forward(own, data)
+    qpos, ctrl = np.array(robot.home_qpos), np.array(robot.home_ctrl)
+    for i, name in enumerate(names):
+        tendon, spring = spring_tendon(own, name), own.joint(name)
+        if tendon >= 0:
+            model.tendon_stiffness[tendon] = scene_model.tendon_stiffness[tendon]
+            model.tendon_lengthspring[tendon] = scene_model.tendon_lengthspring[tendon]
+        else:
+            model.jnt_stiffness[spring.id] = scene_model.jnt_stiffness[spring.id]
+        torque = float(data.qfrc_spring[spring.dofadr[0]])  # the spring's torque on the link
+        q_s = preload_deflection(torque, *scene[i])
+        shift = q_s - qpos[spring.qposadr[0]]
+        qpos[spring.qposadr[0]] = q_s
+        qpos[own.joint(name + MOTOR_SUFFIX).qposadr[0]] -= shift  # the link angle stays
+        if robot.control_mode == "position":
+            ctrl[i] -= shift  # the servo's target moves with its motor
+    return dataclasses.replace(
+        robot,
+        mj_model=model,
+        spring_stiffness=_frozen(np.array([k for k, _ in scene])),
+        home_qpos=_frozen(qpos),
+        home_ctrl=_frozen(ctrl),
+    )
 
 
 # ---- helpers ----------------------------------------------------------------------------

@@ -19,6 +19,7 @@ import numpy as np
 from walkrepro.errors import SpecError
 from walkrepro.sim.contact_model import ContactModel, contact_model
 from walkrepro.sim.robot import Robot
+from walkrepro.sim.springs import set_springs
 from walkrepro.specs.models import ExperimentSpec, ObstacleSpec
 
 #: Collision filtering: robot geoms use contype=2/conaffinity=1 (no self-collision); world
@@ -90,6 +91,7 @@ def build_scene(robot: Robot, spec: ExperimentSpec) -> Scene:
         _add_obstacle(mjspec, obstacle, spec.world.floor_friction, contact, spec.world.condim)
     _set_position_gains(mjspec, spec.actuators.position_gain)
     _set_drives(mjspec, spec.actuators.friction_loss, spec.actuators.torque_lag)
+    set_springs(mjspec, spec.actuators.spring, spec.actuators.backlash)
     mjspec.compile()  # to_xml() writes the compiled spec
     xml = mjspec.to_xml()
     # Compile again from the text: the logged XML is the single source of truth.

@@ -78,6 +78,7 @@ MAX_CONTACT_TIME_CONSTANT = 0.1
 MAX_DELAY = 1.0
 #: Largest servo stiffness [Nm/rad] and joint friction loss [Nm].
 MAX_POSITION_GAIN, MAX_FRICTION_LOSS = 1e6, 1e3
+MAX_SPRING, MAX_DRIVE_BACKLASH = 1e5, 0.5  # [Nm/rad], [rad]
 #: Obstacles: largest extent [m], distance of the centre from the origin [m], tilt [deg],
 #: mass [kg].
 MAX_OBSTACLE_SIZE, MAX_OBSTACLE_DISTANCE, MAX_TILT_DEG, MAX_OBSTACLE_MASS = 100.0, 1e3, 90.0, 1e5
@@ -553,6 +554,21 @@ class ActuatorsSpec(_Strict):
         "roll; robots/dyros_red_actuated/README.md)",
         json_schema_extra=assumed("None keeps the robot's value (robots/<robot>/parameters.yaml)"),
     )
+    spring: dict[str, Real] = Field(
+        default_factory=dict,
+        description="spring constant K [Nm/rad] of the series-elastic joints whose actuator "
+        "names match the globs (``*ankle_pitch``); the home pre-load is re-solved for it "
+        "(walkrepro.sim.robot.with_scene_springs); later entries win where globs overlap",
+        json_schema_extra=assumed("the robot's own springs (robots/<robot>/parameters.yaml)"),
+    )
+    backlash: dict[str, Real] = Field(
+        default_factory=dict,
+        description="width b [rad] of the dead band in series with the spring (drive "
+        "backlash, walkrepro.sim.springs) of the joints whose actuator names match the globs; "
+        "only joints whose spring is a dead-band tendon (coman_lab: knees, ankle pitch); not "
+        "the encoder play of sensors.joint_backlash",
+        json_schema_extra=assumed("the robot's own backlash (robots/<robot>/parameters.yaml)"),
+    )
     torque_lag: Real | None = Field(
         None,
         gt=0,
@@ -572,6 +588,26 @@ class ActuatorsSpec(_Strict):
                 f"gains must be in (0, {MAX_POSITION_GAIN:g}] [Nm/rad]; not so for {', '.join(bad)}"
             )
         return gains
+
+    @field_validator("spring")
+    @classmethod
+    def _positive_spring(cls, springs: dict[str, float]) -> dict[str, float]:
+        bad = [k for k, v in springs.items() if not 0 < v <= MAX_SPRING]
+        if bad:
+            raise ValueError(
+                f"springs must be in (0, {MAX_SPRING:g}] [Nm/rad]; not so for {', '.join(bad)}"
+            )
+        return springs
+
+    @field_validator("backlash")
+    @classmethod
+    def _band(cls, bands: dict[str, float]) -> dict[str, float]:
+        bad = [k for k, v in bands.items() if not 0 <= v <= MAX_DRIVE_BACKLASH]
+        if bad:
+            raise ValueError(
+                f"backlash must be in [0, {MAX_DRIVE_BACKLASH:g}] [rad]; not so for {', '.join(bad)}"
+            )
+        return bands
 
 
 Op = Literal["<", "<=", ">", ">=", "==", "between"]
