@@ -6,12 +6,13 @@ name, unwritable directory) prints one paragraph and exits with code 2, no trace
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import os
 import re
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 
@@ -1464,7 +1465,7 @@ def _run_one(  # noqa: ANN202
     """
     from walkrepro.runtime.interrupt import InterruptFlag
 
-    with InterruptFlag() as flag:
+    with InterruptFlag() as flag, _compile_watch(name, overrides, show_progress) as watch:
         experiment = _experiment(name, overrides)
         spec = experiment.spec
         run_dir = results.new_run_dir(out, spec.name)
@@ -1487,11 +1488,43 @@ def _run_one(  # noqa: ANN202
             transient=False,
         ) as bar:
             task = bar.add_task("run", total=spec.sim.duration, sim="", rtf="")
+            if watch is not None:  # numba's compiling shows in the bar until the first tick
+                watch.hand_over(lambda text: bar.update(task, sim=text))
 
             def progress(t: float, duration: float, rtf: float) -> None:
+                if watch is not None and (compiled := watch.finish()) is not None:
+                    bar.console.print(compiled, highlight=False)
                 bar.update(task, completed=t, sim=f"{t:6.2f}/{duration:.2f} s", rtf=f"{rtf:5.2f}x")
 
             return execute(spec, out, progress, outputs, overrides, flag, run_dir, experiment)
+
+
+@contextlib.contextmanager
+def _compile_watch(name: str, overrides: list[str], show: bool) -> Iterator[Any]:
+    """With ``show``: says that numba compiles the controller, before the imports that
+    compile it, when its cache is cold, and shows the compile's progress
+    (:mod:`walkrepro.runtime.compilenote`); yields the watch, or None without ``show`` or
+    for a spec that does not load (its error comes from the run's own loading)."""
+    if not show:
+        yield None
+        return
+    from walkrepro import plugins
+    from walkrepro.runtime import compilenote
+    from walkrepro.specs.files import load_spec
+
+    try:
+        spec = load_spec(name, overrides).spec
+    except WalkreproError:
+        yield None
+        return
+    paper = plugins.papers().get(spec.paper.key)
+    label = paper.label.split(" — ")[0] if paper is not None else None  # "Paper I"
+    label = label if label and label.startswith("Paper ") else None
+    controller = spec.controller.type
+    message = compilenote.note(controller, label)
+    cold = compilenote.is_cold(controller)
+    with compilenote.CompileWatch(_console(stderr=True), message if cold else None, message) as w:
+        yield w
 
 
 def _plot_comparisons(summaries: list) -> None:  # list[RunSummary]
