@@ -115,7 +115,7 @@ def is_cold(controller: str, directory: Path | None = None) -> bool:
 def _duration(seconds: float) -> str:
     """``~2 min`` or ``~40 s``."""
     if seconds >= 90:
-        return f"~{round(seconds / 60)} min"
+        return f"~{int(seconds / 60 + 0.5)} min"  # half up: 150 s is ~3 min
     return f"~{max(10, round(seconds, -1)):.0f} s"
 
 
@@ -254,6 +254,6 @@ class CompileWatch:
             return None
         elapsed = time.monotonic() - self._start
         return (
-            f"compiled {self._count} functions in {elapsed:.0f} s; later runs load them from "
-            "numba's cache"
+            f"compiled {self._count} function{'s' if self._count != 1 else ''} in "
+            f"{elapsed:.0f} s; later runs load them from numba's cache"
         )
