@@ -147,8 +147,9 @@ def _figures_dir(source: Path, experiment: str) -> Path | None:
 
 def counts_sentence(totals: ClaimTotals) -> str:
     """HTML: ``the paper's claims: R reproduced, …, of M``, each count coloured."""
-    parts = [
-        f'<span class="verdict {STATUS_CSS[s]}">{totals.by_status[s]} {escape(s)}</span>'
+    parts = [  # a zero count is shown grey, whatever its status
+        f'<span class="verdict {STATUS_CSS[s] if totals.by_status[s] else "none"}">'
+        f"{totals.by_status[s]} {escape(s)}</span>"
         for s in STATUSES
     ]
     return f"The paper's claims: {' '.join(parts)} of <b>{totals.total}</b>"
@@ -240,7 +241,8 @@ def user_runs_section(site: Path, root: Path, runs: Sequence[UserRun]) -> str:
             if r.counts
             else "not evaluated"
         )
-        failed = bool(c.get("failed")) or r.outcome not in ("complete", "fell")
+        ended = {"complete": "pass", "fell": "known"}.get(r.outcome, "fail")
+        row_class = ' class="fail"' if c.get("failed") else ""
         check = r.directory / results.CHECK_FILE
         run_file = r.directory / results.RUN_FILE
         target = check if check.is_file() else run_file
@@ -248,8 +250,8 @@ def user_runs_section(site: Path, root: Path, runs: Sequence[UserRun]) -> str:
         rows.append(
             f"<tr><td>{escape(r.experiment)}</td>"
             f"<td>{_link(site, target, r.directory.name)}</td>"
-            f'<td><span class="verdict {"fail" if failed else "pass"}">{escape(r.outcome)}'
-            f"</span></td><td>{escape(verdict)}</td>"
+            f'<td><span class="verdict {ended}">{escape(r.outcome)}</span></td>'
+            f"<td{row_class}>{escape(verdict)}</td>"
             f"<td>{escape(r.currency.text)}</td>"
             f"<td><code>{escape(overrides)}</code></td></tr>"
         )

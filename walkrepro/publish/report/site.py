@@ -232,6 +232,19 @@ def _paper_page(
     return page, total
 
 
+def _map_currency(map_name: str, experiment: str) -> Currency:
+    """The commit a committed map was swept at (``results/maps/<map>/sweep.yaml``) and
+    whether that is the current code for its experiment."""
+    import yaml
+
+    path = REFERENCES_DIR / MAPS_DIR / map_name / "sweep.yaml"
+    try:
+        commit = (yaml.safe_load(path.read_text()).get("provenance") or {}).get("commit")
+    except (OSError, yaml.YAMLError, AttributeError):
+        commit = None
+    return currency(commit, f"experiments/{experiment}.yaml")
+
+
 def _register_section(key: str, claims: PaperClaims | None, currencies: dict[str, Currency]) -> str:
     """The paper's register: each claim with its status, the rows that test it and the
     commit each row's reference was made at (and whether that is the current code)."""
@@ -248,8 +261,8 @@ def _register_section(key: str, claims: PaperClaims | None, currencies: dict[str
         c = result.claim
         rows = []
         for row in result.rows:
-            experiment = row.experiment.split(MAP_MARK)[0]
-            cur = currencies.get(experiment)
+            experiment, _, map_name = row.experiment.partition(MAP_MARK)
+            cur = _map_currency(map_name, experiment) if map_name else currencies.get(experiment)
             made = f" — reference {escape(cur.short)}, {escape(_currency_word(cur))}" if cur else ""
             rows.append(
                 f'<li><a href="#{escape(experiment)}">{escape(row.experiment)}</a> '
