@@ -318,7 +318,7 @@ def paper_claims(source: Path, found: Sequence) -> dict[str, PaperClaims]:  # Ex
             if n not in names and _paper_of(n) == key  # shipped experiments not in source
         }
         tested = t.total - t.by_status[NOT_COVERED] - t.by_status[UNCHECKABLE]
-        scope = f"Counted on the {len(mine)} experiments in {source}"
+        scope = f"Counted on the {len(mine)} experiments of this report"
         if missing:
             scope += (
                 f", not on {len(missing)} more of the paper's: {tested} of the register's "
