@@ -482,3 +482,19 @@ def test_check_engine_options_are_checked() -> None:
     """An unknown engine, or --address without Ray, is a one-paragraph error."""
     assert_friendly(*invoke("check", "stand_coman", "--engine", "dask"), "Valid engines")
     assert_friendly(*invoke("check", "stand_coman", "--address", "auto"), "--engine ray only")
+
+
+def test_every_commands_help_is_a_first_line_and_paragraphs_that_rich_wraps() -> None:
+    """Each command's help is one first line, then paragraphs without hard line breaks
+    (rich keeps them, so a docstring's breaks would cut sentences on any other width)."""
+    from walkrepro.cli import reflow
+
+    for info in app.registered_commands:
+        assert info.help, info.callback
+        first, *rest = info.help.split("\n\n")
+        assert "\n" not in first and len(first) <= 100, first
+        for paragraph in rest:
+            assert all(line.startswith("- ") for line in paragraph.splitlines()[1:]), paragraph
+    assert reflow("A.\n\nB b\nc.\n- one\n- two") == "A.\n\nB b c.\n- one\n- two"
+    code, out = invoke("-h")
+    assert code == 0 and "List every number an experiment's run uses" in out

@@ -389,9 +389,11 @@ def provenance(
         bool, typer.Option("--unclassified", help="List only the numbers without a class.")
     ] = False,
 ) -> None:
-    """List every number an experiment's run uses (robot, scene, spec, controller) with its
-    provenance class (paper, source, assumed, calibrated) and source; exit 1 when one has
-    none (docs/provenance.md)."""
+    """List every number an experiment's run uses, with its provenance class and source.
+
+    The numbers of the robot, the scene, the spec and the controller, each classed paper,
+    source, assumed or calibrated, with where it comes from (docs/provenance.md). Exit 1
+    when one has no class."""
     from walkrepro.publish.ledger import LISTED, UNCLASSIFIED, counts, experiment_ledger
 
     console = _console()
@@ -429,10 +431,11 @@ def claims(
         bool, typer.Option("--details", help="Also print the paper's words and each row.")
     ] = False,
 ) -> None:
-    """Each paper's claim register (experiments/claims/<paper>.yaml) with every claim's
-    status from the committed references: reproduced, calibrated, deviating, failed, not
-    covered or uncheckable, its rows and their measured values (docs/claims.md). Exit 1 when
-    a claim fails."""
+    """List each paper's claims with their status from the committed references.
+
+    The claim register (experiments/claims/<paper>.yaml): every claim reproduced,
+    calibrated, deviating, failed, not covered or uncheckable, with the rows that test it and
+    their measured values (docs/claims.md). Exit 1 when a claim fails."""
     from walkrepro.locations import REFERENCES_DIR
     from walkrepro.publish.claim_register import FAILED, paper_totals
     from walkrepro.specs.claims import find_register, register_papers
@@ -1074,8 +1077,11 @@ def report(
         ),
     ] = None,
 ) -> None:
-    """Build the static HTML report: per paper, each claim with the paper's value, the
-    measured value and the verdict, next to the figures, the video and the maps."""
+    """Build the static HTML reproduction report.
+
+    The index shows each paper's robot, headline figure and claims counted, and your own
+    runs; a page per paper lists each claim with the paper's value, the measured value and
+    the verdict, next to the figures, the video and the maps."""
     from walkrepro.publish.report import build_report
 
     site = build_report(source, out)
@@ -1275,9 +1281,10 @@ def calibrate(
         ),
     ] = False,
 ) -> None:
-    """Run a paper's declared calibration (experiments/calibration/<paper>.yaml) and compare
-    it with the committed results, or write them with --update. Exit 1 when a calibration
-    misses its target or differs from the committed one."""
+    """Run a paper's declared calibration and compare it with the committed results.
+
+    The calibration is experiments/calibration/<paper>.yaml; --update writes its results
+    there. Exit 1 when a calibration misses its target or differs from the committed one."""
     from walkrepro.runtime.interrupt import Received, stop_signals_raise
     from walkrepro.specs.calibration_files import (
         calibration_papers,
@@ -1400,8 +1407,10 @@ def docs_cmd(
         typer.Option("--check", help="Write nothing; exit 1 if a generated document is stale."),
     ] = False,
 ) -> None:
-    """Regenerate docs/ (spec reference, experiments, known deviations) and the README's
-    status table from the specs and the committed results."""
+    """Regenerate the generated documents from the specs and the committed results.
+
+    docs/ (the spec reference, the experiments, the known deviations) and the README's
+    status table."""
     from walkrepro.publish.docsgen import generated_files, stale_files, write_docs
 
     _needs_checkout("walkrepro docs")
@@ -1617,6 +1626,35 @@ def _verdict_table(verdicts: list) -> Table:  # list[checks.Verdict]
                 escape(f"{r.source}{note}"),
             )
     return table
+
+
+def reflow(doc: str) -> str:
+    """A docstring as a command's help: its paragraphs with their single line breaks joined.
+
+    typer's rich help keeps a docstring's line breaks, so a paragraph wrapped at the source's
+    width would break mid-sentence on any terminal; joined, rich wraps it to the terminal.
+    A line that starts a list item (``- ``) keeps its break.
+    """
+    paragraphs = []
+    for paragraph in doc.strip().split("\n\n"):
+        lines = [line.strip() for line in paragraph.splitlines()]
+        text = lines[0] if lines else ""
+        for line in lines[1:]:
+            text += ("\n" if line.startswith("- ") else " ") + line
+        paragraphs.append(text)
+    return "\n\n".join(paragraphs)
+
+
+def _reflow_help(typer_app: typer.Typer) -> None:
+    """Give every command without an explicit help its docstring, reflowed (:func:`reflow`)."""
+    import inspect
+
+    for info in typer_app.registered_commands:
+        if info.help is None and info.callback is not None:
+            info.help = reflow(inspect.getdoc(info.callback) or "")
+
+
+_reflow_help(app)
 
 
 def main() -> None:  # pragma: no cover - console entry point alias
