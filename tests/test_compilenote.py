@@ -29,7 +29,7 @@ def test_the_note_names_the_paper_and_the_measured_time() -> None:
     """The note names the paper's controller and the measured cold compile, in minutes when
     long."""
     assert compilenote.note("efsm", "Paper I") == (
-        "compiling the Paper I controller (efsm), once per machine: ~3 min"
+        "compiling the Paper I controller (efsm), once per machine: ~2 min"
     )
     assert compilenote.note("posture", None) == (
         "compiling the posture controller, once per machine: ~10 s"

@@ -32,7 +32,7 @@ if TYPE_CHECKING:
 #: sim.duration=0.05 --no-figures`` minus the same warm, on a 2-core machine shared with
 #: other work (README.md, "First run"). Only the note's "~N min" uses it.
 COMPILE_SECONDS: dict[str, float] = {
-    "efsm": 150.0,  # forward_walk: 162 s cold, 11 s warm
+    "efsm": 120.0,  # forward_walk: compile 80-129 s (81-162 s cold, 3.6-11 s warm)
     "qpimpedance": 50.0,  # walk_flat_kist: 52 s cold, 3.6 s warm
     "timeprojection": 7.0,  # in_place: 9.8 s cold, 3.3 s warm (the simulator's kernels)
     "posture": 7.0,  # the simulator's kernels and one 6 x 6 solve
