@@ -10,8 +10,12 @@ import pytest
 from rich.console import Console
 from typer.testing import CliRunner
 
+from walkrepro import plugins
 from walkrepro.cli import app
 from walkrepro.runtime import compilenote
+
+#: Paper I's controller class, as the plugin registry names it.
+EFSM = plugins.controllers()["efsm"]
 
 SPEC = """\
 name: tiny_stand
@@ -40,25 +44,25 @@ def test_the_note_names_the_paper_and_the_measured_time() -> None:
 def test_kernel_files_are_the_papers_own_or_the_simulators() -> None:
     """Paper I's kernels are its package's numba modules; Paper II's controller has none of
     its own, so the simulator's kernels stand for its compile."""
-    lee = {f.name for f in compilenote.kernel_files("efsm")}
+    lee = {f.name for f in compilenote.kernel_files(EFSM)}
     assert {"kernels.py", "wbc.py", "fsm.py"} <= lee
-    shared = compilenote.kernel_files("timeprojection")
+    shared = compilenote.kernel_files(plugins.controllers()["timeprojection"])
     assert shared and all(f.parent.name == "sim" for f in shared)
-    assert compilenote.kernel_files("no_such_controller") == []
+    assert compilenote.kernel_files("walkrepro.no_such_module:X") == []
 
 
 def test_a_cache_is_cold_until_it_holds_an_index_of_the_kernels(tmp_path: Path) -> None:
     """An empty cache directory is cold; one index of one of the paper's kernel modules, in
     numba's folder layout, makes it warm."""
-    assert compilenote.is_cold("efsm", tmp_path)
+    assert compilenote.is_cold(EFSM, tmp_path)
     other = tmp_path / "faraji_0123abcd"
     other.mkdir()
     (other / "controller.step-10.py311.nbi").write_bytes(b"")
-    assert compilenote.is_cold("efsm", tmp_path)
+    assert compilenote.is_cold(EFSM, tmp_path)
     folder = tmp_path / "lee2021_0123abcd"
     folder.mkdir()
     (folder / "kernels.tick-100.py311.nbi").write_bytes(b"")
-    assert not compilenote.is_cold("efsm", tmp_path)
+    assert not compilenote.is_cold(EFSM, tmp_path)
 
 
 def test_run_prints_the_note_first_when_the_cache_is_cold(

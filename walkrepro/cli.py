@@ -1531,7 +1531,8 @@ def _compile_watch(name: str, overrides: list[str], show: bool) -> Iterator[Any]
     label = label if label and label.startswith("Paper ") else None
     controller = spec.controller.type
     message = compilenote.note(controller, label)
-    cold = compilenote.is_cold(controller)
+    target = plugins.controllers().get(controller)
+    cold = target is not None and compilenote.is_cold(target)
     with compilenote.CompileWatch(_console(stderr=True), message if cold else None, message) as w:
         yield w
 

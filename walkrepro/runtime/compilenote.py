@@ -70,14 +70,10 @@ def _imports_numba(file: Path) -> bool:
     return False
 
 
-def kernel_files(controller: str) -> list[Path]:
-    """The kernel modules (files that import numba) of ``controller``'s package, or, if it
-    has none, of :data:`SHARED_KERNELS`; empty for an unknown controller."""
-    from walkrepro import plugins
-
-    target = plugins.controllers().get(controller)
-    if target is None:
-        return []
+def kernel_files(target: str) -> list[Path]:
+    """The kernel modules (files that import numba) of the package of a controller's class
+    ``target`` (``"module:Class"``, as the plugin registry gives it), or, if it has none, of
+    :data:`SHARED_KERNELS`; empty for a module that cannot be found."""
     module = target.partition(":")[0]
     file = _module_file(module)
     if file is None:
@@ -99,11 +95,12 @@ def cache_dir() -> Path | None:
     return Path(value) if value else None
 
 
-def is_cold(controller: str, directory: Path | None = None) -> bool:
-    """Whether numba's cache holds none of ``controller``'s compiled kernels (see the
-    module's docstring); False if there is no cache directory or no kernel to look for."""
+def is_cold(target: str, directory: Path | None = None) -> bool:
+    """Whether numba's cache holds none of the compiled kernels of the controller class
+    ``target`` (``"module:Class"``; see the module's docstring); False if there is no cache
+    directory or no kernel to look for."""
     directory = directory or cache_dir()
-    files = kernel_files(controller)
+    files = kernel_files(target)
     if directory is None or not files:
         return False
     for file in files:
