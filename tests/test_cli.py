@@ -43,12 +43,66 @@ def assert_friendly(code: int, output: str, *needles: str) -> None:
 
 
 def test_list_shows_every_experiment_with_its_paper() -> None:
-    """`walkrepro list` shows each experiment with its paper key and robot."""
+    """`walkrepro list` shows each experiment with its paper key; --long adds the robot and
+    the controller."""
     code, out = invoke("list")
     assert code == 0
     for name in ("stand_dyros_red", "stand_coman", "stand_kist_humanoid"):
         assert name in out
-    assert "walkrepro" in out and "posture" in out
+    assert "walkrepro" in out
+    code, out = invoke("list", "--long")
+    assert code == 0 and "posture" in out and "kist_humanoid" in out
+
+
+def _list_rows() -> list:
+    from walkrepro.cli import ListRow
+    from walkrepro.specs.files import all_experiment_names, load_spec
+
+    return [ListRow.of(name, load_spec(name).spec) for name in all_experiment_names()]
+
+
+def test_list_piped_is_one_line_per_experiment() -> None:
+    """Piped (not a terminal), `walkrepro list` prints one line per experiment, starting with
+    its name, then its paper and figures; --long too, with the robot and controller."""
+    from walkrepro.specs.files import all_experiment_names
+
+    names = all_experiment_names()
+    for args in (("list",), ("list", "--long")):
+        code, out = invoke(*args)
+        lines = out.splitlines()
+        assert code == 0 and len(lines) == len(names), out
+        for name, line in zip(names, lines, strict=True):
+            assert line.split()[0] == name, line
+    lines = invoke("list")[1].splitlines()
+    forward = next(line for line in lines if line.startswith("forward_walk "))
+    assert "lee2021" in forward and "6, 7, 8, 15" in forward
+    assert max(len(line) for line in lines) <= 40 + 10 + 13 + 100 + 2
+
+
+def test_list_fits_80_columns_on_a_terminal() -> None:
+    """At 80 columns the table shows every name, paper and figure whole, and no line is
+    wider than the terminal."""
+    import io
+
+    from rich.console import Console
+
+    from walkrepro.cli import experiments_long, experiments_table
+
+    rows = _list_rows()
+    for width in (80, 120):
+        console = Console(width=width, file=io.StringIO(), color_system=None)
+        console.print(experiments_table(rows, width))
+        lines = console.file.getvalue().splitlines()
+        assert len(lines) == len(rows) + 1  # the header, then one line per experiment
+        assert all(len(line.rstrip()) <= width for line in lines)
+        for row, line in zip(rows, lines[1:], strict=True):
+            assert line.split()[:2] == [row.name, row.paper], line
+            assert row.figure in line
+    console = Console(width=80, file=io.StringIO(), color_system=None)
+    console.print(*experiments_long(rows), sep="\n")
+    text = console.file.getvalue()
+    assert all(len(line.rstrip()) <= 80 for line in text.splitlines())
+    assert "forward_walk  lee2021 · fig. 6, 7, 8, 15 · dyros_red · efsm" in text
 
 
 @pytest.mark.parametrize(
@@ -428,3 +482,19 @@ def test_check_engine_options_are_checked() -> None:
     """An unknown engine, or --address without Ray, is a one-paragraph error."""
     assert_friendly(*invoke("check", "stand_coman", "--engine", "dask"), "Valid engines")
     assert_friendly(*invoke("check", "stand_coman", "--address", "auto"), "--engine ray only")
+
+
+def test_every_commands_help_is_a_first_line_and_paragraphs_that_rich_wraps() -> None:
+    """Each command's help is one first line, then paragraphs without hard line breaks
+    (rich keeps them, so a docstring's breaks would cut sentences on any other width)."""
+    from walkrepro.cli import reflow
+
+    for info in app.registered_commands:
+        assert info.help, info.callback
+        first, *rest = info.help.split("\n\n")
+        assert "\n" not in first and len(first) <= 100, first
+        for paragraph in rest:
+            assert all(line.startswith("- ") for line in paragraph.splitlines()[1:]), paragraph
+    assert reflow("A.\n\nB b\nc.\n- one\n- two") == "A.\n\nB b c.\n- one\n- two"
+    code, out = invoke("-h")
+    assert code == 0 and "List every number an experiment's run uses" in out

@@ -123,3 +123,21 @@ def test_fall_message_is_readable() -> None:
         f"the pelvis dropped to {z:.2f} m, under 60% of its standing height of "
         f"{robot.home_qpos[2]:.2f} m"
     )
+
+
+def test_an_svg_draws_dense_artists_as_pixels_and_stays_small(tmp_path: Path) -> None:
+    """A 2 kHz line of 40 000 points and a band of thousands of polygons are pixels in the
+    SVG (an embedded image, the file a few hundred kB at most); a short line stays a vector."""
+    from walkrepro.present.figures.style import DENSE_VERTICES, save
+
+    t = np.linspace(0.0, 20.0, 40_000)
+    fig, ax = plt.subplots()
+    dense = ax.plot(t, np.sin(t))[0]
+    band = ax.fill_between(t, 0, 1, where=np.sin(40 * t) > 0, step="post", alpha=0.2)
+    sparse = ax.plot([0, 10, 20], [0, 1, 0])[0]
+    paths = save(fig, tmp_path / "dense")
+    svg = paths[1].read_text()
+    assert dense.get_rasterized() and band.get_rasterized() and not sparse.get_rasterized()
+    assert len(sparse.get_xdata()) < DENSE_VERTICES
+    assert "<image" in svg
+    assert paths[1].stat().st_size < 400_000, paths[1].stat().st_size

@@ -418,3 +418,114 @@ def test_errors_reach_the_cli_as_exit_2(tmp_path: Path) -> None:
         result = CliRunner().invoke(app, args)
         assert result.exit_code == 2, f"{case.name}:\n{result.output}"
         assert "Traceback" not in result.output
+
+
+# --------------------------------------------------------------------------------------
+# Physical ranges of every controller parameter
+
+
+def _numeric_leaves(model: type, prefix: tuple[Any, ...] = ()) -> Iterator[tuple[Any, ...]]:
+    """The path of every number a controller's ``Params`` model holds: a numeric field, or
+    each item of a tuple of numbers (booleans and names are not numbers)."""
+    import types
+    import typing
+
+    for name, field in model.model_fields.items():
+        annotation = field.annotation
+        args = [a for a in typing.get_args(annotation) if a is not type(None)]
+        if typing.get_origin(annotation) in (typing.Union, types.UnionType) and len(args) == 1:
+            annotation = args[0]
+        if annotation in (int, float):
+            yield (*prefix, name)
+        elif typing.get_origin(annotation) is tuple:
+            for i, item in enumerate(typing.get_args(annotation)):
+                if typing.get_origin(item) is typing.Annotated:
+                    item = typing.get_args(item)[0]
+                assert item in (int, float), f"{model.__name__}.{name}: item {i} is {item}"
+                yield (*prefix, name, i)
+        else:
+            assert annotation in (bool, str) or typing.get_origin(annotation) is typing.Literal, (
+                f"{model.__name__}.{name}: {annotation} is neither a number nor a choice"
+            )
+
+
+def _params_models() -> dict[str, type]:
+    """Every registered controller's parameter model, by ``controller.type``."""
+    from walkrepro.controllers import controller_class, controller_names
+
+    return {name: controller_class(name).Params for name in controller_names()}
+
+
+def _experiment_of(controller: str) -> str:
+    """A shipped experiment that runs ``controller``."""
+    for path in sorted(EXPERIMENTS_DIR.glob("*.yaml")):
+        if yamlload.load(path.read_text())["controller"]["type"] == controller:
+            return path.stem
+    raise AssertionError(f"no shipped experiment runs {controller!r}")
+
+
+def test_every_controller_parameter_has_a_physical_range() -> None:
+    """Every number of every controller's parameters has a lower and an upper bound."""
+    from walkrepro.specs.models import field_bounds
+
+    models = _params_models()
+    assert {"efsm", "timeprojection", "qpimpedance", "posture"} <= set(models)
+    unbounded = []
+    count = 0
+    for name, model in models.items():
+        for path in _numeric_leaves(model):
+            count += 1
+            bounds = field_bounds(model, path)
+            if bounds is None or bounds.lower is None or bounds.upper is None:
+                unbounded.append(f"{name}: {'.'.join(map(str, path))} {bounds}")
+    assert count > 80, count
+    assert not unbounded, "numbers without a two-sided range:\n" + "\n".join(unbounded)
+
+
+def _outside(bounds: Any, above: bool, integer: bool) -> float:
+    """A value just outside ``bounds``: past the upper bound (``above``) or below the lower."""
+    edge = bounds.upper if above else bounds.lower
+    step = max(1.0, abs(edge))
+    value = edge + step if above else edge - step
+    return int(value) if integer else value
+
+
+def test_out_of_range_parameters_are_clean_errors_naming_the_range() -> None:
+    """Above its upper bound and below its lower one, every controller number is refused
+    with a user error that names the field and its range."""
+    from walkrepro.specs.models import field_bounds
+
+    for controller, model in _params_models().items():
+        experiment = _experiment_of(controller)
+        defaults = model()
+        for path in _numeric_leaves(model):
+            bounds = field_bounds(model, path)
+            assert bounds is not None
+            field = model.model_fields[path[0]]
+            integer = field.annotation is int or getattr(defaults, path[0]).__class__ is int
+            for above in (True, False):
+                value = _outside(bounds, above, integer)
+                if len(path) == 2:  # one item of a tuple, the others as the defaults
+                    items = list(getattr(defaults, path[0]))
+                    items[path[1]] = value
+                    item = f"controller.params.{path[0]}={items}"
+                else:
+                    item = f"controller.params.{path[0]}={value!r}"
+                with pytest.raises(WalkreproError) as err:
+                    resolve_spec(load_spec(experiment, (item,)))
+                message = str(err.value)
+                dotted = "controller.params." + ".".join(map(str, path))
+                assert dotted in message, f"{item}: {message}"
+                assert f"must be in {bounds.text}" in message, f"{item}: {message}"
+                assert "Traceback" not in message
+
+
+def test_stance_ankle_bias_of_1e9_is_refused_on_the_cli() -> None:
+    """The issue's probe: ``--set controller.params.stance_ankle_bias=1e9`` exits 2 with
+    the field and its range."""
+    args = ["run", "in_place", "--set", "controller.params.stance_ankle_bias=1e9"]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 2, result.output
+    assert "stance_ankle_bias" in result.output
+    assert "[-0.2, 0.2]" in result.output
+    assert "Traceback" not in result.output

@@ -183,6 +183,131 @@ def test_the_committed_references_give_one_row_per_paper_with_checks_counts(site
         assert cells[1:] == [reproduced, calibrated, known, failed]
 
 
+def test_the_index_leads_with_each_papers_robot_headline_and_claim_counts(site: Path) -> None:
+    """Before any table, the index shows each paper's robot frame and headline figure (files
+    in the site) and its register's claims counted as `walkrepro claims` counts them."""
+    from walkrepro.publish.claim_register import STATUSES, paper_totals
+
+    index = (site / "index.html").read_text()
+    first_table = index.index("<table")
+    for key in PAPER_KEYS:
+        for picture in (f"assets/index/{key}_robot.png", f"assets/index/{key}_headline.png"):
+            assert f'src="{picture}"' in index and index.index(picture) < first_table
+            assert (site / picture).stat().st_size > 1000
+    for key, (totals, _) in paper_totals(RESULTS_DIR).items():
+        if key not in PAPER_KEYS or not totals.total:
+            continue
+        card = index[index.index(f'href="{key}.html#claims"') :]
+        card = card[: card.index("</section>")]
+        for status in STATUSES:
+            assert f"{totals.by_status[status]} {status}</span>" in card, (key, status)
+        assert f"of <b>{totals.total}</b>" in card
+        own = totals.own
+        assert f"apart: {own.reproduced} reproduced" in card
+    assert 'id="counts"' in index and "walkrepro run &lt;experiment&gt;" in index
+
+
+def test_each_register_claim_shows_its_rows_reference_commit_and_currency(site: Path) -> None:
+    """A paper's page lists its register's claims; each row that tests one names the commit
+    its reference was made at and whether that is the current code."""
+    from walkrepro.publish.report.currency import currency
+
+    page = (site / "lee2021.html").read_text()
+    assert 'id="claims"' in page and "<code>walk.no-fall</code>" in page
+    run = json.loads((RESULTS_DIR / "forward_walk" / "run.json").read_text())
+    made = currency(run["commit"], "experiments/forward_walk.yaml")
+    word = "current code" if made.current else "code changed since"
+    assert f"reference {made.short}, {word}" in page
+
+
+def test_each_experiment_counts_its_rows_as_run_prints_them_and_its_maps_apart(
+    site: Path,
+) -> None:
+    """The paper page's experiment table shows an experiment's own rows (its check.json
+    counts, what `walkrepro run` prints) apart from its maps' claims."""
+    counts = json.loads((RESULTS_DIR / "forward_walk" / "check.json").read_text())["counts"]
+    page = (site / "lee2021.html").read_text()
+    row = re.search(r'<tr><td><a href="#forward_walk">.*?</tr>', page).group(0)
+    own = (
+        f"{counts['reproduced']} · {counts.get('calibrated', 0)} · {counts['known']} · "
+        f"{counts['failed']}"
+    )
+    assert f'<td class="num">{own}</td>' in row
+
+
+def _fake_run(root: Path, run: str, outcome: str, counts: dict | None) -> Path:
+    directory = root / "forward_walk" / run
+    directory.mkdir(parents=True)
+    record = {"experiment": "forward_walk", "outcome": outcome, "commit": "0" * 40}
+    record["overrides"] = ["sim.duration=1"]
+    (directory / "run.json").write_text(json.dumps(record))
+    if counts is not None:
+        (directory / "check.json").write_text(json.dumps({"outcome": outcome, "counts": counts}))
+    return directory
+
+
+def test_your_runs_lists_each_run_with_its_outcome_verdict_and_commit(tmp_path: Path) -> None:
+    """The index's "your runs" lists every run under the runs root, newest first, with its
+    outcome, its rows by verdict, its commit and overrides, linked relatively to its files."""
+    source = _fake_results(tmp_path / "results", [_row("pass")])
+    runs = tmp_path / "my_runs"
+    counts = {"reproduced": 3, "calibrated": 1, "known": 0, "failed": 2}
+    _fake_run(runs, "20260101T000000Z-aaaaaa", "complete", counts)
+    _fake_run(runs, "20260102T000000Z-bbbbbb", "interrupted", None)
+    (runs / "notes").mkdir()  # a folder that holds no run is not listed
+    build_report(source, tmp_path / "site", runs_root=runs)
+    index = (tmp_path / "site" / "index.html").read_text()
+    section = index[index.index('id="your-runs"') :]
+    newer, older = section.index("20260102T000000Z-bbbbbb"), section.index("20260101T000000Z")
+    assert newer < older
+    assert "3 reproduced, 1 calibrated, 0 known, 2 failed" in section
+    assert "interrupted" in section and "not evaluated" in section
+    assert "sim.duration=1" in section and "notes" not in section
+    assert "made at 0000000000 (currency unknown)" in section
+    for link in re.findall(r'href="([^"]+)"', section):
+        assert (tmp_path / "site" / unquote(link)).resolve().is_file(), link
+
+
+def test_no_runs_says_how_to_make_one(tmp_path: Path) -> None:
+    """Without runs, "your runs" says which command makes one."""
+    source = _fake_results(tmp_path / "results", [_row("pass")])
+    build_report(source, tmp_path / "site", runs_root=tmp_path / "none")
+    index = (tmp_path / "site" / "index.html").read_text()
+    assert "No runs yet: <code>walkrepro run forward_walk</code>" in index
+
+
+def test_a_partial_source_says_how_many_claims_it_tests(tmp_path: Path) -> None:
+    """Counted on a source that lacks some of a paper's experiments, the claims line says
+    how many of the register's claims those results test."""
+    source = _fake_results(tmp_path / "results", [_row("pass")])
+    build_report(source, tmp_path / "site", runs_root=tmp_path / "none")
+    index = (tmp_path / "site" / "index.html").read_text()
+    assert re.search(r"\d+ of the register&#x27;s \d+ claims are tested here", index)
+
+
+def test_reference_currency_compares_the_commits_code_with_head() -> None:
+    """HEAD's own commit is the current code; the repository's first commit is not (its
+    walkrepro/ differs); a commit git does not know is unknown."""
+    import subprocess
+
+    from walkrepro.locations import PROJECT_ROOT
+    from walkrepro.publish.report.currency import currency
+
+    def git(*args: str) -> str:
+        return subprocess.run(
+            ["git", "-C", str(PROJECT_ROOT), *args], capture_output=True, text=True, check=True
+        ).stdout.split()[0]
+
+    head = git("rev-parse", "HEAD")
+    assert currency(head, "experiments/forward_walk.yaml").current is True
+    assert currency(head + "+dirty", None).current is True
+    first = git("rev-list", "--max-parents=0", "HEAD")
+    old = currency(first, "experiments/forward_walk.yaml")
+    assert old.current is False and any(p.startswith("walkrepro") for p in old.changed)
+    assert currency("f" * 40, None).current is None
+    assert currency(None, None).text == "commit not recorded"
+
+
 def test_no_page_cites_an_internal_issue_number(site: Path) -> None:
     """Generated pages cite the papers; no page refers to the project's own issue numbers."""
     for page in site.rglob("*.html"):

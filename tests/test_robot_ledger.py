@@ -283,3 +283,38 @@ def test_a_stale_readme_block_fails_the_check(bm: ModuleType, tmp_path: Path) ->
     readme.write_text("# toy\n")
     with pytest.raises(bm.LedgerError, match="README.md"):
         bm.readme_text("toy", robots)
+
+
+def test_every_shipped_ledger_number_is_in_its_units_range() -> None:
+    """Every robot's ledger loads through the model that checks each unit's physical range."""
+    from walkrepro.publish.ledger import robot_ledger
+
+    robots = [p.name for p in ROBOTS_DIR.iterdir() if (p / "parameters.yaml").is_file()]
+    assert len(robots) >= 5
+    for robot in robots:
+        assert robot_ledger(robot)
+
+
+@pytest.mark.parametrize(
+    ("unit", "value", "interval"),
+    [("kg", -3.0, "[1e-06, 1000]"), ("rad", 7.0, "[-3.14159, 3.14159]"), ("s", 0.0, "[1e-06, 1]")],
+)
+def test_an_out_of_range_ledger_number_names_file_field_and_range(
+    tmp_path: Path, unit: str, value: float, interval: str
+) -> None:
+    """A mass, angle or time outside its unit's range is a clean error with file, field and
+    range."""
+    from walkrepro.errors import SpecError
+    from walkrepro.publish.ledger import robot_ledger
+
+    (tmp_path / "bot").mkdir()
+    (tmp_path / "bot" / "parameters.yaml").write_text(
+        "robot: bot\nparameters:\n"
+        f"  thing:\n    value: {value}\n    unit: {unit}\n    class: assumed\n"
+        "    source: a test\n"
+    )
+    with pytest.raises(SpecError) as err:
+        robot_ledger("bot", tmp_path)
+    message = str(err.value)
+    assert "parameters.yaml" in message and "parameters.thing" in message
+    assert f"must be in {interval}" in message, message

@@ -6,11 +6,13 @@ name, unwritable directory) prints one paragraph and exits with code 2, no trace
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import os
+import re
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 
@@ -254,22 +256,150 @@ def friendly_errors(fn: F) -> F:
 
 @app.command("list")
 @friendly_errors
-def list_cmd() -> None:
-    """List every experiment with its paper, figure, robot and controller (your own
-    folder's too, with --experiments DIR)."""
+def list_cmd(
+    long: Annotated[
+        bool,
+        typer.Option("--long", "-l", help="Also the robot, the controller and the description."),
+    ] = False,
+) -> None:
+    """List every experiment: its name, paper, figures and what it runs.
+
+    Your own folder's experiments are listed too, with --experiments DIR. On a terminal the
+    list is a table that fits its width; piped, it is one line per experiment. --long adds
+    the robot, the controller and the whole description.
+    """
     from walkrepro.specs.files import all_experiment_names, load_spec
 
-    table = Table(title="walkrepro experiments")
-    for col in ("experiment", "paper", "figure", "robot", "controller"):
-        table.add_column(col, no_wrap=True)
-    table.add_column("description", overflow="fold")
-    for name in all_experiment_names():
-        spec = load_spec(name).spec
-        section = ", ".join(x for x in (spec.paper.section, spec.paper.figure) if x)
-        table.add_row(
-            name, spec.paper.key, section, spec.robot, spec.controller.type, spec.description
+    rows = [ListRow.of(name, load_spec(name).spec) for name in all_experiment_names()]
+    if sys.stdout.isatty():
+        console = _console()
+        if long:
+            console.print(*experiments_long(rows), sep="\n")
+        else:
+            console.print(experiments_table(rows, console.width))
+    else:
+        for line in list_lines(rows, long):
+            print(line)
+
+
+@dataclasses.dataclass(frozen=True)
+class ListRow:
+    """One experiment as ``walkrepro list`` shows it.
+
+    Attributes:
+        name: the experiment's name.
+        paper: the paper's key (``lee2021``, ``faraji``, ``jo_oh``; ``walkrepro``: its own).
+        figure: the paper's figures (``6, 7, 8, 15``), or ``-``.
+        summary: the description's first sentence, without a leading citation the other
+            columns repeat.
+        robot: the robot's name.
+        controller: the controller's type.
+        description: the whole description.
+    """
+
+    name: str
+    paper: str
+    figure: str
+    summary: str
+    robot: str
+    controller: str
+    description: str
+
+    @classmethod
+    def of(cls, name: str, spec: ExperimentSpec) -> ListRow:
+        """The row of experiment ``name`` with spec ``spec``."""
+        description = " ".join(spec.description.split())
+        return cls(
+            name=name,
+            paper=spec.paper.key,
+            figure=spec.paper.figure or "-",
+            summary=_summary(description),
+            robot=spec.robot,
+            controller=spec.controller.type,
+            description=description,
         )
-    _console().print(table)
+
+
+#: A leading citation of a description ("Paper II Fig. 14 B: ", "Lee et al. 2021 §VI-A
+#: (Figs. 6–8): "), which the paper and figure columns already show.
+_CITATION = re.compile(r"^(Paper [IV]+|Lee et al\. 2021)\b[^:]{0,40}:\s+")
+
+
+#: Abbreviations whose full stop ends no sentence.
+_ABBREVIATIONS = ("al.", "Fig.", "Figs.", "Eq.", "Eqs.", "e.g.", "i.e.", "vs.", "cf.", "approx.")
+#: Longest summary of piped ``walkrepro list`` [characters].
+SUMMARY_CHARS = 100
+
+
+def _summary(description: str) -> str:
+    """The description's first sentence without its leading citation, at most
+    :data:`SUMMARY_CHARS` characters (cut at a word, ending in an ellipsis)."""
+    text = _CITATION.sub("", description, count=1)
+    for match in re.finditer(r"[.;] ", text):
+        end = match.start() + 1
+        if not text[:end].endswith(_ABBREVIATIONS):
+            text = text[:end] if match.group()[0] == "." else text[: end - 1]
+            break
+    if len(text) > SUMMARY_CHARS:
+        text = text[: SUMMARY_CHARS - 1].rsplit(" ", 1)[0].rstrip(",;:") + "…"
+    return text
+
+
+def experiments_table(rows: list[ListRow], width: int) -> Table:
+    """The terminal table of ``walkrepro list`` for a terminal ``width`` columns wide: name,
+    paper and figures never shrink, the summary takes what is left and ends in an ellipsis."""
+    # One space after each column, none before the first or after the last.
+    table = Table(box=None, padding=(0, 1, 0, 0), pad_edge=False, header_style="bold")
+    used = 0
+    for header, values in (
+        ("experiment", [r.name for r in rows]),
+        ("paper", [r.paper for r in rows]),
+        ("fig.", [r.figure for r in rows]),
+    ):
+        column_width = max(len(header), *(len(v) for v in values))
+        table.add_column(header, no_wrap=True, width=column_width)
+        used += column_width + 1  # one space between columns
+    rest = max(10, width - used)  # at least 10 characters of text on a very narrow terminal
+    table.add_column("what it runs", no_wrap=True, overflow="ellipsis", width=rest)
+    for row in rows:
+        table.add_row(row.name, row.paper, row.figure, row.summary)
+    return table
+
+
+def experiments_long(rows: list[ListRow]) -> list[Any]:
+    """``walkrepro list --long`` on a terminal: per experiment, a line with its name, paper,
+    figures, robot and controller, then its whole description, indented and wrapped to the
+    terminal's width (a table would squeeze it to a few characters on 80 columns)."""
+    from rich.padding import Padding
+    from rich.text import Text
+
+    out: list[Any] = []
+    for row in rows:
+        head = Text.assemble(
+            (row.name, "bold"),
+            f"  {row.paper} · fig. {row.figure} · {row.robot} · {row.controller}",
+        )
+        out += [head, Padding(Text(row.description), (0, 0, 1, 4))]
+    return out
+
+
+def list_lines(rows: list[ListRow], long: bool = False) -> list[str]:
+    """``walkrepro list`` piped: one line per experiment, columns aligned by spaces (name,
+    paper, figures, then the summary, or with ``long`` the robot, controller and whole
+    description), so ``grep``, ``head`` and ``cut`` read it."""
+    if not rows:
+        return []
+    fields = [
+        (r.name, r.paper, r.figure, r.robot, r.controller) if long else (r.name, r.paper, r.figure)
+        for r in rows
+    ]
+    widths = [max(len(f[i]) for f in fields) for i in range(len(fields[0]))]
+    return [
+        "  ".join(f.ljust(w) for f, w in zip(field, widths, strict=True))
+        + "  "
+        + (r.description if long else r.summary)
+        for field, r in zip(fields, rows, strict=True)
+    ]
 
 
 @app.command()
@@ -283,9 +413,11 @@ def provenance(
         bool, typer.Option("--unclassified", help="List only the numbers without a class.")
     ] = False,
 ) -> None:
-    """List every number an experiment's run uses (robot, scene, spec, controller) with its
-    provenance class (paper, source, assumed, calibrated) and source; exit 1 when one has
-    none (docs/provenance.md)."""
+    """List every number an experiment's run uses, with its provenance class and source.
+
+    The numbers of the robot, the scene, the spec and the controller, each classed paper,
+    source, assumed or calibrated, with where it comes from (docs/provenance.md). Exit 1
+    when one has no class."""
     from walkrepro.publish.ledger import LISTED, UNCLASSIFIED, counts, experiment_ledger
 
     console = _console()
@@ -323,10 +455,11 @@ def claims(
         bool, typer.Option("--details", help="Also print the paper's words and each row.")
     ] = False,
 ) -> None:
-    """Each paper's claim register (experiments/claims/<paper>.yaml) with every claim's
-    status from the committed references: reproduced, calibrated, deviating, failed, not
-    covered or uncheckable, its rows and their measured values (docs/claims.md). Exit 1 when
-    a claim fails."""
+    """List each paper's claims with their status from the committed references.
+
+    The claim register (experiments/claims/<paper>.yaml): every claim reproduced,
+    calibrated, deviating, failed, not covered or uncheckable, with the rows that test it and
+    their measured values (docs/claims.md). Exit 1 when a claim fails."""
     from walkrepro.locations import REFERENCES_DIR
     from walkrepro.publish.claim_register import FAILED, paper_totals
     from walkrepro.specs.claims import find_register, register_papers
@@ -1033,11 +1166,14 @@ def report(
     ] = None,
     force: ForceOption = False,
 ) -> None:
-    """Build the static HTML report: per paper, each claim with the paper's value, the
-    measured value and the verdict, next to the figures, the video and the maps."""
+    """Build the static HTML reproduction report.
+
+    The index shows each paper's robot, headline figure and claims counted, and your own
+    runs; a page per paper lists each claim with the paper's value, the measured value and
+    the verdict, next to the figures, the video and the maps."""
     from walkrepro.publish.report import build_report
 
-    site = build_report(source, out, force)
+    site = build_report(source, out, force=force)
     for note in site.notes:
         _console(stderr=True).print(f"[yellow]skipped:[/] {escape(note)}", highlight=False)
     for key, t in site.tallies.items():
@@ -1236,9 +1372,10 @@ def calibrate(
         ),
     ] = False,
 ) -> None:
-    """Run a paper's declared calibration (experiments/calibration/<paper>.yaml) and compare
-    it with the committed results, or write them with --update. Exit 1 when a calibration
-    misses its target or differs from the committed one."""
+    """Run a paper's declared calibration and compare it with the committed results.
+
+    The calibration is experiments/calibration/<paper>.yaml; --update writes its results
+    there. Exit 1 when a calibration misses its target or differs from the committed one."""
     from walkrepro.runtime.interrupt import Received, stop_signals_raise
     from walkrepro.specs.calibration_files import (
         calibration_papers,
@@ -1361,8 +1498,10 @@ def docs_cmd(
         typer.Option("--check", help="Write nothing; exit 1 if a generated document is stale."),
     ] = False,
 ) -> None:
-    """Regenerate docs/ (spec reference, experiments, known deviations) and the README's
-    status table from the specs and the committed results."""
+    """Regenerate the generated documents from the specs and the committed results.
+
+    docs/ (the spec reference, the experiments, the known deviations) and the README's
+    status table."""
     from walkrepro.publish.docsgen import generated_files, stale_files, write_docs
 
     _needs_checkout("walkrepro docs")
@@ -1427,7 +1566,7 @@ def _run_one(  # noqa: ANN202
     from walkrepro.runtime import outdir
     from walkrepro.runtime.interrupt import InterruptFlag
 
-    with InterruptFlag() as flag:
+    with InterruptFlag() as flag, _compile_watch(name, overrides, show_progress) as watch:
         experiment = _experiment(name, overrides)
         spec = experiment.spec
         outdir.claim_root(out, outdir.RUNS, force=True)  # the command checked it
@@ -1451,11 +1590,44 @@ def _run_one(  # noqa: ANN202
             transient=False,
         ) as bar:
             task = bar.add_task("run", total=spec.sim.duration, sim="", rtf="")
+            if watch is not None:  # numba's compiling shows in the bar until the first tick
+                watch.hand_over(lambda text: bar.update(task, sim=text))
 
             def progress(t: float, duration: float, rtf: float) -> None:
+                if watch is not None and (compiled := watch.finish()) is not None:
+                    bar.console.print(compiled, highlight=False)
                 bar.update(task, completed=t, sim=f"{t:6.2f}/{duration:.2f} s", rtf=f"{rtf:5.2f}x")
 
             return execute(spec, out, progress, outputs, overrides, flag, run_dir, experiment)
+
+
+@contextlib.contextmanager
+def _compile_watch(name: str, overrides: list[str], show: bool) -> Iterator[Any]:
+    """With ``show``: says that numba compiles the controller, before the imports that
+    compile it, when its cache is cold, and shows the compile's progress
+    (:mod:`walkrepro.runtime.compilenote`); yields the watch, or None without ``show`` or
+    for a spec that does not load (its error comes from the run's own loading)."""
+    if not show:
+        yield None
+        return
+    from walkrepro import plugins
+    from walkrepro.runtime import compilenote
+    from walkrepro.specs.files import load_spec
+
+    try:
+        spec = load_spec(name, overrides).spec
+    except WalkreproError:
+        yield None
+        return
+    paper = plugins.papers().get(spec.paper.key)
+    label = paper.label.split(" — ")[0] if paper is not None else None  # "Paper I"
+    label = label if label and label.startswith("Paper ") else None
+    controller = spec.controller.type
+    message = compilenote.note(controller, label)
+    target = plugins.controllers().get(controller)
+    cold = target is not None and compilenote.is_cold(target)
+    with compilenote.CompileWatch(_console(stderr=True), message if cold else None, message) as w:
+        yield w
 
 
 def _plot_comparisons(summaries: list) -> None:  # list[RunSummary]
@@ -1548,6 +1720,35 @@ def _verdict_table(verdicts: list) -> Table:  # list[checks.Verdict]
                 escape(f"{r.source}{note}"),
             )
     return table
+
+
+def reflow(doc: str) -> str:
+    """A docstring as a command's help: its paragraphs with their single line breaks joined.
+
+    typer's rich help keeps a docstring's line breaks, so a paragraph wrapped at the source's
+    width would break mid-sentence on any terminal; joined, rich wraps it to the terminal.
+    A line that starts a list item (``- ``) keeps its break.
+    """
+    paragraphs = []
+    for paragraph in doc.strip().split("\n\n"):
+        lines = [line.strip() for line in paragraph.splitlines()]
+        text = lines[0] if lines else ""
+        for line in lines[1:]:
+            text += ("\n" if line.startswith("- ") else " ") + line
+        paragraphs.append(text)
+    return "\n\n".join(paragraphs)
+
+
+def _reflow_help(typer_app: typer.Typer) -> None:
+    """Give every command without an explicit help its docstring, reflowed (:func:`reflow`)."""
+    import inspect
+
+    for info in typer_app.registered_commands:
+        if info.help is None and info.callback is not None:
+            info.help = reflow(inspect.getdoc(info.callback) or "")
+
+
+_reflow_help(app)
 
 
 def main() -> None:  # pragma: no cover - console entry point alias

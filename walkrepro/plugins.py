@@ -53,6 +53,9 @@ class Paper:
         order: where lists of papers put it, ascending (then by key): walkrepro's papers
             are 1-3 and its sanity experiments last; an outside paper's default puts it
             after walkrepro's papers, before the sanity experiments.
+        headline: the experiment and the figure (its file's stem under the experiment's
+            ``figures/``) the report's index shows for the paper, with a frame of the
+            robot from that experiment's ``snapshots.png``; None: no picture.
     """
 
     key: str
@@ -60,6 +63,7 @@ class Paper:
     label: str
     title: str
     order: int = 100
+    headline: tuple[str, str] | None = None
 
 
 @dataclass(frozen=True)

@@ -22,6 +22,7 @@ import pinocchio as pin
 from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
+from walkrepro.controllers.ranges import MAX_JOINT_DAMPING, MAX_JOINT_STIFFNESS
 from walkrepro.sim.robot import Robot
 from walkrepro.sim.sensors import SensorSnapshot
 from walkrepro.specs.origin import assumed
@@ -35,12 +36,14 @@ class PostureParams(ControllerParams):
     kp: float = Field(
         300.0,
         ge=0.0,
+        le=MAX_JOINT_STIFFNESS,
         description="joint stiffness K_p [Nm/rad]",
         json_schema_extra=assumed("walkrepro's standing check, not a paper's: 300 Nm/rad"),
     )
     kd: float = Field(
         20.0,
         ge=0.0,
+        le=MAX_JOINT_DAMPING,
         description="joint damping K_d [Nms/rad]",
         json_schema_extra=assumed("walkrepro's standing check: 20 Nms/rad"),
     )

@@ -23,6 +23,7 @@ and ``tests/test_ledger.py`` fails on any shipped experiment that has one.
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
@@ -32,7 +33,7 @@ from typing import Any, Literal
 import mujoco
 import numpy as np
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from walkrepro.errors import SpecError
 from walkrepro.locations import EXPERIMENTS_DIR, ROBOTS_DIR
@@ -89,8 +90,48 @@ class SourceValue(_Strict):
     source: str = Field(min_length=1)
 
 
+#: The physical range of a robot ledger's numbers by unit, [lo, hi], and why: a value
+#: outside is a typo or a unit slip. Units not listed (``-``, MJCF keywords, mixed units) are
+#: not checked. Every bound is far beyond the papers' robots (≤ 90 kg, ≤ 1.6 m tall).
+UNIT_RANGES: dict[str, tuple[float, float, str]] = {
+    "kg": (1e-6, 1e3, "a body's mass is positive and below ten times a 100 kg robot's"),
+    "kg m^2": (-1e2, 1e2, "an inertia entry of a body under 1000 kg and 3 m"),
+    "m": (-3.0, 3.0, "a length or position of a robot under 3 m"),
+    "rad": (-math.pi, math.pi, "an angle, within a half turn either way"),
+    "deg": (-180.0, 180.0, "an angle, within a half turn either way"),
+    "Nm": (
+        0.0,
+        1e3,
+        "a torque bound or friction, at most ten times a 100 kg robot's weight on 1 m",
+    ),
+    "Nm/rad": (0.0, 1e6, "a joint stiffness, at most a stiff servo's 1e6"),
+    "Nms/rad": (0.0, 1e4, "a joint damping, at most critical damping of 1e6 Nm/rad on 25 kg m^2"),
+    "Nms^2/rad": (0.0, 1e2, "a reflected inertia, within the inertia entries' range"),
+    "N/m": (0.0, 1e9, "a contact stiffness, below steel's on a square centimetre"),
+    "N s/m": (0.0, 1e6, "a contact damping"),
+    "m/s": (0.0, 10.0, "a speed scale, beyond any walking speed"),
+    "s": (1e-6, 1.0, "a time constant, positive and at most a second"),
+    "V": (0.0, 1e3, "a motor supply voltage"),
+    "V/rad": (0.0, 1e4, "a servo's voltage gain"),
+    "V/Nm": (0.0, 1e3, "a torque-to-voltage ratio"),
+    "Vs/rad": (0.0, 1e3, "a back-EMF constant"),
+}
+
+
+def _numbers(value: Any) -> Iterator[float]:
+    """Every number in a ledger value (a number or nested lists of numbers)."""
+    if isinstance(value, bool):
+        return
+    if isinstance(value, int | float):
+        yield float(value)
+    elif isinstance(value, list):
+        for item in value:
+            yield from _numbers(item)
+
+
 class RobotEntry(_Strict):
-    """One number of a robot's ledger (``robots/<robot>/parameters.yaml``)."""
+    """One number of a robot's ledger (``robots/<robot>/parameters.yaml``); its value lies
+    in its unit's physical range (:data:`UNIT_RANGES`)."""
 
     value: Any
     unit: str
@@ -98,6 +139,18 @@ class RobotEntry(_Strict):
     source: str = Field(min_length=1)
     description: str = ""
     source_value: SourceValue | None = Field(None, description="a lab's value not in force")
+
+    @model_validator(mode="after")
+    def _in_physical_range(self) -> RobotEntry:
+        if self.unit not in UNIT_RANGES:
+            return self
+        lo, hi, why = UNIT_RANGES[self.unit]
+        for number in _numbers(self.value):
+            if not lo <= number <= hi:  # also refuses NaN
+                raise ValueError(
+                    f"{number!r} {self.unit} is out of range: must be in [{lo:g}, {hi:g}] ({why})"
+                )
+        return self
 
 
 class RobotLedger(_Strict):
@@ -137,7 +190,8 @@ def _validated(model: type[BaseModel], path: Path) -> Any:
     except ValidationError as exc:
         first = exc.errors()[0]
         where = ".".join(str(p) for p in first["loc"])
-        raise SpecError(f"{path}, field {where}: {first['msg']}.") from None
+        msg = first["msg"].removeprefix("Value error, ")
+        raise SpecError(f"{path}, field {where}: {msg}.") from None
 
 
 def robot_ledger(robot: str, robots_dir: Path = ROBOTS_DIR) -> dict[str, RobotEntry] | None:

@@ -165,7 +165,14 @@ def _check_names(loaded: LoadedSpec) -> tuple[LoadedSpec, Robot, ControllerParam
         params = controller_params(spec.controller)
     except ValidationError as exc:
         raise SpecError(
-            _format_validation(exc, loaded.source, loaded.lines, loaded.overridden, params_where)
+            _format_validation(
+                exc,
+                loaded.source,
+                loaded.lines,
+                loaded.overridden,
+                params_where,
+                model=cls.Params,
+            )
         ) from None
     # The controller's model may turn a string such as "nan" into a float.
     _check_plain_data(

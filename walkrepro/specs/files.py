@@ -143,7 +143,9 @@ def load_spec(
     try:
         spec = ExperimentSpec.model_validate(data)
     except ValidationError as exc:
-        raise SpecError(_format_validation(exc, source, lines, overridden)) from None
+        raise SpecError(
+            _format_validation(exc, source, lines, overridden, model=ExperimentSpec)
+        ) from None
     loaded = LoadedSpec(spec=spec, source=source, lines=lines, overridden=frozenset(overridden))
     _check_across_sections(loaded)
     if uses_calibration:

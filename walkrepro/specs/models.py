@@ -17,7 +17,7 @@ import math
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, NamedTuple
 
 import yaml
 from pydantic import (
@@ -779,7 +779,9 @@ def spec_from_yaml_text(text: str, source: str = "<spec>") -> ExperimentSpec:
     try:
         return ExperimentSpec.model_validate(data)
     except ValidationError as exc:
-        raise SpecError(_format_validation(exc, source, lines, set())) from None
+        raise SpecError(
+            _format_validation(exc, source, lines, set(), model=ExperimentSpec)
+        ) from None
 
 
 def _display_path(path: Path) -> str:
@@ -941,13 +943,120 @@ def _where(
     return f"{source}, field {field}"
 
 
+#: pydantic's error types of a number outside a bound.
+_BOUND_ERRORS = frozenset({"greater_than", "greater_than_equal", "less_than", "less_than_equal"})
+
+
+class Bounds(NamedTuple):
+    """A number's bounds from its pydantic constraints (None: unbounded on that side).
+
+    Attributes:
+        lower: the lower bound, or None.
+        lower_inclusive: whether ``lower`` itself is allowed (``ge``) or not (``gt``).
+        upper: the upper bound, or None.
+        upper_inclusive: whether ``upper`` itself is allowed (``le``) or not (``lt``).
+    """
+
+    lower: float | None
+    lower_inclusive: bool
+    upper: float | None
+    upper_inclusive: bool
+
+    @property
+    def text(self) -> str:
+        """Interval text, e.g. ``[-0.2, 0.2]`` or ``(0, 5]``."""
+        lo = (
+            "(-inf"
+            if self.lower is None
+            else f"{'[' if self.lower_inclusive else '('}{self.lower:g}"
+        )
+        hi = (
+            "inf)"
+            if self.upper is None
+            else f"{self.upper:g}{']' if self.upper_inclusive else ')'}"
+        )
+        return f"{lo}, {hi}"
+
+
+def _bounds(metadata: Iterable[Any]) -> Bounds | None:
+    """The bounds among pydantic constraint metadata; None if there is none."""
+    lo: float | None = None
+    hi: float | None = None
+    lo_in = hi_in = True
+    for m in metadata:
+        if getattr(m, "gt", None) is not None:
+            lo, lo_in = m.gt, False
+        if getattr(m, "ge", None) is not None:
+            lo, lo_in = m.ge, True
+        if getattr(m, "lt", None) is not None:
+            hi, hi_in = m.lt, False
+        if getattr(m, "le", None) is not None:
+            hi, hi_in = m.le, True
+    if lo is None and hi is None:
+        return None
+    return Bounds(lo, lo_in, hi, hi_in)
+
+
+def _annotation_at(annotation: Any, part: Any) -> tuple[Any, list[Any]]:
+    """The type one step into ``annotation`` (a model's field, a tuple's or list's item, a
+    dict's value) and that step's constraint metadata."""
+    import typing
+
+    metadata: list[Any] = []
+    while True:  # unwrap Annotated and Optional
+        origin = typing.get_origin(annotation)
+        if origin is Annotated:
+            annotation, *extra = typing.get_args(annotation)
+            for e in extra:
+                metadata.extend(getattr(e, "metadata", [e]))
+        elif origin in (typing.Union, type(int | None)):
+            args = [a for a in typing.get_args(annotation) if a is not type(None)]
+            if len(args) != 1:
+                return None, metadata
+            annotation = args[0]
+        else:
+            break
+    if part is None:
+        return annotation, metadata
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        field = annotation.model_fields.get(part) if isinstance(part, str) else None
+        if field is None:
+            return None, []
+        inner, more = _annotation_at(field.annotation, None)
+        return inner, [*field.metadata, *more]
+    origin, args = typing.get_origin(annotation), typing.get_args(annotation)
+    if origin is tuple and isinstance(part, int) and args:
+        item = args[0] if len(args) == 2 and args[1] is Ellipsis else args[min(part, len(args) - 1)]
+        return _annotation_at(item, None)
+    if origin is list and isinstance(part, int) and args:
+        return _annotation_at(args[0], None)
+    if origin is dict and args:
+        return _annotation_at(args[1], None)
+    return None, []
+
+
+def field_bounds(model: type[BaseModel], loc: Sequence[Any]) -> Bounds | None:
+    """The bounds of the number at ``loc`` in ``model`` (a field path: names, tuple or
+    list indices, dict keys); None if it has none or ``loc`` is not a field."""
+    annotation: Any = model
+    metadata: list[Any] = []
+    for part in loc:
+        annotation, metadata = _annotation_at(annotation, part)
+        if annotation is None:
+            return None
+    return _bounds(metadata)
+
+
 def _format_validation(
     exc: ValidationError,
     source: str,
     lines: Mapping[tuple[Any, ...], int],
     overridden: Iterable[tuple[Any, ...]],
     prefix: tuple[Any, ...] = (),
+    model: type[BaseModel] | None = None,
 ) -> str:
+    """One paragraph: each error with file, line and field; a number out of its bounds
+    names the field's whole range (``model``: the model validated, to look the range up)."""
     parts = []
     for err in exc.errors():
         # Drop pydantic's union-branch tags (e.g. 'float', 'tuple[float, float]') from paths.
@@ -962,6 +1071,10 @@ def _format_validation(
             msg = "unknown field (check the spelling; see docs/spec-reference.md)"
         elif err["type"] == "missing":
             msg = "required field is missing"
+        if err["type"] in _BOUND_ERRORS and model is not None:
+            bounds = field_bounds(model, loc)
+            if bounds is not None:
+                msg = f"{msg}; must be in {bounds.text}"
         got = err.get("input")
         if err["type"] not in ("missing", "extra_forbidden") and not isinstance(got, dict | list):
             msg += f" (got {got!r})"

@@ -12,6 +12,7 @@ import numpy as np
 from pydantic import Field
 
 from walkrepro.controllers import Command, Controller, ControllerParams
+from walkrepro.controllers.ranges import MAX_JOINT_DAMPING, MAX_JOINT_STIFFNESS
 from walkrepro.sim.robot import Robot
 from walkrepro.sim.sensors import SensorSnapshot
 
@@ -19,8 +20,14 @@ from walkrepro.sim.sensors import SensorSnapshot
 class JointPdParams(ControllerParams):
     """The spec's ``controller.params`` block, validated once when the spec loads."""
 
-    kp: float = Field(600.0, ge=0.0, description="joint stiffness K_p [N·m/rad]")
-    kd: float = Field(30.0, ge=0.0, description="joint damping K_d [N·m·s/rad]")
+    # Every number has a physical range (walkrepro.controllers.ranges): out of it, the spec
+    # is refused with the field and the range.
+    kp: float = Field(
+        600.0, ge=0.0, le=MAX_JOINT_STIFFNESS, description="joint stiffness K_p [N·m/rad]"
+    )
+    kd: float = Field(
+        30.0, ge=0.0, le=MAX_JOINT_DAMPING, description="joint damping K_d [N·m·s/rad]"
+    )
 
 
 class JointPdController(Controller):

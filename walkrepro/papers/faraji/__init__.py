@@ -26,6 +26,7 @@ PLUGIN = Plugin(
             label="Paper II — Faraji et al., time-projection push recovery (`coman_lab`)",
             title="Faraji et al.",
             order=2,
+            headline=("push_recovery_forward", "fig16_push"),
         ),
     ),
     controllers={"timeprojection": "walkrepro.papers.faraji.controller:TimeProjectionController"},

@@ -26,13 +26,20 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Iterable
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
 import pinocchio as pin
 from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
+from walkrepro.controllers.ranges import (
+    MAX_COUNT,
+    MAX_DURATION,
+    MAX_LENGTH,
+    MAX_PHASE_TIME,
+    MAX_SPEED,
+)
 from walkrepro.log.signals import SignalLayout, Signals
 from walkrepro.papers.faraji import lift
 from walkrepro.papers.faraji.dlqr import Dlqr
@@ -92,6 +99,24 @@ SIGNALS = np.dtype(
 SIGNAL_LAYOUT = SignalLayout.of_record(SIGNALS)
 
 
+#: Largest pelvis roll amplitude [rad]: π/2 lays the robot on its side.
+MAX_ROLL = math.pi / 2
+#: Largest knee spring deflection μ at full body weight [rad]: 0.5 rad (29°) of spring
+#: travel under the weight would leave the knee no range to walk with.
+MAX_KNEE_DEFLECTION = 0.5
+#: Largest stance ankle bias b [rad]: tilting the stance leg by b about the ankle moves the
+#: CoM by ≈ b h over the sole; with COMAN's CoM height h ≈ 0.5 m, 0.2 rad moves it 0.1 m,
+#: beyond the toe or heel of its 0.19 m sole (half-length 0.095 m): the robot would topple.
+MAX_ANKLE_BIAS = 0.2
+#: Largest scale on a model gain [-] (footstep gains, ankle damping): ten times the model's
+#: gain turns a centimetre's error into a step past the 15 cm truncation.
+MAX_GAIN_SCALE = 10.0
+#: A dead-zone threshold on a position error [m]: at most a leg length.
+ErrorBand = Annotated[float, Field(ge=0, le=MAX_LENGTH)]
+#: A dead-zone threshold on a velocity error [m/s]: at most a walking speed.
+RateBand = Annotated[float, Field(ge=0, le=MAX_SPEED)]
+
+
 class TimeProjectionParams(ControllerParams):
     """Parameters of Paper II's controller (defaults: the paper's values)."""
 
@@ -117,6 +142,8 @@ class TimeProjectionParams(ControllerParams):
     )
     speed: float = Field(
         0.0,
+        ge=-MAX_SPEED,
+        le=MAX_SPEED,
         description="commanded 3LP speed v [m/s] (Fig. 19)",
         json_schema_extra=paper(
             "Fig. 14: in place, v = 0", scenario="the commanded speed (Fig. 19)"
@@ -125,29 +152,37 @@ class TimeProjectionParams(ControllerParams):
     step_time: float = Field(
         0.4,
         gt=0,
+        le=MAX_PHASE_TIME,
         description="T [s] (2.5 steps/s)",
         json_schema_extra=paper("Gait: T = 0.4 s, 2.5 steps/s", scenario="the step-time map"),
     )
     step_width: float = Field(
         0.25,
         gt=0,
+        le=MAX_LENGTH,
         description="W [m] (Paper II: 25 cm)",
         json_schema_extra=paper("Gait: step width 0.25 m"),
     )
     roll_amplitude: float = Field(
         0.1,
         ge=0,
+        le=MAX_ROLL,
         description="pelvis roll, Eq. 22 [rad]",
         json_schema_extra=paper("Eq. 22: 0.1 sin(πt/T)"),
     )
     lift_amplitude: float = Field(
         0.01,
         ge=0,
+        le=MAX_LENGTH,
         description="swing lift, Eq. 23 [m]",
         json_schema_extra=paper("Eq. 23: 0.01 sin(πt/T)"),
     )
     hip_switch_ratio: float = Field(
-        0.2, gt=0, description="t1 / T of Eq. 24", json_schema_extra=paper("Eq. 24: t_1 = 0.2 T")
+        0.2,
+        gt=0,
+        le=1,
+        description="t1 / T of Eq. 24",
+        json_schema_extra=paper("Eq. 24: t_1 = 0.2 T"),
     )
     torso_term: Literal["link", "motor"] = Field(
         "motor",
@@ -168,10 +203,11 @@ class TimeProjectionParams(ControllerParams):
     velocity_window: int = Field(
         30,
         ge=1,
+        le=MAX_COUNT,
         description="derivative averaging window [samples]",
         json_schema_extra=paper("State Estimation: 30-sample velocity averaging"),
     )
-    dead_zone_thresholds: tuple[float, float, float, float] = Field(
+    dead_zone_thresholds: tuple[ErrorBand, ErrorBand, RateBand, RateBand] = Field(
         (0.0275, 0.0271, 0.275, 0.052),
         description="a of Eq. 27 for e1x, e2x [m], de1x, de2x [m/s]: the standard deviation "
         "of the filtered errors of the open-loop in-place gait (Fig. 9 procedure). The specs "
@@ -184,11 +220,14 @@ class TimeProjectionParams(ControllerParams):
     footstep_limit: float = Field(
         0.15,
         gt=0,
+        le=MAX_LENGTH,
         description="truncation [m] (Fig. 13: 15 cm)",
         json_schema_extra=paper("Fig. 13 / Strong Pushes: 15 cm truncation"),
     )
     knee_deflection: float | None = Field(
         None,
+        ge=-MAX_KNEE_DEFLECTION,
+        le=MAX_KNEE_DEFLECTION,
         description="μ of Eq. 21 [rad]; None derives it from the home keyframe's knee "
         "pre-load (deflection at full body weight)",
         json_schema_extra=assumed(
@@ -208,10 +247,14 @@ class TimeProjectionParams(ControllerParams):
     )
     stance_ankle_bias: float = Field(
         0.0,
+        ge=-MAX_ANKLE_BIAS,
+        le=MAX_ANKLE_BIAS,
         description="a load-scaled offset added to the stance ankle pitch targets on top of "
         "the spring compensation, load·b [rad]: the stance bias of Eq. 21's compensation "
         "that no source gives; pinned by declared calibration (experiments/calibration/"
-        "faraji.yaml: the open-loop in-place gait makes no progression)",
+        "faraji.yaml: the open-loop in-place gait makes no progression). Within ±0.2 rad: "
+        "the stance leg tilted by b moves the CoM by ≈ b·h over the sole, and at COMAN's "
+        "h ≈ 0.5 m, 0.2 rad (0.1 m) puts it past the toe or heel of the 0.19 m sole",
         json_schema_extra=calibrated(
             "experiments/calibration/faraji.yaml: the open-loop in-place gait makes no progression"
         ),
@@ -219,6 +262,7 @@ class TimeProjectionParams(ControllerParams):
     footstep_scale: float = Field(
         1.0,
         ge=0,
+        le=MAX_GAIN_SCALE,
         description="scale on the time-projection footstep gains (1 = the 3LP tables, the "
         "paper's; robots/coman's ablations run 0.5, walkrepro's earlier departure)",
         json_schema_extra=paper("Fig. 13: the 3LP time-projection footstep gains, unscaled"),
@@ -244,6 +288,7 @@ class TimeProjectionParams(ControllerParams):
     ankle_damping: float = Field(
         0.0,
         ge=0,
+        le=MAX_GAIN_SCALE,
         description="stance-ankle push-off gain (walkrepro's, not the paper's; 0, the "
         "default, is the paper's free ankle): τ_a = b · max(0, −sign(v) · e_ṗ) · sign(v), "
         "b = ankle_damping × D1 ω₁ [Nm s/m] (damping rate b / D1 = the 3LP falling rate ω₁), "
@@ -256,6 +301,7 @@ class TimeProjectionParams(ControllerParams):
     table_samples: int = Field(
         100,
         ge=2,
+        le=MAX_COUNT,
         description="look-up-table samples per step",
         json_schema_extra=assumed(
             "look-up table resolution: 100 samples per step, 4 ms at T = 0.4 s, twice the control period"
@@ -264,6 +310,7 @@ class TimeProjectionParams(ControllerParams):
     start_time: float = Field(
         0.5,
         ge=0,
+        le=MAX_DURATION,
         description="stand still before the first step [s]",
         json_schema_extra=assumed(
             "the robot stands 0.5 s before its first step (the paper starts from standing)"
@@ -272,6 +319,7 @@ class TimeProjectionParams(ControllerParams):
     ramp_steps: int = Field(
         3,
         ge=1,
+        le=MAX_COUNT,
         description="steps over which roll/lift/width/speed ramp up",
         json_schema_extra=assumed(
             "roll, lift, width and speed ramp up over 3 steps from standing (the paper starts from standing)"
@@ -280,12 +328,14 @@ class TimeProjectionParams(ControllerParams):
     sway_steps: float = Field(
         0.0,
         ge=0,
+        le=MAX_COUNT,
         description="double-support sway before walking [steps]",
         json_schema_extra=assumed("no double-support sway before walking"),
     )
     velocity_ramp_steps: int = Field(
         5,
         ge=1,
+        le=MAX_COUNT,
         description="steps over which the speed ramps up",
         json_schema_extra=assumed("the commanded speed ramps up over 5 steps (2 s)"),
     )

@@ -21,6 +21,10 @@ PLUGIN = Plugin(
             label="Paper III — Jo & Oh, impedance control on uneven terrain (`kist_humanoid`)",
             title="Jo & Oh",
             order=3,
+            headline=(
+                "obstacle_4cm",
+                "fig4_contact_force_obstacle_4cm_vs_obstacle_4cm_no_impedance",
+            ),
         ),
     ),
     controllers={"qpimpedance": "walkrepro.papers.jo_oh.controller:QPImpedanceController"},

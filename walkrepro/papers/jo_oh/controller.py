@@ -19,13 +19,27 @@ from __future__ import annotations
 
 import time
 from bisect import bisect_right
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
 import pinocchio as pin
 from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
+from walkrepro.controllers.ranges import (
+    MAX_BANDWIDTH,
+    MAX_CONTROL_PERIOD,
+    MAX_COUNT,
+    MAX_DAMPING,
+    MAX_DURATION,
+    MAX_FORCE,
+    MAX_FRICTION,
+    MAX_LENGTH,
+    MAX_PHASE_TIME,
+    MAX_STIFFNESS,
+    MAX_TORQUE,
+    MAX_WEIGHT,
+)
 from walkrepro.log.signals import SignalLayout, Signals
 from walkrepro.papers.jo_oh.centroidal_qp import (
     CentroidalQP,
@@ -70,7 +84,6 @@ from walkrepro.sim.robot import Robot, pin_state_buffer, pin_state_into
 from walkrepro.sim.sensors import SensorSnapshot
 from walkrepro.specs.origin import assumed, calibrated, paper
 
-Vec3 = tuple[float, float, float]
 #: Support sets, each with its own QP (its β blocks differ).
 SUPPORTS = ((LEFT, RIGHT), (RIGHT,), (LEFT,))
 #: The logged signals, declared once, all floats. :func:`.tasks.task_rows` writes the plan's
@@ -102,6 +115,25 @@ FZ_QP = tuple(f"{side}_fz_qp" for side in SIDES)
 SIGNAL_AT = {name: at for name, (at, _, _) in SIGNAL_LAYOUT.slots.items()}
 
 
+#: Longest preview sample time [s]: the spec's longest control period (10 Hz).
+MAX_PREVIEW_DT = MAX_CONTROL_PERIOD
+#: Largest damping ratio ζ [-]: ten times critical, as a spec's contact (ContactSpec).
+MAX_DAMPING_RATIO = 10.0
+#: Most edges of a friction pyramid: 64 edges approximate the cone within 0.2 %.
+MAX_PYRAMID_EDGES = 64
+#: Coarsest QP tolerance [N, m/s²]: an error of 1 N or 1 m/s² is no solution of the QP.
+MAX_QP_TOLERANCE = 1.0
+#: Largest desired mass [kg, kg m²] of Eq. (1): ten times the KIST humanoid's 57 kg body.
+MAX_DESIRED_MASS = 1e3
+#: Largest desired damping [N s/m, N m s/rad]: a spec's hold damping bound.
+MAX_DESIRED_DAMPING = 1e5
+#: Largest desired stiffness [N/m, N m/rad]: a stiff servo's 1e6.
+MAX_DESIRED_STIFFNESS = 1e6
+DesiredMass = Annotated[float, Field(gt=0, le=MAX_DESIRED_MASS)]
+DesiredDamping = Annotated[float, Field(ge=0, le=MAX_DESIRED_DAMPING)]
+DesiredStiffness = Annotated[float, Field(ge=0, le=MAX_DESIRED_STIFFNESS)]
+
+
 class QPImpedanceParams(ControllerParams):
     """Parameters of the walking pattern, the impedance law and the QP (paper §II–IV)."""
 
@@ -109,24 +141,28 @@ class QPImpedanceParams(ControllerParams):
     stride: float = Field(
         0.35,
         gt=0,
+        le=2 * MAX_LENGTH,
         description="swing-foot travel per step [m] (§IV: 0.35 m stride)",
         json_schema_extra=paper("§IV: 0.35 m stride"),
     )
     t_single: float = Field(
         0.56,
         gt=0,
+        le=MAX_PHASE_TIME,
         description="single-support time [s] (§IV)",
         json_schema_extra=paper("§IV: 0.56 s single support"),
     )
     t_double: float = Field(
         0.14,
         gt=0,
+        le=MAX_PHASE_TIME,
         description="double-support time [s] (§IV)",
         json_schema_extra=paper("§IV: 0.14 s double support"),
     )
     n_steps: int = Field(
         6,
         ge=2,
+        le=MAX_COUNT,
         description="number of steps",
         json_schema_extra=assumed(
             "6 steps: the obstacle step and room to step off it",
@@ -144,18 +180,21 @@ class QPImpedanceParams(ControllerParams):
     t_start: float = Field(
         1.0,
         gt=0,
+        le=MAX_DURATION,
         description="initial double support [s]",
         json_schema_extra=assumed("1 s of double support before the first step"),
     )
     t_end_hold: float = Field(
         0.5,
         ge=0,
+        le=MAX_DURATION,
         description="planned stance after the last step [s]",
         json_schema_extra=assumed("0.5 s of planned stance after the last step"),
     )
     foot_y: float = Field(
         0.09,
         gt=0,
+        le=MAX_LENGTH / 2,
         description="lateral offset of each sole centre [m] (robot: hip ±0.09)",
         json_schema_extra=assumed(
             "the reconstruction's hip spacing, ±0.09 m (robots/kist_humanoid)"
@@ -164,6 +203,7 @@ class QPImpedanceParams(ControllerParams):
     swing_height: float = Field(
         0.10,
         gt=0,
+        le=MAX_LENGTH,
         description="swing apex above the higher of lift-off and landing [m] (assumed)",
         json_schema_extra=assumed(
             "§IV gives no swing height; 0.10 m clears the paper's 5 cm obstacle by 5 cm"
@@ -181,18 +221,21 @@ class QPImpedanceParams(ControllerParams):
     com_height: float | None = Field(
         None,
         gt=0,
+        le=2 * MAX_LENGTH,
         description="CoM height of the LIPM [m]; default: the robot's home CoM",
         json_schema_extra=assumed("None: the robot's home CoM height"),
     )
     preview_dt: float = Field(
         0.005,
         gt=0,
+        le=MAX_PREVIEW_DT,
         description="sample time of the preview controller [s]",
         json_schema_extra=assumed("5 ms preview sample time (Kajita 2003's order)"),
     )
     preview_time: float = Field(
         1.0,
         gt=0,
+        le=MAX_PHASE_TIME,
         description="preview horizon [s] (Kajita 2003: 1.6 s)",
         json_schema_extra=assumed(
             "1 s preview horizon (Kajita 2003: 1.6 s), longer than a 0.7 s step"
@@ -201,12 +244,14 @@ class QPImpedanceParams(ControllerParams):
     preview_q: float = Field(
         1.0,
         gt=0,
+        le=MAX_WEIGHT,
         description="ZMP error weight Q_e [1/m²]",
         json_schema_extra=assumed("Kajita 2003's weights: Q_e = 1"),
     )
     preview_r: float = Field(
         1e-6,
         gt=0,
+        le=MAX_WEIGHT,
         description="CoM jerk weight R [s⁶/m²]",
         json_schema_extra=assumed("Kajita 2003's weights: R = 1e-6"),
     )
@@ -216,19 +261,19 @@ class QPImpedanceParams(ControllerParams):
         description="modify the swing reference by Eqs. (1)–(3)",
         json_schema_extra=paper("§II, Eqs. 1-3", scenario="with and without impedance (Figs. 4-7)"),
     )
-    m_d: Vec3 = Field(
+    m_d: tuple[DesiredMass, DesiredMass, DesiredMass] = Field(
         (30.0, 0.3, 0.3),
         description="desired mass M_d for (z, φx, φy) [kg, kg m², kg m²]",
         json_schema_extra=assumed(
             "§II gives no values; M_d, B_d, K_d: 7 rad/s natural frequency, damping ratio 1.06 on z"
         ),
     )
-    b_d: Vec3 = Field(
+    b_d: tuple[DesiredDamping, DesiredDamping, DesiredDamping] = Field(
         (450.0, 3.0, 3.0),
         description="desired damping B_d [N s/m, N m s/rad]",
         json_schema_extra=assumed("§II gives no values; see m_d"),
     )
-    k_d: Vec3 = Field(
+    k_d: tuple[DesiredStiffness, DesiredStiffness, DesiredStiffness] = Field(
         (1500.0, 10.0, 10.0),
         description="desired stiffness K_d [N/m, N m/rad]",
         json_schema_extra=assumed("§II gives no values; see m_d"),
@@ -236,12 +281,14 @@ class QPImpedanceParams(ControllerParams):
     force_threshold: float = Field(
         10.0,
         gt=0,
+        le=MAX_FORCE,
         description="|λ_z| that switches impedance on [N] (§IV)",
         json_schema_extra=paper("§IV: 10 N on z"),
     )
     torque_threshold: float = Field(
         3.0,
         gt=0,
+        le=MAX_TORQUE,
         description="|λ_φx|, |λ_φy| that switch it on [N m] (§IV)",
         json_schema_extra=paper("§IV: 3 Nm about x and y"),
     )
@@ -254,6 +301,7 @@ class QPImpedanceParams(ControllerParams):
     swing_omega: float = Field(
         22.5,
         gt=0,
+        le=MAX_BANDWIDTH,
         description="swing-foot tracking bandwidth ω [rad/s] (K_P = ω², K_V = 2ζω)",
         json_schema_extra=calibrated(
             "the softest ω (2.5 rad/s steps) whose flat walk's peak foot force stays within 1.05 m g (walk_flat_kist's peak-force rows)"
@@ -262,60 +310,70 @@ class QPImpedanceParams(ControllerParams):
     swing_zeta: float = Field(
         1.0,
         gt=0,
+        le=MAX_DAMPING_RATIO,
         description="swing-foot damping ratio ζ [-]",
         json_schema_extra=assumed("critical damping"),
     )
     kp_swing: float | None = Field(
         None,
         ge=0,
+        le=MAX_STIFFNESS,
         description="swing-foot K_P [1/s²]; default ω² (overrides ω when given)",
         json_schema_extra=assumed("None: ω²"),
     )
     kv_swing: float | None = Field(
         None,
         ge=0,
+        le=MAX_DAMPING,
         description="swing-foot K_V [1/s]; default 2ζω (overrides ω when given)",
         json_schema_extra=assumed("None: 2ζω"),
     )
     kp_orient: float = Field(
         200.0,
         ge=0,
+        le=MAX_STIFFNESS,
         description="pelvis and torso orientation K_P [1/s²]",
         json_schema_extra=assumed("§III-D gives no gains; 200 1/s², critically damped with 28 1/s"),
     )
     kv_orient: float = Field(
         28.0,
         ge=0,
+        le=MAX_DAMPING,
         description="pelvis and torso orientation K_V [1/s]",
         json_schema_extra=assumed("≈ 2√200, critical damping"),
     )
     kp_posture: float = Field(
         100.0,
         ge=0,
+        le=MAX_STIFFNESS,
         description="arm and waist joint K_P [1/s²]",
         json_schema_extra=assumed("§III-D gives no gains; 100 1/s² (Paper I's task gains)"),
     )
     kv_posture: float = Field(
         20.0,
         ge=0,
+        le=MAX_DAMPING,
         description="arm and waist joint K_V [1/s]",
         json_schema_extra=assumed("2√100, critical damping"),
     )
     k_h: float = Field(
         20.0,
         ge=0,
+        le=MAX_BANDWIDTH,
         description="linear momentum gain K_h [1/s]",
         json_schema_extra=assumed("§III-D gives no K_h; 20 1/s"),
     )
     k_i: float = Field(
         100.0,
         ge=0,
+        le=MAX_STIFFNESS,
         description="linear momentum integral gain K_I [1/s²]",
         json_schema_extra=assumed("§III-D gives no K_I; 100 1/s²"),
     )
     k_h_angular: float = Field(
         5.0,
         ge=0,
+        le=MAX_BANDWIDTH,
         description="angular momentum gain K_h [1/s]",
         json_schema_extra=assumed("§III-D gives no K_h; 5 1/s on the angular rows"),
     )
@@ -323,60 +381,70 @@ class QPImpedanceParams(ControllerParams):
     w_momentum_linear: float = Field(
         1.0,
         gt=0,
+        le=MAX_WEIGHT,
         description="W_1, force rows [1/N²]",
         json_schema_extra=assumed("§III-D: W_1 determined for the walking motion, no values; 1"),
     )
     w_momentum_angular: float = Field(
         1.0,
         gt=0,
+        le=MAX_WEIGHT,
         description="W_1, moment rows [1/(N m)²]",
         json_schema_extra=assumed("§III-D gives no W_1; 1"),
     )
     w_swing: float = Field(
         100.0,
         gt=0,
+        le=MAX_WEIGHT,
         description="W_t of the swing foot",
         json_schema_extra=assumed("§III-D gives no W_t; 100, the swing foot first"),
     )
     w_pelvis: float = Field(
         100.0,
         gt=0,
+        le=MAX_WEIGHT,
         description="W_t of the pelvis orientation",
         json_schema_extra=assumed("§III-D gives no W_t; 100"),
     )
     w_torso: float = Field(
         10.0,
         gt=0,
+        le=MAX_WEIGHT,
         description="W_t of the torso orientation",
         json_schema_extra=assumed("§III-D gives no W_t; 10"),
     )
     w_posture: float = Field(
         1.0,
         gt=0,
+        le=MAX_WEIGHT,
         description="W_t of the arm and waist joints",
         json_schema_extra=assumed("§III-D gives no W_t; 1"),
     )
     w_accel: float = Field(
         1e-4,
         gt=0,
+        le=MAX_WEIGHT,
         description="W_3 regularisation of ξ̈",
         json_schema_extra=assumed("§III-D gives no W_3; 1e-4, regularisation only"),
     )
     w_force: float = Field(
         1e-6,
         gt=0,
+        le=MAX_WEIGHT,
         description="W_4 regularisation of β",
         json_schema_extra=assumed("§III-D gives no W_4; 1e-6, regularisation only"),
     )
     friction: float = Field(
         0.6,
         gt=0,
+        le=MAX_FRICTION,
         description="friction coefficient μ of the pyramid (Eq. 8)",
         json_schema_extra=assumed("§III-C gives no μ; 0.6, below the floor's 1.0"),
     )
     pyramid_edges: int = Field(
         4,
         ge=3,
+        le=MAX_PYRAMID_EDGES,
         description="edges m of each pyramid (Eq. 8)",
         json_schema_extra=assumed("§III-C: an m-sided polygon, m not given; 4"),
     )
@@ -394,6 +462,7 @@ class QPImpedanceParams(ControllerParams):
     qp_tolerance: float = Field(
         1e-9,
         gt=0,
+        le=MAX_QP_TOLERANCE,
         description="absolute tolerance of the iterative QP solvers (proxqp, osqp) [N, m/s²]",
         json_schema_extra=assumed(
             "1e-9: three orders below the active set's 1e-6 agreement with the libraries"

@@ -19,6 +19,7 @@ PLUGIN = Plugin(
             label="Paper I — Lee et al., Toward Reactive Walking (E-FSM, `dyros_red`)",
             title="Lee et al. 2021",
             order=1,
+            headline=("forward_walk", "fig7_com_feet"),
         ),
     ),
     controllers={"efsm": "walkrepro.papers.lee2021.controller:EfsmController"},

@@ -28,6 +28,15 @@ import pinocchio as pin
 from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
+from walkrepro.controllers.ranges import (
+    MAX_COUNT,
+    MAX_DAMPING,
+    MAX_FORCE,
+    MAX_LENGTH,
+    MAX_SPEED,
+    MAX_STIFFNESS,
+    MAX_TORQUE,
+)
 from walkrepro.log.signals import SignalLayout, Signals
 from walkrepro.papers.lee2021 import kernels, wbc
 from walkrepro.papers.lee2021.fsm import DS_TO_SSD, SSA_TO_DS, SSD_TO_SSA, Phase
@@ -46,36 +55,52 @@ def signal_layout(n_actuators: int) -> SignalLayout:
     return kernels.signal_layout(n_actuators)
 
 
+#: Largest margin or threshold [m] (ζ, r, d^thr): DYROS RED's 0.30 m sole length; a margin
+#: longer than the foot is no margin of it.
+MAX_MARGIN = 0.3
+#: Largest Δx_p^des per control period [m]: 1 cm per 0.5 ms tick moves the desired CoP
+#: across the whole 0.30 m sole in 15 ms, beyond any CoP shift of a step.
+MAX_CP_STEP = 0.01
+#: Largest support-polygon margin [m]: half DYROS RED's 0.15 m sole width; a wider margin
+#: leaves no polygon.
+MAX_COP_MARGIN = 0.075
+
+
 class EfsmParams(ControllerParams):
     """Parameters of the E-FSM walking controller (Lee et al. 2021, §V-B unless noted)."""
 
     zeta: float = Field(
         0.03,
         gt=0,
+        le=MAX_MARGIN,
         description="margin ζ of law L1 [m] (§V-B)",
         json_schema_extra=paper("§V-B: ζ = 0.03 m"),
     )
     r: float = Field(
         0.08,
         gt=0,
+        le=MAX_MARGIN,
         description="margin r of law L2 [m] (§V-B)",
         json_schema_extra=paper("§V-B: r = 0.08 m"),
     )
     dxp: float = Field(
         0.0007,
         gt=0,
+        le=MAX_CP_STEP,
         description="Δx_p^des per control period [m] (§V-B)",
         json_schema_extra=paper("§V-B: Δx_p^des = 0.0007 m per control period"),
     )
     d_thr: float = Field(
         0.01,
         gt=0,
+        le=MAX_MARGIN,
         description="ε threshold d^thr [m] (§V-B)",
         json_schema_extra=paper("§V-B: d_thr = 0.01 m"),
     )
     v_stop: float = Field(
         0.005,
         ge=0,
+        le=MAX_SPEED,
         description="|ẋ_m| counted as ≈ 0 ending SSD [m/s] (assumed; Table I)",
         json_schema_extra=assumed(
             "Table I ends SSD when ẋ_m ≈ 0; 5 mm/s, an order below the 0.11 m/s walk"
@@ -99,28 +124,35 @@ class EfsmParams(ControllerParams):
     kp: float = Field(
         100.0,
         gt=0,
+        le=MAX_STIFFNESS,
         description="task stiffness k_p [1/s^2] (§V-B)",
         json_schema_extra=paper("§V-B: k_p = 100"),
     )
     kv: float = Field(
         20.0,
         gt=0,
+        le=MAX_DAMPING,
         description="task damping k_v [1/s] (§V-B)",
         json_schema_extra=paper("§V-B: k_v = 20"),
     )
     raise_height: float = Field(
         0.05,
+        ge=0,
+        le=MAX_LENGTH,
         description="swing-foot height in SSD [m] (Table II)",
         json_schema_extra=paper("§V-B, Table II: 0.05 m in SSD"),
     )
     land_height: float = Field(
         0.005,
+        ge=0,
+        le=MAX_LENGTH,
         description="swing-foot height in SSA [m] (Table II)",
         json_schema_extra=paper("§V-B, Table II: 0.005 m in SSA"),
     )
     fs_max_force: float = Field(
         30.0,
         gt=0,
+        le=MAX_FORCE,
         description="saturation of each F_s force component [N]. §V-B gives no value; "
         "a completely blocked swing foot presses the obstacle with it, and §VI-B measured "
         "≈ 32 N there (27.8 N with this bound, experiments/obstacle_collision.yaml)",
@@ -131,6 +163,7 @@ class EfsmParams(ControllerParams):
     fs_max_moment: float = Field(
         10.0,
         gt=0,
+        le=MAX_TORQUE,
         description="saturation of each F_s moment component [Nm] (assumed)",
         json_schema_extra=assumed(
             "§V-B bounds F_s without a value; 10 Nm, a third of the force bound times the 0.3 m foot"
@@ -157,11 +190,15 @@ class EfsmParams(ControllerParams):
     )
     step_length: float = Field(
         0.1,
+        ge=-MAX_LENGTH,
+        le=MAX_LENGTH,
         description="forward step length [m] (§VI-A)",
         json_schema_extra=paper("§VI-A: 0.1 m steps", scenario="the experiment's step length"),
     )
     step_width: float | None = Field(
         None,
+        gt=0,
+        le=MAX_LENGTH,
         description="lateral foot spacing [m]; None keeps the initial spacing",
         json_schema_extra=assumed(
             "None keeps the initial foot spacing (the robot's hip spacing)",
@@ -171,6 +208,7 @@ class EfsmParams(ControllerParams):
     n_steps: int | None = Field(
         None,
         ge=0,
+        le=MAX_COUNT,
         description="footsteps of step_length, then in place; None: no limit",
         json_schema_extra=assumed(
             "None: no limit", scenario="the experiment's number of footsteps"
@@ -193,6 +231,7 @@ class EfsmParams(ControllerParams):
     cop_margin: float = Field(
         0.03,
         ge=0,
+        le=MAX_COP_MARGIN,
         description="safety margin of the support polygon [m] (Fig. 16; assumed)",
         json_schema_extra=assumed(
             "Fig. 16 shows a margin inside the polygon without a value; 0.03 m, ζ"
@@ -201,6 +240,7 @@ class EfsmParams(ControllerParams):
     torque_limit: float = Field(
         300.0,
         gt=0,
+        le=MAX_TORQUE,
         description="actuator saturation [Nm] (robot)",
         json_schema_extra=assumed(
             "the reconstruction's actuator saturation, above every torque of a walk (robots/dyros_red)"

@@ -55,6 +55,18 @@ details summary { cursor: pointer; color: #5b6670; font-size: 0.82rem; }
 .reason { font-size: 0.84rem; }
 .robot table { width: auto; }
 pre { white-space: pre-wrap; }
+.none { background: #eceff2; color: #4a545d; }
+.cards { display: grid; grid-template-columns: repeat(auto-fit, minmax(360px, 1fr));
+         gap: 1rem; margin: 1rem 0; }
+.card { border: 1px solid #d5dbe1; border-radius: 0.5rem; padding: 0.6rem 0.9rem; }
+.card h2 { font-size: 1.05rem; margin: 0.2rem 0 0.6rem; border: 0; }
+.card .verdict { margin: 0.1rem 0; }
+.pictures { display: grid; grid-template-columns: minmax(0, 1fr) minmax(0, 2.4fr);
+            gap: 0.5rem; align-items: center; }
+.pictures figure { margin: 0; }
+.pictures img { width: 100%; border: 1px solid #d5dbe1; background: #fff; }
+table.register td:nth-child(3) { font-style: italic; }
+ul.rows { margin: 0; padding-left: 1.1rem; font-size: 0.84rem; }
 """
 
 
@@ -120,6 +132,11 @@ def tally_cells(t: Tally) -> str:
         f'<td class="num">{t.reproduced}</td><td class="num">{t.calibrated}</td>'
         f'<td class="num">{t.known}</td><td class="num">{t.failed}</td>'
     )
+
+
+def tally_text(t: Tally) -> str:
+    """One cell's text: reproduced · calibrated · known · failed."""
+    return f"{t.reproduced} · {t.calibrated} · {t.known} · {t.failed}"
 
 
 TALLY_HEAD = "<th>reproduced</th><th>calibrated</th><th>known deviation</th><th>failed</th>"
