@@ -454,3 +454,16 @@ def test_every_page_loads_in_chromium_without_errors_or_broken_media(
     assert n_videos == len(list(RESULTS_DIR.glob(f"*/{VIDEO_FILE}")))
     if no_decoder:
         print(f"this Chromium has no H.264 decoder; checked with imageio-ffmpeg: {no_decoder}")
+
+
+def test_report_command_leads_with_the_papers_claims(tmp_path: Path) -> None:
+    """`walkrepro report` prints each paper's register claims before its rows (issue: the
+    papers' claims first, walkrepro's own apart)."""
+    result = CliRunner().invoke(app, ["report", "--out", str(tmp_path / "site")])
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    for key in ("lee2021", "faraji", "jo_oh"):
+        claims = next(i for i, line in enumerate(lines) if line.startswith(f"{key}: the paper's"))
+        rows = next(i for i, line in enumerate(lines) if line.startswith(f"{key}: all rows"))
+        assert claims < rows
+        assert re.search(r"\d+ reproduced, .* of \d+$", lines[claims])

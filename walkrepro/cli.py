@@ -1177,8 +1177,15 @@ def report(
     for note in site.notes:
         _console(stderr=True).print(f"[yellow]skipped:[/] {escape(note)}", highlight=False)
     for key, t in site.tallies.items():
+        registered = key in site.claims and site.claims[key].totals.total > 0
+        if registered:
+            _console().print(
+                f"{key}: the paper's claims: {site.claims[key].totals.claims_text()}",
+                highlight=False,
+            )
         _console().print(
-            f"{key}: {t.reproduced} reproduced, {t.calibrated} calibrated, {t.known} known "
+            f"{key}: {'all ' if registered else ''}rows (maps' claims included): "
+            f"{t.reproduced} reproduced, {t.calibrated} calibrated, {t.known} known "
             f"deviations, {t.failed} failed",
             highlight=False,
         )

@@ -17,7 +17,7 @@ from __future__ import annotations
 import re
 import shutil
 from collections import defaultdict
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from html import escape
 from pathlib import Path
 
@@ -57,14 +57,17 @@ class ReportSite:
     Attributes:
         index: the index page.
         pages: every page written (index, papers, robots).
-        tallies: claims by verdict per paper key (experiments and maps together).
+        tallies: rows by verdict per paper key (experiments and maps together).
         notes: what was skipped, and why.
+        claims: each paper's register claims as the index counts them (papers with a
+            register only).
     """
 
     index: Path
     pages: tuple[Path, ...]
     tallies: dict[str, Tally]
     notes: tuple[str, ...]
+    claims: dict[str, PaperClaims] = field(default_factory=dict)
 
 
 def build_report(
@@ -122,7 +125,7 @@ def build_report(
             _index(work, out, keys, by_paper, tallies, source, notes, claims, runs_root)
         )
     moved = tuple(out / p.relative_to(work) for p in [index, *pages])
-    return ReportSite(out / "index.html", moved, tallies, tuple(notes))
+    return ReportSite(out / "index.html", moved, tallies, tuple(notes), claims)
 
 
 def _order(r: ExperimentResult) -> tuple:
