@@ -33,7 +33,7 @@ from walkrepro.papers.lee2021 import kernels, wbc
 from walkrepro.papers.lee2021.fsm import DS_TO_SSD, SSA_TO_DS, SSD_TO_SSA, Phase
 from walkrepro.sim.robot import Robot, pin_state_into
 from walkrepro.sim.sensors import SensorSnapshot
-from walkrepro.specs.origin import assumed, calibrated, paper
+from walkrepro.specs.origin import assumed, calibrated, paper, source
 
 GRAVITY = 9.81  # [m/s^2]
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -202,8 +202,10 @@ class EfsmParams(ControllerParams):
         300.0,
         gt=0,
         description="actuator saturation [Nm] (robot)",
-        json_schema_extra=assumed(
-            "the reconstruction's actuator saturation, above every torque of a walk (robots/dyros_red)"
+        json_schema_extra=source(
+            "saga0619/dyros_red @ 281ef7e82850dbc9cca68234512293dacfee6a9e : "
+            "dyros_red_description/mujoco_model/dyros_red_robot.xml (line 9): default motor "
+            "ctrlrange -300 300 [Nm], every joint (robots/dyros_red/parameters.yaml, torque_limit)"
         ),
     )
 
