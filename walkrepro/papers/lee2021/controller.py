@@ -163,18 +163,13 @@ class EfsmParams(ControllerParams):
     step_width: float | None = Field(
         None,
         description="lateral foot spacing [m]; None keeps the initial spacing",
-        json_schema_extra=assumed(
-            "None keeps the initial foot spacing (the robot's hip spacing)",
-            scenario="the experiment's step width",
-        ),
+        json_schema_extra=assumed("None keeps the initial foot spacing (the robot's hip spacing)"),
     )
     n_steps: int | None = Field(
         None,
         ge=0,
         description="footsteps of step_length, then in place; None: no limit",
-        json_schema_extra=assumed(
-            "None: no limit", scenario="the experiment's number of footsteps"
-        ),
+        json_schema_extra=assumed("None: no limit"),
     )
     first_swing: Literal["left", "right"] = Field(
         "right",
