@@ -19,6 +19,7 @@ from walkrepro.publish.ledger import (
     experiment_numbers,
     robot_ledger,
     unclassified_fields,
+    undeclared_calibrated,
     unused_entries,
 )
 from walkrepro.runs.resolve import resolve_spec
@@ -302,3 +303,58 @@ def test_paper_i_time_step_and_torque_limit_are_the_labs() -> None:
     for name in ("sim.timestep", "controller.params.torque_limit"):
         assert numbers[name].klass == "source", numbers[name]
         assert "saga0619/dyros_red" in numbers[name].source
+
+
+COMAN_EXPERIMENTS = [n for n in shipped_experiment_names() if load_spec(n).spec.robot == "coman"]
+
+
+@pytest.mark.parametrize("name", COMAN_EXPERIMENTS)
+def test_every_calibrated_value_of_the_coman_ablations_is_declared(name: str) -> None:
+    """Every calibrated number of a run on robots/coman (its ledger's springs, damping and
+    sole; its specs' departures from the paper's controller) is declared, with the value in
+    force, in experiments/calibration/robots/coman.yaml."""
+    assert undeclared_calibrated(experiment_ledger(name), "coman") == []
+
+
+def test_an_undeclared_calibrated_value_is_found(tmp_path: Path) -> None:
+    """A declaration that leaves out a calibrated ledger entry, or declares another value
+    than the one in force, leaves it undeclared; the robot's ledger rows cite a declaration."""
+    from walkrepro.specs.calibration_files import ROBOT_CALIBRATION_DIR
+
+    numbers = experiment_ledger("stand_coman")
+    data = yaml.safe_load((ROBOT_CALIBRATION_DIR / "coman.yaml").read_text())
+    data["values"] = [v for v in data["values"] if v["name"] != "spring_knee"]
+    for v in data["values"]:
+        if v["name"] == "foot_length":
+            v["value"] = 0.18
+    (tmp_path / "coman.yaml").write_text(yaml.safe_dump(data, allow_unicode=True))
+    missing = undeclared_calibrated(numbers, "coman", tmp_path)
+    assert sorted(m.split(" =")[0] for m in missing) == ["robot foot_length", "robot spring_knee"]
+    knee = {n.name: n for n in numbers}["spring_knee"]
+    assert "experiments/calibration/robots/coman.yaml: spring_knee" in knee.source
+
+
+def test_a_robot_declaration_names_file_line_and_field(tmp_path: Path) -> None:
+    """A declared value with neither a ledger entry nor a spec path is an error naming the
+    file and the field; so is a file named after another robot."""
+    from walkrepro.specs.calibration_files import robot_calibration
+
+    value = {
+        "name": "k",
+        "value": 1.0,
+        "unit": "Nm/rad",
+        "criterion": {"kind": "result", "quote": "q", "section": "s"},
+        "how": "h",
+    }
+    (tmp_path / "bot.yaml").write_text(
+        yaml.safe_dump({"robot": "bot", "description": "d", "values": [value]})
+    )
+    with pytest.raises(SpecError, match=r"bot\.yaml.*values\.0.*exactly one of ledger"):
+        robot_calibration("bot", tmp_path)
+    value["ledger"] = "k"
+    (tmp_path / "other.yaml").write_text(
+        yaml.safe_dump({"robot": "bot", "description": "d", "values": [value]})
+    )
+    with pytest.raises(SpecError, match="must be named bot.yaml"):
+        robot_calibration("other", tmp_path)
+    assert robot_calibration("nobody", tmp_path) is None

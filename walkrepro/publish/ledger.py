@@ -348,6 +348,10 @@ def _model_numbers(
 
 
 def _robot_numbers(robot: str) -> Iterator[Number]:
+    from walkrepro.specs.calibration_files import robot_calibration
+
+    declared = robot_calibration(robot)
+    declared_names = {v.ledger: v.name for v in declared.values if v.ledger} if declared else {}
     entries = robot_ledger(robot)
     if entries is None:
         yield Number(
@@ -367,6 +371,10 @@ def _robot_numbers(robot: str) -> Iterator[Number]:
             source += (
                 f" [a lab's value NOT in force: {_text(entry.source_value.value)}, "
                 f"{entry.source_value.source}]"
+            )
+        if name in declared_names:
+            source += (
+                f" (declared: experiments/calibration/robots/{robot}.yaml: {declared_names[name]})"
             )
         yield Number("robot", name, value, entry.klass, source)
 
@@ -534,6 +542,35 @@ def unused_entries(loaded: LoadedSpec, raw: Any) -> list[str]:
     }
     named = obstacles | disturbances
     return sorted(p for p in loaded.spec.provenance if p not in paths and p not in named)
+
+
+def undeclared_calibrated(
+    numbers: list[Number], robot: str, directory: Path | None = None
+) -> list[str]:
+    """The calibrated numbers of a run on ``robot`` that no declaration covers: a paper's
+    calibration file (``{calibrated: NAME}``) or the robot's declaration
+    (``experiments/calibration/robots/<robot>.yaml``: a robot ledger entry by name, a spec
+    value by path and value). Empty when every calibrated value is declared."""
+    from walkrepro.specs.calibration_files import robot_calibration
+
+    declared = robot_calibration(robot, directory)
+    values = declared.values if declared is not None else []
+    missing = []
+    for n in numbers:
+        if n.klass != "calibrated" or n.source.startswith("experiments/calibration/"):
+            continue
+        if n.group == "robot":
+            entry = (robot_ledger(robot) or {}).get(n.name)
+            found = any(
+                v.ledger == n.name and entry is not None and _same(v.value, entry.value)
+                for v in values
+            )
+        else:
+            path = f"{n.group}.{n.name}"
+            found = any(v.set == path and _text(v.value) == n.value for v in values)
+        if not found:
+            missing.append(f"{n.group} {n.name} = {n.value}")
+    return missing
 
 
 def unclassified_fields(model: type[BaseModel]) -> list[str]:
