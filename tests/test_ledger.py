@@ -19,6 +19,7 @@ from walkrepro.publish.ledger import (
     experiment_numbers,
     robot_ledger,
     unclassified_fields,
+    undeclared_calibrated,
     unused_entries,
 )
 from walkrepro.runs.resolve import resolve_spec
@@ -212,3 +213,148 @@ def test_update_reference_refuses_uncommitted_changes(monkeypatch: pytest.Monkey
     cli._needs_clean_tree("check --update-reference", allow_dirty=True)
     monkeypatch.setattr(provenance, "dirty_paths", lambda folders: [])
     cli._needs_clean_tree("check --update-reference", allow_dirty=False)
+
+
+PUSH = """
+disturbances:
+  - {name: shove, body: pelvis, force: [30, 0, 0], start: 0.02, duration: 0.05}
+"""
+
+
+def test_a_disturbance_number_without_a_class_is_unclassified(tmp_path: Path) -> None:
+    """A push's force, start and duration the spec sets with no class are unclassified; its
+    unset torque keeps the field's class (a push is a force)."""
+    numbers, _, _ = _numbers(SPEC + PUSH, tmp=tmp_path)
+    for field in ("force", "start", "duration"):
+        assert numbers[f"disturbance.shove.{field}"].klass == UNCLASSIFIED
+    assert numbers["disturbance.shove.torque"].klass == "assumed"
+    assert "disturbance.shove.ramp_time" not in numbers  # a constant push has no ramp
+
+
+def test_the_spec_provenance_block_classes_disturbance_numbers(tmp_path: Path) -> None:
+    """``disturbances.<name>.<field>`` in the spec's provenance block classes that number, and
+    names a value the spec sets; an entry for a field the disturbance does not use is found."""
+    text = (
+        SPEC
+        + PUSH
+        + "provenance:\n"
+        + "  disturbances.shove.force: {class: paper, source: the paper's push}\n"
+        + "  disturbances.shove.start: {class: assumed, source: after the start-up}\n"
+        + "  disturbances.shove.duration: {class: calibrated, source: chosen on a fall}\n"
+        + "  disturbances.shove.stiffness: {class: assumed, source: a push has none}\n"
+    )
+    numbers, loaded, raw = _numbers(text, tmp=tmp_path)
+    assert numbers["disturbance.shove.force"].klass == "paper"
+    assert numbers["disturbance.shove.start"].klass == "assumed"
+    assert numbers["disturbance.shove.duration"].klass == "calibrated"
+    assert unused_entries(loaded, raw) == ["disturbances.shove.stiffness"]
+
+
+def test_a_disturbance_override_is_listed_as_such(tmp_path: Path) -> None:
+    """A --set on a disturbance's number is the user's."""
+    numbers, _, _ = _numbers(SPEC + PUSH, ("disturbances.0.force.0=40",), tmp=tmp_path)
+    assert numbers["disturbance.shove.force"].klass == OVERRIDE
+    assert numbers["disturbance.shove.start"].klass == UNCLASSIFIED
+
+
+def test_every_number_of_the_hand_is_classed() -> None:
+    """human_push lists the hand's stiffness, damping, cap, anchor offset (calibrated), grab
+    time (calibrated: chosen after runs), duration and ramp, each with a class."""
+    numbers = {n.name: n for n in experiment_ledger("human_push") if n.group == "disturbance"}
+    assert set(numbers) == {
+        f"human_hold.{f}"
+        for f in ("stiffness", "damping", "max_force", "hold_offset", "start", "duration")
+    } | {"human_hold.ramp_time"}
+    assert numbers["human_hold.stiffness"].value == "2000"
+    assert numbers["human_hold.damping"].value == "580"
+    assert numbers["human_hold.max_force"].value == "200"
+    assert numbers["human_hold.hold_offset"].klass == "calibrated"
+    assert "hold_offset" in numbers["human_hold.hold_offset"].source
+    assert numbers["human_hold.start"].klass == "calibrated"
+    assert all(n.klass in CLASSES for n in numbers.values())
+
+
+def test_provenance_of_the_issue_experiments_has_no_unclassified_number() -> None:
+    """``walkrepro provenance human_push continuous_drag forward_walk`` exits 0, lists every
+    disturbance number with its class, 0 unclassified, and step_width is not scenario."""
+    from typer.testing import CliRunner
+
+    from walkrepro.cli import app
+
+    result = CliRunner().invoke(
+        app, ["provenance", "human_push", "continuous_drag", "forward_walk"], env={"COLUMNS": "300"}
+    )
+    assert result.exit_code == 0, result.output
+    for name in ("human_push", "continuous_drag", "forward_walk"):
+        assert f"{name}: " in result.output
+    assert result.output.count(" 0 unclassified") == 3
+    drag = {n.name: n for n in experiment_ledger("continuous_drag")}
+    assert drag["drag_forward.force"].klass == "calibrated"
+    assert drag["drag_backward.force"].klass == "calibrated"
+    for name in ("forward_walk", "human_push"):
+        width = {n.name: n for n in experiment_ledger(name)}["params.step_width"]
+        assert width.klass == "calibrated", width
+
+
+def test_paper_i_time_step_and_torque_limit_are_the_labs() -> None:
+    """Paper I's 0.5 ms physics step and the E-FSM's 300 Nm torque limit are source: the lab's
+    MJCF (saga0619/dyros_red), not the paper's 2 kHz EtherCAT loop or an assumption."""
+    numbers = {f"{n.group}.{n.name}": n for n in experiment_ledger("forward_walk")}
+    for name in ("sim.timestep", "controller.params.torque_limit"):
+        assert numbers[name].klass == "source", numbers[name]
+        assert "saga0619/dyros_red" in numbers[name].source
+
+
+COMAN_EXPERIMENTS = [n for n in shipped_experiment_names() if load_spec(n).spec.robot == "coman"]
+
+
+@pytest.mark.parametrize("name", COMAN_EXPERIMENTS)
+def test_every_calibrated_value_of_the_coman_ablations_is_declared(name: str) -> None:
+    """Every calibrated number of a run on robots/coman (its ledger's springs, damping and
+    sole; its specs' departures from the paper's controller) is declared, with the value in
+    force, in experiments/calibration/robots/coman.yaml."""
+    assert undeclared_calibrated(experiment_ledger(name), "coman") == []
+
+
+def test_an_undeclared_calibrated_value_is_found(tmp_path: Path) -> None:
+    """A declaration that leaves out a calibrated ledger entry, or declares another value
+    than the one in force, leaves it undeclared; the robot's ledger rows cite a declaration."""
+    from walkrepro.specs.calibration_files import ROBOT_CALIBRATION_DIR
+
+    numbers = experiment_ledger("stand_coman")
+    data = yaml.safe_load((ROBOT_CALIBRATION_DIR / "coman.yaml").read_text())
+    data["values"] = [v for v in data["values"] if v["name"] != "spring_knee"]
+    for v in data["values"]:
+        if v["name"] == "foot_length":
+            v["value"] = 0.18
+    (tmp_path / "coman.yaml").write_text(yaml.safe_dump(data, allow_unicode=True))
+    missing = undeclared_calibrated(numbers, "coman", tmp_path)
+    assert sorted(m.split(" =")[0] for m in missing) == ["robot foot_length", "robot spring_knee"]
+    knee = {n.name: n for n in numbers}["spring_knee"]
+    assert "experiments/calibration/robots/coman.yaml: spring_knee" in knee.source
+
+
+def test_a_robot_declaration_names_file_line_and_field(tmp_path: Path) -> None:
+    """A declared value with neither a ledger entry nor a spec path is an error naming the
+    file and the field; so is a file named after another robot."""
+    from walkrepro.specs.calibration_files import robot_calibration
+
+    value = {
+        "name": "k",
+        "value": 1.0,
+        "unit": "Nm/rad",
+        "criterion": {"kind": "result", "quote": "q", "section": "s"},
+        "how": "h",
+    }
+    (tmp_path / "bot.yaml").write_text(
+        yaml.safe_dump({"robot": "bot", "description": "d", "values": [value]})
+    )
+    with pytest.raises(SpecError, match=r"bot\.yaml.*values\.0.*exactly one of ledger"):
+        robot_calibration("bot", tmp_path)
+    value["ledger"] = "k"
+    (tmp_path / "other.yaml").write_text(
+        yaml.safe_dump({"robot": "bot", "description": "d", "values": [value]})
+    )
+    with pytest.raises(SpecError, match="must be named bot.yaml"):
+        robot_calibration("other", tmp_path)
+    assert robot_calibration("nobody", tmp_path) is None

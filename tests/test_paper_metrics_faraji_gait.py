@@ -27,6 +27,7 @@ from walkrepro.evaluation.metrics import LogData, MetricArgError, check_metric_a
 from walkrepro.papers.faraji.metrics import (
     double_support_fractions,
     foot_swings,
+    full_load_knee_compressions,
     lateral_excursions,
     loaded_mask,
     spring_compression,
@@ -51,15 +52,16 @@ def _gait_log(
     lift: float = 0.024,
     bounce: float = 0.022,
     lead: Callable[[int], float] = lambda j: 0.0,
-    knee: float = 0.05,
+    knee: float | Callable[[float], float] = 0.05,
     robot: str = ROBOT,
     outcome: str = "complete",
+    params: dict | None = None,
 ) -> LogData:
     """An in-place gait: phase changes every 0.4 s from 0.5 s; the foot that swings in step
     j (left for even j) lands ``lead(j)`` [s] before the phase change that ends it; both feet
     carry the weight for ``ds`` of a step after each touchdown, then the swing foot lifts its
     sole centre ``lift`` [m] on a half sine; the pelvis sways laterally ``bounce`` [m] peak
-    to peak over a stride; each knee's spring (link − motor) is ``knee`` [rad] while its foot
+    to peak over a stride; each knee's spring (link − motor) is ``knee`` [rad] (or ``knee(t)``) while its foot
     carries the whole weight, 0 otherwise."""
     poser = Poser(robot)
     model = poser.model
@@ -89,13 +91,14 @@ def _gait_log(
         qpos = poser((0.0, _q(sway), 0.0), **soles)
         for foot, (motor, spring) in knees.items():
             link = qpos[motor] + qpos[spring]
-            qpos[spring] = knee if loaded == [foot] else 0.0
+            deflection = knee(t) if callable(knee) else knee
+            qpos[spring] = deflection if loaded == [foot] else 0.0
             qpos[motor] = link - qpos[spring]
         events = []
         if t >= START - 1e-9 and abs((t - START) / STEP - round((t - START) / STEP)) < 1e-6:
             events = [{"kind": "phase", "step": int(round((t - START) / STEP))}]
         ticks.append(Tick(t, qpos=qpos, pairs=standing_pairs(robot, loaded=loaded), events=events))
-    spec = make_spec(robot, duration, controller={"type": "timeprojection", "params": {}})
+    spec = make_spec(robot, duration, controller={"type": "timeprojection", "params": params or {}})
     return write_log(path, ticks, spec, outcome)
 
 
@@ -226,6 +229,45 @@ def test_rigid_knee_has_no_spring(tmp_path: Path) -> None:
     d = write_log(tmp_path / "rigid.mcap", ticks, make_spec("dyros_red", 0.2))
     reason = unmeasurable_reason(d, "knee_spring_compression:left")
     assert "no series-elastic left knee" in reason
+
+
+def test_knee_compression_mean_is_the_papers_average(tmp_path: Path) -> None:
+    """Fig. 7's "statistical average": the mean over the full-load samples, 0.05 rad when
+    every such sample is 0.05, and the mean (not the median) when they spread."""
+    d = _gait_log(tmp_path / "k.mcap", knee=0.05)
+    assert measured(d, "knee_spring_compression_mean:left") == pytest.approx(0.05, abs=1e-9)
+    assert measured(d, "knee_spring_compression_mean:right@0.5-2.9") == pytest.approx(
+        0.05, abs=1e-9
+    )
+    spread = _gait_log(tmp_path / "s.mcap", knee=lambda t: 0.08 if t < 1.0 else 0.02)
+    samples = full_load_knee_compressions(spread, "left")
+    assert float(np.mean(samples)) != pytest.approx(float(np.median(samples)), abs=1e-3)
+    assert measured(spread, "knee_spring_compression_mean:left") == pytest.approx(
+        float(np.mean(samples)), abs=1e-12
+    )
+
+
+def test_knee_deflection_ratio_is_one_when_mu_is_the_measured_average(tmp_path: Path) -> None:
+    """A run whose μ (per knee) is its measured mean compression reads 1 on each knee (Eq. 21
+    identified by Fig. 7's procedure)."""
+    d = _gait_log(tmp_path / "mu.mcap", knee=0.05, params={"knee_deflection": [0.05, 0.05]})
+    assert measured(d, "knee_deflection_ratio:left") == pytest.approx(1.0, abs=1e-9)
+    assert measured(d, "knee_deflection_ratio:right") == pytest.approx(1.0, abs=1e-9)
+
+
+def test_knee_deflection_ratio_misses_a_mu_not_identified(tmp_path: Path) -> None:
+    """A μ of 0.1 rad on knees that compress 0.05 rad reads 0.5, outside a ±10 % band; the
+    right knee's own μ is used for the right knee."""
+    d = _gait_log(tmp_path / "mu.mcap", knee=0.05, params={"knee_deflection": [0.1, 0.025]})
+    assert measured(d, "knee_deflection_ratio:left") == pytest.approx(0.5, abs=1e-9)
+    assert measured(d, "knee_deflection_ratio:right") == pytest.approx(2.0, abs=1e-9)
+
+
+def test_knee_deflection_ratio_needs_a_set_mu(paper_gait: LogData) -> None:
+    """A controller that derives μ from the home posture has no set μ to compare with."""
+    assert "derived from the home posture" in unmeasurable_reason(
+        paper_gait, "knee_deflection_ratio:left"
+    )
 
 
 def test_knee_compression_names_a_side() -> None:

@@ -258,6 +258,19 @@ def test_paper_knee_compensation_offsets_only_the_knees() -> None:
     np.testing.assert_allclose((c - a)[[3, 9]], 0.0, atol=1e-12)
 
 
+def test_knee_compensation_takes_each_knees_mu() -> None:
+    """Eq. 21 with (μ_left, μ_right), as Fig. 7 identifies them: each loaded knee target
+    extends by its own μ·|F|/(m g) (left knee index 3, right 9)."""
+    mu = (0.02, 0.03)
+    robot, pair = _controller(start_time=0.0, spring_compensation="knees", knee_deflection=mu)
+    _, zero = _controller(start_time=0.0, spring_compensation="knees", knee_deflection=0.0)
+    snap = _snapshot(robot, 0.0)  # each foot carries half the weight
+    diff = pair.step(0.0, snap).ctrl[:12] - zero.step(0.0, snap).ctrl[:12]
+    assert diff[3] == pytest.approx(-0.5 * mu[0], rel=1e-6)
+    assert diff[9] == pytest.approx(-0.5 * mu[1], rel=1e-6)
+    np.testing.assert_allclose(np.delete(diff, [3, 9]), 0.0, atol=1e-12)
+
+
 def test_series_compensation_adds_the_servo_yield() -> None:
     """'posture_series' divides the static torques by the servo in series with the spring,
     so each sagittal offset grows by k_spring / k_series (knee 300 and ankle 125 Nm/rad

@@ -15,6 +15,11 @@ Four places hold the classes (:mod:`walkrepro.specs.origin` defines them):
   sets is the experiment's scenario (fields marked so), a declared calibration's result
   (``{calibrated: NAME}``), or classed in the spec's ``provenance:`` block or in
   ``experiments/provenance/<paper>.yaml``;
+- the disturbances: every number of each push (force, torque, start, duration, ramp) and
+  each hold (the hand's stiffness, damping, force cap and anchor offset, its grab time,
+  duration and ramp), by ``disturbances.<name>.<field>``: a ``{calibrated: NAME}`` value is
+  the declared calibration's, the others are classed in the spec's ``provenance:`` block or
+  in ``experiments/provenance/<paper>.yaml`` (a field's default keeps its own class);
 - a ``--set`` on the command line is listed as ``override``: the user's, not the paper's.
 
 A number with no class is listed as ``unclassified``; ``walkrepro provenance`` then exits 1,
@@ -37,7 +42,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from walkrepro.errors import SpecError
 from walkrepro.locations import EXPERIMENTS_DIR, ROBOTS_DIR
-from walkrepro.specs.models import LoadedSpec, Origin
+from walkrepro.specs.models import DisturbanceSpec, LoadedSpec, Origin
 from walkrepro.specs.origin import CLASSES, SCENARIO, field_origin
 
 #: What a number without a class is listed as.
@@ -50,6 +55,13 @@ LISTED = (*CLASSES, SCENARIO, OVERRIDE, UNCLASSIFIED)
 #: The spec sections whose fields are numbers of the run (the rest is the scenario: the
 #: experiment's obstacles, disturbances, expectations and maps).
 SPEC_SECTIONS = ("sim", "world", "sensors", "actuators")
+#: The numbers of a disturbance by its kind (a push's force is of time only; a hold's force is
+#: an outcome of the hand's impedance, so its numbers are the hand's). A ramp's ``ramp_time``
+#: is listed only with ``profile: ramp``.
+DISTURBANCE_FIELDS = {
+    "push": ("force", "torque", "start", "duration", "ramp_time"),
+    "hold": ("stiffness", "damping", "max_force", "hold_offset", "start", "duration", "ramp_time"),
+}
 #: Spec fields that are the scenario whatever their value (obstacles and the departures
 #: of a whole experiment's contact are listed from the compiled scene instead).
 SCENARIO_FIELDS = frozenset({"world.obstacles", "world.contact"})
@@ -60,7 +72,7 @@ class Number:
     """One number a run uses.
 
     Attributes:
-        group: ``robot``, ``scene``, ``sim``, ``world``, ``sensors``, ``actuators`` or
+        group: ``robot``, ``scene``, ``sim``, ``world``, ``sensors``, ``actuators``, ``disturbance`` or
             ``controller``.
         name: the parameter's name in its group (a dotted spec path without the group).
         value: the value as text.
@@ -274,6 +286,17 @@ class _Classifier:
     def is_set(self, path: str) -> bool:
         return any(p == path or p.startswith(path + ".") for p in self.set_paths)
 
+    def classify_set(self, path: str, value: Any) -> tuple[str, str]:
+        """(class, source) of a value the spec sets at ``path``, from the spec's own
+        ``provenance:`` block or the paper's shared file (matched by value); unclassified
+        when neither has it."""
+        if path in self.own:
+            return self.own[path].klass, self.own[path].source
+        for shared in self.shared.get(path, []):
+            if _same(shared.value, value):
+                return shared.klass, f"{shared.source} (experiments/provenance/{self.paper}.yaml)"
+        return UNCLASSIFIED, f"set by the spec with no class ({path})"
+
     def classify(
         self, path: str, value: Any, default: Any, extra: Any, has_default: bool = True
     ) -> tuple[str, str]:
@@ -294,14 +317,61 @@ class _Classifier:
             )
         if scenario is not None:
             return SCENARIO, scenario
-        if path in self.own:
-            return self.own[path].klass, self.own[path].source
-        for shared in self.shared.get(path, []):
-            if _same(shared.value, value):
-                return shared.klass, f"{shared.source} (experiments/provenance/{self.paper}.yaml)"
+        klass, source = self.classify_set(path, value)
+        if klass != UNCLASSIFIED:
+            return klass, source
         if has_default and origin is not None and _same(value, default):
             return origin["class"], f"default: {origin['source']}"
         return UNCLASSIFIED, f"set by the spec with no class ({path})"
+
+
+def _marked(value: Any) -> list[str]:
+    """The calibration names of ``{calibrated: NAME}`` in a raw value (itself or its items)."""
+    if isinstance(value, Mapping) and set(value) == {"calibrated"}:
+        return [str(value["calibrated"])]
+    if isinstance(value, list):
+        return [name for item in value for name in _marked(item)]
+    return []
+
+
+def disturbance_fields(disturbance: DisturbanceSpec) -> tuple[str, ...]:
+    """The fields of ``disturbance`` that are numbers of its run (:data:`DISTURBANCE_FIELDS`)."""
+    fields = DISTURBANCE_FIELDS[disturbance.kind]
+    if disturbance.profile != "ramp":
+        fields = tuple(f for f in fields if f != "ramp_time")
+    return fields
+
+
+def _disturbance_numbers(loaded: LoadedSpec, raw: Any, classifier: _Classifier) -> Iterator[Number]:
+    """Every number of every disturbance, classed (group ``disturbance``, named
+    ``<disturbance>.<field>``).
+
+    A value the spec leaves at its default takes the field's class; a value it sets is an
+    override (``--set``), a declared calibration's result (``{calibrated: NAME}``, also as
+    one item of a vector), or classed by ``disturbances.<name>.<field>`` in the spec's
+    ``provenance:`` block or in ``experiments/provenance/<paper>.yaml`` (matched by value).
+    """
+    items = raw.get("disturbances") if isinstance(raw, Mapping) else None
+    items = items if isinstance(items, list) else []
+    for i, d in enumerate(loaded.spec.disturbances):
+        given = items[i] if i < len(items) and isinstance(items[i], Mapping) else {}
+        for field in disturbance_fields(d):
+            value = getattr(d, field)
+            path = f"disturbances.{d.name}.{field}"
+            info = DisturbanceSpec.model_fields[field]
+            origin, _ = field_origin(info.json_schema_extra)
+            if any(p[:3] == ("disturbances", i, field) for p in loaded.overridden):
+                klass, source = OVERRIDE, "--set on the command line"
+            elif marks := _marked(given.get(field)):
+                klass = "calibrated"
+                source = f"experiments/calibration/{classifier.paper}.yaml: {', '.join(marks)}"
+                if isinstance(given.get(field), list):
+                    source += " (the marked components; the others as the spec writes them)"
+            elif field not in given and origin is not None:
+                klass, source = origin["class"], f"default: {origin['source']}"
+            else:
+                klass, source = classifier.classify_set(path, value)
+            yield Number("disturbance", f"{d.name}.{field}", _text(value), klass, source)
 
 
 def _model_numbers(
@@ -332,6 +402,10 @@ def _model_numbers(
 
 
 def _robot_numbers(robot: str) -> Iterator[Number]:
+    from walkrepro.specs.calibration_files import robot_calibration
+
+    declared = robot_calibration(robot)
+    declared_names = {v.ledger: v.name for v in declared.values if v.ledger} if declared else {}
     entries = robot_ledger(robot)
     if entries is None:
         yield Number(
@@ -351,6 +425,10 @@ def _robot_numbers(robot: str) -> Iterator[Number]:
             source += (
                 f" [a lab's value NOT in force: {_text(entry.source_value.value)}, "
                 f"{entry.source_value.source}]"
+            )
+        if name in declared_names:
+            source += (
+                f" (declared: experiments/calibration/robots/{robot}.yaml: {declared_names[name]})"
             )
         yield Number("robot", name, value, entry.klass, source)
 
@@ -495,6 +573,7 @@ def experiment_numbers(loaded: LoadedSpec, raw: Any, scene_model: mujoco.MjModel
             own = classifier.own.get(path)
             klass, source = (own.klass, own.source) if own else (UNCLASSIFIED, "set with no class")
             numbers.append(Number("world", path.split(".", 1)[1], _text(value), klass, source))
+    numbers += _disturbance_numbers(loaded, raw, classifier)
     params = controller_params(spec.controller)
     numbers += _model_numbers(params, "controller", "controller.params", classifier)
     return numbers
@@ -510,7 +589,42 @@ def unused_entries(loaded: LoadedSpec, raw: Any) -> list[str]:
         for field in ("friction", "solref")
         if getattr(o, field) is not None
     }
-    return sorted(p for p in loaded.spec.provenance if p not in paths and p not in obstacles)
+    disturbances = {
+        f"disturbances.{d.name}.{field}"
+        for d in loaded.spec.disturbances
+        for field in disturbance_fields(d)
+    }
+    named = obstacles | disturbances
+    return sorted(p for p in loaded.spec.provenance if p not in paths and p not in named)
+
+
+def undeclared_calibrated(
+    numbers: list[Number], robot: str, directory: Path | None = None
+) -> list[str]:
+    """The calibrated numbers of a run on ``robot`` that no declaration covers: a paper's
+    calibration file (``{calibrated: NAME}``) or the robot's declaration
+    (``experiments/calibration/robots/<robot>.yaml``: a robot ledger entry by name, a spec
+    value by path and value). Empty when every calibrated value is declared."""
+    from walkrepro.specs.calibration_files import robot_calibration
+
+    declared = robot_calibration(robot, directory)
+    values = declared.values if declared is not None else []
+    missing = []
+    for n in numbers:
+        if n.klass != "calibrated" or n.source.startswith("experiments/calibration/"):
+            continue
+        if n.group == "robot":
+            entry = (robot_ledger(robot) or {}).get(n.name)
+            found = any(
+                v.ledger == n.name and entry is not None and _same(v.value, entry.value)
+                for v in values
+            )
+        else:
+            path = f"{n.group}.{n.name}"
+            found = any(v.set == path and _text(v.value) == n.value for v in values)
+        if not found:
+            missing.append(f"{n.group} {n.name} = {n.value}")
+    return missing
 
 
 def unclassified_fields(model: type[BaseModel]) -> list[str]:

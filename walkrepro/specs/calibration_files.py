@@ -415,3 +415,77 @@ def same_value(a: Any, b: Any) -> bool:
         not (math.isnan(u) or math.isnan(v)) and float(u).hex() == float(v).hex()
         for u, v in zip(xa, xb, strict=True)
     )
+
+
+# --------------------------------------------------------------------------------------
+# A robot's calibrated values (experiments/calibration/robots/<robot>.yaml)
+
+#: Where a robot's declaration of its calibrated values lives.
+ROBOT_CALIBRATION_DIR = CALIBRATION_DIR / "robots"
+
+
+class DeclaredValue(_Strict):
+    """One calibrated value of a robot's experiments, declared with its criterion.
+
+    A robot ledger entry (``ledger``: its name in ``robots/<robot>/parameters.yaml``) or a
+    value its specs set (``set``: the dotted spec path, e.g. ``controller.params.footstep_scale``),
+    with the value in force, the paper's statement or result it was chosen on (the kinds of
+    :class:`Criterion`) and how it was chosen. Unlike a paper's calibration file these are
+    not re-run by ``walkrepro calibrate``: a robot's values are built into its ``robot.xml``,
+    and the ablation specs' values were chosen once, on the model's outcomes; the
+    declaration makes each visible and tested against the ledger.
+    """
+
+    name: str = Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$")
+    ledger: str | None = Field(None, description="the robot ledger entry it is")
+    set: str | None = Field(None, description="the spec path it is set at")
+    value: Any = Field(description="the value in force")
+    unit: str
+    criterion: Criterion
+    how: str = Field(min_length=1, description="how it was chosen, and on which result")
+
+    @model_validator(mode="after")
+    def _one_place(self) -> DeclaredValue:
+        if (self.ledger is None) == (self.set is None):
+            raise ValueError(
+                "give exactly one of ledger (a robot ledger entry) and set (a spec path)"
+            )
+        return self
+
+
+class RobotCalibrationFile(_Strict):
+    """A robot's declared calibrated values."""
+
+    robot: str
+    description: str
+    values: list[DeclaredValue] = Field(min_length=1)
+
+    @field_validator("values")
+    @classmethod
+    def _unique(cls, values: list[DeclaredValue]) -> list[DeclaredValue]:
+        require_unique("declared value", [v.name for v in values])
+        return values
+
+
+def robot_calibration(robot: str, directory: Path | None = None) -> RobotCalibrationFile | None:
+    """The declaration ``<directory>/<robot>.yaml`` (default the shipped one), or None.
+
+    Raises:
+        SpecError: naming file, line and field for any problem.
+    """
+    path = (directory or ROBOT_CALIBRATION_DIR) / f"{robot}.yaml"
+    if not path.is_file():
+        return None
+    source = _display_path(path)
+    data, lines = _parse_yaml(path.read_text(encoding="utf-8"), source)
+    _check_plain_data(data, source, lines, ())
+    try:
+        model = RobotCalibrationFile.model_validate(data)
+    except ValidationError as exc:
+        raise SpecError(_format_validation(exc, source, lines, ())) from None
+    if model.robot != robot:
+        raise SpecError(
+            f"{_where(source, lines, ('robot',))}: the file of robot {model.robot!r} must be "
+            f"named {model.robot}.yaml (it is {path.name})."
+        )
+    return model

@@ -369,7 +369,13 @@ class DisturbanceSpec(_Strict):
     kind: Literal["push", "hold"] = "push"
     frame: str = "world"
     force: Vec3 = Field((0.0, 0.0, 0.0), description=f"[N], norm at most {MAX_FORCE:g}")
-    torque: Vec3 = Field((0.0, 0.0, 0.0), description=f"[Nm], norm at most {MAX_TORQUE:g}")
+    torque: Vec3 = Field(
+        (0.0, 0.0, 0.0),
+        description=f"[Nm], norm at most {MAX_TORQUE:g}",
+        json_schema_extra=assumed(
+            "no torque: a push is a force at the body's centre of mass unless the spec gives one"
+        ),
+    )
     start: Real = Field(ge=0.0, le=MAX_DURATION, description="[s]")
     duration: Real = Field(gt=0.0, le=MAX_DURATION, description="[s]")
     profile: Literal["constant", "ramp"] = "constant"
@@ -384,6 +390,9 @@ class DisturbanceSpec(_Strict):
     )
     hold_offset: Vec3 = Field(
         (0.0, 0.0, 0.0),
+        json_schema_extra=assumed(
+            "0: the hand holds the body's centre of mass where it grabbed it"
+        ),
         description=(
             "hold: where the hand holds, along x, y, z of ``frame`` (frozen at the grab) from "
             "the body's centre of mass at the grab [m]; non-zero only on held axes, norm at "

@@ -115,6 +115,8 @@ MAX_GAIN_SCALE = 10.0
 ErrorBand = Annotated[float, Field(ge=0, le=MAX_LENGTH)]
 #: A dead-zone threshold on a velocity error [m/s]: at most a walking speed.
 RateBand = Annotated[float, Field(ge=0, le=MAX_SPEED)]
+#: μ of Eq. 21 [rad], one knee's spring deflection at full body weight.
+KneeDeflection = Annotated[float, Field(ge=-MAX_KNEE_DEFLECTION, le=MAX_KNEE_DEFLECTION)]
 
 
 class TimeProjectionParams(ControllerParams):
@@ -224,11 +226,10 @@ class TimeProjectionParams(ControllerParams):
         description="truncation [m] (Fig. 13: 15 cm)",
         json_schema_extra=paper("Fig. 13 / Strong Pushes: 15 cm truncation"),
     )
-    knee_deflection: float | None = Field(
+    knee_deflection: KneeDeflection | tuple[KneeDeflection, KneeDeflection] | None = Field(
         None,
-        ge=-MAX_KNEE_DEFLECTION,
-        le=MAX_KNEE_DEFLECTION,
-        description="μ of Eq. 21 [rad]; None derives it from the home keyframe's knee "
+        description="μ of Eq. 21 [rad]: one value for both knees, or (μ_left, μ_right) as the "
+        "paper identifies them (Fig. 7); None derives it from the home keyframe's knee "
         "pre-load (deflection at full body weight)",
         json_schema_extra=assumed(
             "None derives μ from the home keyframe's knee pre-load at full body weight"
@@ -372,9 +373,11 @@ class TimeProjectionController(Controller):
             knees = self._leg_offset_full[list(KNEE)].copy()
             self._leg_offset_full[:] = 0.0
             self._leg_offset_full[list(KNEE)] = knees
-        if p.knee_deflection is not None:
-            for i in KNEE:
-                self._leg_offset_full[i] = -p.knee_deflection
+        if p.knee_deflection is not None:  # Eq. 21: δθ = −|F|/(m g) μ, per knee
+            mu = p.knee_deflection
+            mu_knees = tuple(mu) if isinstance(mu, tuple) else (mu, mu)
+            for i, mu_i in zip(KNEE, mu_knees, strict=True):  # (left, right)
+                self._leg_offset_full[i] = -mu_i
         self._offset_full = self._leg_offset_full.tolist()
         self._waist_roll = robot.joint_names.index("waist_roll")
         self._pin_data = robot.pin_model.createData()

@@ -1025,6 +1025,50 @@ def spring_compression(deflection: np.ndarray, link_angle: np.ndarray) -> np.nda
     arg=_knee_compression_arg,
 )
 def _knee_spring_compression(d: LogData, arg: str) -> float:
+    """The median of :func:`full_load_knee_compressions` (see there)."""
+    return float(np.median(full_load_knee_compressions(d, arg)))
+
+
+@metric(
+    "knee_spring_compression_mean",
+    "mean series-spring deflection of the knee (arg 'left' or 'right', optionally '@t0-t1') "
+    "over the samples where that foot carries at least 90 % of the weight: Fig. 7's "
+    "'statistical average of these histograms', μ of Eq. 21 [rad]",
+    arg=_knee_compression_arg,
+)
+def _knee_spring_compression_mean(d: LogData, arg: str) -> float:
+    """Paper II, SEA Compensation: "the statistical average of these histograms is used as a
+    constant" (μ_left, μ_right of Eq. 21): the mean of :func:`full_load_knee_compressions`."""
+    return float(np.mean(full_load_knee_compressions(d, arg)))
+
+
+@metric(
+    "knee_deflection_ratio",
+    "mean knee spring compression at full load (knee_spring_compression_mean, arg 'left' or "
+    "'right', optionally '@t0-t1') divided by the μ of that knee the run's controller used "
+    "(Eq. 21's constant, controller parameter knee_deflection) [-]",
+    arg=_knee_compression_arg,
+)
+def _knee_deflection_ratio(d: LogData, arg: str) -> float:
+    """Paper II, SEA Compensation, Eq. 21: μ is the average compression of the open-loop
+    in-place gait; 1 when the run's μ is what the run measures. Not measurable when the
+    controller derives μ itself (``knee_deflection`` None) or has no μ."""
+    from walkrepro.controllers import controller_params
+
+    params = controller_params(d.spec.controller)
+    if not hasattr(params, "knee_deflection"):
+        raise NotMeasurable(f"controller {d.spec.controller.type!r} has no knee compensation μ")
+    mu = params.knee_deflection
+    if mu is None:
+        raise NotMeasurable("the run's μ is derived from the home posture, not set")
+    side = arg.partition("@")[0]
+    mu_side = (mu[0] if side == "left" else mu[1]) if isinstance(mu, tuple) else mu
+    if mu_side == 0.0:
+        raise NotMeasurable(f"the run's {side} μ is 0: no compensation to compare with")
+    return _knee_spring_compression_mean(d, arg) / mu_side
+
+
+def full_load_knee_compressions(d: LogData, arg: str) -> np.ndarray:
     """Paper II, SEA Compensation and Fig. 7: "we perform an open-loop in-place walking gait
     before experiments to identify steady-state knee spring compressions which are plotted
     as histograms in Figure 7"; their average μ enters Eq. 21 scaled by |F|/(m g), so μ is
@@ -1064,7 +1108,7 @@ def _knee_spring_compression(d: LogData, arg: str) -> float:
     idx = d.state_index(t[full])
     deflection = d.qpos[idx, model.jnt_qposadr[spring]]
     link = d.qpos[idx, model.jnt_qposadr[motor]] + deflection
-    return float(np.median(spring_compression(deflection, link)))
+    return spring_compression(deflection, link)
 
 
 def touchdown_leads(phases: np.ndarray, swings: list[tuple[float, float]]) -> np.ndarray:

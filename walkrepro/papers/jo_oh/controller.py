@@ -295,7 +295,8 @@ class QPImpedanceParams(ControllerParams):
     # Task gains (§III-D: ẍ_r = ẍ_d + K_V(ẋ_d − ẋ) + K_P(x_d − x), Eq. 3).
     # Swing gains K_P = ω², K_V = 2ζω. The paper gives no values; §II: low gains cause
     # "insufficient tracking", high gains "instability at the contact moment". ω is fixed on
-    # flat ground (walk_flat_kist), before any obstacle: the softest ω, in steps of 2.5 rad/s,
+    # flat ground (walk_flat_kist), a criterion stated after obstacle runs at an earlier ω = 25
+    # (experiments/calibration/jo_oh.yaml, swing_omega): the softest ω, in steps of 2.5 rad/s,
     # whose tracking lands the feet without an impact, i.e. the peak foot force of the flat
     # walk stays within 5 % of the robot's weight (ω = 20: 1.14 m g; 22.5: 1.02 m g).
     swing_omega: float = Field(

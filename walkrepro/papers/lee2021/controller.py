@@ -42,7 +42,7 @@ from walkrepro.papers.lee2021 import kernels, wbc
 from walkrepro.papers.lee2021.fsm import DS_TO_SSD, SSA_TO_DS, SSD_TO_SSA, Phase
 from walkrepro.sim.robot import Robot, pin_state_into
 from walkrepro.sim.sensors import SensorSnapshot
-from walkrepro.specs.origin import assumed, calibrated, paper
+from walkrepro.specs.origin import assumed, calibrated, paper, source
 
 GRAVITY = 9.81  # [m/s^2]
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -200,19 +200,14 @@ class EfsmParams(ControllerParams):
         gt=0,
         le=MAX_LENGTH,
         description="lateral foot spacing [m]; None keeps the initial spacing",
-        json_schema_extra=assumed(
-            "None keeps the initial foot spacing (the robot's hip spacing)",
-            scenario="the experiment's step width",
-        ),
+        json_schema_extra=assumed("None keeps the initial foot spacing (the robot's hip spacing)"),
     )
     n_steps: int | None = Field(
         None,
         ge=0,
         le=MAX_COUNT,
         description="footsteps of step_length, then in place; None: no limit",
-        json_schema_extra=assumed(
-            "None: no limit", scenario="the experiment's number of footsteps"
-        ),
+        json_schema_extra=assumed("None: no limit"),
     )
     first_swing: Literal["left", "right"] = Field(
         "right",
@@ -242,8 +237,10 @@ class EfsmParams(ControllerParams):
         gt=0,
         le=MAX_TORQUE,
         description="actuator saturation [Nm] (robot)",
-        json_schema_extra=assumed(
-            "the reconstruction's actuator saturation, above every torque of a walk (robots/dyros_red)"
+        json_schema_extra=source(
+            "saga0619/dyros_red @ 281ef7e82850dbc9cca68234512293dacfee6a9e : "
+            "dyros_red_description/mujoco_model/dyros_red_robot.xml (line 9): default motor "
+            "ctrlrange -300 300 [Nm], every joint (robots/dyros_red/parameters.yaml, torque_limit)"
         ),
     )
 
