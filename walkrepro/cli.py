@@ -1385,6 +1385,7 @@ def calibrate(
     there. Exit 1 when a calibration misses its target or differs from the committed one."""
     from walkrepro.runtime.interrupt import Received, stop_signals_raise
     from walkrepro.specs.calibration_files import (
+        CALIBRATION_RTOL,
         calibration_papers,
         find_calibration,
         load_calibration,
@@ -1433,7 +1434,10 @@ def calibrate(
         return
     differences = compare(loaded, runs)
     if not differences:
-        console.print("[green]reproduces the committed calibration exactly[/]")
+        console.print(
+            "[green]reproduces the committed calibration[/] (every value and measurement "
+            f"within {CALIBRATION_RTOL:g} relative)"
+        )
         return
     for d in differences:
         console.print(f"[red]differs:[/] {d.name}: {escape(d.what)}", highlight=False)

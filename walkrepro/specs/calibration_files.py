@@ -403,16 +403,24 @@ def write_calibration(path: Path, model: CalibrationFile) -> None:
     os.replace(tmp, path)
 
 
-def same_value(a: Any, b: Any) -> bool:
-    """Bit-exact equality of two values (numbers or tuples of numbers; NaN never equal; a
-    chosen option's name by equality)."""
+#: Relative tolerance within which a re-run calibration reproduces its committed result: the
+#: same spec and seed give the same bits on one machine, but another machine's MuJoCo,
+#: NumPy or BLAS build moves the last digits (as it moves the references' metrics, which are
+#: compared by tolerance too).
+CALIBRATION_RTOL = 1e-6
+
+
+def close_value(a: Any, b: Any, rtol: float = CALIBRATION_RTOL) -> bool:
+    """Equality of two values within ``rtol`` (relative, with an absolute floor of ``rtol``
+    times 1e-6 for values at zero); a chosen option's name by equality; NaN never equal."""
     if isinstance(a, str) or isinstance(b, str):
         return a == b
     xa, xb = _elements(a), _elements(b)
     if isinstance(a, tuple | list) != isinstance(b, tuple | list) or len(xa) != len(xb):
         return False
     return all(
-        not (math.isnan(u) or math.isnan(v)) and float(u).hex() == float(v).hex()
+        not (math.isnan(u) or math.isnan(v))
+        and math.isclose(u, v, rel_tol=rtol, abs_tol=rtol * 1e-6)
         for u, v in zip(xa, xb, strict=True)
     )
 

@@ -31,7 +31,7 @@ from walkrepro.specs.calibration_files import (
     Provenance,
     Result,
     RootSearch,
-    same_value,
+    close_value,
 )
 from walkrepro.studies.calibration.search import (
     CalibrationFailed,
@@ -214,7 +214,8 @@ class Difference:
 
 
 def compare(loaded: LoadedCalibration, runs: Sequence[ParameterRun]) -> list[Difference]:
-    """The parameters whose new value or measurement is not bit for bit the committed one."""
+    """The parameters whose new value or measurement differs from the committed one by more
+    than :data:`~walkrepro.specs.calibration_files.CALIBRATION_RTOL` (relative)."""
     out = []
     for run in runs:
         committed = loaded.model.parameter(run.parameter.name).result
@@ -224,7 +225,7 @@ def compare(loaded: LoadedCalibration, runs: Sequence[ParameterRun]) -> list[Dif
         fields = [
             f"{key}: committed {getattr(committed, key)!r}, now {getattr(run.result, key)!r}"
             for key in ("value", "measured")
-            if not same_value(getattr(committed, key), getattr(run.result, key))
+            if not close_value(getattr(committed, key), getattr(run.result, key))
         ]
         if fields:
             out.append(Difference(run.parameter.name, "; ".join(fields)))
