@@ -7,6 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 import pinocchio as pin
 
+from walkrepro.controllers.ranges import MAX_FORCE, MAX_TORQUE
 from walkrepro.papers.lee2021.controller import EfsmController, EfsmParams
 from walkrepro.papers.lee2021.fsm import Phase
 from walkrepro.sim.robot import load_robot
@@ -68,7 +69,9 @@ def test_unsaturated_force_is_lambda_times_acceleration() -> None:
     lam = _coupled_lambda(1)
     acc = np.r_[0.1, -0.2, 0.05, 0.2, -0.1, 0.1, 0.3, -0.2, 0.1]
     for decoupled in (True, False):
-        ctrl = _controller(fs_max_force=1e4, fs_max_moment=1e4, fs_decoupled_saturation=decoupled)
+        ctrl = _controller(
+            fs_max_force=MAX_FORCE, fs_max_moment=MAX_TORQUE, fs_decoupled_saturation=decoupled
+        )
         f2 = ctrl._task2_force(lam, acc, False, 1.0, Phase.SSD)
         np.testing.assert_allclose(f2[3:], lam[3:] @ acc, atol=1e-9)
 
