@@ -578,7 +578,9 @@ def tick(records: TickRecords) -> int:
     if double:
         if math.isnan(st.ds_start_xp):
             st.ds_start_xp = xp_des
-        if st.use_epsilon != 0 and st.ds_onset_ramp != 0:
+        # Not in the first DS's weight shift: both feet stand from the start, none lands.
+        standing = st.steps_done == 0 and st.shift_ticks > 0
+        if st.use_epsilon != 0 and st.ds_onset_ramp != 0 and not standing:
             eps_onset = epsilon(abs(xp_des - st.ds_start_xp), st.d_thr)
     else:
         st.ds_start_xp = math.nan  # Γ_c = 0
