@@ -204,4 +204,4 @@ def test_first_ds_weight_shift_holds_double_support_for_its_time() -> None:
                 assert ctrl._st["phase"] == int(Phase.DS)
                 assert ctrl._st["steps_done"] == 0
                 assert 0.0 <= ctrl._st["xp_des"] <= 0.21
-        assert (ctrl._st["steps_done"] == 0) is still_ds
+        assert bool(ctrl._st["steps_done"] == 0) == still_ds
