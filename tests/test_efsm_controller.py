@@ -187,3 +187,24 @@ def test_signals_follow_the_kernel_layout() -> None:
             assert got == want, name
     assert signals["tau_ref"] == ctrl._tau.tolist()
     assert signals["steps_done"] == 0 and signals["efsm_phase"] == int(Phase.DS)
+
+
+def test_first_ds_weight_shift_holds_double_support_for_its_time() -> None:
+    """EfsmParams.first_ds_shift: the first DS lasts at least the shift's ticks (the lab's
+    1.0 s start-up), its x_p^des between the two sole centres; without the shift the same
+    standing robot leaves the first DS by Eq. 4 after ≈ 0.1 m / Δx_p^des ticks."""
+    robot = load_robot("dyros_red")
+    home = EfsmController()
+    home.reset(robot, EfsmParams(), 0.0005)
+    snapshot = home._home_snapshot()
+    for shift, ticks, still_ds in ((0.1, 200, True), (0.0, 200, False)):
+        ctrl = EfsmController()
+        ctrl.reset(robot, EfsmParams(first_ds_shift=shift), 0.0005)
+        assert ctrl._st["shift_ticks"] == round(shift / 0.0005)
+        for k in range(ticks):
+            ctrl.step(k * 0.0005, snapshot)
+            if still_ds:
+                assert ctrl._st["phase"] == int(Phase.DS)
+                assert ctrl._st["steps_done"] == 0
+                assert 0.0 <= ctrl._st["xp_des"] <= 0.21
+        assert bool(ctrl._st["steps_done"] == 0) == still_ds

@@ -20,6 +20,7 @@ from walkrepro.papers.lee2021.fsm import (
     epsilon,
     fsm_step,
     transition_distance,
+    weight_shift_cop,
 )
 
 #: §V-B's ζ, r, Δx_p^des, d^thr; Table I's ẋ_m ≈ 0 as EfsmParams.v_stop; with ε.
@@ -137,3 +138,30 @@ def test_one_tick_can_pass_ssd_and_ssa() -> None:
     assert out.transitions == SSD_TO_SSA | SSA_TO_DS
     assert out.phase == Phase.DS and out.xp_des == pytest.approx(0.01 + P.dxp)
     assert out.d == pytest.approx(0.25 - out.xp_des) and out.epsilon == 1.0
+
+
+def test_weight_shift_drives_the_capture_point_onto_the_support_foot() -> None:
+    """The lab's start-up law (fsm.weight_shift_cop) on the LIPM: over a 1.0 s shift the
+    capture point goes from between the feet to the first support foot's centre x_s."""
+    z, dt, x_s = 0.866, 0.0005, 0.205
+    omega = math.sqrt(9.81 / z)
+    x, xd, n = 0.1025, 0.0, 2000
+    for k in range(n):
+        xp = weight_shift_cop(capture_point(x, xd, z), x_s, (n - k - 1) * dt, z)
+        assert 0.0 <= xp <= x_s  # between the two sole centres
+        xd += omega**2 * (x - xp) * dt
+        x += xd * dt
+    assert capture_point(x, xd, z) == pytest.approx(x_s, abs=0.01)
+    assert x > 0.13  # the CoM has moved toward the support foot
+
+
+def test_weight_shift_without_time_left_is_the_support_centre() -> None:
+    """No time left (b = 1): the CoP is the support foot's centre, not a division by 0."""
+    assert weight_shift_cop(0.15, 0.205, 0.0, 0.866) == 0.205
+
+
+def test_weight_shift_far_from_its_target_is_clipped() -> None:
+    """A capture point far short of x_s with little time left asks for a CoP beyond the
+    other foot: it is clipped to that foot's centre (0), never outside the two centres."""
+    assert weight_shift_cop(0.10, 0.205, 0.01, 0.866) == 0.0
+    assert weight_shift_cop(0.30, 0.205, 0.01, 0.866) == 0.205

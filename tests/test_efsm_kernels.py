@@ -148,6 +148,15 @@ def test_next_swing_target_is_the_planned_step() -> None:
     np.testing.assert_allclose(unlimited, [0.4, 0.14, 0.0])
 
 
+def test_next_swing_target_first_step_scaled() -> None:
+    """EfsmParams.first_step_scale scales the first footstep only (the lab's half step)."""
+    p_sup, heading, lateral = np.zeros(3), np.array([1.0, 0, 0]), np.array([0, 1.0, 0])
+    first = kernels.next_swing_target(p_sup, 1, 1, 0.1, 12, 0.2, heading, lateral, 0.5)
+    np.testing.assert_allclose(first, [0.05, -0.2, 0.0])
+    second = kernels.next_swing_target(p_sup, 0, 2, 0.1, 12, 0.2, heading, lateral, 0.5)
+    np.testing.assert_allclose(second, [0.1, 0.2, 0.0])
+
+
 SIDES = ("left", "right")
 
 

@@ -33,6 +33,7 @@ from walkrepro.controllers.ranges import (
     MAX_DAMPING,
     MAX_FORCE,
     MAX_LENGTH,
+    MAX_PHASE_TIME,
     MAX_SPEED,
     MAX_STIFFNESS,
     MAX_TORQUE,
@@ -209,6 +210,30 @@ class EfsmParams(ControllerParams):
         description="footsteps of step_length, then in place; None: no limit",
         json_schema_extra=assumed("None: no limit"),
     )
+    first_ds_shift: float = Field(
+        0.0,
+        ge=0,
+        le=MAX_PHASE_TIME,
+        description="length of the first DS's weight shift [s]: the capture point is driven "
+        "onto the first support foot (the lab's start-up, fsm.weight_shift_cop) before Eq. 4 "
+        "ends that DS; 0: the first DS is Eq. 4's ramp alone",
+        json_schema_extra=assumed(
+            "0: the first DS as every DS (Eq. 4); the lab's start-up, saga0619/dyros_red @ "
+            "281ef7e dyros_red_controller/src/control_base.cpp mode 15 (line 590; "
+            "time_segment 1.0 s, line 597), is 1.0 s"
+        ),
+    )
+    first_step_scale: float = Field(
+        1.0,
+        gt=0,
+        le=1.0,
+        description="the first footstep's length as a fraction of step_length",
+        json_schema_extra=assumed(
+            "1: every footstep step_length; the lab's first step is half "
+            "(saga0619/dyros_red @ 281ef7e control_base.cpp:626-627, 635-636, st_temp = "
+            "step_length / 2 when loop_ == 1)"
+        ),
+    )
     first_swing: Literal["left", "right"] = Field(
         "right",
         description="foot that swings first (§VI-B: the right foot)",
@@ -313,11 +338,11 @@ class EfsmController(Controller):
         Also compiles the tick kernel (or loads it from numba's cache) with a throwaway
         tick in DS and one out of DS, so that the first real tick is not slow.
         """
-        self._setup(robot, params)
+        self._setup(robot, params, control_period)
         self._check_views()
-        self._warm_up(robot, params)
+        self._warm_up(robot, params, control_period)
 
-    def _setup(self, robot: Robot, params: ControllerParams) -> None:
+    def _setup(self, robot: Robot, params: ControllerParams, control_period: float) -> None:
         """Models, constants, buffers and the initial state of a run."""
         assert isinstance(params, EfsmParams)
         if robot.control_mode != "torque":
@@ -362,6 +387,9 @@ class EfsmController(Controller):
         st["use_epsilon"], st["ds_onset_ramp"] = params.use_epsilon, params.ds_onset_ramp
         st["raise_height"], st["land_height"] = params.raise_height, params.land_height
         st["n_steps"] = -1 if params.n_steps is None else params.n_steps
+        st["control_period"] = control_period
+        st["shift_ticks"] = round(params.first_ds_shift / control_period)
+        st["first_step_scale"] = params.first_step_scale
         # The kinematic tree as Pinocchio's Cholesky factorisation walks it.
         st["parents_from_row"] = list(data.parents_fromRow)
         st["nv_subtree_from_row"] = list(data.nvSubtree_fromRow)
@@ -415,10 +443,10 @@ class EfsmController(Controller):
             if not self._pose.aliases():
                 self._refresh_pose = True
 
-    def _warm_up(self, robot: Robot, params: ControllerParams) -> None:
+    def _warm_up(self, robot: Robot, params: ControllerParams, control_period: float) -> None:
         """Compile the kernels with a throwaway controller: one tick in DS, one in SSD."""
         twin = EfsmController()
-        twin._setup(robot, params)
+        twin._setup(robot, params, control_period)
         twin._refresh_pose = self._refresh_pose
         home = self._home_snapshot()
         twin.step(0.0, home)

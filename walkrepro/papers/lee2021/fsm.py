@@ -47,6 +47,28 @@ def capture_point(x_m: float, xd_m: float, z_m0: float) -> float:
 
 
 @_jit
+def weight_shift_cop(x_cp: float, x_s: float, remaining: float, z_m0: float) -> float:
+    """Desired CoP of the first DS's weight shift [m], along x of O_w (support centre at 0).
+
+    Not the paper's: the lab's start-up (saga0619/dyros_red @ 281ef7e,
+    dyros_red_controller/src/control_base.cpp, mode 15 from line 590, segment 0 of
+    ``time_segment`` 1.0 s, line 597; no swing before segment 1, line 693): the capture
+    point is driven onto the first support foot, whose centre is x_s here, by the end of
+    the segment, ``zmp = 1 / (1 − b) cp_ref − b / (1 − b) cp``, b = exp(ω (T − t)),
+    ω = sqrt(g / z) (T − t = ``remaining`` [s]). The CoP is kept between the two sole
+    centres, [0, x_s] (the lab clips the ZMP's y at ±0.12 m, 1.8 cm outside its foot
+    centre; the bound here is assumed).
+
+    Args:
+        x_cp: capture point, Eq. (2) [m]; x_s: the first support foot's centre [m];
+        remaining: time left in the shift [s]; z_m0: CoM height [m].
+    """
+    b = math.exp(math.sqrt(GRAVITY / z_m0) * remaining)
+    xp = x_s if b <= 1.0 else (x_s - b * x_cp) / (1.0 - b)
+    return min(max(xp, 0.0), x_s)
+
+
+@_jit
 def desired_cop_single_support(x_m: float, zeta: float) -> float:
     """Desired CoP in SSD and SSA, Eq. (3) [m]: the support centre, or ζ behind the CoM
     (laws L1)."""

@@ -32,11 +32,14 @@ from walkrepro.log.signals import SignalLayout
 from walkrepro.papers.lee2021.fsm import (
     DS_TO_SSD,
     FsmInput,
+    FsmOutput,
     FsmParams,
     Phase,
     capture_point,
     epsilon,
     fsm_step,
+    transition_distance,
+    weight_shift_cop,
 )
 from walkrepro.papers.lee2021.wbc import (
     WbcDynamics,
@@ -248,6 +251,7 @@ def next_swing_target(
     width: float,
     heading: np.ndarray,
     lateral: np.ndarray,
+    first_scale: float = 1.0,
 ) -> np.ndarray:
     """Footstep planner: the next swing-foot target, step_length ahead of the support [m].
 
@@ -260,9 +264,13 @@ def next_swing_target(
         step_length: [m]; n_steps: footsteps of step_length (−1: no limit).
         width: lateral foot spacing [m].
         heading, lateral: the walking direction and the left-pointing lateral axis.
+        first_scale: the first footstep's length as a fraction of step_length
+            (``EfsmParams.first_step_scale``; the lab's half step: 0.5).
     """
     side = 1.0 if swing == 0 else -1.0
     length = step_length if n_steps < 0 or steps_done <= n_steps else 0.0
+    if steps_done == 1:
+        length *= first_scale
     return p_sup + length * heading + (side * width) * lateral
 
 
@@ -348,6 +356,9 @@ def tick_state(nq: int, nv: int, n_actuators: int) -> np.ndarray:
         foot_com, foot_weight: per foot, as :func:`measured_cop`.
         support (0 left, 1 right), phase (fsm.Phase), xp_des [m], ds_start_xp (x_p^des when
             DS started; NaN out of DS) [m], steps_done, swing_target [m]: the E-FSM's state.
+        shift_ticks, shift_tick, control_period [s]: the first DS's weight shift
+            (``EfsmParams.first_ds_shift``: its length in ticks, the ticks done);
+            first_step_scale: the first footstep's fraction of step_length.
         rot_w: world-from-O_w, rewritten every tick.
         pin_state: Pinocchio's q (row 0, first nq entries) and v (row 1, first nv entries)
             of the tick, written by the controller (:func:`walkrepro.sim.robot.pin_state_into`).
@@ -399,6 +410,10 @@ def tick_state(nq: int, nv: int, n_actuators: int) -> np.ndarray:
         ("ds_start_xp", f8),
         ("steps_done", i8),
         ("swing_target", f8, (3,)),
+        ("shift_ticks", i8),
+        ("shift_tick", i8),
+        ("control_period", f8),
+        ("first_step_scale", f8),
         ("rot_w", f8, (3, 3)),
         ("pin_state", f8, (2, max(nq, nv))),
         ("ft_wrench", f8, (2, 6)),
@@ -524,7 +539,17 @@ def tick(records: TickRecords) -> int:
     x_cp = capture_point(ow.com_w[0], ow.vcom_w[0], st.z_m0)
     fsm_params = FsmParams(st.zeta, st.r, st.dxp, st.d_thr, st.v_stop, st.use_epsilon != 0)
     fsm_input = FsmInput(ow.com_w[0], ow.vcom_w[0], x_cp, ow.x_s)
-    fsm = fsm_step(st.phase, st.xp_des, fsm_input, fsm_params)
+    if st.phase == _DS and st.steps_done == 0 and st.shift_tick < st.shift_ticks:
+        # The first DS's weight shift (EfsmParams.first_ds_shift): the lab's capture-point
+        # law puts x_p^des until the shift's time is up; ε and d as in every DS (§IV-B).
+        st.shift_tick += 1
+        remaining = (st.shift_ticks - st.shift_tick) * st.control_period
+        xp_shift = weight_shift_cop(x_cp, ow.x_s, remaining, st.z_m0)
+        d_shift = transition_distance(_DS, ow.x_s, xp_shift, x_cp, st.r)
+        eps_shift = epsilon(d_shift, st.d_thr) if st.use_epsilon != 0 else 1.0
+        fsm = FsmOutput(_DS, xp_shift, eps_shift, d_shift, 0)
+    else:
+        fsm = fsm_step(st.phase, st.xp_des, fsm_input, fsm_params)
     phase, xp_des = fsm.phase, fsm.xp_des
     if fsm.transitions & DS_TO_SSD:
         # DS ends: the swing foot becomes the support foot; next footstep target; O_w moves
@@ -534,7 +559,7 @@ def tick(records: TickRecords) -> int:
         st.steps_done += 1
         st.swing_target[:] = next_swing_target(
             sole_pos[sup], sw, st.steps_done, st.step_length, st.n_steps, st.width,
-            st.heading, st.lateral,
+            st.heading, st.lateral, st.first_step_scale,
         )  # fmt: skip
         ow = ow_frame(sole_pos[sup], sole_pos[sw], com, vcom, rot_w)
         x_cp = capture_point(ow.com_w[0], ow.vcom_w[0], st.z_m0)
@@ -553,7 +578,9 @@ def tick(records: TickRecords) -> int:
     if double:
         if math.isnan(st.ds_start_xp):
             st.ds_start_xp = xp_des
-        if st.use_epsilon != 0 and st.ds_onset_ramp != 0:
+        # Not in the first DS's weight shift: both feet stand from the start, none lands.
+        standing = st.steps_done == 0 and st.shift_ticks > 0
+        if st.use_epsilon != 0 and st.ds_onset_ramp != 0 and not standing:
             eps_onset = epsilon(abs(xp_des - st.ds_start_xp), st.d_thr)
     else:
         st.ds_start_xp = math.nan  # Γ_c = 0
