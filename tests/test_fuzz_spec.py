@@ -506,7 +506,9 @@ def test_out_of_range_parameters_are_clean_errors_naming_the_range() -> None:
             for above in (True, False):
                 value = _outside(bounds, above, integer)
                 if len(path) == 2:  # one item of a tuple, the others as the defaults
-                    items = list(getattr(defaults, path[0]))
+                    default = getattr(defaults, path[0])  # None: an optional pair, say
+                    size = sum(1 for q in _numeric_leaves(model) if q[0] == path[0])
+                    items = list(default) if default is not None else [0.0] * size
                     items[path[1]] = value
                     item = f"controller.params.{path[0]}={items}"
                 else:

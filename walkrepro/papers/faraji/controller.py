@@ -30,7 +30,7 @@ from typing import Annotated, Literal
 
 import numpy as np
 import pinocchio as pin
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
 from walkrepro.controllers.ranges import (
@@ -226,15 +226,24 @@ class TimeProjectionParams(ControllerParams):
         description="truncation [m] (Fig. 13: 15 cm)",
         json_schema_extra=paper("Fig. 13 / Strong Pushes: 15 cm truncation"),
     )
-    knee_deflection: KneeDeflection | tuple[KneeDeflection, KneeDeflection] | None = Field(
+    knee_deflection: tuple[KneeDeflection, KneeDeflection] | None = Field(
         None,
-        description="μ of Eq. 21 [rad]: one value for both knees, or (μ_left, μ_right) as the "
-        "paper identifies them (Fig. 7); None derives it from the home keyframe's knee "
-        "pre-load (deflection at full body weight)",
+        description="μ of Eq. 21 [rad]: (μ_left, μ_right) as the paper identifies them "
+        "(Fig. 7), or one value for both knees (read as the pair); None derives it from the "
+        "home keyframe's knee pre-load (deflection at full body weight)",
         json_schema_extra=assumed(
             "None derives μ from the home keyframe's knee pre-load at full body weight"
         ),
     )
+
+    @field_validator("knee_deflection", mode="before")
+    @classmethod
+    def _one_mu_for_both_knees(cls, value: object) -> object:
+        """One number is μ for both knees: (μ, μ)."""
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            return (value, value)
+        return value
+
     spring_compensation: Literal["posture", "posture_series", "knees"] = Field(
         "knees",
         description="Eq. 21: 'knees' (the paper's, the default) is a load-scaled offset "
@@ -374,9 +383,7 @@ class TimeProjectionController(Controller):
             self._leg_offset_full[:] = 0.0
             self._leg_offset_full[list(KNEE)] = knees
         if p.knee_deflection is not None:  # Eq. 21: δθ = −|F|/(m g) μ, per knee
-            mu = p.knee_deflection
-            mu_knees = tuple(mu) if isinstance(mu, tuple) else (mu, mu)
-            for i, mu_i in zip(KNEE, mu_knees, strict=True):  # (left, right)
+            for i, mu_i in zip(KNEE, p.knee_deflection, strict=True):  # (left, right)
                 self._leg_offset_full[i] = -mu_i
         self._offset_full = self._leg_offset_full.tolist()
         self._waist_roll = robot.joint_names.index("waist_roll")
