@@ -20,14 +20,16 @@ from test_metrics import (
     write_log,
 )
 
-from walkrepro.evaluation.metrics import LogData
+from walkrepro.evaluation.metrics import LogData, NotMeasurable
 from walkrepro.papers.faraji.controller import TimeProjectionParams
 from walkrepro.papers.faraji.metrics import (
     CORRECTIVE_SIGMAS,
+    _neck_offset,
     corrective_band,
     corrective_steps,
     count_corrective,
     footstep_scatter,
+    paper_ankle_stiffness,
     tracking_lag,
     unsettled_steps,
 )
@@ -454,19 +456,39 @@ def _pull_log(
     return write_log(tmp_path / "a.mcap", ticks, _spec(duration, disturbances=[pull]), outcome)
 
 
+def test_paper_formula_gives_the_papers_31() -> None:
+    """Fig. 20's numbers: 7 N at COMAN's neck (0.84 m), pelvis (0.52 m) moved 5 cm → ≈ 31
+    Nm/rad per ankle with heights from the ground; from the ankles (0.1 m up) it reads ≈ 22,
+    outside the paper's rounding."""
+    assert paper_ankle_stiffness(7.0, 0.8385, 0.5165, 0.05) == pytest.approx(30.3, abs=0.1)
+    assert paper_ankle_stiffness(7.0, 0.7385, 0.4165, 0.05) == pytest.approx(21.5, abs=0.1)
+    assert paper_ankle_stiffness(-7.0, 0.8385, 0.5165, -0.05) == pytest.approx(30.3, abs=0.1)
+    with pytest.raises(NotMeasurable):
+        paper_ankle_stiffness(7.0, 0.8385, 0.5165, 0.0)
+
+
 def test_ankle_stiffness_in_band(tmp_path: Path) -> None:
-    """A pelvis displaced 4 cm by the 7 N pull gives about 31 Nm/rad per ankle (20–45)."""
-    d = _pull_log(tmp_path, 0.04)
-    assert measured(d, "pelvis_displacement") == pytest.approx(0.04, abs=1e-6)
-    assert measured(d, "torso_displacement") == pytest.approx(0.04, abs=1e-3)
+    """A pelvis displaced 5 cm by the 7 N pull gives about 31 Nm/rad per ankle (20–45),
+    F h_neck h_pelvis / (2 d) with the logged heights above the floor."""
+    d = _pull_log(tmp_path, 0.05)
+    assert measured(d, "pelvis_displacement") == pytest.approx(0.05, abs=1e-6)
+    assert measured(d, "torso_displacement") == pytest.approx(0.05, abs=1e-3)
+    model = d.model
+    data = mujoco.MjData(model)
+    data.qpos[:] = d.qpos[0]
+    mujoco.mj_kinematics(model, data)
+    neck = data.xpos[model.body("torso").id, 2] + _neck_offset(model)
+    pelvis = data.xpos[model.body("pelvis").id, 2]
+    expected = 7.0 * neck * pelvis / (2 * 0.05)
+    assert measured(d, "ankle_stiffness") == pytest.approx(expected, rel=1e-6)
     assert 20 <= measured(d, "ankle_stiffness") <= 45
 
 
 def test_ankle_stiffness_too_stiff(tmp_path: Path) -> None:
-    """A pelvis displaced only 1 cm means ankles 4× stiffer, above the band."""
+    """A pelvis displaced only 1 cm means ankles 5× stiffer, above the band."""
     stiff = measured(_pull_log(tmp_path, 0.01), "ankle_stiffness")
     assert stiff > 45
-    assert stiff == pytest.approx(4 * measured(_pull_log(tmp_path, 0.04), "ankle_stiffness"))
+    assert stiff == pytest.approx(5 * measured(_pull_log(tmp_path, 0.05), "ankle_stiffness"))
 
 
 def test_pull_cut_by_a_fall_not_measurable(tmp_path: Path) -> None:

@@ -524,28 +524,48 @@ def _neck_offset(model: mujoco.MjModel) -> float:
     return float(max(tops)) if tops else 0.0
 
 
+def paper_ankle_stiffness(
+    force: float, neck_height: float, pelvis_height: float, pelvis_shift: float
+) -> float:
+    """Paper II Fig. 20's effective stiffness per ankle, K = F h_n h_p / (2 d_p) [Nm/rad].
+
+    The paper states only its inputs and result ("a minimal pulling force of ≈ 7 N can
+    easily move the pelvis by ≈ 5 cm [...] which implies an effective stiffness of only
+    ≈ 31 Nm/rad per ankle"): the pull F [N] at the neck, at height h_n above the ground
+    [m], loads the two ankles with the moment F h_n [Nm], shared equally; the lean is the
+    pelvis displacement d_p [m] over the pelvis height h_p above the ground [m] (small
+    angles, the robot a rigid stick pivoting at the ground). The heights are from the
+    ground, not from the ankles: only they give the paper's number, 7 N × 0.84 m × 0.52 m
+    / (2 × 0.05 m) ≈ 30 on COMAN (heights above the ankles, 0.74 m × 0.42 m, give ≈ 22).
+    Gravity's moment on the lean is not subtracted: the paper's figure is the apparent one.
+
+    Raises:
+        NotMeasurable: the pelvis did not move (d_p = 0).
+    """
+    if not pelvis_shift:
+        raise NotMeasurable("the pelvis did not move under the pull (zero lean)")
+    return abs(force) * neck_height * pelvis_height / (2.0 * abs(pelvis_shift))
+
+
 @metric(
     "ankle_stiffness",
-    "apparent stiffness per ankle F·h / (2·lean) [Nm/rad] (Paper II Fig. 20): F the pull, "
-    "h its height above the ankles, lean = pelvis displacement / pelvis height above the ankles",
+    "apparent stiffness per ankle F·h_neck·h_pelvis / (2·d_pelvis) [Nm/rad] (Paper II "
+    "Fig. 20, the formula its ≈ 7 N, ≈ 5 cm and ≈ 31 Nm/rad imply): F the pull, d_pelvis "
+    "the pelvis displacement, the heights above the ground (the floor, z = 0)",
 )
 def _ankle_stiffness(d: LogData, arg: str) -> float:
-    """Window (the whole pull must be logged). Heights from the first logged state."""
+    """Window (the whole pull must be logged). Heights from the first logged state, above
+    the floor (z = 0 in walkrepro's scenes); see :func:`paper_ankle_stiffness`."""
     force, t0, t1 = _pull(d)
     model = d.model
     _torso_id(model)
     data = mujoco.MjData(model)
     data.qpos[:] = d.qpos[0]
     mujoco.mj_kinematics(model, data)
-    ankle = 0.5 * (
-        data.xpos[model.body("left_foot").id, 2] + data.xpos[model.body("right_foot").id, 2]
-    )
     neck = data.xpos[model.body("torso").id, 2] + _neck_offset(model)
     pelvis = data.xpos[model.body("pelvis").id, 2]
-    lean = displacement(d.t, d.qpos[:, 0], t0, t1) / (pelvis - ankle)
-    if not lean:
-        raise NotMeasurable("the pelvis did not move under the pull (zero lean)")
-    return abs(force) * (neck - ankle) / (2.0 * lean)
+    shift = displacement(d.t, d.qpos[:, 0], t0, t1)
+    return paper_ankle_stiffness(force, neck, pelvis, shift)
 
 
 # ---- position tracking delay (Hardware Limitations, Sensor Quality; Fig. 4) ----------------
