@@ -433,14 +433,20 @@ def test_scatter_equal_when_feet_repeat(tmp_path: Path) -> None:
 
 
 def _pull_log(
-    tmp_path: Path, shift: float, outcome: str = "complete", duration: float = 4.0
+    tmp_path: Path,
+    shift: float,
+    outcome: str = "complete",
+    duration: float = 4.0,
+    ramp_time: float = 0.0,
 ) -> LogData:
-    """A 7 N pull at the neck from 1 to 3 s; the pelvis (and torso) sit ``shift`` [m]
-    forward during it, the feet stay put."""
+    """A 7 N pull at the neck from 1 to 3 s (ramped up and down over ``ramp_time`` [s] if
+    given); the pelvis (and torso) sit ``shift`` [m] forward while the full force acts,
+    the feet stay put."""
     poser = Poser(ROBOT)
     moved = poser((shift, 0.0, 0.0))
+    lo, hi = 1.0 + ramp_time, 3.0 - ramp_time
     ticks = [
-        Tick(k * DT, qpos=moved if 1.0 < k * DT <= 3.0 + 1e-9 else poser.home)
+        Tick(k * DT, qpos=moved if lo < k * DT <= hi + 1e-9 else poser.home)
         for k in range(int(round(duration / DT)) + 1)
     ]
     if outcome == "fell":
@@ -453,6 +459,8 @@ def _pull_log(
         "start": 1.0,
         "duration": 2.0,
     }
+    if ramp_time:
+        pull.update(profile="ramp", ramp_time=ramp_time)
     return write_log(tmp_path / "a.mcap", ticks, _spec(duration, disturbances=[pull]), outcome)
 
 
@@ -489,6 +497,17 @@ def test_ankle_stiffness_too_stiff(tmp_path: Path) -> None:
     stiff = measured(_pull_log(tmp_path, 0.01), "ankle_stiffness")
     assert stiff > 45
     assert stiff == pytest.approx(5 * measured(_pull_log(tmp_path, 0.05), "ankle_stiffness"))
+
+
+def test_pull_read_over_the_hold_not_the_ramps(tmp_path: Path) -> None:
+    """A ramped pull (0.5 s up, 0.5 s down) is read where the full force acts: a pelvis
+    5 cm forward only during the hold reads 5 cm (the last half of the whole window, which
+    takes in the ramp down, would read 2.5 cm)."""
+    d = _pull_log(tmp_path, 0.05, ramp_time=0.5)
+    assert measured(d, "pelvis_displacement") == pytest.approx(0.05, abs=1e-6)
+    assert measured(d, "ankle_stiffness") == pytest.approx(
+        measured(_pull_log(tmp_path, 0.05), "ankle_stiffness"), rel=1e-6
+    )
 
 
 def test_pull_cut_by_a_fall_not_measurable(tmp_path: Path) -> None:

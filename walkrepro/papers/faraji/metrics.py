@@ -451,18 +451,21 @@ def _speed_to_command(d: LogData, arg: str) -> float:
     return mean_forward_speed(d, arg) / command
 
 
-def _pull(d: LogData) -> tuple[float, float, float]:
-    """(force x [N], start [s], end [s]) of the spec's first disturbance.
+def _pull(d: LogData) -> tuple[float, float, float, float]:
+    """(force x [N], start [s], hold start [s], hold end [s]) of the spec's first disturbance.
 
-    Window rule: the log must reach the pull's end, so a fall under the pull is never read
-    as a displacement.
+    The hold is where the full force acts: the pull's window less a ``ramp`` profile's rise
+    and fall (``ramp_time`` each), the whole window for a constant pull. Window rule: the
+    log must reach the pull's end, so a fall under the pull is never read as a displacement.
     """
     if not d.spec.disturbances:
         raise NotMeasurable("the spec has no pull (disturbances is empty)")
     dist = d.spec.disturbances[0]
+    t0 = float(dist.start)
     t1 = float(dist.start + dist.duration)
     d.require_until(t1, "the pull ended")
-    return float(dist.force[0]), float(dist.start), t1
+    ramp = float(dist.ramp_time) if dist.profile == "ramp" else 0.0
+    return float(dist.force[0]), t0, t0 + ramp, t1 - ramp
 
 
 def _mean_in(t: np.ndarray, x: np.ndarray, lo: float, hi: float) -> float:
@@ -472,24 +475,32 @@ def _mean_in(t: np.ndarray, x: np.ndarray, lo: float, hi: float) -> float:
     return float(np.mean(x[m]))
 
 
-def displacement(t: np.ndarray, x: np.ndarray, t0: float, t1: float) -> float:
-    """Mean of ``x`` over the last half of [t0, t1] minus its mean over the second before t0."""
+def displacement(
+    t: np.ndarray, x: np.ndarray, t0: float, h0: float, h1: float | None = None
+) -> float:
+    """Mean of ``x`` over the last half of the hold [h0, h1] minus its mean over the second
+    before the pull's start ``t0`` (``h1`` None: the hold is [t0, h0])."""
+    if h1 is None:
+        h0, h1 = t0, h0
     before = _mean_in(t, x, max(0.0, t0 - 1.0), t0)
-    during = _mean_in(t, x, 0.5 * (t0 + t1), t1)
+    during = _mean_in(t, x, 0.5 * (h0 + h1), h1)
     return during - before
 
 
-@metric("pelvis_displacement", "pelvis x during the last half of the pull minus before it [m]")
+@metric(
+    "pelvis_displacement",
+    "pelvis x over the last half of the pull's hold (its ramps excluded) minus before it [m]",
+)
 def _pelvis_displacement(d: LogData, arg: str) -> float:
     """Window (the whole pull must be logged); pelvis from the logged state."""
-    _, t0, t1 = _pull(d)
-    return displacement(d.t, d.qpos[:, 0], t0, t1)
+    _, t0, h0, h1 = _pull(d)
+    return displacement(d.t, d.qpos[:, 0], t0, h0, h1)
 
 
 @metric("torso_displacement", "neck-height (torso top) x displacement under the pull [m]")
 def _torso_displacement(d: LogData, arg: str) -> float:
     """Window (the whole pull must be logged); the neck from the logged state."""
-    _, t0, t1 = _pull(d)
+    _, t0, h0, h1 = _pull(d)
     model = d.model
     data = mujoco.MjData(model)
     torso = _torso_id(model)
@@ -498,7 +509,7 @@ def _torso_displacement(d: LogData, arg: str) -> float:
         data.qpos[:] = d.qpos[i]
         mujoco.mj_kinematics(model, data)
         xs[i] = data.xpos[torso, 0] + data.xmat[torso].reshape(3, 3)[0, 2] * _neck_offset(model)
-    return displacement(d.t, xs, t0, t1)
+    return displacement(d.t, xs, t0, h0, h1)
 
 
 def _torso_id(model: mujoco.MjModel) -> int:
@@ -556,7 +567,7 @@ def paper_ankle_stiffness(
 def _ankle_stiffness(d: LogData, arg: str) -> float:
     """Window (the whole pull must be logged). Heights from the first logged state, above
     the floor (z = 0 in walkrepro's scenes); see :func:`paper_ankle_stiffness`."""
-    force, t0, t1 = _pull(d)
+    force, t0, h0, h1 = _pull(d)
     model = d.model
     _torso_id(model)
     data = mujoco.MjData(model)
@@ -564,7 +575,7 @@ def _ankle_stiffness(d: LogData, arg: str) -> float:
     mujoco.mj_kinematics(model, data)
     neck = data.xpos[model.body("torso").id, 2] + _neck_offset(model)
     pelvis = data.xpos[model.body("pelvis").id, 2]
-    shift = displacement(d.t, d.qpos[:, 0], t0, t1)
+    shift = displacement(d.t, d.qpos[:, 0], t0, h0, h1)
     return paper_ankle_stiffness(force, neck, pelvis, shift)
 
 
