@@ -591,32 +591,31 @@ class ActuatorsSpec(_Strict):
     @field_validator("position_gain")
     @classmethod
     def _positive(cls, gains: dict[str, float]) -> dict[str, float]:
-        bad = [k for k, v in gains.items() if not 0 < v <= MAX_POSITION_GAIN]
-        if bad:
-            raise ValueError(
-                f"gains must be in (0, {MAX_POSITION_GAIN:g}] [Nm/rad]; not so for {', '.join(bad)}"
-            )
-        return gains
+        return _each_in(gains, "gains", 0.0, MAX_POSITION_GAIN, "Nm/rad", low_open=True)
 
     @field_validator("spring")
     @classmethod
     def _positive_spring(cls, springs: dict[str, float]) -> dict[str, float]:
-        bad = [k for k, v in springs.items() if not 0 < v <= MAX_SPRING]
-        if bad:
-            raise ValueError(
-                f"springs must be in (0, {MAX_SPRING:g}] [Nm/rad]; not so for {', '.join(bad)}"
-            )
-        return springs
+        return _each_in(springs, "springs", 0.0, MAX_SPRING, "Nm/rad", low_open=True)
 
     @field_validator("backlash")
     @classmethod
     def _band(cls, bands: dict[str, float]) -> dict[str, float]:
-        bad = [k for k, v in bands.items() if not 0 <= v <= MAX_DRIVE_BACKLASH]
-        if bad:
-            raise ValueError(
-                f"backlash must be in [0, {MAX_DRIVE_BACKLASH:g}] [rad]; not so for {', '.join(bad)}"
-            )
-        return bands
+        return _each_in(bands, "backlash", 0.0, MAX_DRIVE_BACKLASH, "rad", low_open=False)
+
+
+def _each_in(
+    values: dict[str, float], what: str, low: float, high: float, unit: str, low_open: bool
+) -> dict[str, float]:
+    """``values`` if each lies in (low, high] (``low_open``) or [low, high], else a
+    ValueError naming the range and the keys outside it."""
+    bad = [k for k, v in values.items() if not (low < v if low_open else low <= v) or v > high]
+    if bad:
+        bracket = "(" if low_open else "["
+        raise ValueError(
+            f"{what} must be in {bracket}{low:g}, {high:g}] [{unit}]; not so for {', '.join(bad)}"
+        )
+    return values
 
 
 Op = Literal["<", "<=", ">", ">=", "==", "between"]

@@ -122,14 +122,18 @@ def _first_obstacle_contact(d: LogData, foot: str) -> int | None:
     return int(idx[0]) if idx.size else None
 
 
-def sole_velocity_z(d: LogData, foot: str, i0: int, i1: int) -> tuple[np.ndarray, np.ndarray]:
-    """Times [s] and world z velocity [m/s] of a foot's sole centre for states i0..i1."""
+def sole_site_motion(
+    d: LogData, foot: str, i0: int, i1: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Times [s], rotation matrices R (i1 − i0, 3, 3) in O_w and spatial velocities
+    (i1 − i0, 6) [rad/s, m/s] (angular, then linear, in O_w) of a foot's sole site for states
+    i0..i1, from the logged state (MuJoCo's forward kinematics)."""
     model = d.model
     data = mujoco.MjData(model)
-    side = foot.split("_")[0]
-    site = model.site(f"{side}_sole").id
+    site = model.site(f"{foot.split('_')[0]}_sole").id
     vel = np.zeros(6)
-    out = np.zeros(i1 - i0)
+    rot = np.zeros((i1 - i0, 3, 3))
+    out = np.zeros((i1 - i0, 6))
     for k, i in enumerate(range(i0, i1)):
         data.qpos[:] = d.qpos[i]
         data.qvel[:] = d.qvel[i]
@@ -137,8 +141,15 @@ def sole_velocity_z(d: LogData, foot: str, i0: int, i1: int) -> tuple[np.ndarray
         mujoco.mj_comPos(model, data)
         mujoco.mj_comVel(model, data)
         mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_SITE, site, vel, 0)
-        out[k] = vel[5]
-    return d.t[i0:i1], out
+        rot[k] = data.site_xmat[site].reshape(3, 3)
+        out[k] = vel
+    return d.t[i0:i1], rot, out
+
+
+def sole_velocity_z(d: LogData, foot: str, i0: int, i1: int) -> tuple[np.ndarray, np.ndarray]:
+    """Times [s] and world z velocity [m/s] of a foot's sole centre for states i0..i1."""
+    t, _, vel = sole_site_motion(d, foot, i0, i1)
+    return t, vel[:, 5]
 
 
 @metric(
@@ -212,26 +223,15 @@ def sole_tilt(d: LogData, foot: str, i0: int, i1: int) -> tuple[np.ndarray, np.n
     √(R_zy² + R_zz²)) of the sole site's rotation R in O_w (Fig. 6(a), 7(a)); the angular
     velocity is the site's, in O_w (Fig. 6(b), 7(b)).
     """
-    model = d.model
-    data = mujoco.MjData(model)
-    site = model.site(f"{foot.split('_')[0]}_sole").id
-    vel = np.zeros(6)
-    angle = np.zeros((i1 - i0, 2))
-    rate = np.zeros((i1 - i0, 2))
-    for k, i in enumerate(range(i0, i1)):
-        data.qpos[:] = d.qpos[i]
-        data.qvel[:] = d.qvel[i]
-        mujoco.mj_kinematics(model, data)
-        mujoco.mj_comPos(model, data)
-        mujoco.mj_comVel(model, data)
-        mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_SITE, site, vel, 0)
-        r = data.site_xmat[site].reshape(3, 3)
-        angle[k] = (
-            math.atan2(r[2, 1], r[2, 2]),
-            math.atan2(-r[2, 0], math.hypot(r[2, 1], r[2, 2])),
-        )
-        rate[k] = vel[:2]
-    return d.t[i0:i1], angle, rate
+    t, rot, vel = sole_site_motion(d, foot, i0, i1)
+    angle = np.stack(
+        (
+            np.arctan2(rot[:, 2, 1], rot[:, 2, 2]),
+            np.arctan2(-rot[:, 2, 0], np.hypot(rot[:, 2, 1], rot[:, 2, 2])),
+        ),
+        axis=1,
+    )
+    return t, angle, vel[:, :2].copy()
 
 
 def _tilt_window(d: LogData, foot: str) -> tuple[float, int, int]:
