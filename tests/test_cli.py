@@ -55,7 +55,7 @@ def test_list_shows_every_experiment_with_its_paper() -> None:
 
 
 def _list_rows() -> list:
-    from walkrepro.cli import ListRow
+    from walkrepro.cli.listing import ListRow
     from walkrepro.specs.files import all_experiment_names, load_spec
 
     return [ListRow.of(name, load_spec(name).spec) for name in all_experiment_names()]
@@ -86,7 +86,7 @@ def test_list_fits_80_columns_on_a_terminal() -> None:
 
     from rich.console import Console
 
-    from walkrepro.cli import experiments_long, experiments_table
+    from walkrepro.cli.listing import experiments_long, experiments_table
 
     rows = _list_rows()
     for width in (80, 120):
@@ -412,7 +412,7 @@ def test_forward_walks_verdict_fits_in_thirty_lines(capsys: pytest.CaptureFixtur
     import math
 
     from walkrepro import REFERENCES_DIR
-    from walkrepro.cli import _print_verdicts
+    from walkrepro.cli.verdicts import print_verdicts
     from walkrepro.evaluation.checks import CheckRow, Verdict
 
     saved = json.loads((REFERENCES_DIR / "forward_walk" / "check.json").read_text())
@@ -433,7 +433,7 @@ def test_forward_walks_verdict_fits_in_thirty_lines(capsys: pytest.CaptureFixtur
         )
 
     verdict = Verdict("forward_walk", saved["outcome"], tuple(row(r) for r in saved["rows"]))
-    _print_verdicts([verdict], details=False, per_claim=True)
+    print_verdicts([verdict], details=False, per_claim=True)
     printed = capsys.readouterr().out.strip().splitlines()
     # one line per row, the paper's claims line, the all-rows line, and the failures' details
     assert len(printed) == len(verdict.rows) + 2 + sum(

@@ -161,12 +161,12 @@ def test_updated_references_update_the_docs(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """After `check --update-reference` the generated documents are rewritten from the new references."""
-    from walkrepro import cli
+    from walkrepro.cli import registers
 
     target = tmp_path / "README.md"
     target.write_text("old\n")
     monkeypatch.setattr(docsgen, "generated_files", lambda: {target: "new\n"})
-    cli._update_docs()
+    registers.update_docs()
     assert target.read_text() == "new\n" and "docs updated" in capsys.readouterr().out
-    cli._update_docs()  # nothing stale: nothing rewritten, nothing said
+    registers.update_docs()  # nothing stale: nothing rewritten, nothing said
     assert "docs updated" not in capsys.readouterr().out

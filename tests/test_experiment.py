@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 
 from walkrepro import RESULTS_DIR
-from walkrepro.cli import _paired_partners, _resolved
+from walkrepro.cli.batch import paired_partners
+from walkrepro.cli.common import resolved_spec
 from walkrepro.runs import experiment, results
 from walkrepro.runs.experiment import References, partner_metric_names
 from walkrepro.specs.files import experiment_names, load_spec
@@ -78,13 +79,13 @@ def test_partner_metrics_are_reported_by_the_partner() -> None:
 def test_overrides_pair_the_partner_or_say_why_not() -> None:
     """With --set, a relative row's partner runs in the same batch with the same overrides; an override it cannot take is a reason."""
     overrides = ["sim.seed=3"]
-    specs = {"obstacle_4cm": _resolved("obstacle_4cm", overrides)}
-    partners, unpaired = _paired_partners(specs, overrides)
+    specs = {"obstacle_4cm": resolved_spec("obstacle_4cm", overrides)}
+    partners, unpaired = paired_partners(specs, overrides)
     assert partners == ["obstacle_4cm_no_impedance"] and not unpaired
-    assert _paired_partners(specs, []) == ([], {})
+    assert paired_partners(specs, []) == ([], {})
     odd = ["world.obstacles.0.tilt_x_deg=3"]
-    specs = {"continuous_drag_stepping": _resolved("continuous_drag_stepping", [])}
-    partners, unpaired = _paired_partners(specs, odd)
+    specs = {"continuous_drag_stepping": resolved_spec("continuous_drag_stepping", [])}
+    partners, unpaired = paired_partners(specs, odd)
     assert partners == [] and "continuous_drag" in unpaired
 
 

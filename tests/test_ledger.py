@@ -204,15 +204,15 @@ def test_every_spec_provenance_entry_names_a_value(name: str) -> None:
 
 def test_update_reference_refuses_uncommitted_changes(monkeypatch: pytest.MonkeyPatch) -> None:
     """Writing references from a dirty tree is refused, unless --allow-dirty says so."""
-    from walkrepro import cli
+    from walkrepro.cli import common
     from walkrepro.runs import provenance
 
     monkeypatch.setattr(provenance, "dirty_paths", lambda folders: ["robots/build_models.py"])
     with pytest.raises(WalkreproError, match="uncommitted changes.*build_models"):
-        cli._needs_clean_tree("check --update-reference", allow_dirty=False)
-    cli._needs_clean_tree("check --update-reference", allow_dirty=True)
+        common.needs_clean_tree("check --update-reference", allow_dirty=False)
+    common.needs_clean_tree("check --update-reference", allow_dirty=True)
     monkeypatch.setattr(provenance, "dirty_paths", lambda folders: [])
-    cli._needs_clean_tree("check --update-reference", allow_dirty=False)
+    common.needs_clean_tree("check --update-reference", allow_dirty=False)
 
 
 PUSH = """
