@@ -45,15 +45,12 @@ def calibrate(
     there. Exit 1 when a calibration misses its target or differs from the committed one."""
     from walkrepro.runtime.interrupt import Received, stop_signals_raise
     from walkrepro.specs.calibration_files import (
-        CALIBRATION_RTOL,
         calibration_papers,
         find_calibration,
         load_calibration,
-        with_results,
-        write_calibration,
     )
     from walkrepro.studies.calibration.rules import check_consistency
-    from walkrepro.studies.calibration.run import CalibrateOptions, calibrate, compare
+    from walkrepro.studies.calibration.run import CalibrateOptions, calibrate
 
     if update:
         needs_checkout("walkrepro calibrate --update")
@@ -89,6 +86,17 @@ def calibrate(
         )
         raise typer.Exit(code=received.exit_code) from None
     console.print(_calibration_table(loaded, runs))
+    _write_or_compare(paper, loaded, runs, update)
+
+
+def _write_or_compare(paper: str, loaded: Any, runs: list, update: bool) -> None:
+    """After the calibration of ``paper`` (the key as typed): with ``update``, write its
+    results into the calibration file; without, compare them with the committed ones and
+    exit 1 when they differ."""
+    from walkrepro.specs.calibration_files import CALIBRATION_RTOL, with_results, write_calibration
+    from walkrepro.studies.calibration.run import compare
+
+    console = make_console()
     if update:
         new = with_results(loaded.model, {r.parameter.name: r.result for r in runs})
         write_calibration(loaded.path, new)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import dataclasses
 import os
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.markup import escape
@@ -38,6 +38,9 @@ from walkrepro.cli.registers import update_docs
 from walkrepro.cli.verdicts import print_verdicts
 from walkrepro.errors import WalkreproError
 from walkrepro.runs import results
+
+if TYPE_CHECKING:
+    from walkrepro.studies.sweep.command import EngineChoice
 
 
 @friendly_errors
@@ -143,58 +146,18 @@ def check(options: CheckOptions) -> None:
 
     The claims of each experiment's declared maps (spec ``sweeps:``) are checked too.
     """
-    from walkrepro import api
     from walkrepro.evaluation import checks
     from walkrepro.runs.experiment import References, evaluate_log
     from walkrepro.specs.files import experiment_names
-    from walkrepro.studies.sweep.command import EngineChoice
-    from walkrepro.studies.sweep.engines import ENGINES
 
-    if options.engine not in ENGINES:
-        raise WalkreproError(
-            f"unknown engine {options.engine!r}. Valid engines: {', '.join(ENGINES)}."
-        )
-    if options.address is not None and options.engine != "ray":
-        raise WalkreproError("--address applies to --engine ray only.")
+    _refuse_bad_options(options)
     overrides = list(options.set_ or [])
-    figures = options.figures or options.update_reference
-    if options.update_reference and overrides:
-        raise WalkreproError(
-            "--update-reference takes runs of the experiments as shipped; drop --set "
-            f"({' '.join(overrides)})."
-        )
-    if options.update_reference:
-        needs_checkout("--update-reference")
-        needs_clean_tree("check --update-reference", options.allow_dirty)
-    if options.experiments or not options.run_dir:  # it writes runs under --out
-        from walkrepro.runtime import outdir
-
-        default = options.out == results.DEFAULT_ROOT
-        outdir.claim_root(options.out, outdir.RUNS, options.force or default, create=False)
-    verdicts: list[checks.Verdict] = []
-    for path in options.run_dir or []:
-        verdicts.append(api.evaluate(path, partial=options.partial))
-        directory, _ = results.resolve_run(path)
-        print_missing(directory, results.read_record(directory).get("stages") or {})
+    verdicts = _recheck_runs(options.run_dir or [], options.partial)
     names = list(options.experiments or [])
     if not names and not options.run_dir:
         names = experiment_names()
-    specs = {name: resolved_spec(name, overrides) for name in names}  # validate all before running
-    partners, unpaired = paired_partners(specs, overrides)
-    batch_names = names + partners
-    # Videos only where a reference keeps one (a video per run would cost a check minutes).
-    video = with_reference_video(batch_names) if options.update_reference else frozenset()
-    summaries = (
-        run_batch(
-            batch_names,
-            overrides,
-            options.out,
-            (figures, video),
-            EngineChoice(options.engine, options.jobs, options.address),
-        )
-        if batch_names
-        else []
-    )
+    figures = options.figures or options.update_reference
+    summaries, unpaired = _run_with_partners(names, overrides, options, figures)
     if summaries:
         # Comparisons between experiments use this batch's runs, now that all are done.
         batch = References(
@@ -219,7 +182,7 @@ def check(options: CheckOptions) -> None:
             options.out,
             options.jobs,
             make_console(stderr=True),
-            EngineChoice(options.engine, options.jobs, options.address),
+            _engine(options),
         )
     print_verdicts(verdicts, options.details)
     interrupted = any(s.interrupted for s in summaries)
@@ -232,3 +195,69 @@ def check(options: CheckOptions) -> None:
         raise typer.Exit(code=next(s.exit_code for s in summaries if s.interrupted))
     if not all(v.passed for v in verdicts):
         raise typer.Exit(code=1)
+
+
+def _refuse_bad_options(options: CheckOptions) -> None:
+    """Refuse, before anything runs, an unknown engine, --address without Ray, references
+    written from overrides or uncommitted changes or an installed copy, and an --out that
+    walkrepro may not write into."""
+    from walkrepro.studies.sweep.engines import ENGINES
+
+    if options.engine not in ENGINES:
+        raise WalkreproError(
+            f"unknown engine {options.engine!r}. Valid engines: {', '.join(ENGINES)}."
+        )
+    if options.address is not None and options.engine != "ray":
+        raise WalkreproError("--address applies to --engine ray only.")
+    overrides = list(options.set_ or [])
+    if options.update_reference and overrides:
+        raise WalkreproError(
+            "--update-reference takes runs of the experiments as shipped; drop --set "
+            f"({' '.join(overrides)})."
+        )
+    if options.update_reference:
+        needs_checkout("--update-reference")
+        needs_clean_tree("check --update-reference", options.allow_dirty)
+    if options.experiments or not options.run_dir:  # it writes runs under --out
+        from walkrepro.runtime import outdir
+
+        default = options.out == results.DEFAULT_ROOT
+        outdir.claim_root(options.out, outdir.RUNS, options.force or default, create=False)
+
+
+def _engine(options: CheckOptions) -> EngineChoice:
+    """Where the batch's runs go: the sweep's engine, its job count and Ray address."""
+    from walkrepro.studies.sweep.command import EngineChoice
+
+    return EngineChoice(options.engine, options.jobs, options.address)
+
+
+def _recheck_runs(paths: list[Path], partial: bool) -> list:  # list[checks.Verdict]
+    """The verdicts of existing run directories or logs (``--run``), each followed by the
+    outputs it lacks."""
+    from walkrepro import api
+
+    verdicts = []
+    for path in paths:
+        verdicts.append(api.evaluate(path, partial=partial))
+        directory, _ = results.resolve_run(path)
+        print_missing(directory, results.read_record(directory).get("stages") or {})
+    return verdicts
+
+
+def _run_with_partners(
+    names: list[str], overrides: list[str], options: CheckOptions, figures: bool
+) -> tuple[list, dict[str, str]]:  # list[RunSummary]
+    """Run ``names`` and the partners their relative rows need, all with ``overrides``
+    (every spec validated before any runs); with the partners that could not take the
+    overrides, each with why."""
+    specs = {name: resolved_spec(name, overrides) for name in names}  # validate all before running
+    partners, unpaired = paired_partners(specs, overrides)
+    batch_names = names + partners
+    # Videos only where a reference keeps one (a video per run would cost a check minutes).
+    video = with_reference_video(batch_names) if options.update_reference else frozenset()
+    if not batch_names:
+        return [], unpaired
+    return run_batch(
+        batch_names, overrides, options.out, (figures, video), _engine(options)
+    ), unpaired

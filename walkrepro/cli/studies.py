@@ -27,6 +27,7 @@ from walkrepro.runs import results
 
 if TYPE_CHECKING:
     from walkrepro.specs.models import ExperimentSpec
+    from walkrepro.studies.bench import BenchResult
 
 
 @dataclasses.dataclass(frozen=True)
@@ -147,12 +148,29 @@ def bench(
         )
 
     rows = bench_experiments(specs, repeat, on_start=announce)
-    # The runner's stages as columns; a controller's own split (``controller.<part>``, which
-    # differs per controller) as one column of "part cost" pairs.
-    stages = ["physics", "sensors", "controller", "logging", "bookkeeping"]
+    make_console().print(bench_table(rows, before))
+    if json_out is not None:
+        payload: dict = {"machine": machine_info(), "results": [r.to_json() for r in rows]}
+        if compare is not None:
+            payload["before"] = json.loads(compare.read_text())
+            payload["before"].pop("before", None)  # one level of history is enough
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        json_out.write_text(json.dumps(payload, indent=2) + "\n")
+        make_console().print(f"wrote {json_out}")
+
+
+#: The runner's stages, each a column of ``walkrepro bench``; a controller's own split
+#: (``controller.<part>``, which differs per controller) is one column of "part cost" pairs.
+STAGES = ("physics", "sensors", "controller", "logging", "bookkeeping")
+
+
+def bench_table(rows: list[BenchResult], before: dict[str, dict] | None) -> Table:
+    """``walkrepro bench``'s table: per experiment, the real-time factor (and ``before``'s,
+    from ``--compare``), the ratio to the floor, the tick's median and p99, logging's share,
+    and each stage's cost per tick [µs]."""
     table = Table(title="walkrepro bench (per-tick costs in µs)")
     columns = ["experiment", "outcome", "RTF", *(["RTF before"] if before else [])]
-    columns += ["× floor", "tick median", "tick p99", "log %", "log MB/s", "mem Δ MB", *stages]
+    columns += ["× floor", "tick median", "tick p99", "log %", "log MB/s", "mem Δ MB", *STAGES]
     columns += ["controller split"]
     for col in columns:
         table.add_column(col, justify="right" if col != "experiment" else "left")
@@ -169,19 +187,11 @@ def bench(
             f"{r.logging_share * 100:.0f}",
             f"{r.log_rate:.2f}",
             f"{r.memory_growth / 1e6:.1f}",
-            *(f"{r.per_tick.get(k, 0.0) * 1e6:.1f}" for k in stages),
+            *(f"{r.per_tick.get(k, 0.0) * 1e6:.1f}" for k in STAGES),
             " ".join(
                 f"{k.removeprefix('controller.')} {v * 1e6:.0f}"
                 for k, v in r.per_tick.items()
                 if k.startswith("controller.")
             ),
         )
-    make_console().print(table)
-    if json_out is not None:
-        payload: dict = {"machine": machine_info(), "results": [r.to_json() for r in rows]}
-        if compare is not None:
-            payload["before"] = json.loads(compare.read_text())
-            payload["before"].pop("before", None)  # one level of history is enough
-        json_out.parent.mkdir(parents=True, exist_ok=True)
-        json_out.write_text(json.dumps(payload, indent=2) + "\n")
-        make_console().print(f"wrote {json_out}")
+    return table
