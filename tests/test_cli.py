@@ -498,3 +498,24 @@ def test_every_commands_help_is_a_first_line_and_paragraphs_that_rich_wraps() ->
     assert reflow("A.\n\nB b\nc.\n- one\n- two") == "A.\n\nB b c.\n- one\n- two"
     code, out = invoke("-h")
     assert code == 0 and "List every number an experiment's run uses" in out
+
+
+def test_the_app_module_stays_thin_and_the_command_modules_short() -> None:
+    """The command's app module (``walkrepro/cli/__init__.py``: the typer app, the process
+    set-up and the registration of the commands) is under 300 lines, no function of the
+    command's modules is over 80, and every command is defined in a group module of its own."""
+    import ast
+    import inspect
+
+    import walkrepro.cli
+
+    package = Path(walkrepro.cli.__file__).parent
+    assert len((package / "__init__.py").read_text().splitlines()) < 300
+    for module in sorted(package.glob("*.py")):
+        for node in ast.walk(ast.parse(module.read_text(), str(module))):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                first = min([node.lineno, *(d.lineno for d in node.decorator_list)])
+                assert node.end_lineno - first + 1 <= 80, f"{module.name}: {node.name}"
+    for info in app.registered_commands:
+        where = inspect.unwrap(info.callback).__module__
+        assert where.startswith("walkrepro.cli.") and where != "walkrepro.cli.common", where
