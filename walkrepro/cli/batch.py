@@ -17,7 +17,10 @@ from walkrepro.locations import REFERENCES_DIR
 from walkrepro.runs import results
 
 if TYPE_CHECKING:
+    from walkrepro.runs.experiment import RunSummary
+    from walkrepro.runs.resolve import Experiment
     from walkrepro.specs.models import ExperimentSpec
+    from walkrepro.studies.sweep.command import EngineChoice
 
 
 def paired_partners(
@@ -49,8 +52,8 @@ def run_batch(
     overrides: list[str],
     out: Path,
     outputs: tuple[bool, frozenset[str]],
-    engine: Any,  # sweep.command.EngineChoice
-) -> list:
+    engine: EngineChoice,
+) -> list[RunSummary]:
     """Run ``names`` on ``engine`` (``jobs`` processes, or Ray), printing a line as each
     finishes.
 
@@ -181,7 +184,7 @@ def update_references(summaries: list) -> None:
         make_console().print(f"reference updated: {target}")
 
 
-def resolved_experiment(name: str, overrides: list[str]):  # noqa: ANN202 - returns Experiment
+def resolved_experiment(name: str, overrides: list[str]) -> Experiment:
     """``name`` loaded and resolved once: its spec, robot, compiled scene and parameters."""
     from walkrepro.runs.resolve import resolve
     from walkrepro.specs.files import load_spec
@@ -202,9 +205,9 @@ def outputs_of(name: str, outputs: tuple[bool, frozenset[str]]) -> tuple[bool, b
     return figures, name in video
 
 
-def run_one(  # noqa: ANN202
+def run_one(
     name: str, overrides: list[str], out: Path, outputs: tuple[bool, bool], show_progress: bool
-):
+) -> RunSummary:
     """Resolve and execute one experiment (module-level so a process pool can pickle it).
 
     ``outputs`` is (figures, video): draw the paper's figures, render the run's video.
@@ -282,7 +285,7 @@ def compile_watch(name: str, overrides: list[str], show: bool) -> Iterator[Any]:
         yield w
 
 
-def plot_comparisons(summaries: list) -> None:  # list[RunSummary]
+def plot_comparisons(summaries: list[RunSummary]) -> None:
     """Comparison figures for each relative expectation whose two runs are in this batch."""
     from walkrepro.present.figures import plot_compare
     from walkrepro.specs.models import spec_from_yaml_text

@@ -8,7 +8,7 @@ import functools
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated, Any, TypeVar
+from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 
 import typer
 from rich.console import Console
@@ -16,6 +16,9 @@ from rich.markup import escape
 
 from walkrepro.errors import WalkreproError
 from walkrepro.runs import results
+
+if TYPE_CHECKING:
+    from walkrepro.specs.models import ExperimentSpec
 
 
 def make_console(stderr: bool = False) -> Console:
@@ -148,7 +151,9 @@ def friendly_errors(fn: F) -> F:
     return wrapper  # type: ignore[return-value]
 
 
-def resolved_spec(name: str, overrides: list[str]):  # noqa: ANN202 - returns ExperimentSpec
+def resolved_spec(name: str, overrides: list[str]) -> ExperimentSpec:
+    """The spec of experiment ``name`` with ``overrides``, loaded and checked against the
+    registries and its parameters validated (:func:`walkrepro.runs.resolve.resolve_spec`)."""
     from walkrepro.runs.resolve import resolve_spec
     from walkrepro.specs.files import load_spec
 

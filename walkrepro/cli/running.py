@@ -40,6 +40,8 @@ from walkrepro.errors import WalkreproError
 from walkrepro.runs import results
 
 if TYPE_CHECKING:
+    from walkrepro.evaluation.checks import Verdict
+    from walkrepro.runs.experiment import RunSummary
     from walkrepro.studies.sweep.command import EngineChoice
 
 
@@ -232,7 +234,7 @@ def _engine(options: CheckOptions) -> EngineChoice:
     return EngineChoice(options.engine, options.jobs, options.address)
 
 
-def _recheck_runs(paths: list[Path], partial: bool) -> list:  # list[checks.Verdict]
+def _recheck_runs(paths: list[Path], partial: bool) -> list[Verdict]:
     """The verdicts of existing run directories or logs (``--run``), each followed by the
     outputs it lacks."""
     from walkrepro import api
@@ -247,7 +249,7 @@ def _recheck_runs(paths: list[Path], partial: bool) -> list:  # list[checks.Verd
 
 def _run_with_partners(
     names: list[str], overrides: list[str], options: CheckOptions, figures: bool
-) -> tuple[list, dict[str, str]]:  # list[RunSummary]
+) -> tuple[list[RunSummary], dict[str, str]]:
     """Run ``names`` and the partners their relative rows need, all with ``overrides``
     (every spec validated before any runs); with the partners that could not take the
     overrides, each with why."""

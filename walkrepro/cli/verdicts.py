@@ -3,14 +3,19 @@ claim, failing rows in full, or the table of every row."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from rich.markup import escape
 from rich.table import Table
 
 from walkrepro.cli.common import make_console
 
+if TYPE_CHECKING:
+    from walkrepro.evaluation.checks import Verdict
+
 
 def print_verdicts(
-    verdicts: list,  # list[checks.Verdict]
+    verdicts: list[Verdict],
     details: bool = True,
     per_claim: bool = False,
 ) -> None:
@@ -54,7 +59,7 @@ def print_verdicts(
     console.print(f"[bold {colour}]all rows: {counts}[/]")
 
 
-def verdict_table(verdicts: list) -> Table:  # list[checks.Verdict]
+def verdict_table(verdicts: list[Verdict]) -> Table:
     """Every row of ``verdicts`` as a table; long sources and notes fold, never cut."""
     from walkrepro.evaluation.checks import CALIBRATED, FAIL, KNOWN, PASS, tag_text
 
