@@ -1,10 +1,6 @@
-"""The papers' code shape, read from its source: names, not positions, and no numba internals.
-
-Parameters, per-tick state and signals are records with named fields (named tuples, numba
-StructRefs, structured records), so a reader sees ``gains.kp_swing`` or
-``signals.left.fz``, never ``params[3]`` or ``out[17]``; and compiled kernels are called
-through numba's public interface only.
-"""
+"""The package's shape, read from the source: functions a reader can hold, a small CLI module,
+and controllers whose task rows and axes are named, never typed as numbers (GUIDE.md, "Fast
+code that stays readable": names, not positions; tasks declared, offsets computed)."""
 
 from __future__ import annotations
 
@@ -13,206 +9,162 @@ from pathlib import Path
 
 import pytest
 
-PAPERS = Path(__file__).resolve().parents[1] / "walkrepro" / "papers"
-#: Containers that hold signals or parameters, by the name they go by: ``out`` (a kernel's
-#: output vector), or a name with one of these parts.
-RECORD_WORDS = ("signal", "param", "scalar", "gain")
-#: numba's attributes and modules that are not its public interface (the dispatcher's
-#: ``compile`` and ``typeof_pyval``, its overloads table; ``numba.core`` except the types
-#: its documented StructRef API is written with).
-NUMBA_INTERNALS = ("compile", "typeof_pyval", "overloads", "get_compile_result")
-NUMBA_CORE_ALLOWED = ("types",)
-#: Decorators that make a compiled kernel.
-KERNEL_DECORATORS = ("njit", "jit", "_jit")
-#: Papers whose code still keeps positions, each with the reason.
-PENDING: dict[str, str] = {}
+PACKAGE = Path(__file__).resolve().parents[1] / "walkrepro"
+#: A function longer than this many lines (decorators excluded, docstring included) is too long.
+MAX_FUNCTION_LINES = 80
+#: The CLI's top module holds the app and the registration of its command groups.
+MAX_CLI_LINES = 300
+#: The controllers' modules: where task rows, QP rows, axes and joints are indexed.
+CONTROLLER_MODULES = (
+    "papers/lee2021/wbc.py",
+    "papers/lee2021/kernels.py",
+    "papers/lee2021/controller.py",
+    "papers/lee2021/fsm.py",
+    "papers/jo_oh/tasks.py",
+    "papers/jo_oh/centroidal_qp.py",
+    "papers/jo_oh/controller.py",
+    "papers/jo_oh/condensed.py",
+    "papers/faraji/controller.py",
+)
 
 
-def _name(node: ast.AST) -> str:
-    """The last name of a container expression: ``self._signals`` -> ``_signals``,
-    ``st["params"]`` -> ``params``."""
-    while isinstance(node, ast.Subscript):
-        key = node.slice
-        if isinstance(key, ast.Constant) and isinstance(key.value, str):
-            return key.value
-        node = node.value
-    if isinstance(node, ast.Attribute):
-        return node.attr
-    if isinstance(node, ast.Name):
-        return node.id
-    return ""
+def long_functions(source: str, limit: int = MAX_FUNCTION_LINES) -> list[tuple[str, int]]:
+    """(name, lines) of every function or method longer than ``limit`` lines."""
+    return [
+        (node.name, node.end_lineno - node.lineno + 1)
+        for node in ast.walk(ast.parse(source))
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
+        and node.end_lineno - node.lineno + 1 > limit
+    ]
 
 
-def _is_record_container(name: str) -> bool:
-    lower = name.lower()
-    return lower == "out" or any(word in lower for word in RECORD_WORDS)
-
-
-def _positional(index: ast.AST) -> bool:
-    """An index by position: an integer, arithmetic on one, a slice, or a tuple holding one."""
-    if isinstance(index, ast.Constant):
-        return isinstance(index.value, int) and not isinstance(index.value, bool)
-    if isinstance(index, (ast.BinOp, ast.Slice)):
-        return True
-    if isinstance(index, ast.UnaryOp):
-        return _positional(index.operand)
-    if isinstance(index, ast.Tuple):
-        return any(_positional(e) for e in index.elts)
+def _typed(node: ast.expr | None) -> bool:
+    """A typed position: an integer literal other than 0, or arithmetic with a literal."""
+    if node is None:
+        return False
+    if isinstance(node, ast.Constant):
+        return isinstance(node.value, int) and not isinstance(node.value, bool) and node.value != 0
+    if isinstance(node, ast.UnaryOp):
+        return _typed(node.operand)
+    if isinstance(node, ast.BinOp):
+        return any(isinstance(n, ast.Constant) and isinstance(n.value, int) for n in ast.walk(node))
     return False
 
 
-def _kernels(tree: ast.AST) -> list[ast.FunctionDef]:
-    """The functions decorated as numba kernels (``@numba.njit(...)``, ``@_jit`` …)."""
+def _typed_index(index: ast.expr) -> bool:
+    if isinstance(index, ast.Slice):
+        return _typed(index.lower) or _typed(index.upper)
+    if isinstance(index, ast.Tuple):
+        return any(_typed_index(element) for element in index.elts)
+    return _typed(index)
+
+
+def typed_offsets(source: str) -> list[tuple[int, str]]:
+    """(line, text) of every subscript that types a row, axis or joint as a number
+    (``j[4:10]``, ``f[2]``, ``acc[2 + i]``, ``k[4, 0]``); ``x.shape[1]`` is a size, not a row."""
+    lines = source.splitlines()
+    return sorted(
+        {
+            (node.lineno, lines[node.lineno - 1].strip())
+            for node in ast.walk(ast.parse(source))
+            if isinstance(node, ast.Subscript)
+            and _typed_index(node.slice)
+            and not (isinstance(node.value, ast.Attribute) and node.value.attr == "shape")
+        }
+    )
+
+
+def import_time_side_effects(source: str) -> list[str]:
+    """Module-level calls that change the process for everyone who imports the module
+    (a global warnings filter)."""
     found = []
-    for node in ast.walk(tree):
-        if isinstance(node, ast.FunctionDef):
-            for deco in node.decorator_list:
-                target = deco.func if isinstance(deco, ast.Call) else deco
-                if _name(target) in KERNEL_DECORATORS:
-                    found.append(node)
+    for node in ast.parse(source).body:
+        call = node.value if isinstance(node, ast.Expr) else None
+        if isinstance(call, ast.Call) and isinstance(call.func, ast.Attribute):
+            if call.func.attr in {"filterwarnings", "simplefilter", "resetwarnings"}:
+                found.append(ast.unparse(call.func))
     return found
 
 
-def positions(source: str, filename: str = "<source>") -> list[str]:
-    """``file:line what`` of every place in ``source`` that uses positions for names:
-
-    - a write into a signal or parameter container (``out``, ``*signal*``, ``*param*``,
-      ``*scalar*``, ``*gain*``) by position (``out[3] = …``, ``signals[k + 1] = …``);
-    - a compiled kernel reading one of its own such parameters by position
-      (``gains[3, i]``: a positional float vector of parameters).
-    """
-    tree = ast.parse(source, filename)
+def structref_imports(source: str) -> list[str]:
+    """Imports of numba's StructRef machinery (kept in walkrepro/runtime/records.py)."""
     found = []
-    for node in ast.walk(tree):
-        targets: list[ast.AST] = []
-        if isinstance(node, ast.Assign):
-            targets = list(node.targets)
-        elif isinstance(node, (ast.AugAssign, ast.AnnAssign)):
-            targets = [node.target]
-        for target in targets:
-            elements = target.elts if isinstance(target, ast.Tuple) else [target]
-            for t in elements:
-                if (
-                    isinstance(t, ast.Subscript)
-                    and _is_record_container(_name(t.value))
-                    and _positional(t.slice)
-                ):
-                    found.append(f"{filename}:{t.lineno} {ast.unparse(t)} = (written by position)")
-    for kernel in _kernels(tree):
-        arguments = {a.arg for a in (*kernel.args.posonlyargs, *kernel.args.args)}
-        for node in ast.walk(kernel):
-            if (
-                isinstance(node, ast.Subscript)
-                and isinstance(node.ctx, ast.Load)
-                and isinstance(node.value, ast.Name)
-                and node.value.id in arguments
-                and _is_record_container(node.value.id)
-                and _positional(node.slice)
-            ):
-                found.append(
-                    f"{filename}:{node.lineno} {ast.unparse(node)} (kernel {kernel.name} reads "
-                    "a parameter vector by position)"
-                )
-    return found
-
-
-def numba_internals(source: str, filename: str = "<source>") -> list[str]:
-    """``file:line what`` of every use of numba's internals in ``source``: the attributes of
-    :data:`NUMBA_INTERNALS` (``kernel.compile(…)``; ``re.compile`` and MuJoCo's
-    ``spec.compile`` are not numba's and not used in the papers), ``numba.core`` beyond
-    :data:`NUMBA_CORE_ALLOWED`."""
-    tree = ast.parse(source, filename)
-    found = []
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Attribute) and node.attr in NUMBA_INTERNALS:
-            found.append(f"{filename}:{node.lineno} .{node.attr}")
-        elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("numba.core"):
-            names = [a.name for a in node.names]
-            if node.module != "numba.core" or set(names) - set(NUMBA_CORE_ALLOWED):
-                found.append(f"{filename}:{node.lineno} from {node.module} import {names}")
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.ImportFrom) and (node.module or "").startswith(
+            "numba.experimental"
+        ):
+            found.append(f"from {node.module} import {', '.join(a.name for a in node.names)}")
         elif isinstance(node, ast.Import):
-            for alias in node.names:
-                if alias.name.startswith("numba.core"):
-                    found.append(f"{filename}:{node.lineno} import {alias.name}")
+            found += [a.name for a in node.names if a.name.startswith("numba.experimental")]
     return found
 
 
-def _paper_files(paper: str) -> list[tuple[str, str]]:
-    return [
-        (path.read_text(), str(path.relative_to(PAPERS.parent.parent)))
-        for path in sorted((PAPERS / paper).rglob("*.py"))
-    ]
+# ---- the checks fail where they should --------------------------------------------------
 
 
-def _papers() -> list:
-    return [
-        pytest.param(p.name, marks=pytest.mark.xfail(reason=PENDING[p.name], strict=False))
-        if p.name in PENDING
-        else p.name
-        for p in sorted(PAPERS.iterdir())
-        if (p / "__init__.py").is_file()
-    ]
-
-
-@pytest.mark.parametrize("paper", _papers())
-def test_a_papers_signals_and_parameters_go_by_name(paper: str) -> None:
-    """No paper writes its signals or parameters by position, and no compiled kernel reads a
-    positional vector of parameters."""
-    found = [hit for source, name in _paper_files(paper) for hit in positions(source, name)]
-    assert not found, "positions instead of names:\n" + "\n".join(found)
-
-
-@pytest.mark.parametrize("paper", [p.name for p in sorted(PAPERS.iterdir()) if p.is_dir()])
-def test_a_paper_calls_no_numba_internals(paper: str) -> None:
-    """The papers call compiled kernels through numba's public interface only."""
-    found = [hit for source, name in _paper_files(paper) for hit in numba_internals(source, name)]
-    assert not found, "numba internals:\n" + "\n".join(found)
+def test_a_long_function_is_found():
+    body = "\n".join(f"    x{i} = {i}" for i in range(MAX_FUNCTION_LINES))
+    assert long_functions(f"def f():\n{body}\n") == [("f", MAX_FUNCTION_LINES + 1)]
+    assert long_functions(f"def f():\n{body[: body.rfind(chr(10))]}\n") == []
 
 
 @pytest.mark.parametrize(
-    ("source", "expected"),
+    "line",
     [
-        ("out[3] = x", ["<source>:1 out[3] = (written by position)"]),
-        ("signals[k + 1] = x", ["<source>:1 signals[k + 1] = (written by position)"]),
-        ("self._signals[0], self._signals[1] = a, b", 2),
-        ("out[:3] = com", 1),
-        ("st['params'][2] = 0.5", 1),
-        ("signals.left.fz = fz", []),
-        ("record['zmp_x_ref'] = z", []),
-        ("self._signal_record[FZ_QP[side]] = fz", []),
-        ("pos[0], pos[1] = x, y", []),  # a vector's components, not a record
-        ("out[i] = q", []),  # by a loop index: a vector
-        (
-            "@numba.njit(cache=True)\ndef f(gains, x):\n    return gains[3, 0] * x[0]",
-            ["<source>:3 gains[3, 0] (kernel f reads a parameter vector by position)"],
-        ),
-        ("@_jit\ndef f(params):\n    return params[DT + 1]", 1),
-        ("def f(gains):\n    return gains[3]", []),  # not compiled: a Python sequence
-        ("@numba.njit\ndef f(gains):\n    return gains.mass[0]", []),
+        "y = j[4:10]",
+        "y = acc2[6:9]",
+        "y = k[4, 0]",
+        "y = f[2]",
+        "y = a[2 + i]",
+        "a[3 * h + i] = 1",
+        "y = x[:, :6]",
+        "y = x[-1]",
     ],
 )
-def test_positions_finds_exactly_the_positional_ones(source: str, expected: list | int) -> None:
-    """The rule flags positional writes to signal and parameter containers and positional
-    reads of a kernel's parameter vector, and nothing named."""
-    found = positions(source)
-    if isinstance(expected, int):
-        assert len(found) == expected, found
-    else:
-        assert found == expected
+def test_a_typed_offset_is_found(line):
+    assert typed_offsets(line) == [(1, line)]
 
 
 @pytest.mark.parametrize(
-    ("source", "count"),
-    [
-        ("entry = kernel.compile(sig)", 1),
-        ("t = kernel.typeof_pyval(x)", 1),
-        ("from numba.core import types", 0),
-        ("from numba.core import types, config", 1),
-        ("from numba.core.typing import signature", 1),
-        ("import numba.core.config", 1),
-        ("from numba.experimental import structref", 0),
-    ],
+    "line",
+    ["y = j[rows]", "y = j[task.rows]", "y = f[Z]", "y = x[0]", "y = x.shape[1]", "y = x[:n]"],
 )
-def test_numba_internals_finds_exactly_the_internal_ones(source: str, count: int) -> None:
-    """The rule flags the dispatcher's compile and typeof and numba.core beyond its types."""
-    assert len(numba_internals(source)) == count
+def test_a_named_or_computed_index_is_not_an_offset(line):
+    assert typed_offsets(line) == []
+
+
+def test_a_global_warnings_filter_and_a_structref_import_are_found():
+    source = "import warnings\nfrom numba.experimental import structref\nwarnings.filterwarnings('ignore')\n"
+    assert import_time_side_effects(source) == ["warnings.filterwarnings"]
+    assert structref_imports(source) == ["from numba.experimental import structref"]
+    assert import_time_side_effects("def f():\n    warnings.simplefilter('ignore')\n") == []
+
+
+# ---- the shipped package -----------------------------------------------------------------
+
+
+def test_no_function_in_the_package_is_longer_than_a_reader_can_hold():
+    found = {
+        f"{file.relative_to(PACKAGE)}:{name}": lines
+        for file in sorted(PACKAGE.rglob("*.py"))
+        for name, lines in long_functions(file.read_text())
+    }
+    assert found == {}
+
+
+def test_the_cli_module_is_the_app_and_its_command_groups():
+    assert len((PACKAGE / "cli.py").read_text().splitlines()) < MAX_CLI_LINES
+
+
+@pytest.mark.parametrize("module", CONTROLLER_MODULES)
+def test_the_controllers_name_their_rows_and_axes(module):
+    assert typed_offsets((PACKAGE / module).read_text()) == []
+
+
+def test_the_papers_leave_numba_plumbing_and_the_process_alone():
+    found = {
+        str(file.relative_to(PACKAGE)): structref_imports(text) + import_time_side_effects(text)
+        for file in sorted((PACKAGE / "papers").rglob("*.py"))
+        if (text := file.read_text())
+    }
+    assert {k: v for k, v in found.items() if v} == {}
