@@ -94,6 +94,8 @@ def sole_grid(
 
 #: ``userdata`` slots after a sole's points: its wrench of the last step (force, torque).
 WRENCH_SLOTS = 6
+#: A wrench's parts: force [N], torque [N m].
+FORCE, TORQUE = slice(0, 3), slice(3, 6)
 
 
 @dataclass
@@ -101,6 +103,33 @@ class _Sole:
     body: int
     points: np.ndarray  # (n, 3) in the body frame [m]
     offset: int  # first userdata slot of this sole's state
+
+
+class SoleLayout(NamedTuple):
+    """Every sole of a model stacked for one compiled call (:func:`apply_law`).
+
+    Attributes:
+        bodies: each sole's body id, (s,).
+        points: all soles' contact points in their bodies' frames [m], (n, 3).
+        first: sole j's points are ``points[first[j]:first[j + 1]]``, (s + 1,).
+        offsets: each sole's first ``userdata`` slot, (s,).
+    """
+
+    bodies: np.ndarray
+    points: np.ndarray
+    first: np.ndarray
+    offsets: np.ndarray
+
+    @classmethod
+    def of(cls, soles: list[_Sole]) -> SoleLayout:
+        """The layout of ``soles``, in their order."""
+        counts = [len(sole.points) for sole in soles]
+        return cls(
+            bodies=np.array([sole.body for sole in soles], dtype=np.int64),
+            points=np.concatenate([sole.points for sole in soles]).reshape(-1, 3),
+            first=np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+            offsets=np.array([sole.offset for sole in soles], dtype=np.int64),
+        )
 
 
 @dataclass
@@ -120,6 +149,12 @@ class GroundContact:
     points: Mapping[str, np.ndarray]
     offset: int = 0
     soles: list[_Sole] = field(init=False)
+    _layout: SoleLayout = field(init=False, repr=False)
+    _params: np.ndarray = field(init=False, repr=False)
+    _velocities: np.ndarray = field(init=False, repr=False)
+    _wrench_rows: np.ndarray = field(init=False, repr=False)
+    _velocity_rows: list[np.ndarray] = field(init=False, repr=False)
+    _wrenches: list[tuple[np.ndarray, np.ndarray]] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         self.soles = []
@@ -133,6 +168,22 @@ class GroundContact:
                 f"the contact law needs {slot} userdata slots; the model has "
                 f"{self.model.nuserdata} (set nuserdata when building the scene)"
             )
+        self._layout = SoleLayout.of(self.soles)
+        law = self.law
+        self._params = np.array(
+            [
+                law.stiffness,
+                law.velocity_scale,
+                law.tangential_stiffness,
+                law.tangential_damping,
+                law.friction,
+            ]
+        )
+        # Per sole: its velocity (ω, v) and its wrench (force, moment about its CoM).
+        self._velocities = np.zeros((len(self.soles), 6))
+        self._wrench_rows = np.zeros((len(self.soles), 6))
+        self._velocity_rows = list(self._velocities)
+        self._wrenches = [(row[FORCE], row[TORQUE]) for row in self._wrench_rows]
 
     @staticmethod
     def userdata_size(points: Mapping[str, np.ndarray]) -> int:
@@ -159,45 +210,23 @@ class GroundContact:
         """Add every sole's contact force to ``data.qfrc_passive`` and advance the anchors.
 
         Called from MuJoCo's passive stage: positions (``xpos``, ``xmat``, ``xipos``) and
-        velocities of this step are current.
+        velocities of this step are current. One compiled call (:func:`apply_law`) runs the
+        law on every sole; MuJoCo's own functions give the bodies' velocities before it and
+        apply the touching soles' wrenches after it.
         """
-        law = self.law
-        params = np.array(
-            [
-                law.stiffness,
-                law.velocity_scale,
-                law.tangential_stiffness,
-                law.tangential_damping,
-                law.friction,
-            ]
-        )
-        vel6 = np.empty(6)
-        wrench = np.empty(6)
-        for sole in self.soles:
+        model, wrenches = self.model, self._wrenches
+        for sole, velocity in zip(self.soles, self._velocity_rows, strict=True):
             # The body frame's (angular, linear) velocity at its origin, in world axes.
-            mujoco.mj_objectVelocity(
-                self.model, data, mujoco.mjtObj.mjOBJ_XBODY, sole.body, vel6, 0
-            )
-            n = len(sole.points)
-            state = data.userdata[sole.offset : sole.offset + 3 * n].reshape(n, 3)
-            com = data.xipos[sole.body]
-            touching = sole_wrench(
-                SoleKinematics(data.xpos[sole.body], data.xmat[sole.body], vel6, com),
-                sole.points,
-                state,
-                params,
-                wrench,
-            )
-            recorded = data.userdata[sole.offset + 3 * n : sole.offset + 3 * n + WRENCH_SLOTS]
-            if touching:
-                mujoco.mj_applyFT(
-                    self.model, data, wrench[:3], wrench[3:], com, sole.body, data.qfrc_passive
-                )
-                # The torque about the world origin: τ_o = τ_c + c × f.
-                recorded[:3] = wrench[:3]
-                recorded[3:] = wrench[3:] + np.cross(com, wrench[:3])
-            else:
-                recorded[:] = 0.0
+            mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_XBODY, sole.body, velocity, 0)
+        touching = apply_law(
+            self._layout, data.xpos, data.xmat, data.xipos, self._velocities, data.userdata,
+            self._params, self._wrench_rows,
+        )  # fmt: skip
+        for sole, wrench, touches in zip(self.soles, wrenches, touching, strict=True):
+            if touches:
+                force, torque = wrench
+                com = data.xipos[sole.body]
+                mujoco.mj_applyFT(model, data, force, torque, com, sole.body, data.qfrc_passive)
 
 
 class SoleKinematics(NamedTuple):
@@ -279,6 +308,53 @@ def sole_wrench(
         wrench[3] += dy * fz - dz * fy
         wrench[4] += dz * fx - dx * fz
         wrench[5] += dx * fy - dy * fx
+    return touching
+
+
+@numba.njit(cache=True)
+def apply_law(
+    layout: SoleLayout,
+    xpos: np.ndarray,
+    xmat: np.ndarray,
+    xipos: np.ndarray,
+    velocities: np.ndarray,
+    userdata: np.ndarray,
+    params: np.ndarray,
+    wrenches: np.ndarray,
+) -> np.ndarray:
+    """The law on every sole of ``layout`` (:func:`sole_wrench`), one physics step.
+
+    Args:
+        layout: the soles.
+        xpos, xmat, xipos: ``MjData``'s body origins, orientations and centres of mass.
+        velocities: each sole body's (ω, v) at its origin, world axes, (s, 6).
+        userdata: ``MjData.userdata``: the anchors are advanced in place, and each sole's
+            recorded wrench (force, torque about the world origin) is written.
+        params: (k, v₀, k_t, b_t, μ).
+        wrenches: out, each sole's (force [N], moment about its CoM [N m]), (s, 6).
+
+    Returns:
+        Whether each sole touches the ground, (s,).
+    """
+    n_soles = layout.bodies.shape[0]
+    touching = np.zeros(n_soles, dtype=np.bool_)
+    for j in range(n_soles):
+        body, offset = layout.bodies[j], layout.offsets[j]
+        points = layout.points[layout.first[j] : layout.first[j + 1]]
+        n = points.shape[0]
+        state = userdata[offset : offset + 3 * n].reshape(n, 3)
+        com = xipos[body]
+        kinematics = SoleKinematics(xpos[body], xmat[body], velocities[j], com)
+        wrench = wrenches[j]
+        touching[j] = sole_wrench(kinematics, points, state, params, wrench)
+        recorded = userdata[offset + 3 * n : offset + 3 * n + WRENCH_SLOTS]
+        if touching[j]:
+            # The torque about the world origin: τ_o = τ_c + c × f.
+            f = wrench[FORCE]
+            recorded[FORCE] = f
+            recorded[TORQUE] = wrench[TORQUE] + np.cross(com, f)
+        else:
+            recorded[:] = 0.0
     return touching
 
 
