@@ -35,13 +35,17 @@ foot would be held twice.
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Iterator, Mapping
+import ctypes
+import functools
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import NamedTuple
 
 import mujoco
 import numba
 import numpy as np
+from numba import types
 
 
 @dataclass(frozen=True)
@@ -155,6 +159,7 @@ class GroundContact:
     _wrench_rows: np.ndarray = field(init=False, repr=False)
     _velocity_rows: list[np.ndarray] = field(init=False, repr=False)
     _wrenches: list[tuple[np.ndarray, np.ndarray]] = field(init=False, repr=False)
+    _native: Callable | None = field(init=False, repr=False, default=None)
 
     def __post_init__(self) -> None:
         self.soles = []
@@ -359,10 +364,13 @@ def apply_law(
 
 
 # --------------------------------------------------------------------------------------
-# MuJoCo's passive callback is one per process: it dispatches to each model's law. It is set
-# only while a law is applied: MuJoCo also calls it while it compiles a model, when the Python
-# bindings cannot hand the model over (the compile then fails), so no model may be compiled
-# inside :func:`applied`.
+# MuJoCo's passive callback is one per process. With one law applied it is the law compiled
+# as a C function (:func:`native_callback`): MuJoCo calls it directly, no Python runs in a
+# physics step. With several laws at once (models stepped side by side in one process), a
+# Python function dispatches to each model's :meth:`GroundContact.apply`. Either runs the
+# same compiled law (:func:`apply_law`). The callback is set only while a law is applied:
+# MuJoCo also calls it while it compiles a model, when the Python bindings cannot hand the
+# model over (the compile then fails), so no model may be compiled inside :func:`applied`.
 
 _LAWS: dict[int, GroundContact] = {}
 
@@ -371,6 +379,123 @@ def _passive(model: mujoco.MjModel, data: mujoco.MjData) -> None:
     contact = _LAWS.get(id(model))
     if contact is not None:
         contact.apply(data)
+
+
+class _DataWords(NamedTuple):
+    """Where ``mjData`` keeps the pointers of the arrays the law reads and writes: each one's
+    index among the struct's 8-byte words (the same for every ``mjData`` of this MuJoCo)."""
+
+    xpos: int
+    xmat: int
+    xipos: int
+    userdata: int
+    qfrc_passive: int
+
+
+@functools.cache
+def _data_words() -> _DataWords:
+    """Find the pointer fields of ``mjData``: the struct's words, read from its start up to
+    each field, hold the address the Python bindings give for that array."""
+    model = mujoco.MjModel.from_xml_string(
+        '<mujoco><size nuserdata="1"/><worldbody><body><freejoint/><geom size="1"/></body>'
+        "</worldbody></mujoco>"
+    )
+    data = mujoco.MjData(model)
+    words = ctypes.cast(data._address, ctypes.POINTER(ctypes.c_uint64))
+
+    def word(array: np.ndarray) -> int:
+        address, i = array.ctypes.data, 0
+        while words[i] != address:  # a field of the struct: found before its end
+            i += 1
+        return i
+
+    return _DataWords(*(word(getattr(data, name)) for name in _DataWords._fields))
+
+
+@functools.cache
+def _mujoco_functions() -> tuple[Callable, Callable]:
+    """MuJoCo's ``mj_objectVelocity`` and ``mj_applyFT`` as C functions the law can call."""
+    (library,) = Path(mujoco.__file__).parent.glob("libmujoco.so*")
+    lib = ctypes.CDLL(str(library))
+    vector = ctypes.POINTER(ctypes.c_double)
+    data = ctypes.POINTER(vector)  # mjData*, read as its words (see `_DataWords`)
+    object_velocity = lib.mj_objectVelocity
+    object_velocity.argtypes = [
+        ctypes.c_void_p,
+        data,
+        ctypes.c_int,
+        ctypes.c_int,
+        vector,
+        ctypes.c_int,
+    ]
+    object_velocity.restype = None
+    apply_ft = lib.mj_applyFT
+    apply_ft.argtypes = [ctypes.c_void_p, data, vector, vector, vector, ctypes.c_int, vector]
+    apply_ft.restype = None
+    return object_velocity, apply_ft
+
+
+def native_callback(contact: GroundContact) -> Callable:
+    """``contact``'s law as a C passive-force callback (a ctypes function pointer, which
+    MuJoCo's Python bindings install as the C callback itself): :meth:`GroundContact.apply`
+    without Python, for ``contact.model`` only (another model's step is left alone).
+
+    Compiled per law (its soles and parameters are constants in it), in about a second.
+    """
+    model = contact.model
+    model_address, nbody, nuserdata = model._address, model.nbody, model.nuserdata
+    bodies, points, first, offsets = contact._layout
+    params, n_soles = contact._params, len(contact.soles)
+    words = _data_words()
+    object_velocity, apply_ft = _mujoco_functions()
+    xbody = int(mujoco.mjtObj.mjOBJ_XBODY)
+
+    @numba.cfunc(types.void(types.voidptr, types.CPointer(types.CPointer(types.float64))))
+    def passive(m, d):  # noqa: ANN001, ANN202 (C types)
+        if numba.carray(m, 1, np.uint8).ctypes.data != model_address:
+            return
+        xipos = numba.carray(d[words.xipos], (nbody, 3))
+        velocities = np.empty((n_soles, 6))
+        for j in range(n_soles):
+            object_velocity(m, d, xbody, bodies[j], velocities[j].ctypes, 0)
+        wrenches = np.empty((n_soles, 6))
+        touching = apply_law(
+            SoleLayout(bodies, points, first, offsets),
+            numba.carray(d[words.xpos], (nbody, 3)),
+            numba.carray(d[words.xmat], (nbody, 9)),
+            xipos,
+            velocities,
+            numba.carray(d[words.userdata], (nuserdata,)),
+            params,
+            wrenches,
+        )
+        for j in range(n_soles):
+            if touching[j]:
+                wrench, com = wrenches[j], xipos[bodies[j]]
+                force, torque = wrench[FORCE], wrench[TORQUE]
+                apply_ft(
+                    m, d, force.ctypes, torque.ctypes, com.ctypes, bodies[j], d[words.qfrc_passive]
+                )
+
+    return passive.ctypes
+
+
+def _install() -> None:
+    """Set MuJoCo's passive callback for the laws applied now."""
+    if not _LAWS:
+        mujoco.set_mjcb_passive(None)
+    elif len(_LAWS) == 1:
+        (contact,) = _LAWS.values()
+        if contact._native is None:
+            contact._native = native_callback(contact)
+        mujoco.set_mjcb_passive(contact._native)
+    else:
+        mujoco.set_mjcb_passive(_passive)
+
+
+def _ours(callback: object) -> bool:
+    """Whether ``callback`` is one this module installed."""
+    return callback is _passive or any(c._native is callback for c in _LAWS.values())
 
 
 #: The MJCF ``<custom><numeric>`` that carries a model's law: (k, v₀, k_t, b_t, μ). A robot
@@ -426,13 +551,12 @@ def applied(contact: GroundContact) -> Iterator[None]:
     runner and the replay call only ``mj_step1``/``mj_step2`` or ``mj_step`` in it)."""
     key = id(contact.model)
     previous = mujoco.get_mjcb_passive()
-    if previous is not None and previous is not _passive:
+    if previous is not None and not _ours(previous):
         raise RuntimeError("another passive-force callback is installed in this process")
     _LAWS[key] = contact
-    mujoco.set_mjcb_passive(_passive)
+    _install()
     try:
         yield
     finally:
         _LAWS.pop(key, None)
-        if not _LAWS:
-            mujoco.set_mjcb_passive(None)
+        _install()
