@@ -159,7 +159,6 @@ class GroundContact:
     _wrench_rows: np.ndarray = field(init=False, repr=False)
     _velocity_rows: list[np.ndarray] = field(init=False, repr=False)
     _wrenches: list[tuple[np.ndarray, np.ndarray]] = field(init=False, repr=False)
-    _native: Callable | None = field(init=False, repr=False, default=None)
 
     def __post_init__(self) -> None:
         self.soles = []
@@ -412,47 +411,84 @@ def _data_words() -> _DataWords:
     return _DataWords(*(word(getattr(data, name)) for name in _DataWords._fields))
 
 
+class _ModelInts(NamedTuple):
+    """Where ``mjModel`` keeps two of its sizes: each one's index among its 4-byte words."""
+
+    nbody: int
+    nuserdata: int
+
+
+@functools.cache
+def _model_ints() -> _ModelInts:
+    """Find ``mjModel.nbody`` and ``nuserdata``: the word that holds each size in three
+    models whose sizes all differ, read from the struct's start (its sizes come first)."""
+    probes = [
+        mujoco.MjModel.from_xml_string(
+            f'<mujoco><size nuserdata="{1000 + 7 * n}"/><worldbody>'
+            + "<body><geom size='1'/>" * n
+            + "</body>" * n
+            + "</worldbody></mujoco>"
+        )
+        for n in (3, 5, 8)
+    ]
+    words = [ctypes.cast(m._address, ctypes.POINTER(ctypes.c_int32)) for m in probes]
+
+    def word(name: str) -> int:
+        i = 0
+        while any(w[i] != getattr(m, name) for w, m in zip(words, probes, strict=True)):
+            i += 1
+        return i
+
+    return _ModelInts(*(word(name) for name in _ModelInts._fields))
+
+
 @functools.cache
 def _mujoco_functions() -> tuple[Callable, Callable]:
     """MuJoCo's ``mj_objectVelocity`` and ``mj_applyFT`` as C functions the law can call."""
     (library,) = Path(mujoco.__file__).parent.glob("libmujoco.so*")
     lib = ctypes.CDLL(str(library))
     vector = ctypes.POINTER(ctypes.c_double)
+    model = ctypes.POINTER(ctypes.c_int32)  # mjModel*, read as its words (see `_ModelInts`)
     data = ctypes.POINTER(vector)  # mjData*, read as its words (see `_DataWords`)
     object_velocity = lib.mj_objectVelocity
-    object_velocity.argtypes = [
-        ctypes.c_void_p,
-        data,
-        ctypes.c_int,
-        ctypes.c_int,
-        vector,
-        ctypes.c_int,
-    ]
+    object_velocity.argtypes = [model, data, ctypes.c_int, ctypes.c_int, vector, ctypes.c_int]
     object_velocity.restype = None
     apply_ft = lib.mj_applyFT
-    apply_ft.argtypes = [ctypes.c_void_p, data, vector, vector, vector, ctypes.c_int, vector]
+    apply_ft.argtypes = [model, data, vector, vector, vector, ctypes.c_int, vector]
     apply_ft.restype = None
     return object_velocity, apply_ft
+
+
+#: The compiled callbacks of this process, by law (its soles, parameters and model sizes).
+_NATIVE: dict[bytes, Callable] = {}
 
 
 def native_callback(contact: GroundContact) -> Callable:
     """``contact``'s law as a C passive-force callback (a ctypes function pointer, which
     MuJoCo's Python bindings install as the C callback itself): :meth:`GroundContact.apply`
-    without Python, for ``contact.model`` only (another model's step is left alone).
+    without Python in a physics step.
 
-    Compiled per law (its soles and parameters are constants in it), in about a second.
+    Its soles and parameters are constants in it: compiled once per law and process (about a
+    second), for any model of the same sizes (a run's and its replay's scene); a model of
+    other sizes (one compiled meanwhile) is left alone.
     """
     model = contact.model
-    model_address, nbody, nuserdata = model._address, model.nbody, model.nuserdata
+    nbody, nuserdata = model.nbody, model.nuserdata
     bodies, points, first, offsets = contact._layout
     params, n_soles = contact._params, len(contact.soles)
-    words = _data_words()
+    arrays = (params, *contact._layout, np.array([nbody, nuserdata]))
+    key = b"|".join(a.tobytes() for a in arrays)
+    if key in _NATIVE:
+        return _NATIVE[key]
+    words, sizes = _data_words(), _model_ints()
     object_velocity, apply_ft = _mujoco_functions()
     xbody = int(mujoco.mjtObj.mjOBJ_XBODY)
 
-    @numba.cfunc(types.void(types.voidptr, types.CPointer(types.CPointer(types.float64))))
+    @numba.cfunc(
+        types.void(types.CPointer(types.int32), types.CPointer(types.CPointer(types.float64)))
+    )
     def passive(m, d):  # noqa: ANN001, ANN202 (C types)
-        if numba.carray(m, 1, np.uint8).ctypes.data != model_address:
+        if m[sizes.nbody] != nbody or m[sizes.nuserdata] != nuserdata:
             return
         xipos = numba.carray(d[words.xipos], (nbody, 3))
         velocities = np.empty((n_soles, 6))
@@ -473,10 +509,10 @@ def native_callback(contact: GroundContact) -> Callable:
             if touching[j]:
                 wrench, com = wrenches[j], xipos[bodies[j]]
                 force, torque = wrench[FORCE], wrench[TORQUE]
-                apply_ft(
-                    m, d, force.ctypes, torque.ctypes, com.ctypes, bodies[j], d[words.qfrc_passive]
-                )
+                qfrc = d[words.qfrc_passive]
+                apply_ft(m, d, force.ctypes, torque.ctypes, com.ctypes, bodies[j], qfrc)
 
+    _NATIVE[key] = passive.ctypes
     return passive.ctypes
 
 
@@ -486,16 +522,14 @@ def _install() -> None:
         mujoco.set_mjcb_passive(None)
     elif len(_LAWS) == 1:
         (contact,) = _LAWS.values()
-        if contact._native is None:
-            contact._native = native_callback(contact)
-        mujoco.set_mjcb_passive(contact._native)
+        mujoco.set_mjcb_passive(native_callback(contact))
     else:
         mujoco.set_mjcb_passive(_passive)
 
 
 def _ours(callback: object) -> bool:
     """Whether ``callback`` is one this module installed."""
-    return callback is _passive or any(c._native is callback for c in _LAWS.values())
+    return callback is _passive or any(c is callback for c in _NATIVE.values())
 
 
 #: The MJCF ``<custom><numeric>`` that carries a model's law: (k, v₀, k_t, b_t, μ). A robot
