@@ -24,10 +24,14 @@ The forces are explicit (computed from the state before the step, like MuJoCo's 
 springs and like the lab's simulator): stiff springs on light bodies are unstable above a
 timestep. Measured on a 200-point sole landing from 1 cm (``tests/test_contact_law.py``): a
 1 kg body settles at the lab's 0.5 ms and diverges at 1 ms; 6.4 kg (a COMAN leg) and 14 kg
-settle at 1 ms and diverge at 2 ms. Cost: ``benchmarks/contact_law.py`` (two 200-point
-soles: ≈ 40 µs per step on this machine, against ≈ 9 µs for MuJoCo's step of the same
-model). No robot uses the law yet: COMAN's rebuild from its lab's model will (issue
-"Paper II on the lab's own COMAN"). MuJoCo's own constraint must be off between those soles and
+settle at 1 ms and diverge at 2 ms.
+
+Cost: with one law applied, MuJoCo calls the law compiled as a C function
+(:func:`native_callback`; no Python in a physics step), which skips a sole whose points are
+all above the ground (:func:`lowest_point`, a box around them) and runs the point law on the
+others. ``benchmarks/contact_law.py`` (two 200-point soles standing): the law adds ≈ 9 µs
+to MuJoCo's ≈ 4 µs step on this machine (≈ 40 µs as a Python callback before).
+``robots/coman_lab`` (COMAN rebuilt from its lab's model) stands on the law. MuJoCo's own constraint must be off between those soles and
 the ground (the scene gives them ``contype = conaffinity = 0`` against the floor), else the
 foot would be held twice.
 """
@@ -117,12 +121,15 @@ class SoleLayout(NamedTuple):
         points: all soles' contact points in their bodies' frames [m], (n, 3).
         first: sole j's points are ``points[first[j]:first[j + 1]]``, (s + 1,).
         offsets: each sole's first ``userdata`` slot, (s,).
+        low, high: each sole's box around its points in its body's frame [m], (s, 3).
     """
 
     bodies: np.ndarray
     points: np.ndarray
     first: np.ndarray
     offsets: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
 
     @classmethod
     def of(cls, soles: list[_Sole]) -> SoleLayout:
@@ -133,6 +140,8 @@ class SoleLayout(NamedTuple):
             points=np.concatenate([sole.points for sole in soles]).reshape(-1, 3),
             first=np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
             offsets=np.array([sole.offset for sole in soles], dtype=np.int64),
+            low=np.array([sole.points.min(axis=0) for sole in soles]).reshape(-1, 3),
+            high=np.array([sole.points.max(axis=0) for sole in soles]).reshape(-1, 3),
         )
 
 
@@ -315,6 +324,25 @@ def sole_wrench(
     return touching
 
 
+#: A sole whose box is this high above the ground [m] skips the point law: every point is
+#: above it, far beyond the rounding of a point's height (≈ 1e-16 m).
+AIRBORNE = 1e-9
+
+
+@numba.njit(cache=True)
+def lowest_point(
+    origin: np.ndarray, rotation: np.ndarray, low: np.ndarray, high: np.ndarray
+) -> float:
+    """A lower bound of the height of a sole's points: the lowest corner of their box
+    [low, high] (body frame) in the world, z = o_z + Σ_k R_zk p_k [m] (``rotation``
+    row-major, as ``xmat``); the broad phase of :func:`apply_law`."""
+    z = origin[2]
+    for k in range(3):
+        r = rotation[6 + k]  # R_zk: the world height of the body's axis k
+        z += min(r * low[k], r * high[k])
+    return z
+
+
 @numba.njit(cache=True)
 def apply_law(
     layout: SoleLayout,
@@ -348,9 +376,13 @@ def apply_law(
         n = points.shape[0]
         state = userdata[offset : offset + 3 * n].reshape(n, 3)
         com = xipos[body]
-        kinematics = SoleKinematics(xpos[body], xmat[body], velocities[j], com)
         wrench = wrenches[j]
-        touching[j] = sole_wrench(kinematics, points, state, params, wrench)
+        if lowest_point(xpos[body], xmat[body], layout.low[j], layout.high[j]) > AIRBORNE:
+            state[:] = 0.0  # every point above the ground: every anchor released
+            wrench[:] = 0.0
+        else:
+            kinematics = SoleKinematics(xpos[body], xmat[body], velocities[j], com)
+            touching[j] = sole_wrench(kinematics, points, state, params, wrench)
         recorded = userdata[offset + 3 * n : offset + 3 * n + WRENCH_SLOTS]
         if touching[j]:
             # The torque about the world origin: τ_o = τ_c + c × f.
@@ -474,7 +506,7 @@ def native_callback(contact: GroundContact) -> Callable:
     """
     model = contact.model
     nbody, nuserdata = model.nbody, model.nuserdata
-    bodies, points, first, offsets = contact._layout
+    bodies, points, first, offsets, low, high = contact._layout
     params, n_soles = contact._params, len(contact.soles)
     arrays = (params, *contact._layout, np.array([nbody, nuserdata]))
     key = b"|".join(a.tobytes() for a in arrays)
@@ -496,7 +528,7 @@ def native_callback(contact: GroundContact) -> Callable:
             object_velocity(m, d, xbody, bodies[j], velocities[j].ctypes, 0)
         wrenches = np.empty((n_soles, 6))
         touching = apply_law(
-            SoleLayout(bodies, points, first, offsets),
+            SoleLayout(bodies, points, first, offsets, low, high),
             numba.carray(d[words.xpos], (nbody, 3)),
             numba.carray(d[words.xmat], (nbody, 9)),
             xipos,
