@@ -26,8 +26,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Iterable
-from dataclasses import astuple, dataclass, field, fields
-from dataclasses import replace as dataclasses_replace
+from dataclasses import astuple, dataclass, field, fields, replace
 from functools import reduce
 from operator import add
 from typing import Annotated, Literal, NamedTuple
@@ -573,7 +572,7 @@ class TimeProjectionController(Controller):
         )
         if k_eff > 0:  # the sign needs the IK at the start posture, so the setup first
             sign = self._ankle_forward_sign(setup)
-            setup = dataclasses_replace(setup, ankle_rad_per_nm=sign / k_eff)
+            setup = replace(setup, ankle_rad_per_nm=sign / k_eff)
         return setup
 
     def _spring_offsets(self, robot: Robot, joints: LegJoints) -> np.ndarray:
