@@ -4,18 +4,23 @@ Two COMAN-sized soles on the lab's 1 cm grid (200 points each) stand on the grou
 14 kg block each; the script times MuJoCo's ``mj_step`` with the law applied against the same
 model stepping without it (its own contact then off: the block falls freely, which costs
 MuJoCo about the same). The difference is what the law adds to every 0.5 ms step of a run.
+Then ``robots/coman_lab`` standing at its home keyframe on the law, at Paper II's 0.25 ms:
+the compiled callback (one law applied, no Python in a step), the Python dispatcher (two
+laws applied at once; what every step paid before) and no law.
 
-Run: ``python benchmarks/contact_law.py`` (a few seconds). Absolute times drift with the
+Run: ``python benchmarks/contact_law.py`` (a minute). Absolute times drift with the
 machine's load; compare the columns of one run, alternating.
 """
 
 from __future__ import annotations
 
+import contextlib
 import time
 
 import mujoco
 
-from walkrepro.sim.contact_law import GroundContact, PointContactLaw, applied, sole_grid
+from walkrepro.sim.contact_law import GroundContact, PointContactLaw, applied, from_model, sole_grid
+from walkrepro.sim.robot import load_robot
 
 LAB = PointContactLaw(27818.0, 0.3, 1e4, 10.0, 0.9)
 POINTS = sole_grid((-0.095, 0.095), (-0.045, 0.045), -0.02, 0.01)
@@ -65,6 +70,27 @@ def _time(m: mujoco.MjModel, d: mujoco.MjData, steps: int) -> float:
     for _ in range(steps):
         mujoco.mj_step(m, d)
     return (time.perf_counter() - start) / steps * 1e6
+
+
+def coman_step(mode: str, steps: int = 2000) -> float:
+    """Mean wall time of one mj_step [µs] of coman_lab standing at home after 0.25 s.
+
+    ``mode``: "compiled" (its law alone), "dispatcher" (its law and a second one) or "none".
+    """
+    robot = load_robot("coman_lab")
+    m = robot.mj_model
+    m.opt.timestep = 0.00025  # Paper II's specs' physics step
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key("home").id)
+    d.ctrl[:] = robot.home_ctrl
+    with contextlib.ExitStack() as laws:
+        if mode != "none":
+            laws.enter_context(applied(from_model(m)))
+        if mode == "dispatcher":
+            laws.enter_context(applied(GroundContact(model(), LAB, SOLES)))
+        for _ in range(1000):
+            mujoco.mj_step(m, d)
+        return _time(m, d, steps)
 
 
 if __name__ == "__main__":
