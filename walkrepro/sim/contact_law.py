@@ -412,6 +412,11 @@ def _passive(model: mujoco.MjModel, data: mujoco.MjData) -> None:
         contact.apply(data)
 
 
+#: How far into ``mjData`` / ``mjModel`` a field is looked for [words]: MuJoCo 4.0's
+#: ``mjData`` keeps the law's pointers ≈ 20,000 words in (after its solver statistics).
+_STRUCT_WORDS = 1 << 16
+
+
 class _DataWords(NamedTuple):
     """Where ``mjData`` keeps the pointers of the arrays the law reads and writes: each one's
     index among the struct's 8-byte words (the same for every ``mjData`` of this MuJoCo)."""
@@ -438,6 +443,8 @@ def _data_words() -> _DataWords:
         address, i = array.ctypes.data, 0
         while words[i] != address:  # a field of the struct: found before its end
             i += 1
+            if i == _STRUCT_WORDS:
+                raise LookupError("mjData keeps its arrays' pointers elsewhere")
         return i
 
     return _DataWords(*(word(getattr(data, name)) for name in _DataWords._fields))
@@ -469,6 +476,8 @@ def _model_ints() -> _ModelInts:
         i = 0
         while any(w[i] != getattr(m, name) for w, m in zip(words, probes, strict=True)):
             i += 1
+            if i == _STRUCT_WORDS:
+                raise LookupError(f"mjModel keeps {name} elsewhere")
         return i
 
     return _ModelInts(*(word(name) for name in _ModelInts._fields))
@@ -554,7 +563,10 @@ def _install() -> None:
         mujoco.set_mjcb_passive(None)
     elif len(_LAWS) == 1:
         (contact,) = _LAWS.values()
-        mujoco.set_mjcb_passive(native_callback(contact))
+        try:
+            mujoco.set_mjcb_passive(native_callback(contact))
+        except LookupError:  # a MuJoCo whose structs the compiled law cannot read: Python
+            mujoco.set_mjcb_passive(_passive)
     else:
         mujoco.set_mjcb_passive(_passive)
 
