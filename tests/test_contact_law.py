@@ -6,6 +6,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from walkrepro.sim import contact_law
 from walkrepro.sim.contact_law import GroundContact, PointContactLaw, applied, applied_to, sole_grid
 
 #: The lab's parameters (NicolasVdN/CoManRobotran @ 0207863b: simu_def.h, user_ExtForces.c).
@@ -123,6 +124,41 @@ def test_split_steps_and_a_replay_with_mj_step_are_bit_identical() -> None:
                 mujoco.mj_copyData(saved, model, replay)
                 replay = saved
     assert runner.userdata[2 : 3 * len(POINTS) : 3].sum() == len(POINTS)  # every point anchored
+
+
+def test_the_compiled_callback_and_the_python_dispatcher_step_alike() -> None:
+    """The law compiled as MuJoCo's C callback (one law applied) and the Python dispatcher
+    (two laws at once) give the same states and anchors bit for bit, sliding included."""
+    model, other = block(14.0), block(6.4)
+    foot = model.body("foot").id
+    pull = 1.2 * LAB.friction * 14.0 * G
+    native, python = mujoco.MjData(model), mujoco.MjData(model)
+    law = GroundContact(model, LAB, {"foot": POINTS})
+    for step in range(1500):
+        for data in (native, python):
+            data.xfrc_applied[foot, 0] = pull if step > 600 else 0.0
+        with applied(law):
+            assert mujoco.get_mjcb_passive() is not contact_law._passive
+            mujoco.mj_step(model, native)
+            with applied(GroundContact(other, LAB, {"foot": POINTS})):
+                assert mujoco.get_mjcb_passive() is contact_law._passive
+                mujoco.mj_step(model, python)
+        assert np.array_equal(native.qpos, python.qpos)
+        assert np.array_equal(native.userdata, python.userdata)
+    assert native.qvel[0] > 0.1  # it slid
+
+
+def test_the_compiled_callback_leaves_a_model_of_other_sizes_alone() -> None:
+    """A model of other sizes stepped while a law is applied (as one compiled meanwhile would
+    be) gets no force from it."""
+    free = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><body pos="0 0 -1"><freejoint/><geom size="0.1"/></body>'
+        "</worldbody></mujoco>"
+    )
+    data = mujoco.MjData(free)
+    with applied(GroundContact(block(1.0), LAB, {"foot": POINTS})):
+        mujoco.mj_step(free, data)
+    assert not data.qfrc_passive.any()
 
 
 @pytest.mark.parametrize(("mass", "stable_up_to"), [(1.0, 0.0005), (6.4, 0.001), (14.0, 0.001)])

@@ -290,3 +290,15 @@ def test_series_compensation_adds_the_servo_yield() -> None:
         assert abs(offset_spring) > 1e-3
         assert offset_series == pytest.approx(ratio * offset_spring, rel=1e-6)
     np.testing.assert_allclose(a.ctrl[[0, 1, 5]], b.ctrl[[0, 1, 5]], atol=1e-12)
+
+
+def test_locate_interpolates_the_tables_linearly() -> None:
+    """`locate` places a phase time on the tables' grid: a sample gives its own gain, past the end the last."""
+    _, ctrl = _controller()
+    tp = ctrl.tp
+    n = len(tp.phases)
+    assert tp.locate(tp.phases[3]) == (3, pytest.approx(0.0))
+    i, a = tp.locate(0.5 * (tp.phases[3] + tp.phases[4]))
+    assert i == 3 and a == pytest.approx(0.5)
+    assert tp.locate(tp.step_time) == (n - 2, 1.0)
+    assert tp.locate(-1.0) == (0, 0.0)

@@ -24,10 +24,14 @@ The forces are explicit (computed from the state before the step, like MuJoCo's 
 springs and like the lab's simulator): stiff springs on light bodies are unstable above a
 timestep. Measured on a 200-point sole landing from 1 cm (``tests/test_contact_law.py``): a
 1 kg body settles at the lab's 0.5 ms and diverges at 1 ms; 6.4 kg (a COMAN leg) and 14 kg
-settle at 1 ms and diverge at 2 ms. Cost: ``benchmarks/contact_law.py`` (two 200-point
-soles: ≈ 40 µs per step on this machine, against ≈ 9 µs for MuJoCo's step of the same
-model). No robot uses the law yet: COMAN's rebuild from its lab's model will (issue
-"Paper II on the lab's own COMAN"). MuJoCo's own constraint must be off between those soles and
+settle at 1 ms and diverge at 2 ms.
+
+Cost: with one law applied, MuJoCo calls the law compiled as a C function
+(:func:`native_callback`; no Python in a physics step), which skips a sole whose points are
+all above the ground (:func:`lowest_point`, a box around them) and runs the point law on the
+others. ``benchmarks/contact_law.py`` (two 200-point soles standing): the law adds ≈ 9 µs
+to MuJoCo's ≈ 4 µs step on this machine (≈ 40 µs as a Python callback before).
+``robots/coman_lab`` (COMAN rebuilt from its lab's model) stands on the law. MuJoCo's own constraint must be off between those soles and
 the ground (the scene gives them ``contype = conaffinity = 0`` against the floor), else the
 foot would be held twice.
 """
@@ -35,13 +39,17 @@ foot would be held twice.
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Iterator, Mapping
+import ctypes
+import functools
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import NamedTuple
 
 import mujoco
 import numba
 import numpy as np
+from numba import types
 
 
 @dataclass(frozen=True)
@@ -94,6 +102,8 @@ def sole_grid(
 
 #: ``userdata`` slots after a sole's points: its wrench of the last step (force, torque).
 WRENCH_SLOTS = 6
+#: A wrench's parts: force [N], torque [N m].
+FORCE, TORQUE = slice(0, 3), slice(3, 6)
 
 
 @dataclass
@@ -101,6 +111,38 @@ class _Sole:
     body: int
     points: np.ndarray  # (n, 3) in the body frame [m]
     offset: int  # first userdata slot of this sole's state
+
+
+class SoleLayout(NamedTuple):
+    """Every sole of a model stacked for one compiled call (:func:`apply_law`).
+
+    Attributes:
+        bodies: each sole's body id, (s,).
+        points: all soles' contact points in their bodies' frames [m], (n, 3).
+        first: sole j's points are ``points[first[j]:first[j + 1]]``, (s + 1,).
+        offsets: each sole's first ``userdata`` slot, (s,).
+        low, high: each sole's box around its points in its body's frame [m], (s, 3).
+    """
+
+    bodies: np.ndarray
+    points: np.ndarray
+    first: np.ndarray
+    offsets: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+
+    @classmethod
+    def of(cls, soles: list[_Sole]) -> SoleLayout:
+        """The layout of ``soles``, in their order."""
+        counts = [len(sole.points) for sole in soles]
+        return cls(
+            bodies=np.array([sole.body for sole in soles], dtype=np.int64),
+            points=np.concatenate([sole.points for sole in soles]).reshape(-1, 3),
+            first=np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+            offsets=np.array([sole.offset for sole in soles], dtype=np.int64),
+            low=np.array([sole.points.min(axis=0) for sole in soles]).reshape(-1, 3),
+            high=np.array([sole.points.max(axis=0) for sole in soles]).reshape(-1, 3),
+        )
 
 
 @dataclass
@@ -120,6 +162,12 @@ class GroundContact:
     points: Mapping[str, np.ndarray]
     offset: int = 0
     soles: list[_Sole] = field(init=False)
+    _layout: SoleLayout = field(init=False, repr=False)
+    _params: np.ndarray = field(init=False, repr=False)
+    _velocities: np.ndarray = field(init=False, repr=False)
+    _wrench_rows: np.ndarray = field(init=False, repr=False)
+    _velocity_rows: list[np.ndarray] = field(init=False, repr=False)
+    _wrenches: list[tuple[np.ndarray, np.ndarray]] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         self.soles = []
@@ -133,6 +181,22 @@ class GroundContact:
                 f"the contact law needs {slot} userdata slots; the model has "
                 f"{self.model.nuserdata} (set nuserdata when building the scene)"
             )
+        self._layout = SoleLayout.of(self.soles)
+        law = self.law
+        self._params = np.array(
+            [
+                law.stiffness,
+                law.velocity_scale,
+                law.tangential_stiffness,
+                law.tangential_damping,
+                law.friction,
+            ]
+        )
+        # Per sole: its velocity (ω, v) and its wrench (force, moment about its CoM).
+        self._velocities = np.zeros((len(self.soles), 6))
+        self._wrench_rows = np.zeros((len(self.soles), 6))
+        self._velocity_rows = list(self._velocities)
+        self._wrenches = [(row[FORCE], row[TORQUE]) for row in self._wrench_rows]
 
     @staticmethod
     def userdata_size(points: Mapping[str, np.ndarray]) -> int:
@@ -159,45 +223,23 @@ class GroundContact:
         """Add every sole's contact force to ``data.qfrc_passive`` and advance the anchors.
 
         Called from MuJoCo's passive stage: positions (``xpos``, ``xmat``, ``xipos``) and
-        velocities of this step are current.
+        velocities of this step are current. One compiled call (:func:`apply_law`) runs the
+        law on every sole; MuJoCo's own functions give the bodies' velocities before it and
+        apply the touching soles' wrenches after it.
         """
-        law = self.law
-        params = np.array(
-            [
-                law.stiffness,
-                law.velocity_scale,
-                law.tangential_stiffness,
-                law.tangential_damping,
-                law.friction,
-            ]
-        )
-        vel6 = np.empty(6)
-        wrench = np.empty(6)
-        for sole in self.soles:
+        model, wrenches = self.model, self._wrenches
+        for sole, velocity in zip(self.soles, self._velocity_rows, strict=True):
             # The body frame's (angular, linear) velocity at its origin, in world axes.
-            mujoco.mj_objectVelocity(
-                self.model, data, mujoco.mjtObj.mjOBJ_XBODY, sole.body, vel6, 0
-            )
-            n = len(sole.points)
-            state = data.userdata[sole.offset : sole.offset + 3 * n].reshape(n, 3)
-            com = data.xipos[sole.body]
-            touching = sole_wrench(
-                SoleKinematics(data.xpos[sole.body], data.xmat[sole.body], vel6, com),
-                sole.points,
-                state,
-                params,
-                wrench,
-            )
-            recorded = data.userdata[sole.offset + 3 * n : sole.offset + 3 * n + WRENCH_SLOTS]
-            if touching:
-                mujoco.mj_applyFT(
-                    self.model, data, wrench[:3], wrench[3:], com, sole.body, data.qfrc_passive
-                )
-                # The torque about the world origin: τ_o = τ_c + c × f.
-                recorded[:3] = wrench[:3]
-                recorded[3:] = wrench[3:] + np.cross(com, wrench[:3])
-            else:
-                recorded[:] = 0.0
+            mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_XBODY, sole.body, velocity, 0)
+        touching = apply_law(
+            self._layout, data.xpos, data.xmat, data.xipos, self._velocities, data.userdata,
+            self._params, self._wrench_rows,
+        )  # fmt: skip
+        for sole, wrench, touches in zip(self.soles, wrenches, touching, strict=True):
+            if touches:
+                force, torque = wrench
+                com = data.xipos[sole.body]
+                mujoco.mj_applyFT(model, data, force, torque, com, sole.body, data.qfrc_passive)
 
 
 class SoleKinematics(NamedTuple):
@@ -282,11 +324,84 @@ def sole_wrench(
     return touching
 
 
+#: A sole whose box is this high above the ground [m] skips the point law: every point is
+#: above it, far beyond the rounding of a point's height (≈ 1e-16 m).
+AIRBORNE = 1e-9
+
+
+@numba.njit(cache=True)
+def lowest_point(
+    origin: np.ndarray, rotation: np.ndarray, low: np.ndarray, high: np.ndarray
+) -> float:
+    """A lower bound of the height of a sole's points: the lowest corner of their box
+    [low, high] (body frame) in the world, z = o_z + Σ_k R_zk p_k [m] (``rotation``
+    row-major, as ``xmat``); the broad phase of :func:`apply_law`."""
+    z = origin[2]
+    for k in range(3):
+        r = rotation[6 + k]  # R_zk: the world height of the body's axis k
+        z += min(r * low[k], r * high[k])
+    return z
+
+
+@numba.njit(cache=True)
+def apply_law(
+    layout: SoleLayout,
+    xpos: np.ndarray,
+    xmat: np.ndarray,
+    xipos: np.ndarray,
+    velocities: np.ndarray,
+    userdata: np.ndarray,
+    params: np.ndarray,
+    wrenches: np.ndarray,
+) -> np.ndarray:
+    """The law on every sole of ``layout`` (:func:`sole_wrench`), one physics step.
+
+    Args:
+        layout: the soles.
+        xpos, xmat, xipos: ``MjData``'s body origins, orientations and centres of mass.
+        velocities: each sole body's (ω, v) at its origin, world axes, (s, 6).
+        userdata: ``MjData.userdata``: the anchors are advanced in place, and each sole's
+            recorded wrench (force, torque about the world origin) is written.
+        params: (k, v₀, k_t, b_t, μ).
+        wrenches: out, each sole's (force [N], moment about its CoM [N m]), (s, 6).
+
+    Returns:
+        Whether each sole touches the ground, (s,).
+    """
+    n_soles = layout.bodies.shape[0]
+    touching = np.zeros(n_soles, dtype=np.bool_)
+    for j in range(n_soles):
+        body, offset = layout.bodies[j], layout.offsets[j]
+        points = layout.points[layout.first[j] : layout.first[j + 1]]
+        n = points.shape[0]
+        state = userdata[offset : offset + 3 * n].reshape(n, 3)
+        com = xipos[body]
+        wrench = wrenches[j]
+        if lowest_point(xpos[body], xmat[body], layout.low[j], layout.high[j]) > AIRBORNE:
+            state[:] = 0.0  # every point above the ground: every anchor released
+            wrench[:] = 0.0
+        else:
+            kinematics = SoleKinematics(xpos[body], xmat[body], velocities[j], com)
+            touching[j] = sole_wrench(kinematics, points, state, params, wrench)
+        recorded = userdata[offset + 3 * n : offset + 3 * n + WRENCH_SLOTS]
+        if touching[j]:
+            # The torque about the world origin: τ_o = τ_c + c × f.
+            f = wrench[FORCE]
+            recorded[FORCE] = f
+            recorded[TORQUE] = wrench[TORQUE] + np.cross(com, f)
+        else:
+            recorded[:] = 0.0
+    return touching
+
+
 # --------------------------------------------------------------------------------------
-# MuJoCo's passive callback is one per process: it dispatches to each model's law. It is set
-# only while a law is applied: MuJoCo also calls it while it compiles a model, when the Python
-# bindings cannot hand the model over (the compile then fails), so no model may be compiled
-# inside :func:`applied`.
+# MuJoCo's passive callback is one per process. With one law applied it is the law compiled
+# as a C function (:func:`native_callback`): MuJoCo calls it directly, no Python runs in a
+# physics step. With several laws at once (models stepped side by side in one process), a
+# Python function dispatches to each model's :meth:`GroundContact.apply`. Either runs the
+# same compiled law (:func:`apply_law`). The callback is set only while a law is applied:
+# MuJoCo also calls it while it compiles a model, when the Python bindings cannot hand the
+# model over (the compile then fails), so no model may be compiled inside :func:`applied`.
 
 _LAWS: dict[int, GroundContact] = {}
 
@@ -295,6 +410,170 @@ def _passive(model: mujoco.MjModel, data: mujoco.MjData) -> None:
     contact = _LAWS.get(id(model))
     if contact is not None:
         contact.apply(data)
+
+
+#: How far into ``mjData`` / ``mjModel`` a field is looked for [words]: MuJoCo 4.0's
+#: ``mjData`` keeps the law's pointers ≈ 20,000 words in (after its solver statistics).
+_STRUCT_WORDS = 1 << 16
+
+
+class _DataWords(NamedTuple):
+    """Where ``mjData`` keeps the pointers of the arrays the law reads and writes: each one's
+    index among the struct's 8-byte words (the same for every ``mjData`` of this MuJoCo)."""
+
+    xpos: int
+    xmat: int
+    xipos: int
+    userdata: int
+    qfrc_passive: int
+
+
+@functools.cache
+def _data_words() -> _DataWords:
+    """Find the pointer fields of ``mjData``: the struct's words, read from its start up to
+    each field, hold the address the Python bindings give for that array."""
+    model = mujoco.MjModel.from_xml_string(
+        '<mujoco><size nuserdata="1"/><worldbody><body><freejoint/><geom size="1"/></body>'
+        "</worldbody></mujoco>"
+    )
+    data = mujoco.MjData(model)
+    words = ctypes.cast(data._address, ctypes.POINTER(ctypes.c_uint64))
+
+    def word(array: np.ndarray) -> int:
+        address, i = array.ctypes.data, 0
+        while words[i] != address:  # a field of the struct: found before its end
+            i += 1
+            if i == _STRUCT_WORDS:
+                raise LookupError("mjData keeps its arrays' pointers elsewhere")
+        return i
+
+    return _DataWords(*(word(getattr(data, name)) for name in _DataWords._fields))
+
+
+class _ModelInts(NamedTuple):
+    """Where ``mjModel`` keeps two of its sizes: each one's index among its 4-byte words."""
+
+    nbody: int
+    nuserdata: int
+
+
+@functools.cache
+def _model_ints() -> _ModelInts:
+    """Find ``mjModel.nbody`` and ``nuserdata``: the word that holds each size in three
+    models whose sizes all differ, read from the struct's start (its sizes come first)."""
+    probes = [
+        mujoco.MjModel.from_xml_string(
+            f'<mujoco><size nuserdata="{1000 + 7 * n}"/><worldbody>'
+            + "<body><geom size='1'/>" * n
+            + "</body>" * n
+            + "</worldbody></mujoco>"
+        )
+        for n in (3, 5, 8)
+    ]
+    words = [ctypes.cast(m._address, ctypes.POINTER(ctypes.c_int32)) for m in probes]
+
+    def word(name: str) -> int:
+        i = 0
+        while any(w[i] != getattr(m, name) for w, m in zip(words, probes, strict=True)):
+            i += 1
+            if i == _STRUCT_WORDS:
+                raise LookupError(f"mjModel keeps {name} elsewhere")
+        return i
+
+    return _ModelInts(*(word(name) for name in _ModelInts._fields))
+
+
+@functools.cache
+def _mujoco_functions() -> tuple[Callable, Callable]:
+    """MuJoCo's ``mj_objectVelocity`` and ``mj_applyFT`` as C functions the law can call."""
+    (library,) = Path(mujoco.__file__).parent.glob("libmujoco.so*")
+    lib = ctypes.CDLL(str(library))
+    vector = ctypes.POINTER(ctypes.c_double)
+    model = ctypes.POINTER(ctypes.c_int32)  # mjModel*, read as its words (see `_ModelInts`)
+    data = ctypes.POINTER(vector)  # mjData*, read as its words (see `_DataWords`)
+    object_velocity = lib.mj_objectVelocity
+    object_velocity.argtypes = [model, data, ctypes.c_int, ctypes.c_int, vector, ctypes.c_int]
+    object_velocity.restype = None
+    apply_ft = lib.mj_applyFT
+    apply_ft.argtypes = [model, data, vector, vector, vector, ctypes.c_int, vector]
+    apply_ft.restype = None
+    return object_velocity, apply_ft
+
+
+#: The compiled callbacks of this process, by law (its soles, parameters and model sizes).
+_NATIVE: dict[bytes, Callable] = {}
+
+
+def native_callback(contact: GroundContact) -> Callable:
+    """``contact``'s law as a C passive-force callback (a ctypes function pointer, which
+    MuJoCo's Python bindings install as the C callback itself): :meth:`GroundContact.apply`
+    without Python in a physics step.
+
+    Its soles and parameters are constants in it: compiled once per law and process (about a
+    second), for any model of the same sizes (a run's and its replay's scene); a model of
+    other sizes (one compiled meanwhile) is left alone.
+    """
+    model = contact.model
+    nbody, nuserdata = model.nbody, model.nuserdata
+    bodies, points, first, offsets, low, high = contact._layout
+    params, n_soles = contact._params, len(contact.soles)
+    arrays = (params, *contact._layout, np.array([nbody, nuserdata]))
+    key = b"|".join(a.tobytes() for a in arrays)
+    if key in _NATIVE:
+        return _NATIVE[key]
+    words, sizes = _data_words(), _model_ints()
+    object_velocity, apply_ft = _mujoco_functions()
+    xbody = int(mujoco.mjtObj.mjOBJ_XBODY)
+
+    @numba.cfunc(
+        types.void(types.CPointer(types.int32), types.CPointer(types.CPointer(types.float64)))
+    )
+    def passive(m, d):  # noqa: ANN001, ANN202 (C types)
+        if m[sizes.nbody] != nbody or m[sizes.nuserdata] != nuserdata:
+            return
+        xipos = numba.carray(d[words.xipos], (nbody, 3))
+        velocities = np.empty((n_soles, 6))
+        for j in range(n_soles):
+            object_velocity(m, d, xbody, bodies[j], velocities[j].ctypes, 0)
+        wrenches = np.empty((n_soles, 6))
+        touching = apply_law(
+            SoleLayout(bodies, points, first, offsets, low, high),
+            numba.carray(d[words.xpos], (nbody, 3)),
+            numba.carray(d[words.xmat], (nbody, 9)),
+            xipos,
+            velocities,
+            numba.carray(d[words.userdata], (nuserdata,)),
+            params,
+            wrenches,
+        )
+        for j in range(n_soles):
+            if touching[j]:
+                wrench, com = wrenches[j], xipos[bodies[j]]
+                force, torque = wrench[FORCE], wrench[TORQUE]
+                qfrc = d[words.qfrc_passive]
+                apply_ft(m, d, force.ctypes, torque.ctypes, com.ctypes, bodies[j], qfrc)
+
+    _NATIVE[key] = passive.ctypes
+    return passive.ctypes
+
+
+def _install() -> None:
+    """Set MuJoCo's passive callback for the laws applied now."""
+    if not _LAWS:
+        mujoco.set_mjcb_passive(None)
+    elif len(_LAWS) == 1:
+        (contact,) = _LAWS.values()
+        try:
+            mujoco.set_mjcb_passive(native_callback(contact))
+        except LookupError:  # a MuJoCo whose structs the compiled law cannot read: Python
+            mujoco.set_mjcb_passive(_passive)
+    else:
+        mujoco.set_mjcb_passive(_passive)
+
+
+def _ours(callback: object) -> bool:
+    """Whether ``callback`` is one this module installed."""
+    return callback is _passive or any(c is callback for c in _NATIVE.values())
 
 
 #: The MJCF ``<custom><numeric>`` that carries a model's law: (k, v₀, k_t, b_t, μ). A robot
@@ -350,13 +629,12 @@ def applied(contact: GroundContact) -> Iterator[None]:
     runner and the replay call only ``mj_step1``/``mj_step2`` or ``mj_step`` in it)."""
     key = id(contact.model)
     previous = mujoco.get_mjcb_passive()
-    if previous is not None and previous is not _passive:
+    if previous is not None and not _ours(previous):
         raise RuntimeError("another passive-force callback is installed in this process")
     _LAWS[key] = contact
-    mujoco.set_mjcb_passive(_passive)
+    _install()
     try:
         yield
     finally:
         _LAWS.pop(key, None)
-        if not _LAWS:
-            mujoco.set_mjcb_passive(None)
+        _install()

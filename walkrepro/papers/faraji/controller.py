@@ -26,7 +26,10 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Iterable
-from typing import Annotated, Literal
+from dataclasses import astuple, dataclass, field, fields, replace
+from functools import reduce
+from operator import add
+from typing import Annotated, Literal, NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -50,6 +53,7 @@ from walkrepro.papers.faraji.estimation import (
     dead_zone,
 )
 from walkrepro.papers.faraji.gait import PeriodicGait
+from walkrepro.papers.faraji.joints import LEFT, RIGHT, LegJoints, leg_joints
 from walkrepro.papers.faraji.openloop import (
     LegIk,
     LegTargets,
@@ -67,14 +71,10 @@ from walkrepro.specs.origin import assumed, calibrated, paper
 GRAVITY = 9.81  # [m/s^2]
 #: Indices of the sagittal components in e = [p − f, p − s, ḟ, ṗ] (x, y interleaved).
 SAGITTAL = np.array([0, 2, 4, 6])
-LEG = slice(0, 12)
-HIP_PITCH = {"l": 2, "r": 8}
-KNEE = (3, 9)
-ANKLE_PITCH = 4  # within a leg
-#: Sagittal spring joints of a leg (hip pitch, knee, ankle pitch), indices within the leg.
-SAGITTAL_JOINTS = (2, 3, 4)
-#: Parts of a control tick reported by `TimeProjectionController.timing`.
-SPLIT = ("estimation", "feedback", "ik", "output")
+#: Components of a point (x, y, z) [m], of a Jacobian's rows, and of a foot's force-torque
+#: reading (fx, fy, fz, tx, ty, tz): fz is the normal load [N].
+X, Y, Z = 0, 1, 2
+FORCE_Z = 2
 #: The logged signals, declared once (all floats; an array field is an array signal). Before
 #: walking only ``phase`` (−1) is defined, and ``sway`` [m] only while swaying; a signal not
 #: defined at a tick is NaN. A tick names its signals in a mapping (``Signals.of``).
@@ -351,6 +351,138 @@ class TimeProjectionParams(ControllerParams):
     )
 
 
+class Sagittal(NamedTuple):
+    """The sagittal (x) components of the 3LP relative state e = [p − f, p − s, ḟ, ṗ]
+    (Eq. 15), in the heading frame: f the swing foot, s the stance foot, p the pelvis."""
+
+    p_f: float
+    """(p − f)_x: the pelvis ahead of the swing foot [m]."""
+    p_s: float
+    """(p − s)_x: the pelvis ahead of the stance foot [m]."""
+    f_dot: float
+    """ḟ_x: the swing foot's velocity over the ground (relative to the stance foot) [m/s]."""
+    p_dot: float
+    """ṗ_x: the pelvis's velocity over the ground (relative to the stance foot) [m/s]."""
+
+
+class Estimate(NamedTuple):
+    """One tick's state estimation (Fig. 3 D), filtered (Eq. 26)."""
+
+    feet: list[float]
+    """Sagittal sole positions relative to the pelvis, (left, right) [m]."""
+    feet_vel: list[float]
+    """Their rates, 30-sample averaged derivative, (left, right) [m/s]."""
+    forces: list[float]
+    """Normal loads of the feet's F/T sensors, (left, right) [N]."""
+    pitch: float
+    """Pelvis pitch in the heading frame (IMU) [rad]."""
+
+
+class OpenLoop(NamedTuple):
+    """The open-loop posture of a tick (Fig. 3 B) and the terms it came from."""
+
+    q_open: list[float]
+    """IK joint angles of the leg vector, before the footstep feedback [rad], (12,)."""
+    roll_cmd: float
+    """Pelvis roll command, Eq. 22, positive lifts the left hip [rad]."""
+    theta_hat: float
+    """Swing-hip angle estimate θ̂ of Eq. 28 [rad]."""
+    lift: float
+    """Adaptive lift Δz of Eqs. 29-30 [m]."""
+
+
+@dataclass(frozen=True)
+class Setup:
+    """What ``reset`` derives from the robot and :class:`TimeProjectionParams`: fixed for a run."""
+
+    joints: LegJoints
+    """Where the leg vector's joints sit (:func:`~.joints.leg_joints`)."""
+    h: float
+    """3LP pelvis height h1 [m]."""
+    pw: float
+    """Half the 3LP hip spacing pw [m]."""
+    weight: float
+    """Body weight m g [N]."""
+    home_ctrl: np.ndarray
+    """Motor targets of the home keyframe [rad], shape (nu,)."""
+    home_width: float
+    """Lateral distance between the soles at home [m]."""
+    home_x: float
+    """Mean sagittal sole position relative to the pelvis at home [m]."""
+    leg_offset_full: np.ndarray
+    """Eq. 21's motor offsets of the leg vector at full body weight [rad], shape (12,)."""
+    thresholds: Sagittal
+    """a of Eq. 27 per sagittal error [m, m, m/s, m/s]."""
+    step_gains: list[list[float]]
+    """The x row of the Δ(f − p)(T) table on the sagittal errors, shape (n, 4) [m/m, m s/m]."""
+    step_slopes: list[list[float]]
+    """Its slopes per interval, shape (n − 1, 4)."""
+    posture_springs: bool
+    """Eq. 21 with μ from the commanded posture (``spring_compensation`` posture*)."""
+    v_legs: list[int]
+    """Pinocchio velocity index of each leg-vector joint (Jacobian columns), shape (12,)."""
+    stiffness_legs: list[float]
+    """Spring (or spring-and-servo) stiffness of each leg-vector joint [Nm/rad]."""
+    pin_legs: slice | np.ndarray
+    """The leg vector's entries in Pinocchio's q."""
+    sole_frames: tuple[int, int]
+    """Pinocchio frame ids of the (left, right) sole points."""
+    ankle_b: float
+    """Stance-ankle push-off gain b [Nm s/m] (0: off)."""
+    direction: float
+    """Sign of the commanded speed [-]."""
+    ankle_rad_per_nm: float
+    """Motor offset per Nm of forward ankle torque through the spring [rad/Nm]."""
+
+
+@dataclass
+class StepState:
+    """What a tick changes: the filters, the phase clock and the step-to-step blends."""
+
+    pos_filter: IirFilter
+    """Eq. 26's IIR on the sagittal sole positions."""
+    vel_filter: MovingAverageDerivative
+    """Their 30-sample averaged derivative."""
+    force_filter: IirFilter
+    """Eq. 26's IIR on the feet's normal loads."""
+    gait: PeriodicGait
+    """This step's periodic 3LP gait (its speed ramps up)."""
+    width: float
+    """This step's width [m]; ``width_prev`` the last step's."""
+    width_prev: float
+    end_x: dict[str, float]
+    """Commanded sagittal sole positions relative to the pelvis at the end of the last step,
+    by leg ("l", "r") [m]; ``end_y`` the lateral ones."""
+    end_y: dict[str, float]
+    k: int = -1
+    """Step index (−1 before the first step)."""
+    side: int = 1
+    """d = +1 while the left leg swings, −1 for the right."""
+    speed: float = 0.0
+    """This step's commanded 3LP speed [m/s]."""
+    start_off: dict[str, float] = field(default_factory=lambda: {"swing": 0.0, "stance": 0.0})
+    """Offsets of the swing and stance targets from the gait at touchdown, blended out [m]."""
+    attack: float = 0.0
+    """Attack angle on the swing hip [rad] (footstep adjustment / h1)."""
+    last: tuple[float, float, float, float] | None = None
+    """The last tick's (swing x, stance x, swing y, stance y) targets [m]."""
+
+
+@dataclass
+class TickTiming:
+    """Wall time of the tick's parts [ns], summed over the run."""
+
+    estimation: int = 0
+    feedback: int = 0
+    ik: int = 0
+    output: int = 0
+
+
+def _sides(d: int) -> tuple[int, int]:
+    """(swing, stance) legs for side d (+1: the left swings)."""
+    return (LEFT, RIGHT) if d > 0 else (RIGHT, LEFT)
+
+
 class TimeProjectionController(Controller):
     """Paper II: 3LP + DLQR + time-projection footstep adjustment, position-controlled."""
 
@@ -362,99 +494,117 @@ class TimeProjectionController(Controller):
         self._p = p = params
         self._robot = robot
         self._dt = control_period
+        # 3LP (Paper II's model), its DLQR (Eqs. 16-17) and the time-projection tables (Fig. 13).
         self.model = ThreeLP(threelp_params_from_robot(robot, p.leg_inertia))
-        self._h = self.model.params.h1
-        self._pw = self.model.params.pw
         self.dlqr = Dlqr.solve(self.model, p.step_time)
         self._gaits: dict[float, PeriodicGait] = {}
         gait0 = self._gait(0.0)
         self.tp = TimeProjection.build(self.model, gait0, self.dlqr, p.table_samples)
         self.rel_gains = relative_footstep_gains(self.model, self.tp)
-        self._rel_slopes = np.diff(self.rel_gains, axis=0)
         self._ik = LegIk(robot)
         self._kin = KinematicState(robot)
-        self._weight = robot.total_mass * GRAVITY
-        self._home_ctrl = robot.home_ctrl.copy()
-        offset = robot.home_ctrl - robot.home_joint_pos  # static spring + servo pre-load
-        # Leg joints carry half the weight at home: the offset at full load is twice it.
-        self._leg_offset_full = 2.0 * offset[LEG]
-        if p.spring_compensation == "knees":  # the knees' load-scaled offsets only
-            knees = self._leg_offset_full[list(KNEE)].copy()
-            self._leg_offset_full[:] = 0.0
-            self._leg_offset_full[list(KNEE)] = knees
-        if p.knee_deflection is not None:  # Eq. 21: δθ = −|F|/(m g) μ, per knee
-            for i, mu_i in zip(KNEE, p.knee_deflection, strict=True):  # (left, right)
-                self._leg_offset_full[i] = -mu_i
-        self._offset_full = self._leg_offset_full.tolist()
-        self._waist_roll = robot.joint_names.index("waist_roll")
         self._pin_data = robot.pin_model.createData()
         self._pin_q = pin.neutral(robot.pin_model)
-        legs = robot.pin_q_idx[LEG]
-        contiguous = np.array_equal(legs, np.arange(legs[0], legs[0] + legs.size))
-        # A slice assigns a list of floats cheaper than an index array.
-        self._pin_legs = slice(int(legs[0]), int(legs[-1]) + 1) if contiguous else legs
-        self._sole_frames = tuple(
-            robot.pin_model.getFrameId(n) for n in ("left_sole", "right_sole")
+        self._c = self._setup(robot, leg_joints(robot))
+        c = self._c
+        self._s = StepState(
+            pos_filter=IirFilter(p.zeta, 2),  # only the sagittal (x) sole positions
+            vel_filter=MovingAverageDerivative(p.velocity_window, 2, control_period),
+            force_filter=IirFilter(p.zeta, 2),
+            gait=gait0,
+            width=c.home_width,
+            width_prev=c.home_width,
+            end_x={"l": c.home_x, "r": c.home_x},
+            end_y={"l": 0.5 * c.home_width, "r": -0.5 * c.home_width},
         )
-        # Eq. 21 with μ from the commanded posture (see `step`): the legs' Jacobian columns
-        # and spring stiffnesses.
-        self._posture_springs = (
-            p.spring_compensation != "knees"
-            and p.knee_deflection is None
-            and robot.spring_stiffness is not None
-        )
-        self._v_legs = [int(i) for i in robot.pin_v_idx[LEG]]
-        stiffness = robot.spring_stiffness
-        if stiffness is None:
-            self._stiffness_legs = []
-        elif p.spring_compensation == "posture_series":
-            self._stiffness_legs = [series_stiffness(robot, j) for j in robot.joint_names[LEG]]
-        else:
-            self._stiffness_legs = [float(k) for k in stiffness[LEG]]
-        lf, rf, _, _ = self._kin.feet(np.array([1.0, 0, 0, 0]), robot.home_joint_pos)
-        self._home_width = float(lf[1] - rf[1])
-        self._home_x = 0.5 * float(lf[0] + rf[0])
-        # Only the sagittal (x) sole positions feed the controller: filter those.
-        self._pos_filter = IirFilter(p.zeta, 2)
-        self._vel_filter = MovingAverageDerivative(p.velocity_window, 2, control_period)
-        self._force_filter = IirFilter(p.zeta, 2)
-        self._thresholds = tuple(float(a) for a in p.dead_zone_thresholds)
-        # The footstep row of the Δ(f − p)(T) table on the sagittal errors, as floats.
-        self._step_gains = self.rel_gains[:, 0, SAGITTAL].tolist()
-        self._step_slopes = self._rel_slopes[:, 0, SAGITTAL].tolist()
-        self._k = -1
-        self._side = 1
-        self._speed_k = 0.0
-        self._width_prev = self._width_k = self._home_width
-        # Commanded sagittal sole positions relative to the pelvis at the end of the last step.
-        self._end_x = {"l": self._home_x, "r": self._home_x}
-        self._end_y = {"l": 0.5 * self._home_width, "r": -0.5 * self._home_width}
-        self._start_off = {"swing": 0.0, "stance": 0.0}
-        self._attack = 0.0
-        self._last: tuple[float, float, float, float] | None = None
         # Every speed of the velocity ramp (`_new_step`), solved now rather than mid-run.
         for k in range(p.velocity_ramp_steps):
             self._gait(p.speed * min(1.0, (k + 1) / p.velocity_ramp_steps))
-        self._gait_k = gait0
-        # Stance-ankle push-off: gain [Nm s/m], the commanded direction, and the motor offset
-        # per Nm of a forward (pelvis-advancing) ankle torque [rad/Nm], signed by the IK.
-        b = p.ankle_damping * self.model.axis.mass[0, 0] * self.model.omega_fall
-        self._ankle_b = float(b) if p.speed else 0.0
-        self._direction = math.copysign(1.0, p.speed)
-        k_eff = ankle_series_stiffness(robot)
-        self._ankle_rad_per_nm = self._ankle_forward_sign() / k_eff if k_eff > 0 else 0.0
-        self._split_ns = [0] * len(SPLIT)
+        self._timing = TickTiming()
 
-    def _ankle_forward_sign(self) -> float:
+    def _setup(self, robot: Robot, joints: LegJoints) -> Setup:
+        """The run's fixed quantities (:class:`Setup`) from the robot and the parameters."""
+        p = self._p
+        legs = joints.actuators
+        lf, rf, _, _ = self._kin.feet(np.array([1.0, 0, 0, 0]), robot.home_joint_pos)
+        stiffness = robot.spring_stiffness
+        if stiffness is None:
+            stiffness_legs = []
+        elif p.spring_compensation == "posture_series":
+            names = [robot.joint_names[a] for a in joints.actuator_list]
+            stiffness_legs = [series_stiffness(robot, name) for name in names]
+        else:
+            stiffness_legs = [float(k) for k in stiffness[legs]]
+        pin_q = robot.pin_q_idx[legs]
+        contiguous = np.array_equal(pin_q, np.arange(pin_q.min(), pin_q.min() + pin_q.size))
+        # Stance-ankle push-off: gain [Nm s/m] (b = D1 ω₁ scaled), and the motor offset per Nm
+        # of a forward (pelvis-advancing) ankle torque [rad/Nm], signed by the IK.
+        b = p.ankle_damping * self.model.axis.mass[0, 0] * self.model.omega_fall
+        k_eff = ankle_series_stiffness(robot)
+        setup = Setup(
+            joints=joints,
+            h=self.model.params.h1,
+            pw=self.model.params.pw,
+            weight=robot.total_mass * GRAVITY,
+            home_ctrl=robot.home_ctrl.copy(),
+            home_width=float(lf[Y] - rf[Y]),
+            home_x=0.5 * float(lf[X] + rf[X]),
+            leg_offset_full=self._spring_offsets(robot, joints),
+            thresholds=Sagittal(*(float(a) for a in p.dead_zone_thresholds)),
+            step_gains=self.rel_gains[:, X, SAGITTAL].tolist(),
+            step_slopes=np.diff(self.rel_gains, axis=0)[:, X, SAGITTAL].tolist(),
+            posture_springs=(
+                p.spring_compensation != "knees"
+                and p.knee_deflection is None
+                and robot.spring_stiffness is not None
+            ),
+            v_legs=[int(i) for i in robot.pin_v_idx[legs]],
+            stiffness_legs=stiffness_legs,
+            # A slice assigns a list of floats cheaper than an index array.
+            pin_legs=slice(int(pin_q.min()), int(pin_q.max()) + 1) if contiguous else pin_q,
+            sole_frames=(
+                robot.pin_model.getFrameId("left_sole"),
+                robot.pin_model.getFrameId("right_sole"),
+            ),
+            ankle_b=float(b) if p.speed else 0.0,
+            direction=math.copysign(1.0, p.speed),
+            ankle_rad_per_nm=0.0,
+        )
+        if k_eff > 0:  # the sign needs the IK at the start posture, so the setup first
+            sign = self._ankle_forward_sign(setup)
+            setup = replace(setup, ankle_rad_per_nm=sign / k_eff)
+        return setup
+
+    def _spring_offsets(self, robot: Robot, joints: LegJoints) -> np.ndarray:
+        """Eq. 21's motor offsets of the leg vector at full body weight [rad], shape (12,).
+
+        The home keyframe's motor-minus-link offset (static spring + servo pre-load) carries
+        half the weight: twice it at full load. ``spring_compensation="knees"`` keeps the
+        knees' only; ``knee_deflection`` gives them as −μ (δθ = −|F|/(m g) μ, per knee).
+        """
+        p = self._p
+        offset = robot.home_ctrl - robot.home_joint_pos
+        full = 2.0 * offset[joints.actuators]
+        knees = list(joints.knee)
+        if p.spring_compensation == "knees":
+            kept = full[knees].copy()
+            full[:] = 0.0
+            full[knees] = kept
+        if p.knee_deflection is not None:
+            for i, mu_i in zip(knees, p.knee_deflection, strict=True):  # (left, right)
+                full[i] = -mu_i
+        return full
+
+    def _ankle_forward_sign(self, c: Setup) -> float:
         """Sign of the ankle pitch change that moves the pelvis forward over a stance foot.
 
         From the IK at the start posture: the sole 1 mm further behind the pelvis.
         """
-        z = -self._h
-        y = 0.5 * self._home_width
-        q0 = self._ik.solve_level(0.0, (self._home_x, y, z), (self._home_x, -y, z), 0.0, 0.0)
-        q1 = self._ik.solve_level(0.0, (self._home_x - 1e-3, y, z), (self._home_x, -y, z), 0.0, 0.0)
-        return math.copysign(1.0, q1[ANKLE_PITCH] - q0[ANKLE_PITCH])
+        z, y, x = -c.h, 0.5 * c.home_width, c.home_x
+        q0 = self._ik.solve_level(0.0, (x, y, z), (x, -y, z), 0.0, 0.0)
+        q1 = self._ik.solve_level(0.0, (x - 1e-3, y, z), (x, -y, z), 0.0, 0.0)
+        ankle = c.joints.ankle_pitch.left
+        return math.copysign(1.0, q1[ankle] - q0[ankle])
 
     def _gait(self, speed: float) -> PeriodicGait:
         """The periodic gait at ``speed`` [m/s], solved once per speed."""
@@ -473,90 +623,129 @@ class TimeProjectionController(Controller):
         Plain-float arithmetic throughout: the quantities are a few scalars per tick, for
         which numpy's per-call overhead would dominate.
         """
-        clock, split = time.perf_counter_ns, self._split_ns
+        clock, timing = time.perf_counter_ns, self._timing
+        p, c, s = self._p, self._c, self._s
         t0 = clock()
-        p = self._p
         # ---- estimation (runs from t = 0 so the filters are warm at the first step)
-        left, right, _, pitch = self._kin.feet(sensors.imu_quat, sensors.joint_pos)
-        feet = self._pos_filter.update((left[0], right[0]))  # sagittal [left, right]
-        if p.role_velocities and self._k >= 0 and t - p.start_time >= (self._k + 1) * p.step_time:
-            self._vel_filter.swap(0, 1)  # a touchdown: the rates of s₁, s₂ carry on by role
-        feet_vel = self._vel_filter.update(feet)
-        forces = self._force_filter.update(
-            (max(float(sensors.left_ft[2]), 0.0), max(float(sensors.right_ft[2]), 0.0))
-        )
+        est = self._estimate(t, sensors)
         t1 = clock()
-        split[0] += t1 - t0
+        timing.estimation += t1 - t0
         t_walk = t - p.start_time
         if t_walk < -p.sway_steps * p.step_time:
-            return Command(
-                ctrl=self._home_ctrl.copy(), signals=Signals.of(SIGNAL_LAYOUT, {"phase": -1.0})
-            )
+            home = Signals.of(SIGNAL_LAYOUT, {"phase": -1.0})
+            return Command(ctrl=c.home_ctrl.copy(), signals=home)
         if t_walk < 0.0:
             command = self._sway(t_walk)
-            split[2] += clock() - t1
+            timing.ik += clock() - t1
             return command
 
+        # ---- phase clock: a fixed step time T, left swing first
         T = p.step_time
         k = int(t_walk // T)
         phase = t_walk - k * T
-        events: tuple[dict, ...] = ()
-        if k != self._k:
-            events = self._new_step(k)
-        d = self._side
-        # Nominal sagittal [p−f, p−s, ḟ, ṗ] (e's entries 0, 2, 4, 6; the same on both sides).
-        rel = self._gait_k.sagittal_relative_state(phase)
-
-        # ---- measured errors (Eq. 15), sagittal
-        f_x, s_x = (feet[0], feet[1]) if d > 0 else (feet[1], feet[0])
-        fv_x, sv_x = (feet_vel[0], feet_vel[1]) if d > 0 else (feet_vel[1], feet_vel[0])
-        meas = [-f_x, -s_x, fv_x - sv_x, -sv_x]
-        err = [meas[0] - rel[0], meas[1] - rel[1], meas[2] - rel[2], meas[3] - rel[3]]
-        if p.dead_zone:
-            a0, a1, a2, a3 = self._thresholds
-            err_dz = [
-                dead_zone(err[0], a0),
-                dead_zone(err[1], a1),
-                dead_zone(err[2], a2),
-                dead_zone(err[3], a3),
-            ]
-        else:
-            err_dz = list(err)
-
-        # ---- time-projection footstep adjustment (Fig. 13 B, relative to the pelvis)
-        i, a = self.tp._locate(phase)
-        gain, slope = self._step_gains[i], self._step_slopes[i]
-        step_raw = p.footstep_scale * (
-            (gain[0] + a * slope[0]) * err_dz[0]
-            + (gain[1] + a * slope[1]) * err_dz[1]
-            + (gain[2] + a * slope[2]) * err_dz[2]
-            + (gain[3] + a * slope[3]) * err_dz[3]
-        )
-        step = truncate_footstep(step_raw, p.footstep_limit)
-        self._attack = step / self._h if p.stepping else 0.0
+        events = self._new_step(k) if k != s.k else ()
+        rel = Sagittal(*s.gait.sagittal_relative_state(phase))  # the nominal 3LP gait
+        meas, err, err_dz = self._errors(est, rel)
+        step_raw, step = self._footstep(phase, err_dz)
         t2 = clock()
-        split[1] += t2 - t1
+        timing.feedback += t2 - t1
 
-        # ---- adaptive lift (Eqs. 28-30), from the filtered (not dead-zoned) errors
-        theta_hat = lift.hip_angle_estimate(err[0], self._h) if p.adaptive_lift else 0.0
-        dz_adapt = lift.adaptive_lift(phase, T, theta_hat, self._h)
+        open_loop = self._open_loop(k, phase, rel, err)
+        t3 = clock()
+        timing.ik += t3 - t2
 
-        # ---- Cartesian targets in the level frame at the pelvis
+        q_des, ctrl_legs, ankle_torque = self._motor_targets(phase, sensors, est, open_loop, err)
+        ctrl = c.home_ctrl.copy()
+        ctrl[c.joints.actuators] = ctrl_legs
+        ctrl[c.joints.waist_roll] -= open_loop.roll_cmd  # keep the torso upright (Eq. 22)
+        signals = {
+            "phase": phase,
+            "step_index": float(k),
+            "swing_side": float(s.side),
+            "e_raw": err,
+            "e_dead_zone": err_dz,
+            "e_meas": meas,
+            "e_nominal": rel,
+            "footstep_raw": step_raw,
+            "footstep": step,
+            "attack_angle": s.attack,
+            "theta_hat": open_loop.theta_hat,
+            "adaptive_lift": open_loop.lift,
+            "pelvis_roll_cmd": open_loop.roll_cmd,
+            "pelvis_pitch": est.pitch,
+            "q_cmd_legs": q_des,
+            "load": [est.forces[LEFT] / c.weight, est.forces[RIGHT] / c.weight],
+            "ankle_torque": ankle_torque,
+        }
+        command = Command(ctrl=ctrl, signals=Signals.of(SIGNAL_LAYOUT, signals), events=events)
+        timing.output += clock() - t3
+        return command
+
+    def _estimate(self, t: float, sensors: SensorSnapshot) -> Estimate:
+        """State estimation (Fig. 3 D): encoders + pelvis IMU → sole positions relative to
+        the pelvis, IIR-filtered (Eq. 26), their derivative averaged over 30 samples, and the
+        feet's filtered normal loads."""
+        p, s = self._p, self._s
+        left, right, _, pitch = self._kin.feet(sensors.imu_quat, sensors.joint_pos)
+        feet = s.pos_filter.update((left[X], right[X]))  # sagittal [left, right]
+        if p.role_velocities and s.k >= 0 and t - p.start_time >= (s.k + 1) * p.step_time:
+            s.vel_filter.swap(LEFT, RIGHT)  # a touchdown: the rates of s₁, s₂ carry on by role
+        feet_vel = s.vel_filter.update(feet)
+        loads = (
+            max(float(sensors.left_ft[FORCE_Z]), 0.0),
+            max(float(sensors.right_ft[FORCE_Z]), 0.0),
+        )
+        return Estimate(feet, feet_vel, s.force_filter.update(loads), pitch)
+
+    def _errors(self, est: Estimate, rel: Sagittal) -> tuple[Sagittal, Sagittal, Sagittal]:
+        """The measured sagittal state, its error e(t) against the 3LP gait (Eq. 15) and the
+        error through the smooth dead-zones (Eq. 27)."""
+        swing, stance = _sides(self._s.side)
+        f_x, s_x = est.feet[swing], est.feet[stance]
+        fv_x, sv_x = est.feet_vel[swing], est.feet_vel[stance]
+        meas = Sagittal(p_f=-f_x, p_s=-s_x, f_dot=fv_x - sv_x, p_dot=-sv_x)
+        err = Sagittal(*(m - r for m, r in zip(meas, rel, strict=True)))
+        if not self._p.dead_zone:
+            return meas, err, err
+        return meas, err, Sagittal(*map(dead_zone, err, self._c.thresholds))
+
+    def _footstep(self, phase: float, err_dz: Sagittal) -> tuple[float, float]:
+        """Time-projection footstep adjustment (Fig. 13 B, relative to the pelvis): the
+        interpolated table times the error, truncated at 15 cm; sets the attack angle
+        (adjustment / h1) on the swing hip. Returns (raw, truncated) adjustment [m]."""
+        p, c = self._p, self._c
+        i, a = self.tp.locate(phase)
+        terms = (
+            (g + a * slope) * e
+            for g, slope, e in zip(c.step_gains[i], c.step_slopes[i], err_dz, strict=True)
+        )
+        step_raw = p.footstep_scale * reduce(add, terms)
+        step = truncate_footstep(step_raw, p.footstep_limit)
+        self._s.attack = step / c.h if p.stepping else 0.0
+        return step_raw, step
+
+    def _open_loop(self, k: int, phase: float, rel: Sagittal, err: Sagittal) -> OpenLoop:
+        """The open-loop posture (Fig. 3 B): Cartesian targets in the level frame at the
+        pelvis, with the pelvis roll (Eq. 22), the fixed (Eq. 23) and adaptive (Eqs. 28-30)
+        lifts, and the gait's feet, through the leg IK."""
+        p, c, s = self._p, self._c, self._s
+        T, d = p.step_time, s.side
+        # Adaptive lift (Eqs. 28-30), from the filtered (not dead-zoned) errors.
+        theta_hat = lift.hip_angle_estimate(err.p_f, c.h) if p.adaptive_lift else 0.0
+        dz_adapt = lift.adaptive_lift(phase, T, theta_hat, c.h)
         ramp = min(1.0, (k + phase / T) / p.ramp_steps)
         roll_mag = lift.pelvis_roll(phase, T, ramp * p.roll_amplitude)  # ≥ 0
         roll_cmd = d * roll_mag
         blend = 0.5 * (1.0 - math.cos(math.pi * phase / T))
-        swing_y = d * 0.5 * (self._width_prev + (self._width_k - self._width_prev) * blend)
-        stance_y = -d * 0.5 * self._width_k
-        hip_rise = self._pw * math.sin(roll_mag)
-        swing_x = -rel[0] + self._start_off["swing"] * (1.0 - blend)
+        swing_y = d * 0.5 * (s.width_prev + (s.width - s.width_prev) * blend)
+        stance_y = -d * 0.5 * s.width
+        hip_rise = c.pw * math.sin(roll_mag)
+        swing_x = -rel.p_f + s.start_off["swing"] * (1.0 - blend)
         if p.attack_in_ik:
-            swing_x += self._h * math.tan(self._attack)
-        stance_x = -rel[1] + self._start_off["stance"] * (1.0 - blend)
-        swing_z = (
-            -self._h + hip_rise + lift.fixed_lift(phase, T, ramp * p.lift_amplitude) + dz_adapt
-        )
-        stance_z = -self._h - hip_rise
+            swing_x += c.h * math.tan(s.attack)
+        stance_x = -rel.p_s + s.start_off["stance"] * (1.0 - blend)
+        swing_z = -c.h + hip_rise + lift.fixed_lift(phase, T, ramp * p.lift_amplitude) + dz_adapt
+        stance_z = -c.h - hip_rise
         swing = (swing_x, swing_y, swing_z)
         stance = (stance_x, stance_y, stance_z)
         swing_pitch = lift.foot_pitch_feedback(theta_hat)  # coman: +pitch = toes down
@@ -564,83 +753,75 @@ class TimeProjectionController(Controller):
             q_open = self._ik.solve_level(roll_cmd, swing, stance, swing_pitch, 0.0)
         else:
             q_open = self._ik.solve_level(roll_cmd, stance, swing, 0.0, swing_pitch)
-        self._last = (swing_x, stance_x, swing_y, stance_y)
-        t3 = clock()
-        split[2] += t3 - t2
+        s.last = (swing_x, stance_x, swing_y, stance_y)
+        return OpenLoop(q_open, roll_cmd, theta_hat, dz_adapt)
 
-        # ---- attack angle on the swing hip
-        # q_open: the open-loop posture, before the footstep feedback.
-        q_des = list(q_open)
-        sw_hip, st_hip = (
-            (HIP_PITCH["l"], HIP_PITCH["r"]) if d > 0 else (HIP_PITCH["r"], HIP_PITCH["l"])
-        )
+    def _motor_targets(
+        self,
+        phase: float,
+        sensors: SensorSnapshot,
+        est: Estimate,
+        open_loop: OpenLoop,
+        err: Sagittal,
+    ) -> tuple[list[float], list[float], float]:
+        """The leg vector's motor targets: the attack angle on the swing hip, the hip switch
+        (Eq. 24), the spring compensation (Eq. 21) and the stance-ankle push-off.
+
+        Eq. 24 is v = k_d(γ(θ_des − θ_act) + (1 − γ)(−θ_pitch)) and the servo is
+        v = k_d(ctrl − θ_m), θ_m the motor encoder ("position control only on the motor
+        shaft"): the paper's torso term is the target θ_m + θ_pitch ('motor'), a voltage from
+        the IMU pitch alone, a motor torque k_d/β·θ_pitch that the spring passes on. It gets
+        no spring offset (a constant voltage there would be a torque bias on the torso).
+        'link' targets the link encoder + θ_pitch: k_d(θ_pitch − spring deflection), the servo
+        in series with the hip spring, with the offsets added after the switch.
+
+        Returns:
+            (q_des, the commanded posture with the attack angle [rad] (12,); the motor
+            targets [rad] (12,); the push-off ankle torque [Nm]).
+        """
+        p, joints, s = self._p, self._c.joints, self._s
+        swing, stance = _sides(s.side)
+        q_des = list(open_loop.q_open)
         if not p.attack_in_ik:
-            q_des[sw_hip] -= self._attack  # hip flexion is negative pitch in coman
-
-        # ---- hip switch (Eq. 24) and spring compensation (Eq. 21, knees; the other leg
-        # joints alike). Eq. 24 is v = k_d(γ(θ_des − θ_act) + (1 − γ)(−θ_pitch)) and the servo
-        # is v = k_d(ctrl − θ_m), θ_m the motor encoder ("position control only on the motor
-        # shaft"): the paper's torso term is the target θ_m + θ_pitch ('motor'), a voltage
-        # from the IMU pitch alone, a motor torque k_d/β·θ_pitch that the spring passes on.
-        # It gets no spring offset (a constant voltage there would be a torque bias on the
-        # torso). 'link' targets the link encoder + θ_pitch: k_d(θ_pitch − spring deflection),
-        # the servo in series with the hip spring, with the offsets added after the switch.
-        t1 = p.hip_switch_ratio * T
+            q_des[joints.hip_pitch[swing]] -= s.attack  # hip flexion is negative pitch in coman
+        t1 = p.hip_switch_ratio * p.step_time
         paper_torso = p.torso_term == "motor"
         ctrl_legs = list(q_des)
         if paper_torso:
-            self._compensate_springs(ctrl_legs, forces, q_open, roll_cmd)
+            self._compensate_springs(ctrl_legs, est.forces, open_loop.q_open, open_loop.roll_cmd)
         encoder = sensors.joint_pos
         if paper_torso and sensors.motor_pos is not None:
             encoder = sensors.motor_pos  # a robot without springs: the link angle is θ_m
-        for i, swinging in ((sw_hip, True), (st_hip, False)):
+        for leg, swinging in ((swing, True), (stance, False)):
             gamma = lift.hip_switch_gamma(phase, t1, swinging)
-            torso = float(encoder[i]) + pitch  # drives the pelvis pitch to zero
+            torso = float(encoder[joints.hip_pitch_actuator[leg]]) + est.pitch  # pitch → 0
+            i = joints.hip_pitch[leg]
             ctrl_legs[i] = gamma * ctrl_legs[i] + (1.0 - gamma) * torso
         if not paper_torso:
-            self._compensate_springs(ctrl_legs, forces, q_open, roll_cmd)
-        load = [forces[0] / self._weight, forces[1] / self._weight]
+            self._compensate_springs(ctrl_legs, est.forces, open_loop.q_open, open_loop.roll_cmd)
+        ankle_torque = self._ankle_push_off(phase, t1, err, ctrl_legs)
+        return q_des, ctrl_legs, ankle_torque
 
-        # ---- stance-ankle push-off through the ankle spring: adds only the speed the pelvis
-        # lacks along the commanded direction, after the force transfer (the stance weight
-        # 1 − γ of Eq. 24's law, which also skips the rate estimates' touchdown transient)
-        ankle_torque = 0.0
-        if self._ankle_b > 0.0:
-            lack = max(0.0, -self._direction * err[3])  # [m/s]
-            ramp_in = 1.0 - lift.hip_switch_gamma(phase, t1, False)
-            ankle_torque = self._direction * self._ankle_b * lack * ramp_in  # forward + [Nm]
-            st_leg = 6 if d > 0 else 0
-            ctrl_legs[st_leg + ANKLE_PITCH] += ankle_torque * self._ankle_rad_per_nm
-
-        ctrl = self._home_ctrl.copy()
-        ctrl[LEG] = ctrl_legs
-        ctrl[self._waist_roll] -= roll_cmd  # keep the torso upright (Eq. 22)
-
-        signals = {
-            "phase": phase,
-            "step_index": float(k),
-            "swing_side": float(d),
-            "e_raw": err,
-            "e_dead_zone": err_dz,
-            "e_meas": meas,
-            "e_nominal": list(rel),
-            "footstep_raw": step_raw,
-            "footstep": step,
-            "attack_angle": self._attack,
-            "theta_hat": theta_hat,
-            "adaptive_lift": dz_adapt,
-            "pelvis_roll_cmd": roll_cmd,
-            "pelvis_pitch": pitch,
-            "q_cmd_legs": q_des,
-            "load": load,
-            "ankle_torque": ankle_torque,
-        }
-        command = Command(ctrl=ctrl, signals=Signals.of(SIGNAL_LAYOUT, signals), events=events)
-        split[3] += clock() - t3
-        return command
+    def _ankle_push_off(
+        self, phase: float, t1: float, err: Sagittal, ctrl_legs: list[float]
+    ) -> float:
+        """Stance-ankle push-off through the ankle spring (walkrepro's, off by default): adds
+        only the speed the pelvis lacks along the commanded direction, after the force
+        transfer (the stance weight 1 − γ of Eq. 24's law, which also skips the rate
+        estimates' touchdown transient). Adds its motor offset to ``ctrl_legs`` in place;
+        returns the torque τ_a [Nm], forward positive."""
+        c = self._c
+        if not c.ankle_b > 0.0:
+            return 0.0
+        lack = max(0.0, -c.direction * err.p_dot)  # [m/s]
+        ramp_in = 1.0 - lift.hip_switch_gamma(phase, t1, False)
+        ankle_torque = c.direction * c.ankle_b * lack * ramp_in  # forward + [Nm]
+        _, stance = _sides(self._s.side)
+        ctrl_legs[c.joints.ankle_pitch[stance]] += ankle_torque * c.ankle_rad_per_nm
+        return ankle_torque
 
     def _compensate_springs(
-        self, ctrl_legs: list[float], forces: tuple[float, float], q_open: list[float], roll: float
+        self, ctrl_legs: list[float], forces: list[float], q_open: list[float], roll: float
     ) -> None:
         """Add the spring compensation of Eq. 21 to the legs' targets ``ctrl_legs`` in place.
 
@@ -648,29 +829,31 @@ class TimeProjectionController(Controller):
         sagittal joints' (hip pitch, knee, ankle pitch) static deflection under the body
         weight at the sole point of the commanded posture ``q_open`` instead [rad].
         """
-        load = (forces[0] / self._weight, forces[1] / self._weight)
-        offset = self._offset_full
-        for i in range(12):
-            ctrl_legs[i] += load[i // 6] * offset[i]
+        c, joints = self._c, self._c.joints
+        load = (forces[LEFT] / c.weight, forces[RIGHT] / c.weight)
+        offset = c.leg_offset_full
+        for i, leg in enumerate(joints.leg_of):
+            ctrl_legs[i] += load[leg] * offset[i]
         bias = self._p.stance_ankle_bias
         if bias:
-            ctrl_legs[ANKLE_PITCH] += load[0] * bias
-            ctrl_legs[6 + ANKLE_PITCH] += load[1] * bias
-        if self._posture_springs:
+            ctrl_legs[joints.ankle_pitch.left] += load[LEFT] * bias
+            ctrl_legs[joints.ankle_pitch.right] += load[RIGHT] * bias
+        if c.posture_springs:
             # Eq. 21 with μ from the commanded posture instead of home: the sagittal springs'
             # static deflection under the body weight at the sole point (the 3LP CoP).
-            self._pin_q[self._pin_legs] = q_open
-            for leg in (0, 1):
-                mu = self._deflection(leg, roll, SAGITTAL_JOINTS)
-                for j, mu_j in zip(SAGITTAL_JOINTS, mu, strict=True):
-                    i = 6 * leg + j
-                    ctrl_legs[i] += load[leg] * (mu_j - offset[i])
+            self._pin_q[c.pin_legs] = q_open
+            for leg in (LEFT, RIGHT):
+                sagittal = joints.sagittal[leg]
+                mu = self._deflection(leg, roll, sagittal)
+                for i, mu_i in zip(sagittal, mu, strict=True):
+                    ctrl_legs[i] += load[leg] * (mu_i - offset[i])
 
     def timing(self) -> dict[str, float]:
         """Wall time [s] of the tick's parts: estimation (kinematics, filters), feedback
         (gait reference, errors, footstep table), ik (Cartesian targets, IK), output (hip
         switch, spring compensation, command and signals)."""
-        return {name: ns * 1e-9 for name, ns in zip(SPLIT, self._split_ns, strict=True)}
+        spent = astuple(self._timing)
+        return {f.name: ns * 1e-9 for f, ns in zip(fields(TickTiming), spent, strict=True)}
 
     def _spring_deflection(self, q_legs: np.ndarray, leg: int, roll: float) -> np.ndarray:
         """Motor-minus-link offsets of leg ``leg``'s joints at full body weight [rad], shape (6,).
@@ -681,29 +864,29 @@ class TimeProjectionController(Controller):
         pre-load is this at home within 10 %), or the servo and spring in series with
         ``spring_compensation="posture_series"``.
         """
-        self._pin_q[self._pin_legs] = q_legs
-        return np.array(self._deflection(leg, roll, range(6)))
+        self._pin_q[self._c.pin_legs] = q_legs
+        return np.array(self._deflection(leg, roll, self._c.joints.legs[leg]))
 
     def _deflection(self, leg: int, roll: float, joints: Iterable[int]) -> list[float]:
-        """:meth:`_spring_deflection` of ``joints`` at the legs' posture already in the
-        Pinocchio configuration (``step`` sets it once for both legs) [rad]."""
+        """:meth:`_spring_deflection` of the leg-vector entries ``joints`` at the legs'
+        posture already in the Pinocchio configuration (set once for both legs) [rad]."""
+        c = self._c
         # computeFrameJacobian runs the forward kinematics it needs itself.
         jac = pin.computeFrameJacobian(
             self._robot.pin_model,
             self._pin_data,
             self._pin_q,
-            self._sole_frames[leg],
+            c.sole_frames[leg],
             pin.LOCAL_WORLD_ALIGNED,
         )
         # (0, sin roll, cos roll) · J[:3]: the x row has a zero weight.
-        jac_y, jac_z = jac[1], jac[2]
-        s, c = math.sin(roll), math.cos(roll)
-        weight, cols, stiffness = self._weight, self._v_legs, self._stiffness_legs
+        jac_y, jac_z = jac[Y], jac[Z]
+        s, co = math.sin(roll), math.cos(roll)
         out = []
-        for j in joints:
-            i = 6 * leg + j
-            torque = (s * float(jac_y[cols[i]]) + c * float(jac_z[cols[i]])) * weight
-            out.append(-torque / stiffness[i])
+        for i in joints:
+            col = c.v_legs[i]
+            torque = (s * float(jac_y[col]) + co * float(jac_z[col])) * c.weight
+            out.append(-torque / c.stiffness_legs[i])
         return out
 
     def _sway(self, t_walk: float) -> Command:
@@ -715,54 +898,51 @@ class TimeProjectionController(Controller):
         y(τ) = −A sin(π τ / T), A = v₀ T / π, growing over the sway, reaches it at τ = 0,
         moving toward the first stance foot (right).
         """
-        p = self._p
+        p, c = self._p, self._c
         T = p.step_time
-        dist = 0.5 * self._home_width
+        dist = 0.5 * c.home_width
         w = self.model.omega_fall
         v0 = dist * w * math.tanh(0.5 * w * T)
         grow = min(1.0, 1.0 + t_walk / (p.sway_steps * T) * 1.0 + 0.5)
         y_p = -grow * v0 * T / math.pi * math.sin(math.pi * t_walk / T)
-        z = -self._h
+        z = -c.h
         targets = LegTargets(
             pelvis_roll=0.0,
-            left=np.array([self._home_x, dist - y_p, z]),
-            right=np.array([self._home_x, -dist - y_p, z]),
+            left=np.array([c.home_x, dist - y_p, z]),
+            right=np.array([c.home_x, -dist - y_p, z]),
             left_pitch=0.0,
             right_pitch=0.0,
         )
         q = self._ik.solve(targets)
-        ctrl = self._home_ctrl.copy()
-        ctrl[LEG] = q + 0.5 * self._leg_offset_full
+        ctrl = c.home_ctrl.copy()
+        ctrl[c.joints.actuators] = q + 0.5 * c.leg_offset_full
         return Command(ctrl=ctrl, signals=Signals.of(SIGNAL_LAYOUT, {"phase": -1.0, "sway": y_p}))
 
     def _new_step(self, k: int) -> tuple[dict, ...]:
         """Touchdown bookkeeping at a phase change: side, width/speed ramps, blends."""
-        p = self._p
-        if self._k >= 0:
-            self._side = -self._side
-            sw_prev, st_prev = ("r", "l") if self._side > 0 else ("l", "r")
-            if self._last is not None:  # the last tick's targets, by leg
-                swing_x, stance_x, swing_y, stance_y = self._last
-                self._end_x = {sw_prev: swing_x, st_prev: stance_x}
-                self._end_y = {sw_prev: swing_y, st_prev: stance_y}
+        p, c, s = self._p, self._c, self._s
+        if s.k >= 0:
+            s.side = -s.side
+            sw_prev, st_prev = ("r", "l") if s.side > 0 else ("l", "r")
+            if s.last is not None:  # the last tick's targets, by leg
+                swing_x, stance_x, swing_y, stance_y = s.last
+                s.end_x = {sw_prev: swing_x, st_prev: stance_x}
+                s.end_y = {sw_prev: swing_y, st_prev: stance_y}
             else:
-                self._end_x = dict(self._end_x)
-                self._end_y = dict(self._end_y)
+                s.end_x = dict(s.end_x)
+                s.end_y = dict(s.end_y)
             # The landing swing foot got the attack angle: h·tan(attack) further forward.
-            if not self._p.attack_in_ik:
-                self._end_x[sw_prev] += self._h * math.tan(self._attack)
-        self._k = k
+            if not p.attack_in_ik:
+                s.end_x[sw_prev] += c.h * math.tan(s.attack)
+        s.k = k
         ramp = min(1.0, (k + 1) / p.ramp_steps)
-        self._width_prev = self._width_k
-        self._width_k = self._home_width + (p.step_width - self._home_width) * ramp
-        self._speed_k = p.speed * min(1.0, (k + 1) / p.velocity_ramp_steps)
-        gait = self._gait_k = self._gait(self._speed_k)
-        d = self._side
-        rel0 = gait.relative_state(0.0, d)
+        s.width_prev = s.width
+        s.width = c.home_width + (p.step_width - c.home_width) * ramp
+        s.speed = p.speed * min(1.0, (k + 1) / p.velocity_ramp_steps)
+        gait = s.gait = self._gait(s.speed)
+        d = s.side
+        rel0 = Sagittal(*gait.relative_state(0.0, d)[SAGITTAL])
         sw, st = ("l", "r") if d > 0 else ("r", "l")
-        self._start_off = {
-            "swing": self._end_x[sw] - (-rel0[0]),
-            "stance": self._end_x[st] - (-rel0[2]),
-        }
-        self._attack = 0.0
+        s.start_off = {"swing": s.end_x[sw] - (-rel0.p_f), "stance": s.end_x[st] - (-rel0.p_s)}
+        s.attack = 0.0
         return ({"kind": "phase", "step": k, "swing": "left" if d > 0 else "right"},)

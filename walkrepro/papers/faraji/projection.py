@@ -168,8 +168,17 @@ class TimeProjection:
             footstep_gains=np.stack([g.footstep for g in gains]),
         )
 
-    def _locate(self, t: float) -> tuple[int, float]:
-        """Interval index i and fraction a in [0, 1] of phase time t on the uniform grid."""
+    def locate(self, t: float) -> tuple[int, float]:
+        """Where phase time t falls on the tables' uniform grid: the interval index i and the
+        fraction a in [0, 1] along it, so a gain at t is ``table[i] + a * slope[i]`` (the
+        linear interpolation of Fig. 13's tables; held past the last sample).
+
+        Args:
+            t: phase time since touchdown [s].
+
+        Returns:
+            (i, a): 0 ≤ i ≤ n − 2 [-], 0 ≤ a ≤ 1 [-].
+        """
         s = t * (len(self.phases) / self.step_time)
         if s <= 0.0:
             return 0, 0.0
@@ -180,12 +189,12 @@ class TimeProjection:
 
     def torque_gain(self, t: float) -> np.ndarray:
         """K_tp(t) interpolated, shape (4, 8)."""
-        i, a = self._locate(t)
+        i, a = self.locate(t)
         return self.torque_gains[i] + a * self._torque_slopes[i]
 
     def footstep_gain(self, t: float) -> np.ndarray:
         """F(t) interpolated, shape (2, 8)."""
-        i, a = self._locate(t)
+        i, a = self.locate(t)
         return self.footstep_gains[i] + a * self._footstep_slopes[i]
 
     def torque_correction(self, t: float, e: np.ndarray) -> np.ndarray:
