@@ -75,11 +75,9 @@ def coman_actuator_order() -> list[tuple[str, str]]:
     return legs + waist + arms
 
 
-def build_coman() -> RobotDesign:
-    p = load_ledger("coman")
-    sea = coman_sea(p)
-    total = p.num("total_mass")
-    leg_mass = p.num("leg_mass_share") * total
+def coman_joints(p: Ledger, sea: SeaModel) -> dict[str, JointSpec]:
+    """COMAN's joints in actuator order, each series-elastic: its range, the motor's
+    damping and armature, the spring and the servo's damping gain k_d."""
     ranges = joint_ranges(p, LEG_JOINTS + ("waist_yaw", "waist_roll", "waist_pitch") + ARM_JOINTS)
     gains = p.table("position_gain")
     joints: dict[str, JointSpec] = {}
@@ -95,6 +93,41 @@ def build_coman() -> RobotDesign:
 
     for name, base in coman_actuator_order():
         add(name, base)
+    return joints
+
+
+def coman_waist(
+    p: Ledger,
+    joints: dict[str, JointSpec],
+    sea: SeaModel,
+    torso: Body,
+    masses: tuple[float, float],
+) -> Body:
+    """The waist's yaw then roll link above the pelvis, carrying ``torso``; ``masses`` are
+    the yaw and roll links' [kg]."""
+    m_waist_yaw, m_waist_roll = masses
+    waist_roll = Body(
+        "waist_roll_link",
+        (0, 0, 0),
+        [box_at_z(m_waist_roll, p.vec("waist_roll_link_shape", 3))],
+        sea_joint(joints, "waist_roll", "waist_roll", 1, sea),
+        children=[torso],
+    )
+    return Body(
+        "waist_yaw_link",
+        (0, 0, p.num("waist_z")),
+        [box_at_z(m_waist_yaw, p.vec("waist_yaw_link_shape", 4))],
+        sea_joint(joints, "waist_yaw", "waist_yaw", 1, sea),
+        children=[waist_roll],
+    )
+
+
+def build_coman() -> RobotDesign:
+    p = load_ledger("coman")
+    sea = coman_sea(p)
+    total = p.num("total_mass")
+    leg_mass = p.num("leg_mass_share") * total
+    joints = coman_joints(p, sea)
 
     def joint(side: int) -> Callable[[str, str], list[Joint]]:
         return lambda name, base: sea_joint(joints, name, base, side, sea)
@@ -130,20 +163,7 @@ def build_coman() -> RobotDesign:
         sea_joint(joints, "waist_pitch", "waist_pitch", 1, sea),
         children=[arm(1, arms, joint(1)), arm(-1, arms, joint(-1))],
     )
-    waist_roll = Body(
-        "waist_roll_link",
-        (0, 0, 0),
-        [box_at_z(m_waist_roll, p.vec("waist_roll_link_shape", 3))],
-        sea_joint(joints, "waist_roll", "waist_roll", 1, sea),
-        children=[torso],
-    )
-    waist_yaw = Body(
-        "waist_yaw_link",
-        (0, 0, waist_z),
-        [box_at_z(m_waist_yaw, p.vec("waist_yaw_link_shape", 4))],
-        sea_joint(joints, "waist_yaw", "waist_yaw", 1, sea),
-        children=[waist_roll],
-    )
+    waist_yaw = coman_waist(p, joints, sea, torso, (m_waist_yaw, m_waist_roll))
     pelvis = Body(
         "pelvis",
         (0, 0, 0),

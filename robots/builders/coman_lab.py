@@ -129,11 +129,10 @@ def lab_foot(p: Ledger, side: int, joint: Callable[[str, str], list[Joint]]) -> 
     )
 
 
-def build_coman_lab() -> RobotDesign:
-    """COMAN from its lab's Robotran model (rigid feet), the paper's drives and gains, and
-    the lab's ground law on the soles (robots/coman_lab/README.md)."""
-    p = load_ledger("coman_lab")
-    sea = SeaModel(
+def lab_sea(p: Ledger) -> SeaModel:
+    """The paper's drives on the lab's model: the motors' armature and back-EMF damping,
+    the servo's β and supply; the springs' damping and stops are per joint."""
+    return SeaModel(
         motor_armature=p.num("motor_armature"),
         motor_damping=p.num("alpha") / p.num("beta"),  # back-EMF alpha / beta [Nms/rad]
         spring_damping=0.0,  # unused: every joint has its own (JointSpec.spring_damping)
@@ -141,6 +140,11 @@ def build_coman_lab() -> RobotDesign:
         beta=p.num("beta"),
         supply=p.num("supply"),
     )
+
+
+def lab_joints(p: Ledger, sea: SeaModel) -> dict[str, JointSpec]:
+    """The lab model's joints in robots/coman's actuator order: ranges, springs, their
+    damping and backlash (the lab's), and the paper's servo gains."""
     springs, spring_damping = p.table("spring"), p.table("spring_damping")
     backlash = p.table("backlash")  # knee and ankle pitch (the paper's backlashes)
     gains = p.table("position_gain")
@@ -162,6 +166,35 @@ def build_coman_lab() -> RobotDesign:
     # Actuators in robots/coman's order (the controllers address them by name).
     for name, base in coman_actuator_order():
         add(name, base)
+    return joints
+
+
+def lab_ground(p: Ledger) -> GroundLaw:
+    """The lab's ground law (stiffness, damping by velocity scale, tangential spring and
+    damper, friction) on a grid of points under each sole."""
+    spacing = p.num("contact_grid_spacing")
+    points = contact_law.sole_grid(
+        p.vec("sole_x_range", 2),  # type: ignore[arg-type]
+        p.vec("sole_y_range", 2),  # type: ignore[arg-type]
+        p.num("sole_z"),
+        spacing,
+    )
+    law = PointContactLaw(
+        stiffness=p.num("ground_stiffness"),
+        velocity_scale=p.num("ground_velocity_scale"),
+        tangential_stiffness=p.num("ground_tangential_stiffness"),
+        tangential_damping=p.num("ground_tangential_damping"),
+        friction=p.num("ground_friction"),
+    )
+    return GroundLaw(law, {"left_foot": points, "right_foot": points})
+
+
+def build_coman_lab() -> RobotDesign:
+    """COMAN from its lab's Robotran model (rigid feet), the paper's drives and gains, and
+    the lab's ground law on the soles (robots/coman_lab/README.md)."""
+    p = load_ledger("coman_lab")
+    sea = lab_sea(p)
+    joints = lab_joints(p, sea)
 
     def joint(side: int) -> Callable[[str, str], list[Joint]]:
         return lambda name, base: sea_joint(joints, name, base, side, sea)
@@ -185,20 +218,6 @@ def build_coman_lab() -> RobotDesign:
         children=[*legs, waist],
         inertial=lab_inertial(p, "pelvis"),
     )
-    spacing = p.num("contact_grid_spacing")
-    points = contact_law.sole_grid(
-        p.vec("sole_x_range", 2),  # type: ignore[arg-type]
-        p.vec("sole_y_range", 2),  # type: ignore[arg-type]
-        p.num("sole_z"),
-        spacing,
-    )
-    law = PointContactLaw(
-        stiffness=p.num("ground_stiffness"),
-        velocity_scale=p.num("ground_velocity_scale"),
-        tangential_stiffness=p.num("ground_tangential_stiffness"),
-        tangential_damping=p.num("ground_tangential_damping"),
-        friction=p.num("ground_friction"),
-    )
     friction, condim = contact(p)
     return RobotDesign(
         "coman_lab",
@@ -212,5 +231,5 @@ def build_coman_lab() -> RobotDesign:
         friction=friction,
         condim=condim,
         ledger=p,
-        ground=GroundLaw(law, {"left_foot": points, "right_foot": points}),
+        ground=lab_ground(p),
     )

@@ -28,20 +28,12 @@ from builders.ledger import load_ledger
 
 if TYPE_CHECKING:
     from builders.core import Joint
+    from builders.ledger import Ledger
 
 
-def build_kist() -> RobotDesign:
-    p = load_ledger("kist_humanoid")
-    leg_total = p.num("leg_mass")
-    masses = p.vec("leg_link_masses", 5)  # hip yaw to ankle [kg]; the foot takes the rest
-    hip = p.vec("hip_position", 2)
-    shank = (z_segment("capsule", masses[3], p.vec("shank_shape", 3)),)
-    length, width = p.vec("foot_size", 2)
-    dims = leg_dims(p, (hip[0], hip[1]), shank, leg_total - sum(masses), (length, width))
-    m_shoulders = p.vec("shoulder_link_masses", 2)
-    # The forearm (with the hand) takes what the paper's arm mass leaves.
-    forearm = p.num("arm_mass") - m_shoulders[0] - m_shoulders[1] - p.num("upper_arm_mass")
-    arms = arm_dims(p, forearm_mass=forearm)
+def kist_joints(p: Ledger) -> dict[str, JointSpec]:
+    """The KIST humanoid's torque-controlled joints, legs, trunk then arms: ranges, one
+    damping, and the armature and torque limit of their group (leg, trunk, arm)."""
     ranges = joint_ranges(p, LEG_JOINTS + ("waist_yaw", "waist_pitch") + ARM_JOINTS)
     damping = p.num("joint_damping")
     armature, limit = p.table("armature"), p.table("torque_limit")
@@ -58,6 +50,22 @@ def build_kist() -> RobotDesign:
     for s in ("l", "r"):
         for j in ARM_JOINTS:
             add(f"{s}_{j}", j, "arm")
+    return joints
+
+
+def build_kist() -> RobotDesign:
+    p = load_ledger("kist_humanoid")
+    leg_total = p.num("leg_mass")
+    masses = p.vec("leg_link_masses", 5)  # hip yaw to ankle [kg]; the foot takes the rest
+    hip = p.vec("hip_position", 2)
+    shank = (z_segment("capsule", masses[3], p.vec("shank_shape", 3)),)
+    length, width = p.vec("foot_size", 2)
+    dims = leg_dims(p, (hip[0], hip[1]), shank, leg_total - sum(masses), (length, width))
+    m_shoulders = p.vec("shoulder_link_masses", 2)
+    # The forearm (with the hand) takes what the paper's arm mass leaves.
+    forearm = p.num("arm_mass") - m_shoulders[0] - m_shoulders[1] - p.num("upper_arm_mass")
+    arms = arm_dims(p, forearm_mass=forearm)
+    joints = kist_joints(p)
 
     def joint(side: int) -> Callable[[str, str], list[Joint]]:
         return lambda name, base: joint_for(joints, name, base, side)
