@@ -1,4 +1,5 @@
-"""The robots' provenance ledgers: robots/<robot>/parameters.yaml and robots/build_models.py."""
+"""The robots' provenance ledgers: robots/<robot>/parameters.yaml, and robots/build_models.py
+with its builders (robots/builders/)."""
 
 from __future__ import annotations
 
@@ -14,6 +15,8 @@ import pytest
 from walkrepro import ROBOTS_DIR
 
 BUILD_MODELS = ROBOTS_DIR / "build_models.py"
+#: The script and every builder module it runs: where a physical literal must not hide.
+BUILDER_FILES = (BUILD_MODELS, *sorted((ROBOTS_DIR / "builders").glob("*.py")))
 ROBOTS = sorted(p.parent.name for p in ROBOTS_DIR.glob("*/robot.xml"))
 
 #: Numeric literals build_models.py may hold anywhere: structural, not physical.
@@ -174,9 +177,13 @@ def test_a_variant_replaces_and_inherits(bm: ModuleType) -> None:
 
 
 def test_no_physical_literal_left_in_build_models() -> None:
-    """build_models.py holds no numeric literal that sets physics outside the ledgers."""
-    found = physical_literals(BUILD_MODELS.read_text())
-    assert not found, f"literals outside the ledger (line, function, value): {found}"
+    """build_models.py and its builders hold no numeric literal that sets physics outside the
+    ledgers."""
+    assert len(BUILDER_FILES) > 1, "the builders' modules are not where the check looks"
+    found = [
+        (path.name, *hit) for path in BUILDER_FILES for hit in physical_literals(path.read_text())
+    ]
+    assert not found, f"literals outside the ledger (file, line, function, value): {found}"
 
 
 def test_the_literal_check_finds_a_physical_number() -> None:

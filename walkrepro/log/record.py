@@ -1068,46 +1068,8 @@ def read_log(path: Path, check_indexes: bool = False) -> Log:
     except ValueError:
         raise WalkreproError(f"{path} is not an MCAP log (it lacks the MCAP magic bytes)") from None
     summary = read_summary(data)
-    damage = _damage(contents, summary)
-    schemas, channels = contents.schemas, contents.channels
-    if summary is not None and summary.channels:
-        # The summary's copies are under its CRC; those at the start of the file are not.
-        differ = [
-            f"schema {i}" for i, x in summary.schemas.items() if schemas.get(i) not in (None, x)
-        ] + [
-            f"channel {x.topic}"
-            for i, x in summary.channels.items()
-            if channels.get(i) not in (None, x)
-        ]
-        if differ and not damage:
-            damage = (
-                f"damaged: its {', '.join(differ)} record(s) differ from the copies in its summary"
-            )
-        schemas, channels = {**schemas, **summary.schemas}, {**channels, **summary.channels}
-    raw: dict[str, _Segments] = {}
-    decoders: dict[int, Callable[[bytes], Any]] = {}
-    for channel_id, channel in sorted(channels.items()):
-        messages = contents.messages.get(channel_id, [])
-        schema = schemas.get(channel.schema_id)
-        if channel.message_encoding == "json":
-            decode = _decode_json
-        elif channel.message_encoding == "protobuf" and schema is not None:
-            if schema.id not in decoders:
-                try:
-                    decoders[schema.id] = protolog.dict_decoder(schema.data, schema.name)
-                except Exception as exc:  # noqa: BLE001 - protobuf raises several kinds
-                    raise WalkreproError(
-                        f"{path} is {damage or 'damaged'}: the schema {schema.name!r} of "
-                        f"channel {channel.topic} does not parse ({type(exc).__name__})"
-                    ) from None
-            decode = decoders[schema.id]
-        else:
-            raise WalkreproError(
-                f"{path}: channel {channel.topic} has message encoding "
-                f"{channel.message_encoding!r} (schema {schema.name if schema else 'none'}); "
-                "walkrepro reads json and protobuf"
-            )
-        raw.setdefault(channel.topic, []).append((decode, messages))
+    damage, schemas, channels = _records(contents, summary)
+    raw = _segments(path, contents, schemas, channels, damage)
     try:
         attachments = {a.name: a.data.decode() for a in contents.attachments}
     except UnicodeDecodeError:
@@ -1134,6 +1096,64 @@ def read_log(path: Path, check_indexes: bool = False) -> Log:
         summary=summary,
         _raw=raw,
     )
+
+
+def _records(contents: Any, summary: McapSummary | None) -> tuple[str, dict, dict]:
+    """The log's damage (see :attr:`Log.damage`), its schemas and its channels by id: the
+    summary's copies where it has them (they are under its CRC; those at the start of the
+    file are not), a difference between the two being damage."""
+    damage = _damage(contents, summary)
+    schemas, channels = contents.schemas, contents.channels
+    if summary is not None and summary.channels:
+        differ = [
+            f"schema {i}" for i, x in summary.schemas.items() if schemas.get(i) not in (None, x)
+        ] + [
+            f"channel {x.topic}"
+            for i, x in summary.channels.items()
+            if channels.get(i) not in (None, x)
+        ]
+        if differ and not damage:
+            damage = (
+                f"damaged: its {', '.join(differ)} record(s) differ from the copies in its summary"
+            )
+        schemas, channels = {**schemas, **summary.schemas}, {**channels, **summary.channels}
+    return damage, schemas, channels
+
+
+def _segments(
+    path: Path, contents: Any, schemas: dict, channels: dict, damage: str
+) -> dict[str, _Segments]:
+    """Each topic's messages with their decoder (JSON, or protobuf from the channel's
+    schema), channel by channel in id order.
+
+    Raises:
+        WalkreproError: a channel's schema does not parse, or its encoding is neither.
+    """
+    raw: dict[str, _Segments] = {}
+    decoders: dict[int, Callable[[bytes], Any]] = {}
+    for channel_id, channel in sorted(channels.items()):
+        messages = contents.messages.get(channel_id, [])
+        schema = schemas.get(channel.schema_id)
+        if channel.message_encoding == "json":
+            decode = _decode_json
+        elif channel.message_encoding == "protobuf" and schema is not None:
+            if schema.id not in decoders:
+                try:
+                    decoders[schema.id] = protolog.dict_decoder(schema.data, schema.name)
+                except Exception as exc:  # noqa: BLE001 - protobuf raises several kinds
+                    raise WalkreproError(
+                        f"{path} is {damage or 'damaged'}: the schema {schema.name!r} of "
+                        f"channel {channel.topic} does not parse ({type(exc).__name__})"
+                    ) from None
+            decode = decoders[schema.id]
+        else:
+            raise WalkreproError(
+                f"{path}: channel {channel.topic} has message encoding "
+                f"{channel.message_encoding!r} (schema {schema.name if schema else 'none'}); "
+                "walkrepro reads json and protobuf"
+            )
+        raw.setdefault(channel.topic, []).append((decode, messages))
+    return raw
 
 
 def _damage(contents: Any, summary: McapSummary | None) -> str:

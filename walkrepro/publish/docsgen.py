@@ -168,43 +168,13 @@ def collect(
         else:
             own.add_rows([r["status"] for r in rows])
             own.failed += ref.get("outcome") not in ("complete", "fell")
-        for i, e in enumerate(spec.expect):
-            if e.known_deviation is None:
-                continue
-            row = rows[i] if i < len(rows) and rows[i]["metric"] == e.metric else None
-            claim = row["band"] if row else (_band(e.value) if e.value is not None else "")
-            deviations.append(
-                Deviation(
-                    experiment=name,
-                    claim=f"{e.metric} {claim}".strip(),
-                    source=e.source,
-                    reason=e.known_deviation.reason,
-                    observed=_band(e.known_deviation.observed),
-                    measured=_measured(row["measured"]) if row else "no reference run",
-                )
-            )
+        deviations += _row_deviations(name, spec, rows)
         verdicts = map_verdicts([name], False, results_dir, 1) if spec.sweeps else []
         for declared, verdict in zip(spec.sweeps, verdicts, strict=True):
             tally.maps += 1
             own.maps += 1
             own.add_rows([r.status for r in verdict.rows])
-            by_claim = len(verdict.rows) == len(declared.claims)
-            for k, claim in enumerate(declared.claims):
-                if claim.known_deviation is None:
-                    continue
-                row = verdict.rows[k] if by_claim else None
-                deviations.append(
-                    Deviation(
-                        experiment=f"{name} · map {declared.name}",
-                        claim=row.metric if row else f"map {declared.name}: {claim.kind}",
-                        source=claim.source,
-                        reason=claim.known_deviation.reason,
-                        observed=_band(claim.known_deviation.observed),
-                        measured=f"{_measured(row.measured)} contradicting cell(s)"
-                        if row
-                        else "no reference map",
-                    )
-                )
+            deviations += _claim_deviations(name, declared, verdict)
         for attr in ("reproduced", "calibrated", "known", "failed"):
             setattr(tally, attr, getattr(tally, attr) + getattr(own, attr))
         experiments.append(
@@ -222,6 +192,52 @@ def collect(
             )
         )
     return experiments, deviations, {k: v for k, v in tallies.items() if v.experiments}
+
+
+def _row_deviations(name: str, spec: Any, rows: list[dict]) -> list[Deviation]:
+    """The known deviations of experiment ``name``'s expectations, measured by the rows of
+    its committed ``check.json`` (``rows``; a row is matched by position and metric)."""
+    deviations = []
+    for i, e in enumerate(spec.expect):
+        if e.known_deviation is None:
+            continue
+        row = rows[i] if i < len(rows) and rows[i]["metric"] == e.metric else None
+        claim = row["band"] if row else (_band(e.value) if e.value is not None else "")
+        deviations.append(
+            Deviation(
+                experiment=name,
+                claim=f"{e.metric} {claim}".strip(),
+                source=e.source,
+                reason=e.known_deviation.reason,
+                observed=_band(e.known_deviation.observed),
+                measured=_measured(row["measured"]) if row else "no reference run",
+            )
+        )
+    return deviations
+
+
+def _claim_deviations(name: str, declared: Any, verdict: Any) -> list[Deviation]:
+    """The known deviations of the claims of experiment ``name``'s map ``declared``,
+    measured by the map's verdict (its rows matched to the claims when one each)."""
+    deviations = []
+    by_claim = len(verdict.rows) == len(declared.claims)
+    for k, claim in enumerate(declared.claims):
+        if claim.known_deviation is None:
+            continue
+        row = verdict.rows[k] if by_claim else None
+        deviations.append(
+            Deviation(
+                experiment=f"{name} · map {declared.name}",
+                claim=row.metric if row else f"map {declared.name}: {claim.kind}",
+                source=claim.source,
+                reason=claim.known_deviation.reason,
+                observed=_band(claim.known_deviation.observed),
+                measured=f"{_measured(row.measured)} contradicting cell(s)"
+                if row
+                else "no reference map",
+            )
+        )
+    return deviations
 
 
 def known_reasons() -> Iterator[tuple[str, str]]:
@@ -413,24 +429,8 @@ def calibration_page(loaded: Any, experiments_dir: Path) -> str:
         loaded: the paper's :class:`~walkrepro.specs.calibration_files.LoadedCalibration`.
         experiments_dir: the specs, searched for references and calibrated rows.
     """
-    from walkrepro.specs.calibrated import references
-    from walkrepro.specs.models import _parse_yaml
-
     model = loaded.model
-    uses: dict[str, list[str]] = {p.name: [] for p in model.parameters}
-    rows: dict[str, list[str]] = {p.name: [] for p in model.parameters}
-    for path in sorted(experiments_dir.glob("*.yaml")):
-        data, _ = _parse_yaml(path.read_text(), path.name)
-        if (data.get("paper") or {}).get("key") != model.paper:
-            continue
-        for field_path, name in references(data):
-            where = ".".join(str(x) for x in field_path)
-            uses.setdefault(str(name), []).append(f"`{path.stem}` ({where})")
-        for row in data.get("expect") or []:
-            if isinstance(row, dict) and row.get("calibrated") is not None:
-                rows.setdefault(str(row["calibrated"]), []).append(
-                    f"`{path.stem}` · `{row.get('metric')}`"
-                )
+    uses, rows = _calibrated_uses(model, experiments_dir)
     out = [
         GENERATED_HEADER,
         f"# Calibration: {_label(model.paper)}",
@@ -446,50 +446,78 @@ def calibration_page(loaded: Any, experiments_dir: Path) -> str:
         "",
     ]
     for k, p in enumerate(model.parameters, 1):
-        if p.target is not None:
-            target = (
-                f"`{', '.join(p.criterion_metrics)}` = {p.target.value:g} ± {p.target.tolerance:g}"
-            )
-        elif p.search.method == "chosen":
-            target = (
-                f"`{', '.join(p.criterion_metrics)}`, re-measured at the chosen value "
-                f"{p.search.value!r}: {p.search.how}"
-            )
-        else:
-            target = f"`{', '.join(p.criterion_metrics)}` (the value is the measurement)"
-        search = p.search.method
-        if p.search.method == "root":
-            lo, hi = p.search.bracket
-            search += (
-                f" over [{lo:g}, {hi:g}], xtol {p.search.xtol:g}, {p.search.points} point(s) "
-                "per round"
-            )
-        out += [
-            f"## {k}. `{p.name}` [{_cell(p.unit)}]",
-            "",
-            f"- **Sets:** `{p.set}`"
-            + (f" within [{p.range[0]:g}, {p.range[1]:g}]" if p.range else ""),
-            f"- **Criterion ({p.criterion.kind.replace('_', ' ')}):** "
-            f'"{_cell(p.criterion.quote)}" ({_cell(p.criterion.section)})',
-            f"- **Measured by:** `{p.experiment}`, {target}",
-            f"- **Search:** {search}",
-        ]
-        if p.result is None:
-            out.append("- **Result:** none committed yet")
-        else:
-            r = p.result
-            runs = f", {len(r.evaluations)} runs" if r.evaluations else ""
-            out += [
-                f"- **Result:** {_value(r.value)} (measured {_value(r.measured)}{runs}; "
-                f"commit {r.provenance.commit[:12]}, {r.provenance.date}, MuJoCo "
-                f"{r.provenance.mujoco}, Pinocchio {r.provenance.pinocchio})",
-            ]
-        out += [
-            f"- **Used by:** {', '.join(uses.get(p.name, [])) or 'no spec yet'}",
-            f"- **Rows counted calibrated:** {', '.join(rows.get(p.name, [])) or 'none yet'}",
-            "",
-        ]
+        out += _parameter_section(k, p, uses.get(p.name, []), rows.get(p.name, []))
     return "\n".join(out)
+
+
+def _calibrated_uses(
+    model: Any, experiments_dir: Path
+) -> tuple[dict[str, list[str]], dict[str, list[str]]]:
+    """For each calibrated parameter of the paper, the spec fields that use it and the rows
+    it makes count calibrated (``experiment`` (field) and ``experiment`` · ``metric``)."""
+    from walkrepro.specs.calibrated import references
+    from walkrepro.specs.models import _parse_yaml
+
+    uses: dict[str, list[str]] = {p.name: [] for p in model.parameters}
+    rows: dict[str, list[str]] = {p.name: [] for p in model.parameters}
+    for path in sorted(experiments_dir.glob("*.yaml")):
+        data, _ = _parse_yaml(path.read_text(), path.name)
+        if (data.get("paper") or {}).get("key") != model.paper:
+            continue
+        for field_path, name in references(data):
+            where = ".".join(str(x) for x in field_path)
+            uses.setdefault(str(name), []).append(f"`{path.stem}` ({where})")
+        for row in data.get("expect") or []:
+            if isinstance(row, dict) and row.get("calibrated") is not None:
+                rows.setdefault(str(row["calibrated"]), []).append(
+                    f"`{path.stem}` · `{row.get('metric')}`"
+                )
+    return uses, rows
+
+
+def _parameter_section(k: int, p: Any, uses: list[str], rows: list[str]) -> list[str]:
+    """The calibration page's section ``k`` on parameter ``p``: what it sets, its criterion,
+    how it is measured and searched, its result, the specs that use it and its rows."""
+    if p.target is not None:
+        target = f"`{', '.join(p.criterion_metrics)}` = {p.target.value:g} ± {p.target.tolerance:g}"
+    elif p.search.method == "chosen":
+        target = (
+            f"`{', '.join(p.criterion_metrics)}`, re-measured at the chosen value "
+            f"{p.search.value!r}: {p.search.how}"
+        )
+    else:
+        target = f"`{', '.join(p.criterion_metrics)}` (the value is the measurement)"
+    search = p.search.method
+    if p.search.method == "root":
+        lo, hi = p.search.bracket
+        search += (
+            f" over [{lo:g}, {hi:g}], xtol {p.search.xtol:g}, {p.search.points} point(s) per round"
+        )
+    out = [
+        f"## {k}. `{p.name}` [{_cell(p.unit)}]",
+        "",
+        f"- **Sets:** `{p.set}`" + (f" within [{p.range[0]:g}, {p.range[1]:g}]" if p.range else ""),
+        f"- **Criterion ({p.criterion.kind.replace('_', ' ')}):** "
+        f'"{_cell(p.criterion.quote)}" ({_cell(p.criterion.section)})',
+        f"- **Measured by:** `{p.experiment}`, {target}",
+        f"- **Search:** {search}",
+    ]
+    if p.result is None:
+        out.append("- **Result:** none committed yet")
+    else:
+        r = p.result
+        runs = f", {len(r.evaluations)} runs" if r.evaluations else ""
+        out += [
+            f"- **Result:** {_value(r.value)} (measured {_value(r.measured)}{runs}; "
+            f"commit {r.provenance.commit[:12]}, {r.provenance.date}, MuJoCo "
+            f"{r.provenance.mujoco}, Pinocchio {r.provenance.pinocchio})",
+        ]
+    out += [
+        f"- **Used by:** {', '.join(uses) or 'no spec yet'}",
+        f"- **Rows counted calibrated:** {', '.join(rows) or 'none yet'}",
+        "",
+    ]
+    return out
 
 
 # --------------------------------------------------------------------------------------

@@ -226,82 +226,114 @@ def execute(
     # directory appears is a request, and the directory is always finished.
     run_dir = run_dir or results.new_run_dir(out_root, spec.name)
     log_path = run_dir.work / results.LOG_FILE
-    record: dict[str, object] = {"experiment": spec.name, "overrides": list(overrides)}
-    result: RunResult | None = None
-    stage = "setting up the run"
+    job = _RunRecord(run_dir.work, {"experiment": spec.name, "overrides": list(overrides)})
     try:
-        record.update(commit=provenance.git_commit(), versions=provenance.library_versions())
+        job.record.update(commit=provenance.git_commit(), versions=provenance.library_versions())
         (run_dir.work / results.SPEC_FILE).write_text(spec.to_yaml())
-        if flag.requested:  # stopped while the command started: no simulation at all
-            result = RunResult(
-                spec.name, log_path, "interrupted", 0.0, 0.0, None, _stopped_before(flag)
-            )
-        else:
-            stage = "running the simulation"
-            try:
-                result = run(spec, log_path, progress, flag, resolved)
-            except KeyboardInterrupt:  # a second Ctrl-C in set-up, before the log was opened
-                result = RunResult(
-                    spec.name, log_path, "interrupted", 0.0, 0.0, None, "interrupted in set-up"
-                )
+        result = job.result = _simulate(spec, log_path, progress, flag, resolved, job)
         figures, video = outputs if isinstance(outputs, tuple) else (outputs, False)
-        stages = results.Stages(figures=figures, video=video)
-        record["stages"] = stages.record
-        _write_run_record(run_dir.work, record, result)
-
-        def begin(name: str, words: str) -> None:
-            nonlocal stage
-            stage = words
-            stages.set(name, results.STARTED)  # true even if the process is killed here
-            _write_run_record(run_dir.work, record, result)
-
-        def end(name: str, status: str) -> None:
-            stages.set(name, status)
-            _write_run_record(run_dir.work, record, result)
-
-        begin("metrics", "computing the metrics and the verdict")
+        job.stages = results.Stages(figures=figures, video=video)
+        job.record["stages"] = job.stages.record
+        job.write()
+        job.begin("metrics", "computing the metrics and the verdict")
         values, verdict, measured = _evaluate_interruptible(
             spec, log_path, run_dir.work, result, References(overrides=overrides)
         )
-        end("metrics", results.COMPLETED if measured else results.INTERRUPTED)
-        for name, wanted, draw in (
-            ("figures", figures, _draw_figures),
-            ("video", video, _render_video),
-        ):
-            if not wanted:
-                continue
-            if result.outcome == "interrupted" or flag.requested:
-                end(name, results.SKIPPED)
-                continue
-            begin(name, f"{'drawing the figures' if name == 'figures' else 'rendering the video'}")
-            try:
-                status = draw(log_path, run_dir.work, flag)
-            except KeyboardInterrupt:  # optional outputs: the run is kept without them
-                flag.requested, status = True, results.INTERRUPTED
-                if flag.signum is None:
-                    import signal
-
-                    flag.signum = signal.SIGINT
-            end(name, status)
+        job.end("metrics", results.COMPLETED if measured else results.INTERRUPTED)
+        _draw_outputs(job, log_path, flag, figures, video)
     except BaseException as exc:
-        _record_failure(spec, run_dir.work, record, result, stage, exc)
+        _record_failure(spec, run_dir.work, job.record, job.result, job.stage, exc)
         final = run_dir.finish()
         if hasattr(exc, "add_note"):  # Python >= 3.11
             exc.add_note(f"run directory: {final} (run.json records the failure)")
         raise
     final = run_dir.finish()
-    relative = any(e.relative_to is not None for e in spec.expect)
     stopped = flag.requested or result.outcome == "interrupted"
     return RunSummary(
         run_dir=final,
         result=_moved(result, final),
         metrics=values,
         verdict=verdict,
-        relative=relative,
+        relative=any(e.relative_to is not None for e in spec.expect),
         interrupted=stopped,
         signum=flag.signum if stopped else None,
-        stages=dict(stages.record),
+        stages=dict(job.stages.record),
     )
+
+
+class _RunRecord:
+    """``run.json`` as the run goes: the provenance ``record``, the simulation's ``result``,
+    each post-simulation stage's status (``stages``) and the stage under way (``stage``, in
+    words, which the record of a failure names)."""
+
+    def __init__(self, work: Path, record: dict[str, object]) -> None:
+        self.work, self.record = work, record
+        self.result: RunResult | None = None
+        self.stages = results.Stages(figures=False, video=False)
+        self.stage = "setting up the run"
+
+    def write(self) -> None:
+        """Write ``run.json`` as it stands."""
+        _write_run_record(self.work, self.record, self.result)  # type: ignore[arg-type]
+
+    def begin(self, name: str, words: str) -> None:
+        """Stage ``name`` started (recorded before it runs: true even if the process is
+        killed in it)."""
+        self.stage = words
+        self.stages.set(name, results.STARTED)
+        self.write()
+
+    def end(self, name: str, status: str) -> None:
+        """Stage ``name`` ended with ``status``."""
+        self.stages.set(name, status)
+        self.write()
+
+
+def _simulate(
+    spec: ExperimentSpec,
+    log_path: Path,
+    progress: ProgressCallback | None,
+    flag: InterruptFlag,
+    resolved: Experiment | None,
+    job: _RunRecord,
+) -> RunResult:
+    """The simulation, or the result of a run stopped before it (while the command started,
+    or by a second Ctrl-C in its set-up, before the log was opened)."""
+    if flag.requested:  # stopped while the command started: no simulation at all
+        return RunResult(spec.name, log_path, "interrupted", 0.0, 0.0, None, _stopped_before(flag))
+    job.stage = "running the simulation"
+    try:
+        return run(spec, log_path, progress, flag, resolved)
+    except KeyboardInterrupt:  # a second Ctrl-C in set-up, before the log was opened
+        return RunResult(
+            spec.name, log_path, "interrupted", 0.0, 0.0, None, "interrupted in set-up"
+        )
+
+
+def _draw_outputs(
+    job: _RunRecord, log_path: Path, flag: InterruptFlag, figures: bool, video: bool
+) -> None:
+    """The figures and the video, each when wanted; skipped after a stop, and a Ctrl-C in
+    one keeps the run without it (the flag then records the stop)."""
+    for name, wanted, draw in (
+        ("figures", figures, _draw_figures),
+        ("video", video, _render_video),
+    ):
+        if not wanted:
+            continue
+        if job.result.outcome == "interrupted" or flag.requested:  # type: ignore[union-attr]
+            job.end(name, results.SKIPPED)
+            continue
+        job.begin(name, f"{'drawing the figures' if name == 'figures' else 'rendering the video'}")
+        try:
+            status = draw(log_path, job.work, flag)
+        except KeyboardInterrupt:  # optional outputs: the run is kept without them
+            flag.requested, status = True, results.INTERRUPTED
+            if flag.signum is None:
+                import signal
+
+                flag.signum = signal.SIGINT
+        job.end(name, status)
 
 
 def _draw_figures(log_path: Path, work: Path, flag: InterruptFlag) -> str:

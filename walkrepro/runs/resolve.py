@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import fnmatch
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -128,23 +128,37 @@ def _check_names(loaded: LoadedSpec) -> tuple[LoadedSpec, Robot, ControllerParam
     and the parameters as the controller's model validated them."""
     # Imported here: the registries import heavy modules (mujoco, pinocchio), and the
     # record above is imported by walkrepro.api, which imports none.
-    import mujoco
-    from pydantic import ValidationError
-
-    from walkrepro.controllers import controller_class, controller_names, controller_params
-    from walkrepro.evaluation.metrics import (
-        MetricArgError,
-        check_metric_arg,
-        metric_names,
-        split_metric,
-    )
     from walkrepro.sim.robot import list_robots, load_robot
-    from walkrepro.specs.files import all_experiment_names
-    from walkrepro.specs.models import ControllerSpec, _check_plain_data, _format_validation
+    from walkrepro.specs.models import ControllerSpec
 
     spec = loaded.spec
     if spec.robot not in list_robots():
         raise UnknownNameError("robot", spec.robot, list_robots(), loaded.where(("robot",)))
+    frames, params = _check_controller(loaded)
+    robot = load_robot(spec.robot)
+    _check_disturbance_names(loaded, robot, frames)
+    _check_actuators(loaded, robot)
+    _check_metrics(loaded)
+    _check_times(loaded)
+    normalised = spec.model_copy(
+        update={
+            "controller": ControllerSpec(
+                type=spec.controller.type, params=params.model_dump(mode="json")
+            )
+        }
+    )
+    return loaded.model_copy(update={"spec": normalised}), robot, params
+
+
+def _check_controller(loaded: LoadedSpec) -> tuple[tuple[str, ...], ControllerParams]:
+    """The controller's name and parameters: the frames its disturbances may name
+    (``world`` and the controller's own) and its parameters, as its model validated them."""
+    from pydantic import ValidationError
+
+    from walkrepro.controllers import controller_class, controller_names, controller_params
+    from walkrepro.specs.models import _check_plain_data, _format_validation
+
+    spec = loaded.spec
     if spec.controller.type not in controller_names():
         raise UnknownNameError(
             "controller",
@@ -155,8 +169,8 @@ def _check_names(loaded: LoadedSpec) -> tuple[LoadedSpec, Robot, ControllerParam
     cls = controller_class(spec.controller.type)
     params_where = ("controller", "params")
     for name, value in spec.controller.params.items():
-        field = cls.Params.model_fields.get(name)
-        if isinstance(value, bool) and field is not None and field.annotation in (float, int):
+        declared = cls.Params.model_fields.get(name)
+        if isinstance(value, bool) and declared is not None and declared.annotation in (float, int):
             raise SpecError(
                 f"{loaded.where((*params_where, name))}: expected a number, not a boolean "
                 f"(got {value!r})."
@@ -178,21 +192,32 @@ def _check_names(loaded: LoadedSpec) -> tuple[LoadedSpec, Robot, ControllerParam
     _check_plain_data(
         params.model_dump(), loaded.source, loaded.lines, loaded.overridden, params_where
     )
+    return ("world", *cls.FRAMES), params
 
-    robot = load_robot(spec.robot)
+
+def _check_disturbance_names(loaded: LoadedSpec, robot: Robot, frames: tuple[str, ...]) -> None:
+    """Each disturbance's body is the robot's and its frame one of ``frames``."""
     bodies = robot.body_names()
-    for i, dist in enumerate(spec.disturbances):
+    for i, dist in enumerate(loaded.spec.disturbances):
         if dist.body not in bodies:
             raise UnknownNameError(
                 "body", dist.body, bodies, loaded.where(("disturbances", i, "body"))
             )
-        frames = ("world", *cls.FRAMES)
         if dist.frame not in frames:
             raise UnknownNameError(
                 "frame", dist.frame, frames, loaded.where(("disturbances", i, "frame"))
             )
-    actuator_names = robot.joint_names
-    for pattern in spec.actuators.position_gain:
+
+
+def _check_actuators(loaded: LoadedSpec, robot: Robot) -> None:
+    """The spec's actuator and sensor patterns match the robot's joints, and what they set
+    (position gains, springs, backlash, torque lag) exists on the robot."""
+    import mujoco
+
+    from walkrepro.sim.springs import series_elastic_joints
+
+    actuators, actuator_names = loaded.spec.actuators, robot.joint_names
+    for pattern in actuators.position_gain:
         matched = fnmatch.filter(actuator_names, pattern)
         if not matched:
             raise UnknownNameError(
@@ -206,10 +231,8 @@ def _check_names(loaded: LoadedSpec) -> tuple[LoadedSpec, Robot, ControllerParam
                 f"{loaded.where(('actuators', 'position_gain'))}: robot {robot.name!r} has torque "
                 "actuators; position_gain applies to position servos only."
             )
-    from walkrepro.sim.springs import series_elastic_joints
-
     for field_name in ("spring", "backlash"):
-        for pattern in getattr(spec.actuators, field_name):
+        for pattern in getattr(actuators, field_name):
             at = loaded.where(("actuators", field_name, pattern))
             springs = series_elastic_joints(robot.mj_model, field_name == "backlash")
             if not springs:
@@ -217,14 +240,14 @@ def _check_names(loaded: LoadedSpec) -> tuple[LoadedSpec, Robot, ControllerParam
                 raise SpecError(f"{at}: robot {robot.name!r} has no {kind} to set.")
             if not fnmatch.filter(springs, pattern):
                 raise UnknownNameError("series-elastic joint", pattern, springs, at)
-    if spec.actuators.torque_lag is not None:
+    if actuators.torque_lag is not None:
         filtered = mujoco.mjtDyn.mjDYN_FILTEREXACT
         if not all(int(d) == filtered for d in robot.mj_model.actuator_dyntype):
             raise SpecError(
                 f"{loaded.where(('actuators', 'torque_lag'))}: robot {robot.name!r} has no "
                 "torque-loop dynamics to set (its actuators are not first-order filters)."
             )
-    for pattern in spec.sensors.joint_backlash:
+    for pattern in loaded.spec.sensors.joint_backlash:
         if not fnmatch.filter(actuator_names, pattern):
             raise UnknownNameError(
                 "actuator",
@@ -232,19 +255,16 @@ def _check_names(loaded: LoadedSpec) -> tuple[LoadedSpec, Robot, ControllerParam
                 actuator_names,
                 loaded.where(("sensors", "joint_backlash", pattern)),
             )
-    valid_metrics = metric_names()
 
-    def check_metric(full: str, path: tuple[str | int, ...]) -> None:
-        """A registered metric whose argument it can read, else an error at ``path``."""
-        base, _ = split_metric(full)
-        if base not in valid_metrics:
-            raise UnknownNameError("metric", base, valid_metrics, loaded.where(path))
-        try:
-            check_metric_arg(full)
-        except MetricArgError as exc:
-            raise SpecError(f"{loaded.where(path)}: {exc}") from None
 
-    for i, exp in enumerate(spec.expect):
+def _check_metrics(loaded: LoadedSpec) -> None:
+    """Every metric the expectations and sweeps name is registered and reads its argument;
+    a known deviation has its band; a partner experiment exists; a claim selects cells by
+    the fields its map's grid varies."""
+    from walkrepro.specs.files import all_experiment_names
+
+    check_metric = _metric_checker(loaded)
+    for i, exp in enumerate(loaded.spec.expect):
         if exp.known_deviation is not None and exp.known_deviation.observed is None:
             raise SpecError(
                 f"{loaded.where(('expect', i, 'known_deviation'))}: a known deviation needs "
@@ -262,7 +282,7 @@ def _check_names(loaded: LoadedSpec) -> tuple[LoadedSpec, Robot, ControllerParam
                     loaded.where((*where, "experiment")),
                 )
             check_metric(exp.reference_metric, (*where, "metric"))
-    for i, sweep in enumerate(spec.sweeps):
+    for i, sweep in enumerate(loaded.spec.sweeps):
         if sweep.metric is not None:
             check_metric(sweep.metric, ("sweeps", i, "metric"))
         if sweep.success is not None:
@@ -272,13 +292,43 @@ def _check_names(loaded: LoadedSpec) -> tuple[LoadedSpec, Robot, ControllerParam
             # A selector on a field the grid does not vary matches no cell, and a claim over
             # no cells would hold whatever the map shows.
             for key in ("where", "contains", "than"):
-                for field in getattr(claim, key) or {}:
-                    if field not in sweep.grid:
+                for grid_field in getattr(claim, key) or {}:
+                    if grid_field not in sweep.grid:
                         raise SpecError(
-                            f"{loaded.where(('sweeps', i, 'claims', j, key))}: {field!r} is not "
+                            f"{loaded.where(('sweeps', i, 'claims', j, key))}: {grid_field!r} is not "
                             f"a field of this map's grid ({', '.join(sweep.grid)}); a claim "
                             "selects cells by their grid values."
                         )
+
+
+def _metric_checker(loaded: LoadedSpec) -> Callable[[str, tuple[str | int, ...]], None]:
+    """A check that a metric name is registered and its argument readable, raising an error
+    at the spec path it is given."""
+    from walkrepro.evaluation.metrics import (
+        MetricArgError,
+        check_metric_arg,
+        metric_names,
+        split_metric,
+    )
+
+    valid_metrics = metric_names()
+
+    def check_metric(full: str, path: tuple[str | int, ...]) -> None:
+        """A registered metric whose argument it can read, else an error at ``path``."""
+        base, _ = split_metric(full)
+        if base not in valid_metrics:
+            raise UnknownNameError("metric", base, valid_metrics, loaded.where(path))
+        try:
+            check_metric_arg(full)
+        except MetricArgError as exc:
+            raise SpecError(f"{loaded.where(path)}: {exc}") from None
+
+    return check_metric
+
+
+def _check_times(loaded: LoadedSpec) -> None:
+    """The run covers one control period, and every disturbance starts before it ends."""
+    spec = loaded.spec
     if spec.sim.duration < spec.sim.control_period:
         raise SpecError(
             f"{loaded.where(('sim', 'duration'))}: duration must cover one control period."
@@ -289,14 +339,6 @@ def _check_names(loaded: LoadedSpec) -> tuple[LoadedSpec, Robot, ControllerParam
                 f"{loaded.where(('disturbances', i, 'start'))}: starts after the run ends "
                 f"(duration {spec.sim.duration} s)."
             )
-    normalised = spec.model_copy(
-        update={
-            "controller": ControllerSpec(
-                type=spec.controller.type, params=params.model_dump(mode="json")
-            )
-        }
-    )
-    return loaded.model_copy(update={"spec": normalised}), robot, params
 
 
 def _check_obstacle_overlap(loaded: LoadedSpec, robot: Any, scene: Scene) -> None:

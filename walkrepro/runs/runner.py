@@ -190,60 +190,101 @@ def run(
     if interrupt is None:
         with InterruptFlag() as own:
             return run(spec, log_path, progress, own, resolved)
-    resolved = resolved if resolved is not None else assemble(spec)
-    robot, scene = resolved.robot, resolved.scene
-    model = scene.model
-    data = mujoco.MjData(model)
-    _set_home(robot, model, data)
-    mujoco.mj_forward(model, data)
+    sim = _Simulation(spec, resolved if resolved is not None else assemble(spec), log_path)
+    sim.simulate(interrupt, progress)
+    return sim.finish(log_path, progress)
 
-    cls = controller_class(spec.controller.type)
-    controller = cls()
-    controller.reset(
-        with_servo_gains(robot, model),  # the spec's servo gains, as the controller runs them
-        resolved.params,
-        spec.sim.control_period,
-    )
-    sensors = SensorModel(robot, model, spec.sensors, spec.sim.control_period, spec.sim.seed)
-    disturbances = DisturbanceSchedule(spec.disturbances)
-    contacts = ContactReader(model)
-    body_ids = {d.body: model.body(d.body).id for d in spec.disturbances}
-    body_state = _body_state_reader(model, data, body_ids)
 
-    fall = FallDetector(robot, model, spec)
+class _Simulation:
+    """One run's parts, built once: the model and its data, the controller, the sensors, the
+    disturbances, the contact reader, the fall detector, the log writer and the stage clock;
+    and how the run ended so far (``outcome``, ``message``, ``fall_time``, ``step``)."""
 
-    writer = record.LogWriter(
-        log_path, scene_xml=scene.xml, spec_yaml=spec.to_yaml(), metadata=run_metadata(spec)
-    )
-    substeps, n_steps = spec.sim.substeps, spec.sim.n_steps
-    # Foxglove's body frames at >= 30 Hz, on control ticks.
-    frame_steps = substeps * frame_every(spec.sim.control_period)
-    ctrl_held = np.asarray(data.ctrl, dtype=np.float64).copy()
-    wrenches: dict[str, np.ndarray] = {}
-    outcome, message, fall_time = "complete", "", None
-    wall_start = time.perf_counter()
-    last_report = wall_start
-    step = 0
-    clock = StageClock(n_steps // substeps + 1)
-    # Live views of MuJoCo's warning counters: a non-finite or huge state (caught at the start
-    # of mj_step1) or acceleration (in mj_step2) makes MuJoCo reset the data and count it.
-    warnings = data.warning
-    bad_state = (
-        warnings[mujoco.mjtWarning.mjWARN_BADQPOS],
-        warnings[mujoco.mjtWarning.mjWARN_BADQVEL],
-    )
-    bad_qacc = warnings[mujoco.mjtWarning.mjWARN_BADQACC]
-    # MjData's arrays live as long as `data`: one view each instead of one per access.
-    qpos, qvel, act, ctrl_in = data.qpos, data.qvel, data.act, data.ctrl
-    xpos, xquat = data.xpos, data.xquat
-    lap = clock.lap
-    timestep = spec.sim.timestep
-    # A robot whose lab's simulator computed its ground contact carries that law in its
-    # model (walkrepro/sim/contact_law.py); it acts in the steps below, as it does in a replay.
-    ground = contextlib.ExitStack()
-    ground.enter_context(contact_law.applied_to(model))
-    try:
+    def __init__(self, spec: ExperimentSpec, resolved: Experiment, log_path: Path) -> None:
+        robot, scene = resolved.robot, resolved.scene
+        self.spec = spec
+        self.model = model = scene.model
+        self.data = data = mujoco.MjData(model)
+        _set_home(robot, model, data)
+        mujoco.mj_forward(model, data)
+        self.controller = controller_class(spec.controller.type)()
+        self.controller.reset(
+            with_servo_gains(robot, model),  # the spec's servo gains, as the controller runs them
+            resolved.params,
+            spec.sim.control_period,
+        )
+        self.sensors = SensorModel(
+            robot, model, spec.sensors, spec.sim.control_period, spec.sim.seed
+        )
+        self.disturbances = DisturbanceSchedule(spec.disturbances)
+        self.contacts = ContactReader(model)
+        self.body_ids = {d.body: model.body(d.body).id for d in spec.disturbances}
+        self.body_state = _body_state_reader(model, data, self.body_ids)
+        self.fall = FallDetector(robot, model, spec)
+        self.writer = record.LogWriter(
+            log_path, scene_xml=scene.xml, spec_yaml=spec.to_yaml(), metadata=run_metadata(spec)
+        )
+        self.outcome, self.message, self.fall_time = "complete", "", None
+        self.step = 0
+        self.wall_start = self.last_report = time.perf_counter()
+        self.clock = StageClock(spec.sim.n_steps // spec.sim.substeps + 1)
+        # Live views of MuJoCo's warning counters: a non-finite or huge state (caught at the
+        # start of mj_step1) or acceleration (in mj_step2) makes MuJoCo reset the data and
+        # count it.
+        warnings = data.warning
+        self.bad_state = (
+            warnings[mujoco.mjtWarning.mjWARN_BADQPOS],
+            warnings[mujoco.mjtWarning.mjWARN_BADQVEL],
+        )
+        self.bad_qacc = warnings[mujoco.mjtWarning.mjWARN_BADQACC]
+        # MjData's arrays live as long as `data`: one view each instead of one per access.
+        self.qpos, self.qvel, self.act, self.ctrl_in = data.qpos, data.qvel, data.act, data.ctrl
+        self.xpos, self.xquat = data.xpos, data.xquat
+        # Foxglove's body frames at >= 30 Hz, on control ticks.
+        self.frame_steps = spec.sim.substeps * frame_every(spec.sim.control_period)
+
+    def simulate(self, interrupt: InterruptFlag, progress: ProgressCallback | None) -> None:
+        """Step the physics to the end of the run, a fall, an error or Ctrl-C, and log the
+        final state; a Python error closes the log as ``error`` and is re-raised."""
+        # A robot whose lab's simulator computed its ground contact carries that law in its
+        # model (walkrepro/sim/contact_law.py); it acts in the steps, as it does in a replay.
+        ground = contextlib.ExitStack()
+        ground.enter_context(contact_law.applied_to(self.model))
+        try:
+            self._steps(interrupt, progress)
+            if self.outcome == "complete":
+                # The state after the last step (a fall already logged the state it was seen in).
+                data = self.data
+                _check_finite(data, data.time)
+                self.writer.write_state(self.step, data.time, self.qpos, self.qvel, self.act)
+        except KeyboardInterrupt:
+            self.outcome = "interrupted"
+            self.message = f"interrupted at t = {self.step * self.spec.sim.timestep:.3f} s"
+        except SimulationError as exc:
+            self.outcome, self.message = "error", str(exc)
+        except BaseException as exc:
+            self.writer.close(
+                "error", {"error": "".join(traceback.format_exception_only(exc)).strip()}
+            )
+            raise
+        finally:
+            ground.close()
+
+    def _steps(self, interrupt: InterruptFlag, progress: ProgressCallback | None) -> None:
+        """The physics steps, each ``mj_step1``, a control tick every ``substeps`` steps,
+        the disturbances, the step's log, ``mj_step2``; ``step`` is the step reached."""
+        model, data, writer, contacts = self.model, self.data, self.writer, self.contacts
+        disturbances, clock, lap = self.disturbances, self.clock, self.clock.lap
+        qpos, qvel, act, bad_qacc = self.qpos, self.qvel, self.act, self.bad_qacc
+        substeps, n_steps, timestep = (
+            self.spec.sim.substeps,
+            self.spec.sim.n_steps,
+            self.spec.sim.timestep,
+        )
+        ctrl_held = np.asarray(data.ctrl, dtype=np.float64).copy()
+        wrenches: dict[str, np.ndarray] = {}
         for step in range(n_steps):
+            self.step = step
             if interrupt.requested:  # also a Ctrl-C during set-up: stop before step 0
                 raise KeyboardInterrupt
             tick = step % substeps == 0
@@ -258,55 +299,20 @@ def run(
             mujoco.mj_step1(model, data)
             lap("physics")
             if tick:
-                if bad_state[0].number or bad_state[1].number:
-                    raise SimulationError(f"simulation state became NaN/inf at t = {t:.4f} s")
-                reason = fall.check(data)
-                lap("bookkeeping")
-                if step % frame_steps == 0:
-                    writer.write_frames(t, xpos, xquat)
-                if reason:
-                    writer.write_state(step, t, qpos, qvel, act)
-                    outcome, fall_time, message = "fell", t, f"fell at t = {t:.3f} s ({reason})"
-                    writer.write(record.TOPIC_EVENTS, {"t": t, "kind": "fall", "reason": reason}, t)
-                    break
-                lap("logging")
-                snapshot = sensors.read(model, data)
-                lap("sensors")
-                command = controller.step(t, snapshot)
-                lap("controller")
-                # The command as MuJoCo will hold it (float64), checked once.
-                ctrl = np.asarray(command.ctrl, dtype=np.float64)
-                ctrl_held = _checked_ctrl(writer, ctrl, model.nu, t)
-                ctrl_in[:] = ctrl  # mj_step leaves ctrl alone: held until the next tick
-                now = time.perf_counter()
-                if progress is not None and now - last_report > 0.2:
-                    progress(t, spec.sim.duration, t / max(now - wall_start, 1e-9))
-                    last_report = now
-                lap("bookkeeping")
-                for event in command.events:
-                    writer.write(record.TOPIC_EVENTS, {"t": t, **_jsonable(event)}, t)
-                lap("logging")
+                ticked = self._control_tick(step, t, progress)
+                if ticked is None:  # fell: logged, the run ends in this state
+                    return
+                snapshot, command, ctrl_held = ticked
             if disturbances.active_at(t):
-                wrenches, events = disturbances.wrenches(t, controller.frame, body_state)
-                for event in events:
-                    writer.write(record.TOPIC_EVENTS, {"t": t, **event}, t)
-                data.xfrc_applied[:] = 0.0
-                for body, wrench in wrenches.items():
-                    data.xfrc_applied[body_ids[body]] = wrench
-                lap("bookkeeping")
+                wrenches = self._disturb(t)
             elif wrenches:
                 wrenches = {}
                 data.xfrc_applied[:] = 0.0
             if tick:
                 # The state this tick saw (unchanged since mj_step1), the snapshot, the
                 # signals, and the inputs of this step.
-                writer.write_tick(
-                    record.SimState(step, t, qpos, qvel, act),
-                    snapshot,
-                    command.signals,
-                    ctrl_held,
-                    wrenches,
-                )
+                state = record.SimState(step, t, qpos, qvel, act)
+                writer.write_tick(state, snapshot, command.signals, ctrl_held, wrenches)
             else:
                 writer.write_inputs(step, ctrl_held, wrenches, t)
             lap("logging")
@@ -326,43 +332,87 @@ def run(
                 lap("bookkeeping")
                 writer.write_contact_pairs(step, t, pair_names, pair_wrenches)
                 lap("logging")
-        else:
-            step = n_steps
-            data.time = n_steps * timestep
-        if outcome == "complete":
-            # The state after the last step (a fall already logged the state it was seen in).
-            _check_finite(data, data.time)
-            writer.write_state(step, data.time, qpos, qvel, act)
-    except KeyboardInterrupt:
-        outcome, message = "interrupted", f"interrupted at t = {step * timestep:.3f} s"
-    except SimulationError as exc:
-        outcome, message = "error", str(exc)
-    except BaseException as exc:
-        writer.close("error", {"error": "".join(traceback.format_exception_only(exc)).strip()})
-        raise
-    finally:
-        ground.close()
-    wall = time.perf_counter() - wall_start
-    # Steps completed (a fall or Ctrl-C stops at the top of a step, whose state is the last).
-    sim_time = step * timestep
-    extra = {"sim_time": repr(sim_time), "wall_time": f"{wall:.3f}"}
-    if fall_time is not None:
-        extra["fall_time"] = repr(float(fall_time))
-    if message:
-        extra["message"] = message
-    writer.close(outcome, extra)
-    if progress is not None:
-        progress(sim_time, spec.sim.duration, sim_time / max(wall, 1e-9))
-    return RunResult(
-        experiment=spec.name,
-        log_path=log_path,
-        outcome=outcome,
-        sim_time=sim_time,
-        wall_time=wall,
-        fall_time=fall_time,
-        message=message or f"completed {sim_time:.3f} s",
-        timing=clock.summary(controller.timing()),
-    )
+        self.step = n_steps
+        data.time = n_steps * timestep
+
+    def _control_tick(
+        self, step: int, t: float, progress: ProgressCallback | None
+    ) -> tuple[object, object, np.ndarray] | None:
+        """One control tick, after ``mj_step1``: the fall check, Foxglove's frames, the
+        sensors, the controller and its command (set in ``ctrl``, held until the next tick).
+
+        Returns:
+            The sensor snapshot, the controller's command and the command as logged, or None
+            when the robot fell (the state and the fall are logged, the outcome set).
+        """
+        writer, lap = self.writer, self.clock.lap
+        if self.bad_state[0].number or self.bad_state[1].number:
+            raise SimulationError(f"simulation state became NaN/inf at t = {t:.4f} s")
+        reason = self.fall.check(self.data)
+        lap("bookkeeping")
+        if step % self.frame_steps == 0:
+            writer.write_frames(t, self.xpos, self.xquat)
+        if reason:
+            writer.write_state(step, t, self.qpos, self.qvel, self.act)
+            self.outcome, self.fall_time = "fell", t
+            self.message = f"fell at t = {t:.3f} s ({reason})"
+            writer.write(record.TOPIC_EVENTS, {"t": t, "kind": "fall", "reason": reason}, t)
+            return None
+        lap("logging")
+        snapshot = self.sensors.read(self.model, self.data)
+        lap("sensors")
+        command = self.controller.step(t, snapshot)
+        lap("controller")
+        # The command as MuJoCo will hold it (float64), checked once.
+        ctrl = np.asarray(command.ctrl, dtype=np.float64)
+        ctrl_held = _checked_ctrl(writer, ctrl, self.model.nu, t)
+        self.ctrl_in[:] = ctrl  # mj_step leaves ctrl alone: held until the next tick
+        now = time.perf_counter()
+        if progress is not None and now - self.last_report > 0.2:
+            progress(t, self.spec.sim.duration, t / max(now - self.wall_start, 1e-9))
+            self.last_report = now
+        lap("bookkeeping")
+        for event in command.events:
+            writer.write(record.TOPIC_EVENTS, {"t": t, **_jsonable(event)}, t)
+        lap("logging")
+        return snapshot, command, ctrl_held
+
+    def _disturb(self, t: float) -> dict[str, np.ndarray]:
+        """The disturbances' wrenches at ``t``, written to ``xfrc_applied`` (their events
+        logged); returns them by body name."""
+        wrenches, events = self.disturbances.wrenches(t, self.controller.frame, self.body_state)
+        for event in events:
+            self.writer.write(record.TOPIC_EVENTS, {"t": t, **event}, t)
+        xfrc = self.data.xfrc_applied
+        xfrc[:] = 0.0
+        for body, wrench in wrenches.items():
+            xfrc[self.body_ids[body]] = wrench
+        self.clock.lap("bookkeeping")
+        return wrenches
+
+    def finish(self, log_path: Path, progress: ProgressCallback | None) -> RunResult:
+        """Close the log with the outcome and report what the run produced."""
+        wall = time.perf_counter() - self.wall_start
+        # Steps completed (a fall or Ctrl-C stops at the top of a step, whose state is the last).
+        sim_time = self.step * self.spec.sim.timestep
+        extra = {"sim_time": repr(sim_time), "wall_time": f"{wall:.3f}"}
+        if self.fall_time is not None:
+            extra["fall_time"] = repr(float(self.fall_time))
+        if self.message:
+            extra["message"] = self.message
+        self.writer.close(self.outcome, extra)
+        if progress is not None:
+            progress(sim_time, self.spec.sim.duration, sim_time / max(wall, 1e-9))
+        return RunResult(
+            experiment=self.spec.name,
+            log_path=log_path,
+            outcome=self.outcome,
+            sim_time=sim_time,
+            wall_time=wall,
+            fall_time=self.fall_time,
+            message=self.message or f"completed {sim_time:.3f} s",
+            timing=self.clock.summary(self.controller.timing()),
+        )
 
 
 def _body_state_reader(

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import fnmatch
 from collections import deque
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -185,6 +186,48 @@ def _gather_reading(
         reading[at + k] = qvel[p.base_qvel_rows[k]]
 
 
+def _ground_sites(
+    model: mujoco.MjModel, ground: contact_law.GroundContact | None
+) -> list[tuple[int, int, int]]:
+    """(reading slot, sensor site, foot body) of each foot whose ground force ``ground``
+    computes (none without a ground law)."""
+    sites: list[tuple[int, int, int]] = []
+    if ground is not None:
+        for k, side in enumerate(FOOT_SIDES):
+            site = model.site(f"{side}_foot_ft").id
+            body = int(model.site_bodyid[site])
+            if body in ground.bodies:
+                sites.append((k, site, body))
+    return sites
+
+
+def _noise_segments(spec: SensorsSpec, n: int) -> list[tuple[str, int, float]]:
+    """The noisy segments of one reading in its order, as (sensor, size, σ): the ``n`` joint
+    positions [rad] and velocities [rad/s], the gyro [rad/s], the accelerometer [m/s²], and
+    each foot's F/T force [N] and torque [Nm]."""
+    segments = [
+        ("joint_pos", n, spec.joint_position_noise),
+        ("joint_vel", n, spec.joint_velocity_noise),
+        ("imu_gyro", 3, spec.imu_gyro_noise),
+        ("imu_acc", 3, spec.imu_acc_noise),
+    ]
+    for side in FOOT_SIDES:
+        segments += [(f"{side}_foot_force", 3, spec.ft_force_noise)]
+        segments += [(f"{side}_foot_torque", 3, spec.ft_torque_noise)]
+    return segments
+
+
+def _half_play(joint_names: Sequence[str], backlash: Mapping[str, float]) -> np.ndarray:
+    """Half of each joint's encoder play [rad], from the spec's ``joint_backlash`` (joint
+    name pattern -> full play [rad]); the last pattern that matches a joint wins."""
+    half_play = np.zeros(len(joint_names))
+    for pattern, play in backlash.items():
+        for j, name in enumerate(joint_names):
+            if fnmatch.fnmatchcase(name, pattern):
+                half_play[j] = 0.5 * play
+    return half_play
+
+
 class SensorModel:
     """Turns simulator state into :class:`SensorSnapshot` with the spec's imperfections.
 
@@ -204,13 +247,7 @@ class SensorModel:
         # A ground law computed by walkrepro (contact_law.py) is a force MuJoCo's F/T sensors
         # do not see: (reading slot, sensor site, foot body) of each foot that carries one.
         self._ground = contact_law.from_model(model)
-        self._ground_sites: list[tuple[int, int, int]] = []
-        if self._ground is not None:
-            for k, side in enumerate(FOOT_SIDES):
-                site = model.site(f"{side}_foot_ft").id
-                body = int(model.site_bodyid[site])
-                if body in self._ground.bodies:
-                    self._ground_sites.append((k, site, body))
+        self._ground_sites = _ground_sites(model, self._ground)
         # The joint encoders: link angles, or the motor DoF where they sit before the gear.
         sensor = {name: _sensor_slice(model, name) for name in SENSOR_NAMES}
         self._quat = sensor["imu_quat"]
@@ -219,15 +256,7 @@ class SensorModel:
         # _measure), and all noise comes from one draw over the noisy segments, in this order,
         # which gives the same numbers as one draw per segment.
         n = len(robot.joint_names)
-        segments = [
-            ("joint_pos", n, spec.joint_position_noise),
-            ("joint_vel", n, spec.joint_velocity_noise),
-            ("imu_gyro", 3, spec.imu_gyro_noise),
-            ("imu_acc", 3, spec.imu_acc_noise),
-        ]
-        for side in FOOT_SIDES:
-            segments += [(f"{side}_foot_force", 3, spec.ft_force_noise)]
-            segments += [(f"{side}_foot_torque", 3, spec.ft_torque_noise)]
+        segments = _noise_segments(spec, n)
         self._size = sum(size for _, size, _ in segments)
         std = np.concatenate([np.full(size, std, dtype=float) for _, size, std in segments])
         self._noisy = np.flatnonzero(std != 0)
@@ -240,11 +269,7 @@ class SensorModel:
         offset_rng = np.random.default_rng([seed, _OFFSET_STREAM])
         self._offset = spec.joint_position_offset * offset_rng.standard_normal(n)
         self._has_offset = spec.joint_position_offset > 0
-        self._half_play = np.zeros(n)
-        for pattern, play in spec.joint_backlash.items():
-            for j, name in enumerate(robot.joint_names):
-                if fnmatch.fnmatchcase(name, pattern):
-                    self._half_play[j] = 0.5 * play
+        self._half_play = _half_play(robot.joint_names, spec.joint_backlash)
         self._has_play = bool(np.any(self._half_play > 0))
         self._encoder: np.ndarray | None = None  # the encoder shafts' angles behind the play
         # After the noisy segments: the IMU orientation, then the base state if provided.

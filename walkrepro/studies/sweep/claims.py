@@ -74,6 +74,46 @@ def evaluate_claim(
         n_cells: cells in the full grid (missing rows count as unknown).
         origin: where the table came from, appended to the source.
     """
+    violations, unknown, note, label = _judged_cells(rows, fields, claim, map_name)
+    # Cells that exist but whose region cannot be measured (a fall before the window) may
+    # be a declared band of the known deviation; a selector over no cell, or a missing cell,
+    # never is.
+    unmeasured = [u for u in unknown if not u.startswith(_NO_CELL)]
+    hard = [u for u in unknown if u.startswith(_NO_CELL)]
+    if n_cells is not None and len(rows) < n_cells:
+        hard.append(f"{n_cells - len(rows)} of {n_cells} cells missing")
+        unknown.append(hard[-1])
+    ok = not violations and not unknown
+    parts = [note]
+    if violations:
+        parts.append("contradicted at " + "; ".join(violations))
+    if unknown:
+        parts.append("not measurable: " + "; ".join(unknown))
+    if claim.note:
+        parts.insert(0, claim.note)
+    text = ". ".join(p for p in parts if p)
+    measured = float(len(violations))
+    status, text = _status(claim, measured, ok, hard, len(unmeasured), text)
+    observed = claim.known_deviation.observed if claim.known_deviation is not None else None
+    source = claim.source + (f" [from {origin}]" if origin else "")
+    return CheckRow(
+        metric=label,
+        op="==",
+        paper=0.0,
+        measured=measured,
+        status=status,
+        source=source,
+        note=text,
+        observed=observed,
+        claim=claim.claim,
+        own=claim.own,
+    )
+
+
+def _judged_cells(
+    rows: Sequence[Row], fields: Sequence[str], claim: SweepClaim, map_name: str
+) -> tuple[list[str], list[str], str, str]:
+    """The claim's contradicting cells, its unknown ones, a note, and the row's label."""
     if claim.kind in ("contains", "exceeds"):
         violations, unknown, note = _contains(rows, fields, claim)
         sign = "⊇" if claim.kind == "contains" else "⊋"
@@ -92,66 +132,42 @@ def evaluate_claim(
         label = f"map {map_name}: {claim.region} for every cell" + (
             f" where {_sel(claim.where)}" if claim.where else ""
         )
-    # Cells that exist but whose region cannot be measured (a fall before the window) may
-    # be a declared band of the known deviation; a selector over no cell, or a missing cell,
-    # never is.
-    unmeasured = [u for u in unknown if not u.startswith(_NO_CELL)]
-    hard = [u for u in unknown if u.startswith(_NO_CELL)]
-    if n_cells is not None and len(rows) < n_cells:
-        hard.append(f"{n_cells - len(rows)} of {n_cells} cells missing")
-        unknown.append(hard[-1])
-    ok = not violations and not unknown
-    parts = [note]
-    if violations:
-        parts.append("contradicted at " + "; ".join(violations))
-    if unknown:
-        parts.append("not measurable: " + "; ".join(unknown))
-    if claim.note:
-        parts.insert(0, claim.note)
-    text = ". ".join(p for p in parts if p)
+    return violations, unknown, note, label
+
+
+def _status(
+    claim: SweepClaim, measured: float, ok: bool, hard: list[str], n_unmeasured: int, text: str
+) -> tuple[str, str]:
+    """The row's status and its note: pass or fail, or, with a known deviation, known while
+    the contradicting cells (and, where declared, the cells not measurable) stay in their
+    bands; ``hard`` are the missing cells and selectors over no cell, never in a band."""
     dev = claim.known_deviation
-    measured = float(len(violations))
     observed = dev.observed if dev is not None else None
     if dev is None:
-        status = PASS if ok else FAIL
-    elif isinstance(observed, str):  # "not measurable": a claim always counts its cells
-        status = FAIL
-        text = f"{text}. A claim's known deviation needs an observed band of contradicting cells"
-    elif (
+        return (PASS if ok else FAIL), text
+    if isinstance(observed, str):  # "not measurable": a claim always counts its cells
+        return FAIL, (
+            f"{text}. A claim's known deviation needs an observed band of contradicting cells"
+        )
+    if (
         observed is not None
         and not hard
         and observed[0] <= measured <= observed[1]
-        and _in_band(len(unmeasured), dev.unmeasurable_cells)
+        and _in_band(n_unmeasured, dev.unmeasurable_cells)
     ):
         # A known deviation is a band of contradicting cells (and, where declared, of cells
         # not measurable): it fails when either count leaves its band.
-        status = KNOWN
-        text = f"{text}. Known deviation: {dev.reason}"
+        return KNOWN, f"{text}. Known deviation: {dev.reason}"
+    if hard:
+        side = "missing cells"
+    elif not _in_band(n_unmeasured, dev.unmeasurable_cells):
+        side = f"{n_unmeasured} cells not measurable, declared {dev.unmeasurable_cells or 0}"
     else:
-        status = FAIL
-        if hard:
-            side = "missing cells"
-        elif not _in_band(len(unmeasured), dev.unmeasurable_cells):
-            side = f"{len(unmeasured)} cells not measurable, declared {dev.unmeasurable_cells or 0}"
-        else:
-            side = ("fewer" if ok or measured < observed[0] else "more") + " contradicting cells"
-        text = (
-            f"{text}. Left the known deviation's observed band ({side}"
-            f"{': the deviation may be gone, update the spec' if ok else ''}). "
-            f"Known deviation: {dev.reason}"
-        )
-    source = claim.source + (f" [from {origin}]" if origin else "")
-    return CheckRow(
-        metric=label,
-        op="==",
-        paper=0.0,
-        measured=measured,
-        status=status,
-        source=source,
-        note=text,
-        observed=observed,
-        claim=claim.claim,
-        own=claim.own,
+        side = ("fewer" if ok or measured < observed[0] else "more") + " contradicting cells"
+    return FAIL, (
+        f"{text}. Left the known deviation's observed band ({side}"
+        f"{': the deviation may be gone, update the spec' if ok else ''}). "
+        f"Known deviation: {dev.reason}"
     )
 
 

@@ -15,6 +15,7 @@ from walkrepro.studies.sweep.cells import CRASHED
 from walkrepro.studies.sweep.engines import make_engine
 from walkrepro.studies.sweep.sweeper import (
     MAPS_DIR_NAME,
+    SweepPlan,
     plan_new,
     plan_resume,
     run_plan,
@@ -65,39 +66,11 @@ class EngineChoice:
 def sweep_command(console: Any, request: SweepRequest, engine: EngineChoice) -> int:
     """Plan (validating every cell), run and map a sweep; returns the exit code: 0, 1 when
     cells crashed (their worker died), 130 or 143 when Ctrl-C or SIGTERM stopped it."""
-    from walkrepro.runtime import outdir
     from walkrepro.studies.sweep.maps import plot_sweep
 
-    experiment, resume = request.experiment, request.resume
     # The engine first: a bad --engine or --jobs leaves no sweep directory behind.
     runner = make_engine(engine.name, engine.jobs, engine.address)
-    if resume is not None:
-        if request.grid or request.overrides or request.metrics or request.map_name:
-            raise WalkreproError(
-                "--resume continues a sweep with its own grid, --set and --metric; "
-                "give only --resume (and engine options)."
-            )
-        plan = plan_resume(resume)
-        if experiment is not None and experiment != plan.info["experiment"]:
-            raise WalkreproError(
-                f"--resume {resume}: that sweep is of {plan.info['experiment']!r}, "
-                f"not {experiment!r}."
-            )
-    else:
-        if experiment is None:
-            raise WalkreproError("give an EXPERIMENT to sweep (or --resume SWEEP_DIR).")
-        if request.update_reference and request.grid and request.map_name is None:
-            raise WalkreproError("--update-reference applies to a declared map (--map NAME) only.")
-        outdir.claim_root(request.out, outdir.RUNS, request.force, create=False)
-        plan = plan_new(
-            experiment,
-            request.grid,
-            request.overrides,
-            request.out,
-            request.metrics,
-            request.map_name,
-        )
-        outdir.claim_root(request.out, outdir.RUNS, force=True)  # checked above: mark it
+    plan = _plan(request)
     if request.update_reference and not plan.info.get("map"):
         raise WalkreproError("--update-reference applies to a declared map (--map NAME) only.")
     todo = len(plan.missing)
@@ -130,13 +103,7 @@ def sweep_command(console: Any, request: SweepRequest, engine: EngineChoice) -> 
         if row["outcome"] == CRASHED
     ]
     if plan.info.get("claims"):
-        from walkrepro.studies.sweep.claims import evaluate_sweep
-
-        spec = _declared(plan.info)
-        table = store.read_cells(plan.directory / store.CELLS_FILE)
-        rows = evaluate_sweep(table.rows, table.fields, spec, plan.info["n_cells"])
-        for r in rows:
-            console.print(f"{r.status}: {r.metric} — {r.note}", highlight=False)
+        _print_claims(console, plan)
     if crashed:
         console.print(
             f"[red]{len(crashed)} cell(s) crashed[/] (their worker process died: cells "
@@ -149,6 +116,54 @@ def sweep_command(console: Any, request: SweepRequest, engine: EngineChoice) -> 
         target = update_reference(plan.directory, plan.info["map"])
         console.print(f"reference map updated: {target}", highlight=False)
     return 0
+
+
+def _plan(request: SweepRequest) -> SweepPlan:
+    """The sweep's plan: the rest of an earlier sweep (``--resume``, which takes no grid,
+    ``--set`` or ``--metric``), or a new one, its cells validated and its output root
+    claimed."""
+    from walkrepro.runtime import outdir
+
+    experiment, resume = request.experiment, request.resume
+    if resume is not None:
+        if request.grid or request.overrides or request.metrics or request.map_name:
+            raise WalkreproError(
+                "--resume continues a sweep with its own grid, --set and --metric; "
+                "give only --resume (and engine options)."
+            )
+        plan = plan_resume(resume)
+        if experiment is not None and experiment != plan.info["experiment"]:
+            raise WalkreproError(
+                f"--resume {resume}: that sweep is of {plan.info['experiment']!r}, "
+                f"not {experiment!r}."
+            )
+    else:
+        if experiment is None:
+            raise WalkreproError("give an EXPERIMENT to sweep (or --resume SWEEP_DIR).")
+        if request.update_reference and request.grid and request.map_name is None:
+            raise WalkreproError("--update-reference applies to a declared map (--map NAME) only.")
+        outdir.claim_root(request.out, outdir.RUNS, request.force, create=False)
+        plan = plan_new(
+            experiment,
+            request.grid,
+            request.overrides,
+            request.out,
+            request.metrics,
+            request.map_name,
+        )
+        outdir.claim_root(request.out, outdir.RUNS, force=True)  # checked above: mark it
+    return plan
+
+
+def _print_claims(console: Any, plan: SweepPlan) -> None:
+    """Each of the declared map's claims, evaluated on the sweep's cells, one line each."""
+    from walkrepro.studies.sweep.claims import evaluate_sweep
+
+    spec = _declared(plan.info)
+    table = store.read_cells(plan.directory / store.CELLS_FILE)
+    rows = evaluate_sweep(table.rows, table.fields, spec, plan.info["n_cells"])
+    for r in rows:
+        console.print(f"{r.status}: {r.metric} — {r.note}", highlight=False)
 
 
 def _declared(info: dict) -> Any:

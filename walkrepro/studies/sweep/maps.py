@@ -152,9 +152,8 @@ def _heat_panels(
     metric: str,
     success: dict | None = None,
 ):
-    from matplotlib.colors import BoundaryNorm, ListedColormap, Normalize
-    from matplotlib.patches import Patch
-
+    """The heat map of ``metric`` over the first two grid fields, one panel per combination
+    of the others, with the success boundary and a legend."""
     fx, fy, extra = fields[0], fields[1], list(fields[2:])
     combos = list(itertools.product(*(values[f] for f in extra))) or [()]
     ncol = min(len(combos), 3)
@@ -165,28 +164,9 @@ def _heat_panels(
     fig, axes = plt.subplots(
         nrow, ncol, figsize=(w * ncol + 1.2, h * nrow + 1.0), squeeze=False, layout="constrained"
     )
-    grids = []
-    for combo in combos:
-        m = np.full((len(ys), len(xs)), np.nan)
-        cells: dict[tuple[int, int], dict | None] = {}
-        for (i, x), (j, y) in itertools.product(enumerate(xs), enumerate(ys)):
-            key = tuple(value_text(v) for v in (x, y, *combo))
-            row = rows.get(key)
-            cells[(i, j)] = row
-            if row is not None and row["outcome"] not in FAILED:
-                m[j, i] = row.get(metric, math.nan)
-        grids.append((m, cells))
+    grids = [_panel_grid(xs, ys, combo, rows, metric) for combo in combos]
     finite = np.concatenate([g[0][np.isfinite(g[0])] for g in grids]) if grids else np.zeros(0)
-    # A yes/no metric (``fell``, ``stepped_on_off``) gets two colours and a legend; any
-    # other a continuous colour map and bar.
-    binary = _yes_no(metric, list(finite))
-    no_yes = _yes_no_colours(metric)
-    cmap: Any = ListedColormap(list(no_yes)) if binary else "viridis"
-    norm = Normalize(*(finite.min(), finite.max()) if finite.size else (0, 1))
-    if finite.size and norm.vmin == norm.vmax:
-        norm = Normalize(norm.vmin - 0.5, norm.vmax + 0.5)
-    if binary:
-        norm = BoundaryNorm([-0.5, 0.5, 1.5], 2)
+    binary, no_yes, cmap, norm = _colour_scale(metric, finite)
     mesh = None
     for k, (combo, (m, cells)) in enumerate(zip(combos, grids, strict=True)):
         ax = axes[k // ncol][k % ncol]
@@ -216,10 +196,51 @@ def _heat_panels(
     if mesh is not None and not binary:
         bar = fig.colorbar(mesh, ax=axes.ravel().tolist(), shrink=0.9)
         bar.set_label(_metric_label(metric))
+    _legend(fig, metric, no_yes if binary else None, success)
+    return fig
+
+
+def _panel_grid(
+    xs: Sequence[Any], ys: Sequence[Any], combo: tuple, rows: dict, metric: str
+) -> tuple[np.ndarray, dict[tuple[int, int], dict | None]]:
+    """One panel's values (rows ``ys``, columns ``xs``; NaN where no cell or it failed) and
+    its cells by (column, row), the other fields at ``combo``."""
+    m = np.full((len(ys), len(xs)), np.nan)
+    cells: dict[tuple[int, int], dict | None] = {}
+    for (i, x), (j, y) in itertools.product(enumerate(xs), enumerate(ys)):
+        key = tuple(value_text(v) for v in (x, y, *combo))
+        row = rows.get(key)
+        cells[(i, j)] = row
+        if row is not None and row["outcome"] not in FAILED:
+            m[j, i] = row.get(metric, math.nan)
+    return m, cells
+
+
+def _colour_scale(metric: str, finite: np.ndarray) -> tuple[bool, Any, Any, Any]:
+    """Whether the metric is yes/no, its two colours, the colour map and the norm: a yes/no
+    metric (``fell``, ``stepped_on_off``) gets two colours and a legend; any other a
+    continuous colour map over the measured values."""
+    from matplotlib.colors import BoundaryNorm, ListedColormap, Normalize
+
+    binary = _yes_no(metric, list(finite))
+    no_yes = _yes_no_colours(metric)
+    cmap: Any = ListedColormap(list(no_yes)) if binary else "viridis"
+    norm = Normalize(*(finite.min(), finite.max()) if finite.size else (0, 1))
+    if finite.size and norm.vmin == norm.vmax:
+        norm = Normalize(norm.vmin - 0.5, norm.vmax + 0.5)
+    if binary:
+        norm = BoundaryNorm([-0.5, 0.5, 1.5], 2)
+    return binary, no_yes, cmap, norm
+
+
+def _legend(fig: Any, metric: str, no_yes: Any, success: dict | None) -> None:
+    """The figure's legend: the yes/no colours (``no_yes``, for a yes/no metric), the
+    success boundary, a fall and a cell without a value."""
     from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
 
     handles = []
-    if binary:
+    if no_yes is not None:
         no_label, yes_label = _yes_no_labels(metric)
         handles += [
             Patch(facecolor=no_yes[1], label=yes_label),
@@ -233,7 +254,6 @@ def _heat_panels(
     fig.legend(
         handles=handles, loc="outside lower center", ncol=len(handles), fontsize=8, frameon=False
     )
-    return fig
 
 
 def _yes_no(metric: str, values: Sequence[float]) -> bool:

@@ -205,29 +205,8 @@ def run_plan(
 ) -> SweepReport:
     """Run the plan's missing cells on ``engine`` with a progress bar; Ctrl-C or SIGTERM
     keeps the finished cells and returns an interrupted report."""
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
-
-    todo = plan.missing
     by_index = {c.index: c for c in plan.cells}
-    tasks = [
-        CellTask(
-            index=c.index,
-            spec=c.spec,
-            work_root=plan.directory
-            / (store.CELLS_DIR if keep_logs else ".cells")
-            / f"{c.index:04d}",
-            keep_log=keep_logs,
-            metrics=plan.metrics,
-        )
-        for c in todo
-    ]
+    tasks = _cell_tasks(plan, keep_logs)
     writer = store.CellsWriter(plan.directory / store.CELLS_FILE, plan.info["columns"])
     failures = ran = 0
     interrupted = False
@@ -237,17 +216,7 @@ def run_plan(
     if start is not None:
         start(len(tasks))  # workers first, then the progress bar's thread
     results = engine.run(tasks)
-    progress = Progress(
-        TextColumn(f"[bold]sweep {plan.info['experiment']}[/]"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("cells · failures {task.fields[failures]}"),
-        TimeElapsedColumn(),
-        TextColumn("ETA"),
-        TimeRemainingColumn(),
-        console=console,
-        transient=False,
-    )
+    progress = _progress_bar(plan, console)
     try:
         with stop_signals_raise(received), progress:
             bar = progress.add_task(
@@ -284,6 +253,47 @@ def run_plan(
         interrupted or len(plan.done) < len(plan.cells),
         time.perf_counter() - t0,
         received.signum,
+    )
+
+
+def _cell_tasks(plan: SweepPlan, keep_logs: bool) -> list[CellTask]:
+    """The plan's missing cells as tasks for an engine, each with its own work directory
+    (under the sweep's cells when their logs are kept, else a scratch one)."""
+    return [
+        CellTask(
+            index=c.index,
+            spec=c.spec,
+            work_root=plan.directory
+            / (store.CELLS_DIR if keep_logs else ".cells")
+            / f"{c.index:04d}",
+            keep_log=keep_logs,
+            metrics=plan.metrics,
+        )
+        for c in plan.missing
+    ]
+
+
+def _progress_bar(plan: SweepPlan, console: Any) -> Any:
+    """The sweep's progress bar: cells done of all, failures, elapsed time and ETA."""
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    return Progress(
+        TextColumn(f"[bold]sweep {plan.info['experiment']}[/]"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("cells · failures {task.fields[failures]}"),
+        TimeElapsedColumn(),
+        TextColumn("ETA"),
+        TimeRemainingColumn(),
+        console=console,
+        transient=False,
     )
 
 
