@@ -129,9 +129,9 @@ def run(
     return execute(
         experiment.spec,
         Path(out) if out is not None else results.DEFAULT_ROOT,
-        progress,
-        figures,
-        experiment.overrides,
+        progress=progress,
+        outputs=figures,
+        overrides=experiment.overrides,
         resolved=experiment,
     )
 

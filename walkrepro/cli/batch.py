@@ -232,7 +232,15 @@ def run_one(
             results.abandon(run_dir, spec.to_yaml(), spec.name, outcome, message)
             raise
         if not show_progress:
-            return execute(spec, out, None, outputs, overrides, flag, run_dir, experiment)
+            return execute(
+                spec,
+                out,
+                outputs=outputs,
+                overrides=overrides,
+                interrupt=flag,
+                run_dir=run_dir,
+                resolved=experiment,
+            )
         with Progress(
             TextColumn(f"[bold]{spec.name}[/]"),
             BarColumn(),
@@ -251,7 +259,16 @@ def run_one(
                     bar.console.print(compiled, highlight=False)
                 bar.update(task, completed=t, sim=f"{t:6.2f}/{duration:.2f} s", rtf=f"{rtf:5.2f}x")
 
-            return execute(spec, out, progress, outputs, overrides, flag, run_dir, experiment)
+            return execute(
+                spec,
+                out,
+                progress=progress,
+                outputs=outputs,
+                overrides=overrides,
+                interrupt=flag,
+                run_dir=run_dir,
+                resolved=experiment,
+            )
 
 
 @contextlib.contextmanager

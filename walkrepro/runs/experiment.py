@@ -185,6 +185,7 @@ def metric_names(spec: ExperimentSpec) -> list[str]:
 def execute(
     spec: ExperimentSpec,
     out_root: Path = results.DEFAULT_ROOT,
+    *,
     progress: ProgressCallback | None = None,
     outputs: bool | tuple[bool, bool] = True,
     overrides: Sequence[str] = (),
@@ -220,7 +221,16 @@ def execute(
     """
     if interrupt is None:
         with InterruptFlag() as own:
-            return execute(spec, out_root, progress, outputs, overrides, own, run_dir, resolved)
+            return execute(
+                spec,
+                out_root,
+                progress=progress,
+                outputs=outputs,
+                overrides=overrides,
+                interrupt=own,
+                run_dir=run_dir,
+                resolved=resolved,
+            )
     flag = interrupt
     # The flag is installed before the run directory exists: a stop from the moment the
     # directory appears is a request, and the directory is always finished.

@@ -77,7 +77,7 @@ def run_cell(task: CellTask) -> CellResult:
 
     t0 = time.perf_counter()
     try:
-        summary = execute(task.spec, task.work_root, None, False)
+        summary = execute(task.spec, task.work_root, outputs=False)
         values = dict(summary.metrics)
         extra = [m for m in task.metrics if m not in values]
         if extra:
