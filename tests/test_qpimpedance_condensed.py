@@ -13,13 +13,13 @@ from walkrepro.papers.jo_oh.centroidal_qp import (
     QPSolution,
     QPWeights,
     SupportContacts,
-    Task,
     contact_wrench_basis,
     empty_qp,
     friction_basis,
     qp_records,
     solve_centroidal,
     solve_with_qpsolvers,
+    stack_of,
 )
 from walkrepro.papers.jo_oh.condensed import (
     cholesky_in_place,
@@ -124,10 +124,11 @@ def test_solve_centroidal_equals_daqp_on_a_random_problem(n_feet: int) -> None:
         np.array([local] * n_feet),
     )  # fmt: skip
 
-    def task(rows: int) -> Task:
-        return Task(rng.standard_normal((rows, nv)), rng.standard_normal(rows), np.full(rows, 4.0))
+    def task(rows: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return rng.standard_normal((rows, nv)), rng.standard_normal(rows), np.full(rows, 4.0)
 
-    tasks = CentroidalTasks(rng.standard_normal(6), np.ones(6), task(3), task(3), task(9), task(6))
+    stack = stack_of(task(3), task(3), task(9), task(6))
+    tasks = CentroidalTasks(rng.standard_normal(6), np.ones(6), stack)
     weights = QPWeights(1e-4, 1e-6)
     dynamics = Dynamics(mass, nle)
     problem = empty_qp(nv, 16 * n_feet, n_feet, weights.force)

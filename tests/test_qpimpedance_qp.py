@@ -18,11 +18,11 @@ from walkrepro.papers.jo_oh.centroidal_qp import (
     Dynamics,
     QPWeights,
     SupportContacts,
-    Task,
     contact_wrench_basis,
     friction_basis,
     solve_with_qpsolvers,
     solver_options,
+    stack_of,
 )
 from walkrepro.sim.robot import load_robot
 
@@ -76,20 +76,19 @@ def _qp(support: tuple[int, ...], solver: str = "active_set", seed: int = 1):  #
         drifts.append(a.vector.copy())
         maps.append(contact_wrench_basis(data.oMf[fid].rotation, CORNERS, friction_basis(MU, 4)))
 
-    def task(jacobian: np.ndarray, weight: float) -> Task:
+    def task(jacobian: np.ndarray, weight: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         rows = jacobian.shape[0]
-        return Task(jacobian.copy(), rng.normal(0, 1, rows), np.full(rows, weight))
+        return jacobian.copy(), rng.normal(0, 1, rows), np.full(rows, weight)
 
     pelvis = pin.getFrameJacobian(model, data, model.getFrameId("pelvis"), pin.LOCAL_WORLD_ALIGNED)
     torso = pin.getFrameJacobian(model, data, model.getFrameId("torso"), pin.LOCAL_WORLD_ALIGNED)
     swing = jacs[1 - support[0]] if len(support) == 1 else jacs[0]
+    blocks = [task(pelvis[3:], 100.0), task(torso[3:], 10.0), task(np.eye(nv)[6:], 1.0)]
+    swing_task = task(swing, 100.0)  # in the QP in single support only
+    if len(support) == 1:
+        blocks.append(swing_task)
     tasks = CentroidalTasks(
-        rng.normal(0, 5, 6) - (data.nle[:6] - data.g[:6]),
-        np.ones(6),
-        task(pelvis[3:], 100.0),
-        task(torso[3:], 10.0),
-        task(np.eye(nv)[6:], 1.0),
-        task(swing, 100.0),
+        rng.normal(0, 5, 6) - (data.nle[:6] - data.g[:6]), np.ones(6), stack_of(*blocks)
     )
     dynamics = Dynamics(data.M.copy(), data.nle.copy())
     contacts = SupportContacts(
@@ -117,16 +116,20 @@ def test_problem_is_inspectable() -> None:
 
 
 def test_build_qp_is_the_papers_cost_and_constraints() -> None:
-    """P and q are Σ ΦᵀWΦ + W_3 I and −Σ ΦᵀWb over the momentum term and the tasks (the swing
-    task in single support only); A, b are Eq. (5)'s base rows and the support feet."""
+    """P and q are Σ ΦᵀWΦ + W_3 I and −Σ ΦᵀWb over the momentum term and the stacked tasks; A, b are Eq. (5)'s base rows and the support feet."""
     for support in ((0, 1), (1,)):
         qp, dynamics, contacts = _qp(support)
         problem = qp.build()
         _, tasks, *_ = qp._inputs
         terms = [(dynamics.mass_matrix[:6], tasks.momentum_target, tasks.momentum_weight)]
-        terms += [tasks.pelvis, tasks.torso, tasks.posture]
-        if len(support) == 1:
-            terms.append(tasks.swing)
+        stack = tasks.stack
+        terms += [
+            (stack.jacobian[first:last], stack.target[first:last], stack.weight[first:last])
+            for first, last in zip(
+                stack.first_row, [*stack.first_row[1:], stack.rows[0]], strict=True
+            )
+        ]
+        assert len(terms) == (5 if len(support) == 1 else 4)  # the swing task: single support
         hess = WEIGHTS.accel * np.eye(28) + sum(j.T @ np.diag(w) @ j for j, _, w in terms)
         grad = -sum(j.T @ (w * b) for j, b, w in terms)
         np.testing.assert_allclose(problem.P[:28, :28], hess, rtol=1e-12, atol=1e-9)

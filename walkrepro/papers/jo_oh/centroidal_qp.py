@@ -30,10 +30,15 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
-from numba.core import types
-from numba.experimental import structref
 
 from walkrepro.papers.jo_oh.condensed import solve_eliminated
+from walkrepro.runtime.records import define_record
+
+#: Rows of the floating base in ξ̇, M and C ξ̇ + g (Eq. 5's first block), and their count.
+N_BASE = 6
+BASE = slice(0, N_BASE)
+#: Rows of a contact wrench (force, moment) and of a support foot's constraint Φ_k ξ̈ = −Φ̇_k ξ̇.
+N_WRENCH = 6
 
 #: The QP solvers a controller may name: this package's exact active set, and the
 #: ``qpsolvers`` backends (each a pip install away: ``pip install qpsolvers[NAME]``).
@@ -53,18 +58,23 @@ class Dynamics(NamedTuple):
     nonlinear: np.ndarray
 
 
-class Task(NamedTuple):
-    """A task-space acceleration task ‖Φ_t ξ̈ − b_t‖²_{W_t} of §III-D.
+class TaskStack(NamedTuple):
+    """The task terms Σ_t ‖Φ_t ξ̈ − b_t‖²_{W_t} of §III-D, stacked row by row
+    (:func:`.tasks.stack_tasks` fills them from the declared tasks each tick).
 
     Attributes:
-        jacobian: Φ_t, shape (r, nv).
-        target: b_t = ẍ_r − Φ̇_t ξ̇, shape (r,) [m/s², rad/s²].
-        weight: the diagonal of W_t, shape (r,).
+        jacobian: Φ_t of every task, stacked, shape (max rows, nv).
+        target: b_t = ẍ_r − Φ̇_t ξ̇, shape (max rows,) [m/s², rad/s²].
+        weight: the diagonal of W_t, shape (max rows,).
+        first_row: each declared task's first row (−1: not in this tick's QP), shape (tasks,).
+        rows: the rows in use this tick (the first ``rows[0]``), shape (1,) int.
     """
 
     jacobian: np.ndarray
     target: np.ndarray
     weight: np.ndarray
+    first_row: np.ndarray
+    rows: np.ndarray
 
 
 class CentroidalTasks(NamedTuple):
@@ -74,18 +84,24 @@ class CentroidalTasks(NamedTuple):
         momentum_target: b_1 = X_GBᵀ ḣ_{G,r} − C_B ξ̇ (Eq. 7), shape (6,) [N, N m]; the term
             is ‖M_B ξ̈ − b_1‖²_{W_1}, with M_B from :class:`Dynamics`.
         momentum_weight: the diagonal of W_1, shape (6,).
-        pelvis: the body (pelvis) orientation, 3 rows.
-        torso: the trunk orientation, 3 rows.
-        posture: the arm and waist joints' home angles, one row per joint.
-        swing: the swing foot, Eq. (3), 6 rows; in the QP in single support only.
+        stack: the declared tasks' rows (pelvis and torso orientation, arm and waist posture,
+            swing foot in single support, as the controller declares them).
     """
 
     momentum_target: np.ndarray
     momentum_weight: np.ndarray
-    pelvis: Task
-    torso: Task
-    posture: Task
-    swing: Task
+    stack: TaskStack
+
+
+def empty_stack(n_rows: int, n_tasks: int, nv: int) -> TaskStack:
+    """A :class:`TaskStack` for at most ``n_rows`` rows of ``n_tasks`` tasks over ξ̈ (nv)."""
+    return TaskStack(
+        np.zeros((n_rows, nv)),
+        np.zeros(n_rows),
+        np.zeros(n_rows),
+        np.full(n_tasks, -1, dtype=np.int64),
+        np.zeros(1, dtype=np.int64),
+    )
 
 
 class SupportContacts(NamedTuple):
@@ -150,6 +166,21 @@ class QPSolution(NamedTuple):
     tau: np.ndarray
 
 
+def stack_of(*blocks: tuple[np.ndarray, np.ndarray, np.ndarray]) -> TaskStack:
+    """A :class:`TaskStack` holding these tasks' (Φ_t, b_t, W_t diagonal) rows, in order (for
+    tests and for a QP built outside the controller)."""
+    jacobian = np.vstack([block[0] for block in blocks])
+    counts = [len(block[1]) for block in blocks]
+    first = np.cumsum([0, *counts])[: len(blocks)]
+    return TaskStack(
+        jacobian,
+        np.concatenate([block[1] for block in blocks]),
+        np.concatenate([block[2] for block in blocks]),
+        first.astype(np.int64),
+        np.array([jacobian.shape[0]], dtype=np.int64),
+    )
+
+
 # ---- the friction pyramid (Eq. 8) ----------------------------------------------------------
 def friction_basis(mu: float, n_edges: int) -> np.ndarray:
     """Edge directions Ū of an m-sided friction pyramid inscribed in the cone |f_t| ≤ μ f_n.
@@ -207,14 +238,8 @@ def empty_qp(nv: int, n_beta: int, n_feet: int, force_weight: float) -> QPProble
     p = np.zeros((nx, nx))
     p[np.arange(nv, nx), np.arange(nv, nx)] = force_weight
     lb = np.concatenate([np.full(nv, -np.inf), np.zeros(n_beta)])
-    ne = 6 + 6 * n_feet
+    ne = N_BASE + N_WRENCH * n_feet
     return QPProblem(p, np.zeros(nx), np.zeros((ne, nx)), np.zeros(ne), lb, np.full(nx, np.inf))
-
-
-@numba.njit(cache=True)
-def _add_task(task: Task, rows: np.ndarray, rhs: np.ndarray, start: int) -> int:
-    """Write ‖Φ ξ̈ − b‖²_W as rows √W Φ ξ̈ ≈ √W b from ``start``; return the next row."""
-    return _add_rows(task.jacobian, task.target, task.weight, rows, rhs, start)
 
 
 @numba.njit(cache=True)
@@ -262,41 +287,33 @@ def build_qp(
     mass_matrix = dynamics.mass_matrix
     nv = mass_matrix.shape[0]
     n_feet, m = contacts.wrench_maps.shape[0], contacts.wrench_maps.shape[2]
-    single_support = n_feet == 1
-    # The weighted cost rows, in the order of the paper's terms.
-    n_rows = 6 + tasks.pelvis.weight.size + tasks.torso.weight.size + tasks.posture.weight.size
-    if single_support:
-        n_rows += tasks.swing.weight.size
-    rows, rhs = np.empty((n_rows, nv)), np.empty(n_rows)
-    row = _add_rows(mass_matrix[:6], tasks.momentum_target, tasks.momentum_weight, rows, rhs, 0)
-    row = _add_task(tasks.pelvis, rows, rhs, row)
-    row = _add_task(tasks.torso, rows, rhs, row)
-    row = _add_task(tasks.posture, rows, rhs, row)
-    if single_support:
-        row = _add_task(tasks.swing, rows, rhs, row)
+    # The weighted cost rows: the momentum term, then the tasks as stacked.
+    stack = tasks.stack
+    n_tasks = stack.rows[0]
+    rows, rhs = np.empty((N_BASE + n_tasks, nv)), np.empty(N_BASE + n_tasks)
+    row = _add_rows(mass_matrix[BASE], tasks.momentum_target, tasks.momentum_weight, rows, rhs, 0)
+    _add_rows(
+        stack.jacobian[:n_tasks], stack.target[:n_tasks], stack.weight[:n_tasks], rows, rhs, row
+    )
     hess = rows.T @ rows  # A_cᵀ A_c
     for i in range(nv):
         hess[i, i] += weights.accel  # + W_3 I
     problem.P[:nv, :nv] = hess
     problem.q[:nv] = -(rhs @ rows)
     # Floating-base rows of Eq. (5).
-    problem.A[:6, :nv] = mass_matrix[:6]
-    problem.b[:6] = -dynamics.nonlinear[:6]
+    problem.A[BASE, :nv] = mass_matrix[BASE]
+    problem.b[BASE] = -dynamics.nonlinear[BASE]
     for k in range(n_feet):
         jacobian = contacts.jacobians[k]
         # −X_{C_k B}ᵀ R̃_{C_k} U_k: the base columns of J_kᵀ applied to the wrench basis.
-        # Written out rather than `@` (BLAS): these are the sums, in their order, that the
-        # committed references were computed with; `@` moves the runs' metrics by ≈ 1e-12.
-        wrench_map = contacts.wrench_maps[k]
-        for i in range(6):
-            for c in range(m):
-                s = 0.0
-                for j in range(6):
-                    s += jacobian[j, i] * wrench_map[j, c]
-                problem.A[i, nv + k * m + c] = -s
+        beta = nv + k * m  # this foot's first β
+        problem.A[BASE, beta : beta + m] = -(
+            np.ascontiguousarray(jacobian[:, BASE].T) @ contacts.wrench_maps[k]
+        )
         # The support foot: Φ_k ξ̈ + Φ̇_k ξ̇ = 0.
-        problem.A[6 + 6 * k : 12 + 6 * k, :nv] = jacobian
-        problem.b[6 + 6 * k : 12 + 6 * k] = -contacts.drifts[k]
+        first = N_BASE + N_WRENCH * k
+        problem.A[first : first + N_WRENCH, :nv] = jacobian
+        problem.b[first : first + N_WRENCH] = -contacts.drifts[k]
 
 
 # ---- solve -------------------------------------------------------------------------------
@@ -312,15 +329,17 @@ def joint_torques(dynamics: Dynamics, contacts: SupportContacts, solution: QPSol
     nv = mass_matrix.shape[0]
     n_feet, m = wrench_maps.shape[0], wrench_maps.shape[2]
     for k in range(n_feet):
-        wrenches[k] = wrench_maps[k] @ x[nv + k * m : nv + (k + 1) * m]
+        beta = nv + k * m  # this foot's first β
+        wrenches[k] = wrench_maps[k] @ x[beta : beta + m]
     # Written as loops: Pinocchio's M is column-major, which numba's `@` takes slowly.
-    for i in range(nv - 6):
-        s = nonlinear[6 + i]
+    for i in range(nv - N_BASE):
+        joint = N_BASE + i
+        s = nonlinear[joint]
         for j in range(nv):
-            s += mass_matrix[6 + i, j] * x[j]
+            s += mass_matrix[joint, j] * x[j]
         for k in range(n_feet):
-            for j in range(6):
-                s -= jacobians[k, j, 6 + i] * wrenches[k, j]
+            for j in range(N_WRENCH):
+                s -= jacobians[k, j, joint] * wrenches[k, j]
         tau[i] = s
 
 
@@ -347,31 +366,15 @@ def solve_active_set(problem: QPProblem, nv: int, force_weight: float, x: np.nda
     )
 
 
-@structref.register
-class QPRecordsType(types.StructRef):
-    """numba's type of :class:`QPRecords` (its fields typed as given, not literal)."""
-
-    def preprocess_fields(self, fields: tuple) -> tuple:
-        """The fields' types without literal values."""
-        return tuple((name, types.unliteral(typ)) for name, typ in fields)
-
-
-class QPRecords(structref.StructRefProxy):
-    """One support set's QP as one argument of :func:`solve_centroidal`: its inputs and
-    outputs, made once by :func:`qp_records` (the arrays are filled in place every tick).
-
-    Fields: ``dynamics`` (:class:`Dynamics`), ``tasks`` (:class:`CentroidalTasks`),
-    ``contacts`` (:class:`SupportContacts`), ``weights`` (:class:`QPWeights`), ``problem``
-    (:class:`QPProblem`) and ``solution`` (:class:`QPSolution`). Why not the named tuples
-    themselves: numba finds the type of a named tuple argument in Python, field by field, at
-    every call (≈ 30 fields here, ≈ 25–30 µs a tick, measured); a StructRef carries its type.
-    """
-
-
-structref.define_proxy(
-    QPRecords,
-    QPRecordsType,
-    ["dynamics", "tasks", "contacts", "weights", "problem", "solution"],
+#: One support set's QP as one argument of :func:`solve_centroidal`: its inputs and outputs,
+#: made once by :func:`qp_records` (the arrays are filled in place every tick): ``dynamics``
+#: (:class:`Dynamics`), ``tasks`` (:class:`CentroidalTasks`), ``contacts``
+#: (:class:`SupportContacts`), ``weights`` (:class:`QPWeights`), ``problem``
+#: (:class:`QPProblem`) and ``solution`` (:class:`QPSolution`). A StructRef: numba finds the
+#: type of a named tuple argument in Python, field by field, at every call (≈ 25–30 µs a tick
+#: here, measured); a StructRef carries its type.
+QPRecordsType, QPRecords = define_record(
+    "QPRecords", ("dynamics", "tasks", "contacts", "weights", "problem", "solution"), __name__
 )
 
 
