@@ -16,12 +16,15 @@ axes, so Σ X_{C_k B}ᵀ R̃ U_k β_k is the base block of J_kᵀ (U_k β_k) wit
 contact wrench at the sole centre in world axes.
 
 Build, then solve. Each tick :func:`build_qp` writes the problem, from the tasks named as in
-the paper (:class:`CentroidalTasks`), into a :class:`QPProblem`: the matrices any QP library
-takes, min ½ xᵀPx + qᵀx s.t. A x = b, lb ≤ x ≤ ub. :class:`CentroidalQP` then solves it with
-the solver the controller names (:data:`QP_SOLVERS`): a ``qpsolvers`` backend, or
+the paper (:class:`CentroidalTasks`: b_1 and the declared tasks' stacked rows), into a
+:class:`QPProblem`: the matrices any QP library takes, min ½ xᵀPx + qᵀx s.t. A x = b,
+lb ≤ x ≤ ub. :class:`CentroidalQP` then solves it with the solver the controller names
+(:data:`QP_SOLVERS`): by default ``daqp`` through ``qpsolvers.solve_problem`` (chosen by
+measurement on Paper III's runs, docs/performance.md), or any other ``qpsolvers`` backend, or
 ``active_set``, this package's exact active set on the same matrices with ξ̈ eliminated
-(:mod:`.condensed`). Why numba: the build is ≈ 30 small matrix products and copies a tick,
-≈ 1 µs each from Python; compiled, the build, the active set and Eq. (9) are one call.
+(:mod:`.condensed`), an opt-in fast path. Why numba: the build is ≈ 30 small matrix products
+and copies a tick, ≈ 1 µs each from Python; compiled, the build is one call, and Eq. (9)
+another.
 """
 
 from __future__ import annotations
@@ -410,6 +413,19 @@ def solve_centroidal(qp: QPRecords) -> int:
     return iterations
 
 
+@numba.njit(cache=True)
+def build_centroidal(qp: QPRecords) -> None:
+    """:func:`build_qp` on the records' inputs (one compiled call: the records carry their
+    type, where the named tuples would be typed field by field at every call)."""
+    build_qp(qp.dynamics, qp.tasks, qp.contacts, qp.weights, qp.problem)
+
+
+@numba.njit(cache=True)
+def centroidal_torques(qp: QPRecords) -> None:
+    """:func:`joint_torques` (Eq. 9) on the records' solution."""
+    joint_torques(qp.dynamics, qp.contacts, qp.solution)
+
+
 def solve_with_qpsolvers(
     problem: QPProblem, solver: str, initvals: np.ndarray | None = None, **options: object
 ) -> np.ndarray | None:
@@ -481,7 +497,7 @@ class CentroidalQP:
         n_feet: int,
         n_beta_per_foot: int,
         weights: QPWeights,
-        solver: str = "active_set",
+        solver: str = "daqp",
         tolerance: float = 1e-9,
     ) -> None:
         if solver not in QP_SOLVERS:
@@ -519,7 +535,7 @@ class CentroidalQP:
     def build(self) -> QPProblem:
         """This tick's problem (:func:`build_qp`), for inspection or a library solver."""
         assert self._inputs is not None, "set_inputs first"
-        build_qp(*self._inputs)
+        build_centroidal(self._records)
         return self.problem
 
     def solve(self, warm: bool) -> bool:
@@ -540,6 +556,5 @@ class CentroidalQP:
         if found is None:
             return False
         x[:] = found
-        dynamics, _, contacts, _, _ = self._inputs
-        joint_torques(dynamics, contacts, self.solution)
+        centroidal_torques(self._records)
         return True

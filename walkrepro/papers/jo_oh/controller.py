@@ -460,14 +460,16 @@ class QPImpedanceParams(ControllerParams):
         json_schema_extra=assumed("§III-C: an m-sided polygon, m not given; 4"),
     )
     qp_solver: Literal["active_set", "daqp", "quadprog", "proxqp", "osqp"] = Field(
-        "active_set",
-        description="solver of the §III-D QP: active_set (this package's exact active set on "
-        "the same problem, ξ̈ eliminated, compiled and warm-started) or a qpsolvers backend "
-        "(daqp, quadprog: exact active sets; proxqp, osqp: iterative, to qp_tolerance)",
+        "daqp",
+        description="solver of the §III-D QP: a qpsolvers backend (daqp, quadprog: exact "
+        "active sets; proxqp, osqp: iterative, to qp_tolerance), or active_set (this "
+        "package's exact active set on the same problem, ξ̈ eliminated, compiled and "
+        "warm-started: an opt-in fast path)",
         json_schema_extra=assumed(
             "§III-D names no solver. Criterion, fixed before any run: the QP's exact "
-            "minimiser (an active-set method, not a tolerance), and of those the fastest per "
-            "tick on walkrepro bench: active_set (docs/performance.md)"
+            "minimiser through qpsolvers, and of the backends that reach it (KKT residuals, "
+            "distance to the exact solution) the fastest per solve on Paper III's runs: daqp "
+            "(docs/performance.md, Paper III's QP solver, chosen by measurement)"
         ),
     )
     qp_tolerance: float = Field(
