@@ -172,13 +172,13 @@ class QPSolution(NamedTuple):
 def stack_of(*blocks: tuple[np.ndarray, np.ndarray, np.ndarray]) -> TaskStack:
     """A :class:`TaskStack` holding these tasks' (Φ_t, b_t, W_t diagonal) rows, in order (for
     tests and for a QP built outside the controller)."""
-    jacobian = np.vstack([block[0] for block in blocks])
-    counts = [len(block[1]) for block in blocks]
-    first = np.cumsum([0, *counts])[: len(blocks)]
+    jacobians, targets, weights = zip(*blocks, strict=True)
+    jacobian = np.vstack(jacobians)
+    first = np.cumsum([0, *(len(target) for target in targets)])[: len(blocks)]
     return TaskStack(
         jacobian,
-        np.concatenate([block[1] for block in blocks]),
-        np.concatenate([block[2] for block in blocks]),
+        np.concatenate(targets),
+        np.concatenate(weights),
         first.astype(np.int64),
         np.array([jacobian.shape[0]], dtype=np.int64),
     )
