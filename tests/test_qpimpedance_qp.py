@@ -232,3 +232,26 @@ def test_a_library_solver_runs_the_controllers_tick(kist_home_snapshot) -> None:
         ctrl.reset(robot, cls.Params(qp_solver=solver), 0.001)
         torques.append([ctrl.step(0.001 * k, kist_home_snapshot()).ctrl for k in range(3)])
     np.testing.assert_allclose(torques[1], torques[0], rtol=1e-7, atol=1e-6)
+
+
+def test_the_default_tick_solves_through_qpsolvers(kist_home_snapshot, monkeypatch) -> None:  # noqa: ANN001
+    """By default (qp_solver daqp) every tick's QP goes through qpsolvers.solve_problem, with
+    the DAQP backend; the active set is opt-in."""
+    import qpsolvers
+
+    calls: list[str] = []
+    solve_problem = qpsolvers.solve_problem
+
+    def counted(problem, solver, **kwargs):  # noqa: ANN001, ANN202
+        calls.append(solver)
+        return solve_problem(problem, solver=solver, **kwargs)
+
+    monkeypatch.setattr(qpsolvers, "solve_problem", counted)
+    cls = controller_class("qpimpedance")
+    assert cls.Params().qp_solver == "daqp"
+    ctrl = cls()
+    ctrl.reset(load_robot("kist_humanoid"), cls.Params(), 0.001)
+    calls.clear()  # reset's warm-up solves each support set once
+    for k in range(3):
+        ctrl.step(0.001 * k, kist_home_snapshot())
+    assert calls == ["daqp"] * 3
