@@ -14,6 +14,7 @@ from walkrepro.papers.jo_oh.centroidal_qp import (
     QPWeights,
     SupportContacts,
     contact_wrench_basis,
+    empty_eliminated,
     empty_qp,
     friction_basis,
     qp_records,
@@ -133,7 +134,9 @@ def test_solve_centroidal_equals_daqp_on_a_random_problem(n_feet: int) -> None:
     dynamics = Dynamics(mass, nle)
     problem = empty_qp(nv, 16 * n_feet, n_feet, weights.force)
     solution = QPSolution(np.zeros(nv + 16 * n_feet), np.zeros((n_feet, 6)), np.zeros(nv - 6))
-    assert solve_centroidal(qp_records(dynamics, tasks, contacts, weights, problem, solution)) > 0
+    eliminated = empty_eliminated(nv, 16 * n_feet)
+    records = qp_records(dynamics, tasks, contacts, weights, problem, eliminated, solution)
+    assert solve_centroidal(records) > 0
     ref = solve_with_qpsolvers(problem, "daqp")  # the problem solve_centroidal built
     assert ref is not None
     np.testing.assert_allclose(solution.x, ref, rtol=1e-6, atol=1e-6)

@@ -185,14 +185,17 @@ def test_active_set_equals_the_libraries(support: tuple[int, ...], library: str)
     assert x is not None
     reference, _, _ = _qp(support, library)
     assert reference.solve(warm=False)
-    np.testing.assert_allclose(reference.solution.x, x, atol=1e-12)  # the same library call
+    # The controller's library path solves the QP with ξ̈ eliminated (β ≥ 0 only): the same
+    # minimiser as the library's on the full problem (ProxQP: to its tolerance).
+    np.testing.assert_allclose(reference.solution.x, x, atol=1e-6 * max(1.0, np.abs(x).max()))
     for warm in (False, True):
         assert qp.solve(warm=warm)
         # β is weakly determined (W_4 = 1e-6): compare in units of the forces' scale.
         np.testing.assert_allclose(qp.accel, x[:28], atol=1e-6)
         np.testing.assert_allclose(qp.solution.x[28:], x[28:], atol=1e-6 * np.abs(x[28:]).max())
-        np.testing.assert_allclose(qp.wrenches, reference.wrenches, rtol=1e-8, atol=1e-6)
-        np.testing.assert_allclose(qp.tau, reference.tau, rtol=1e-8, atol=1e-6)
+        force_scale = np.abs(reference.wrenches).max()  # ≈ 300 N
+        np.testing.assert_allclose(qp.wrenches, reference.wrenches, atol=1e-7 * force_scale)
+        np.testing.assert_allclose(qp.tau, reference.tau, atol=1e-7 * force_scale)
 
 
 @pytest.mark.parametrize("solver", ("active_set", "daqp"))

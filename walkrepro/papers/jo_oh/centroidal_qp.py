@@ -154,6 +154,23 @@ class QPProblem(NamedTuple):
     ub: np.ndarray
 
 
+class EliminatedQP(NamedTuple):
+    """The QP with ξ̈ eliminated (:func:`eliminate_accelerations`): min ½ βᵀHβ + gᵀβ, β ≥ 0,
+    and ξ̈ = ξ̈₀ + S β.
+
+    Attributes:
+        hessian: H = SᵀP_ξξS + W_4 I, shape (nβ, nβ).
+        gradient: g = Sᵀ(P_ξξ ξ̈₀ + q_ξ), shape (nβ,).
+        offset: ξ̈₀, the minimiser of the equality-constrained cost at β = 0, shape (nv,).
+        sensitivity: S = ∂ξ̈/∂β, shape (nv, nβ).
+    """
+
+    hessian: np.ndarray
+    gradient: np.ndarray
+    offset: np.ndarray
+    sensitivity: np.ndarray
+
+
 class QPSolution(NamedTuple):
     """The §III-D QP's solution and its Eq. (9) torques, written in place.
 
@@ -373,11 +390,14 @@ def solve_active_set(problem: QPProblem, nv: int, force_weight: float, x: np.nda
 #: made once by :func:`qp_records` (the arrays are filled in place every tick): ``dynamics``
 #: (:class:`Dynamics`), ``tasks`` (:class:`CentroidalTasks`), ``contacts``
 #: (:class:`SupportContacts`), ``weights`` (:class:`QPWeights`), ``problem``
-#: (:class:`QPProblem`) and ``solution`` (:class:`QPSolution`). A StructRef: numba finds the
+#: (:class:`QPProblem`), ``eliminated`` (:class:`EliminatedQP`) and ``solution``
+#: (:class:`QPSolution`). A StructRef: numba finds the
 #: type of a named tuple argument in Python, field by field, at every call (≈ 25–30 µs a tick
 #: here, measured); a StructRef carries its type.
 QPRecordsType, QPRecords = define_record(
-    "QPRecords", ("dynamics", "tasks", "contacts", "weights", "problem", "solution"), __name__
+    "QPRecords",
+    ("dynamics", "tasks", "contacts", "weights", "problem", "eliminated", "solution"),
+    __name__,
 )
 
 
@@ -388,11 +408,76 @@ def qp_records(
     contacts: SupportContacts,
     weights: QPWeights,
     problem: QPProblem,
+    eliminated: EliminatedQP,
     solution: QPSolution,
 ) -> QPRecords:
     """The :class:`QPRecords` of these records (compiled and cached, unlike the proxy's own
     constructor)."""
-    return QPRecords(dynamics, tasks, contacts, weights, problem, solution)
+    return QPRecords(dynamics, tasks, contacts, weights, problem, eliminated, solution)
+
+
+def empty_eliminated(nv: int, n_beta: int) -> EliminatedQP:
+    """An :class:`EliminatedQP` for ξ̈ of size nv and nβ pyramid coefficients."""
+    return EliminatedQP(
+        np.zeros((n_beta, n_beta)), np.zeros(n_beta), np.zeros(nv), np.zeros((nv, n_beta))
+    )
+
+
+#: Columns of the right-hand sides :func:`eliminate_accelerations` solves for: ξ̈₀'s, then S's.
+OFFSET_COLUMN, FIRST_SENSITIVITY_COLUMN = 0, 1
+
+
+@numba.njit(cache=True)
+def eliminate_accelerations(
+    problem: QPProblem, nv: int, force_weight: float, out: EliminatedQP
+) -> None:
+    """The §III-D QP as a QP in β alone, exactly: for fixed β the cost's minimiser over ξ̈
+    subject to A_ξ ξ̈ + A_β β = b solves the KKT system
+
+        [P_ξξ  A_ξᵀ] [ξ̈]   [−q_ξ       ]
+        [A_ξ   0   ] [ν ] = [b − A_β β ],
+
+    so ξ̈ = ξ̈₀ + S β (one solve, 1 + nβ right-hand sides), and the cost along it is
+    ½ βᵀ(SᵀP_ξξS + W_4 I)β + (Sᵀ(P_ξξ ξ̈₀ + q_ξ))ᵀβ + const. The equalities then hold for
+    every β; only β ≥ 0 remains (the bounds of :func:`empty_qp`'s shape).
+    """
+    p_xx, q_x = problem.P[:nv, :nv], problem.q[:nv]
+    a_x, a_b = problem.A[:, :nv], problem.A[:, nv:]
+    n_eq, n_beta = a_x.shape[0], a_b.shape[1]
+    kkt = np.zeros((nv + n_eq, nv + n_eq))
+    kkt[:nv, :nv] = p_xx
+    kkt[:nv, nv:] = a_x.T
+    kkt[nv:, :nv] = a_x
+    rhs = np.zeros((nv + n_eq, FIRST_SENSITIVITY_COLUMN + n_beta))
+    rhs[:nv, OFFSET_COLUMN] = -q_x
+    rhs[nv:, OFFSET_COLUMN] = problem.b
+    rhs[nv:, FIRST_SENSITIVITY_COLUMN:] = -a_b
+    solution = np.linalg.solve(kkt, rhs)
+    offset, sensitivity = out.offset, out.sensitivity
+    offset[:] = solution[:nv, OFFSET_COLUMN]
+    sensitivity[:] = solution[:nv, FIRST_SENSITIVITY_COLUMN:]
+    weighted = np.ascontiguousarray(p_xx) @ sensitivity  # P_ξξ S
+    out.hessian[:] = sensitivity.T @ weighted
+    for i in range(n_beta):
+        out.hessian[i, i] += force_weight  # + W_4 I
+    out.gradient[:] = sensitivity.T @ (np.ascontiguousarray(p_xx) @ offset + q_x)
+
+
+@numba.njit(cache=True)
+def build_eliminated(qp: QPRecords) -> None:
+    """:func:`build_qp`, then :func:`eliminate_accelerations`, in one compiled call."""
+    build_qp(qp.dynamics, qp.tasks, qp.contacts, qp.weights, qp.problem)
+    nv = qp.dynamics.mass_matrix.shape[0]
+    eliminate_accelerations(qp.problem, nv, qp.weights.force, qp.eliminated)
+
+
+@numba.njit(cache=True)
+def finish_eliminated(qp: QPRecords) -> None:
+    """x ← (ξ̈₀ + S β, β) from the solution's β, then Eq. (9) (:func:`joint_torques`)."""
+    eliminated, x = qp.eliminated, qp.solution.x
+    nv = eliminated.offset.shape[0]
+    x[:nv] = eliminated.offset + eliminated.sensitivity @ x[nv:]
+    joint_torques(qp.dynamics, qp.contacts, qp.solution)
 
 
 @numba.njit(cache=True)
@@ -418,12 +503,6 @@ def build_centroidal(qp: QPRecords) -> None:
     """:func:`build_qp` on the records' inputs (one compiled call: the records carry their
     type, where the named tuples would be typed field by field at every call)."""
     build_qp(qp.dynamics, qp.tasks, qp.contacts, qp.weights, qp.problem)
-
-
-@numba.njit(cache=True)
-def centroidal_torques(qp: QPRecords) -> None:
-    """:func:`joint_torques` (Eq. 9) on the records' solution."""
-    joint_torques(qp.dynamics, qp.contacts, qp.solution)
 
 
 def solve_with_qpsolvers(
@@ -453,6 +532,31 @@ def solve_with_qpsolvers(
 
         p, a = sparse.csc_matrix(p), sparse.csc_matrix(a)
     qp = qpsolvers.Problem(p, problem.q, None, None, a, problem.b, problem.lb, problem.ub)
+    solution = qpsolvers.solve_problem(qp, solver=solver, initvals=initvals, **options)
+    return solution.x if solution.found else None
+
+
+def solve_bounded_with_qpsolvers(
+    eliminated: EliminatedQP, solver: str, initvals: np.ndarray | None = None, **options: object
+) -> np.ndarray | None:
+    """min ½ βᵀHβ + gᵀβ s.t. β ≥ 0 (the QP with ξ̈ eliminated) through
+    ``qpsolvers.solve_problem``; β*, or None when no solution."""
+    import qpsolvers  # only the library solvers need it
+
+    if solver not in qpsolvers.available_solvers:
+        raise ValueError(
+            f"QP solver {solver!r} is not installed; installed: "
+            f"{', '.join(qpsolvers.available_solvers)} (pip install qpsolvers[{solver}])"
+        )
+    hessian = eliminated.hessian
+    if solver == "proxqp":
+        options = {"backend": "dense", **options}
+    elif solver == "osqp":
+        from scipy import sparse
+
+        hessian = sparse.csc_matrix(hessian)
+    lower = np.zeros(eliminated.gradient.size)
+    qp = qpsolvers.Problem(hessian, eliminated.gradient, lb=lower)
     solution = qpsolvers.solve_problem(qp, solver=solver, initvals=initvals, **options)
     return solution.x if solution.found else None
 
@@ -505,6 +609,7 @@ class CentroidalQP:
         self.nv, self.solver, self._weights = nv, solver, weights
         self._options = solver_options(solver, tolerance)
         self.problem = empty_qp(nv, n_feet * n_beta_per_foot, n_feet, weights.force)
+        self.eliminated = empty_eliminated(nv, n_feet * n_beta_per_foot)
         nx = self.problem.q.size
         self.solution = QPSolution(np.zeros(nx), np.zeros((n_feet, 6)), np.zeros(nv - 6))
         self._inputs: tuple | None = None
@@ -530,7 +635,7 @@ class CentroidalQP:
         """Take the tick's inputs by reference (no copies): a caller that fills the same
         arrays in place every tick sets them once."""
         self._inputs = (dynamics, tasks, contacts, self._weights, self.problem)
-        self._records = qp_records(*self._inputs, self.solution)
+        self._records = qp_records(*self._inputs, self.eliminated, self.solution)
 
     def build(self) -> QPProblem:
         """This tick's problem (:func:`build_qp`), for inspection or a library solver."""
@@ -550,11 +655,11 @@ class CentroidalQP:
             if not warm:
                 x[self.nv :] = 0.0  # cold: every β at its bound
             return solve_centroidal(self._records) >= 0
-        found = solve_with_qpsolvers(
-            self.build(), self.solver, x.copy() if warm else None, **self._options
-        )
-        if found is None:
+        build_eliminated(self._records)
+        start = x[self.nv :].copy() if warm else None
+        beta = solve_bounded_with_qpsolvers(self.eliminated, self.solver, start, **self._options)
+        if beta is None:
             return False
-        x[:] = found
-        centroidal_torques(self._records)
+        x[self.nv :] = beta
+        finish_eliminated(self._records)
         return True
