@@ -46,6 +46,10 @@ N_WRENCH = 6
 #: The QP solvers a controller may name: this package's exact active set, and the
 #: ``qpsolvers`` backends (each a pip install away: ``pip install qpsolvers[NAME]``).
 QP_SOLVERS = ("active_set", "daqp", "quadprog", "proxqp", "osqp")
+#: The backends that take the QP with ξ̈ eliminated (:func:`eliminate_accelerations`): the
+#: same minimiser, faster. OSQP (ADMM) solves the β-only QP worse (β off by ≈ 20 %, ξ̈ by
+#: 1e-4 on Paper III's runs, docs/performance.md), so it gets the full problem.
+ELIMINATING_SOLVERS = ("daqp", "quadprog", "proxqp")
 
 
 # ---- records (named tuples: numba passes them without copies) ----------------------------
@@ -472,11 +476,13 @@ def build_eliminated(qp: QPRecords) -> None:
 
 
 @numba.njit(cache=True)
-def finish_eliminated(qp: QPRecords) -> None:
-    """x ← (ξ̈₀ + S β, β) from the solution's β, then Eq. (9) (:func:`joint_torques`)."""
+def finish_eliminated(qp: QPRecords, eliminated_accelerations: bool) -> None:
+    """With ``eliminated_accelerations``, x ← (ξ̈₀ + S β, β) from the solution's β; then
+    Eq. (9) (:func:`joint_torques`)."""
     eliminated, x = qp.eliminated, qp.solution.x
     nv = eliminated.offset.shape[0]
-    x[:nv] = eliminated.offset + eliminated.sensitivity @ x[nv:]
+    if eliminated_accelerations:
+        x[:nv] = eliminated.offset + eliminated.sensitivity @ x[nv:]
     joint_torques(qp.dynamics, qp.contacts, qp.solution)
 
 
@@ -655,11 +661,20 @@ class CentroidalQP:
             if not warm:
                 x[self.nv :] = 0.0  # cold: every β at its bound
             return solve_centroidal(self._records) >= 0
+        if self.solver not in ELIMINATING_SOLVERS:
+            found = solve_with_qpsolvers(
+                self.build(), self.solver, x.copy() if warm else None, **self._options
+            )
+            if found is None:
+                return False
+            x[:] = found
+            finish_eliminated(self._records, False)
+            return True
         build_eliminated(self._records)
         start = x[self.nv :].copy() if warm else None
         beta = solve_bounded_with_qpsolvers(self.eliminated, self.solver, start, **self._options)
         if beta is None:
             return False
         x[self.nv :] = beta
-        finish_eliminated(self._records)
+        finish_eliminated(self._records, True)
         return True
