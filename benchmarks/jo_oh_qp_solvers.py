@@ -4,10 +4,12 @@ QP solver, chosen by measurement").
 For each experiment: run it once (the solver the spec names), keep every 10th tick's built
 §III-D QP (P, q, A, b, lb, ub, and the tick's warm start), then solve each kept QP with the
 compiled active set (the exact minimiser, the reference) and with each ``qpsolvers`` backend
-through ``qpsolvers.solve_problem`` (:func:`.centroidal_qp.solve_with_qpsolvers`, at
-``qp_tolerance`` 1e-9 for the iterative ones), and report µs per solve (median, p99), the
-largest relative KKT residual, and the largest distance to the exact solution (ξ̈ [m/s²,
-rad/s²]; β relative to the largest β).
+through ``qpsolvers.solve_problem``, in both forms (the full problem,
+:func:`.centroidal_qp.solve_with_qpsolvers`; ξ̈ eliminated, as the controller does,
+:func:`.centroidal_qp.eliminate_accelerations` then
+:func:`.centroidal_qp.solve_bounded_with_qpsolvers`), at ``qp_tolerance`` 1e-9 for the
+iterative ones, and report µs per solve (median, p99), the largest relative KKT residual, and
+the largest distance to the exact solution (ξ̈ [m/s², rad/s²]; β relative to the largest β).
 
     python benchmarks/jo_oh_qp_solvers.py obstacle_4cm walk_flat_kist tilted_step_5cm
 """
@@ -84,28 +86,42 @@ def compare(kept: list[dict]) -> dict[str, dict[str, float]]:
         )
     }
     for solver in LIBRARIES:
-        options = cq.solver_options(solver, 1e-9)
-        times, residuals, accel, beta, failed = [], [], [], [], 0
-        for problem, r, x_exact in zip(problems, kept, exact, strict=True):
-            nv = r["nv"]
-            start = time.perf_counter()
-            x = cq.solve_with_qpsolvers(
-                problem, solver, r["x0"].copy() if r["warm"] else None, **options
-            )
-            times.append(time.perf_counter() - start)
-            if x is None:
-                failed += 1
-                continue
-            residuals.append(kkt(problem, x, nv))
-            accel.append(np.abs(x[:nv] - x_exact[:nv]).max())
-            scale = max(1.0, np.abs(x_exact[nv:]).max())
-            beta.append(np.abs(x[nv:] - x_exact[nv:]).max() / scale)
-        result[solver] = _summary(times, residuals) | {
-            "accel_diff_max": float(max(accel)),
-            "beta_rel_diff_max": float(max(beta)),
-            "failures": failed,
-        }
+        for form in ("full", "eliminated"):
+            result[f"{solver} ({form})"] = _library(solver, form, problems, kept, exact)
     return result
+
+
+def _library(
+    solver: str, form: str, problems: list, kept: list[dict], exact: list[np.ndarray]
+) -> dict[str, float]:
+    """One backend on every kept problem, in one form (``full`` or ``eliminated``)."""
+    options = cq.solver_options(solver, 1e-9)
+    times, residuals, accel, beta, failed = [], [], [], [], 0
+    for problem, r, x_exact in zip(problems, kept, exact, strict=True):
+        nv, warm = r["nv"], r["warm"]
+        start = time.perf_counter()
+        if form == "full":
+            x = cq.solve_with_qpsolvers(
+                problem, solver, r["x0"].copy() if warm else None, **options
+            )
+        else:
+            eliminated = cq.empty_eliminated(nv, problem.q.size - nv)
+            cq.eliminate_accelerations(problem, nv, problem.P[nv, nv], eliminated)
+            start_beta = r["x0"][nv:].copy() if warm else None
+            b = cq.solve_bounded_with_qpsolvers(eliminated, solver, start_beta, **options)
+            x = None if b is None else np.r_[eliminated.offset + eliminated.sensitivity @ b, b]
+        times.append(time.perf_counter() - start)
+        if x is None:
+            failed += 1
+            continue
+        residuals.append(kkt(problem, x, nv))
+        accel.append(np.abs(x[:nv] - x_exact[:nv]).max())
+        beta.append(np.abs(x[nv:] - x_exact[nv:]).max() / max(1.0, np.abs(x_exact[nv:]).max()))
+    return _summary(times, residuals) | {
+        "accel_diff_max": float(max(accel)),
+        "beta_rel_diff_max": float(max(beta)),
+        "failures": failed,
+    }
 
 
 def _summary(times: list[float], residuals: list[float]) -> dict[str, float]:
