@@ -13,13 +13,14 @@ from walkrepro.papers.jo_oh.centroidal_qp import (
     QPSolution,
     QPWeights,
     SupportContacts,
-    Task,
     contact_wrench_basis,
+    empty_eliminated,
     empty_qp,
     friction_basis,
     qp_records,
     solve_centroidal,
     solve_with_qpsolvers,
+    stack_of,
 )
 from walkrepro.papers.jo_oh.condensed import (
     cholesky_in_place,
@@ -124,15 +125,18 @@ def test_solve_centroidal_equals_daqp_on_a_random_problem(n_feet: int) -> None:
         np.array([local] * n_feet),
     )  # fmt: skip
 
-    def task(rows: int) -> Task:
-        return Task(rng.standard_normal((rows, nv)), rng.standard_normal(rows), np.full(rows, 4.0))
+    def task(rows: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return rng.standard_normal((rows, nv)), rng.standard_normal(rows), np.full(rows, 4.0)
 
-    tasks = CentroidalTasks(rng.standard_normal(6), np.ones(6), task(3), task(3), task(9), task(6))
+    stack = stack_of(task(3), task(3), task(9), task(6))
+    tasks = CentroidalTasks(rng.standard_normal(6), np.ones(6), stack)
     weights = QPWeights(1e-4, 1e-6)
     dynamics = Dynamics(mass, nle)
     problem = empty_qp(nv, 16 * n_feet, n_feet, weights.force)
     solution = QPSolution(np.zeros(nv + 16 * n_feet), np.zeros((n_feet, 6)), np.zeros(nv - 6))
-    assert solve_centroidal(qp_records(dynamics, tasks, contacts, weights, problem, solution)) > 0
+    eliminated = empty_eliminated(nv, 16 * n_feet)
+    records = qp_records(dynamics, tasks, contacts, weights, problem, eliminated, solution)
+    assert solve_centroidal(records) > 0
     ref = solve_with_qpsolvers(problem, "daqp")  # the problem solve_centroidal built
     assert ref is not None
     np.testing.assert_allclose(solution.x, ref, rtol=1e-6, atol=1e-6)

@@ -7,6 +7,8 @@ own properties are tests/test_qpimpedance_impedance.py's).
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -15,7 +17,7 @@ from walkrepro.controllers import controller_class
 from walkrepro.log.signals import Signals
 from walkrepro.papers.jo_oh import tasks
 from walkrepro.papers.jo_oh.centroidal_qp import solve_centroidal
-from walkrepro.papers.jo_oh.controller import SIGNAL_LAYOUT
+from walkrepro.papers.jo_oh.controller import LEG_JOINTS, SIGNAL_LAYOUT
 from walkrepro.sim.robot import frame_classical_acceleration, load_robot, pin_state_into
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -188,6 +190,16 @@ def _impedance_rows(impedance: np.ndarray) -> np.ndarray:
     )
 
 
+def _task_block(ctrl, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # noqa: ANN001
+    """A declared task's rows (Φ_t, b_t, W_t) in the controller's stack, by the task's name."""
+    names = [spec.name for spec in ctrl.tasks(ctrl._p, ctrl._robot)]
+    stack = ctrl._tasks.stack
+    first = stack.first_row[names.index(name)]
+    later = [row for row in stack.first_row if row > first]
+    last = min(later) if later else stack.rows[0]
+    return stack.jacobian[first:last], stack.target[first:last], stack.weight[first:last]
+
+
 def test_task_rows_equal_numpy_reference() -> None:
     """A swing tick's QP tasks (b_1; Φ_t, b_t of each task), contact stacks and signals equal the §III-D algebra written with numpy and Pinocchio."""
     robot = load_robot("kist_humanoid")
@@ -201,15 +213,16 @@ def test_task_rows_equal_numpy_reference() -> None:
     ctrl._v[:] = v
     ctrl._enter_phase(swing_index)
     rng = np.random.default_rng(8)
-    impedance = ctrl._impedance
+    state = ctrl._state
+    impedance = state.impedance
     for name in ("position", "velocity", "acceleration"):
         impedance[name] = rng.normal(0, 0.1, (2, 3))
     impedance["armed"] = impedance["active"] = True  # Eq. (2) integrates this tick
-    ctrl._foot_acc_cmd[:] = rng.normal(0, 1, (2, 3))
-    ctrl._stance_z[:] = rng.normal(0, 0.05, 2)  # planned heights (0 on flat ground)
-    prev_vel = ctrl._prev_foot_vel[:] = rng.normal(0, 1, (2, 6))
+    state.foot_acc_cmd[:] = rng.normal(0, 1, (2, 3))
+    state.stance_z[:] = rng.normal(0, 0.05, 2)  # planned heights (0 on flat ground)
+    prev_vel = state.prev_foot_vel[:] = rng.normal(0, 1, (2, 6))
     imp_before = _impedance_rows(impedance)
-    acc_before = ctrl._foot_acc_cmd.copy()
+    acc_before = state.foot_acc_cmd.copy()
     joint_pos, joint_vel = rng.normal(0, 0.3, (2, robot.n_joints))
     fts = rng.normal(0, 50, (2, 6))
     t = phase.t0 + 0.3 * (phase.t1 - phase.t0)
@@ -221,7 +234,14 @@ def test_task_rows_equal_numpy_reference() -> None:
     m = robot.total_mass
     c_d, v_d, a_d = np.empty(3), np.empty(3), np.empty(3)
     tasks.desired_com(
-        ctrl._com_plan, t, p.preview_dt, ctrl._plan.end, ctrl._gains.com_z, c_d, v_d, a_d
+        ctrl._params.com_plan,
+        t,
+        p.preview_dt,
+        ctrl._plan.end,
+        ctrl._params.tick.com_z,
+        c_d,
+        v_d,
+        a_d,
     )
     h_lin = m * (a_d + p.k_h * (v_d - data.vcom[0]) + p.k_i * (c_d - data.com[0]))
     h_ang = -p.k_h_angular * data.hg.angular + np.cross(
@@ -233,24 +253,27 @@ def test_task_rows_equal_numpy_reference() -> None:
     np.testing.assert_array_equal(qp_tasks.momentum_weight, 1.0)  # W_1 = I by default
     # Pelvis and torso: Φ_t the angular Jacobian, b_t = −K_P log R − K_V ω − Φ̇_t ξ̇.
     for frame, task, w in (
-        ("pelvis", qp_tasks.pelvis, p.w_pelvis),
-        ("torso", qp_tasks.torso, p.w_torso),
+        ("pelvis", _task_block(ctrl, "pelvis"), p.w_pelvis),
+        ("torso", _task_block(ctrl, "torso"), p.w_torso),
     ):
+        task_jacobian, task_target, task_weight = task
         fid = robot.pin_frame_id(frame)
         jac = pin.getFrameJacobian(model, data, fid, LWA)[3:]
         drift = pin.getFrameClassicalAcceleration(model, data, fid, LWA).angular
         acc = -p.kp_orient * pin.log3(data.oMf[fid].rotation) - p.kv_orient * jac @ v
-        np.testing.assert_allclose(task.jacobian, jac, rtol=1e-14, atol=1e-14)
-        np.testing.assert_allclose(task.target, acc - drift, rtol=1e-11, atol=1e-9)
-        np.testing.assert_array_equal(task.weight, w)
+        np.testing.assert_allclose(task_jacobian, jac, rtol=1e-14, atol=1e-14)
+        np.testing.assert_allclose(task_target, acc - drift, rtol=1e-11, atol=1e-9)
+        np.testing.assert_array_equal(task_weight, w)
     # Posture: Φ_t selects each arm and waist joint, b_t = K_P (q_home − q) − K_V q̇.
-    idx = ctrl._posture_idx
-    posture = p.kp_posture * (ctrl._q_home_posture - joint_pos[idx]) - p.kv_posture * joint_vel[idx]
-    np.testing.assert_allclose(qp_tasks.posture.target, posture, rtol=1e-14)
-    np.testing.assert_array_equal(qp_tasks.posture.jacobian, np.eye(model.nv)[robot.pin_v_idx[idx]])
+    idx = [i for i, name in enumerate(robot.joint_names) if not name.startswith(LEG_JOINTS)]
+    home = robot.home_joint_pos[idx]
+    posture = p.kp_posture * (home - joint_pos[idx]) - p.kv_posture * joint_vel[idx]
+    posture_jacobian, posture_target, _ = _task_block(ctrl, "posture")
+    np.testing.assert_allclose(posture_target, posture, rtol=1e-14)
+    np.testing.assert_array_equal(posture_jacobian, np.eye(model.nv)[robot.pin_v_idx[idx]])
 
     signals = dict(Signals(SIGNAL_LAYOUT, ctrl._signal_record.view(np.float64)))
-    pos_d, vel_d, acc_d = _swing(ctrl._swing_plan, t)  # tested above for its properties
+    pos_d, vel_d, acc_d = _swing(state.swing_plan, t)  # tested above for its properties
     for side, name in enumerate(("left", "right")):
         fid = robot.pin_frame_id(f"{name}_sole")
         sole = data.oMf[fid]
@@ -258,14 +281,14 @@ def test_task_rows_equal_numpy_reference() -> None:
         drift = pin.getFrameClassicalAcceleration(model, data, fid, LWA).vector
         np.testing.assert_allclose(ctrl._sole_jacobians[side], jac, atol=1e-14)
         np.testing.assert_allclose(ctrl._sole_drifts[side], drift, rtol=1e-12, atol=1e-12)
-        local = ctrl._local_map
+        local = ctrl._params.local_wrench_map
         np.testing.assert_allclose(
             ctrl._wrench_maps[side],
             np.r_[sole.rotation @ local[:3], sole.rotation @ local[3:]],
             atol=1e-14,
         )
         vel = jac @ v
-        np.testing.assert_allclose(ctrl._prev_foot_vel[side], vel, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(state.prev_foot_vel[side], vel, rtol=1e-12, atol=1e-12)
         site = data.oMf[robot.pin_frame_id(f"{name}_foot_ft")]
         foot = data.oMf[robot.pin_frame_id(f"{name}_foot")]
         foot_com = foot.act(
@@ -278,7 +301,7 @@ def test_task_rows_equal_numpy_reference() -> None:
             foot_com,
             sole.translation,
             acc_before[side],
-            ctrl._gains.foot_mass,
+            ctrl._params.tick.foot_mass,
         )
         rpy = pin.rpy.matrixToRpy(sole.rotation)
         acc_meas = (vel - prev_vel[side]) / 0.001
@@ -299,10 +322,10 @@ def test_task_rows_equal_numpy_reference() -> None:
             for axis in tasks.IMPEDANCE_AXES
         ]
         if side != swing:
-            z = ctrl._stance_z[side]
+            z = state.stance_z[side]
             assert refs == [z, 0, 0] + [0] * 6 + [z, 0, 0] + [0] * 6
             assert signals[f"{name}_impedance_on"] == 0.0
-            np.testing.assert_array_equal(ctrl._foot_acc_cmd[side], 0.0)
+            np.testing.assert_array_equal(state.foot_acc_cmd[side], 0.0)
             np.testing.assert_allclose(impedance[side]["position"], (sole.translation[2], *rpy[:2]))
             continue
         # Swing: Eq. (2) advanced from the previous state (semi-implicit Euler), then Eq. (3)
@@ -326,9 +349,10 @@ def test_task_rows_equal_numpy_reference() -> None:
             a_m + kv * (v_m - vel[2:5]) + kp * (x_m - x_now),
             -kv * vel[5] - kp * rpy[2],
         ]
-        np.testing.assert_allclose(qp_tasks.swing.jacobian, jac, atol=1e-14)
-        np.testing.assert_allclose(qp_tasks.swing.target, acc_ref - drift, rtol=1e-10, atol=1e-8)
-        np.testing.assert_allclose(ctrl._foot_acc_cmd[side], acc_ref[:3], rtol=1e-12, atol=1e-10)
+        swing_jacobian, swing_target, _ = _task_block(ctrl, "swing_foot")
+        np.testing.assert_allclose(swing_jacobian, jac, atol=1e-14)
+        np.testing.assert_allclose(swing_target, acc_ref - drift, rtol=1e-10, atol=1e-8)
+        np.testing.assert_allclose(state.foot_acc_cmd[side], acc_ref[:3], rtol=1e-12, atol=1e-10)
 
 
 def test_reset_compiles_the_tick_kernels_for_a_real_tick(kist_home_snapshot) -> None:  # noqa: ANN001
@@ -360,7 +384,102 @@ def test_readings_of_any_layout_give_the_same_rows() -> None:
         assert pos.flags.c_contiguous != strided and np.array_equal(pos, joint_pos)
         ctrl._task_rows(0.0, -1, pos, joint_vel, *fts)
         qp_tasks = ctrl._tasks
-        targets = [qp_tasks.momentum_target] + [t.target for t in qp_tasks[2:]]
-        outputs.append((np.concatenate(targets), ctrl._signal_record.view(np.float64).copy()))
+        targets = np.r_[qp_tasks.momentum_target, qp_tasks.stack.target[: qp_tasks.stack.rows[0]]]
+        outputs.append((targets, ctrl._signal_record.view(np.float64).copy()))
     for contiguous, strided_out in zip(*outputs, strict=True):
         np.testing.assert_array_equal(strided_out, contiguous)
+
+
+def _fixed_swing_tick(cls: type, robot) -> object:  # noqa: ANN001
+    """A controller after one task_rows call on the fixed random state of
+    tests/data/jo_oh_task_rows.npz (state 7, swing phase, seeds 8)."""
+    ctrl = cls()
+    ctrl.reset(robot, cls.Params(), 0.001)
+    swing_index = next(i for i, ph in enumerate(ctrl._plan.phases) if ph.swing >= 0)
+    phase = ctrl._plan.phases[swing_index]
+    _, _, _, _, v = _random_state(7, ctrl._data)
+    ctrl._v[:] = v
+    ctrl._enter_phase(swing_index)
+    rng = np.random.default_rng(8)
+    state = ctrl._state
+    for name in ("position", "velocity", "acceleration"):
+        state.impedance[name] = rng.normal(0, 0.1, (2, 3))
+    state.impedance["armed"] = state.impedance["active"] = True
+    state.foot_acc_cmd[:] = rng.normal(0, 1, (2, 3))
+    state.stance_z[:] = rng.normal(0, 0.05, 2)
+    state.prev_foot_vel[:] = rng.normal(0, 1, (2, 6))
+    joint_pos, joint_vel = rng.normal(0, 0.3, (2, robot.n_joints))
+    fts = rng.normal(0, 50, (2, 6))
+    t = phase.t0 + 0.3 * (phase.t1 - phase.t0)
+    ctrl._task_rows(t, phase.swing, joint_pos, joint_vel, *fts)
+    return ctrl
+
+
+def test_stacked_rows_equal_the_hand_written_rows_of_before() -> None:
+    """The declared tasks, stacked, give the rows, b_1, signals and QP matrices that the
+    hand-written task_rows gave on the same state (tests/data/jo_oh_task_rows.npz, written by
+    the code before the task list), to 1e-12."""
+    old = np.load(Path(__file__).parent / "data" / "jo_oh_task_rows.npz")
+    robot = load_robot("kist_humanoid")
+    ctrl = _fixed_swing_tick(controller_class("qpimpedance"), robot)
+    stack = ctrl._tasks.stack
+    rows = stack.rows[0]
+    assert rows == old["target"].size  # pelvis 3, torso 3, posture 10, swing 6
+    np.testing.assert_allclose(stack.jacobian[:rows], old["jacobian"], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(stack.target[:rows], old["target"], rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(stack.weight[:rows], old["weight"])
+    np.testing.assert_allclose(ctrl._tasks.momentum_target, old["momentum_target"], rtol=1e-12)
+    signals = ctrl._signal_record.view(np.float64)
+    np.testing.assert_allclose(signals, old["signals"], rtol=1e-12, atol=1e-12)
+    problem = ctrl._qps[(1 - int(old["swing"]),)].build()
+    for name in ("P", "q", "A", "b"):
+        np.testing.assert_allclose(getattr(problem, name), old[name], rtol=1e-12, atol=1e-12)
+
+
+def test_a_task_added_to_the_list_is_stacked_and_the_controller_walks(
+    kist_home_snapshot,  # noqa: ANN001
+) -> None:
+    """One more task (the head held upright) is one entry in the task list: its rows appear
+    after the others', the paper's rows are unchanged, and the controller runs ticks."""
+    base = controller_class("qpimpedance")
+
+    class WithHead(base):
+        def tasks(self, params, robot):  # noqa: ANN001, ANN202
+            head = tasks.TaskSpec(
+                "head", tasks.TaskKind.ORIENTATION, "head", ("rx", "ry"), 50.0, 14.0, 5.0,
+                "not the paper's: a test of the task list",
+            )  # fmt: skip
+            return (*super().tasks(params, robot), head)
+
+    robot = load_robot("kist_humanoid")
+    plain, extended = _fixed_swing_tick(base, robot), _fixed_swing_tick(WithHead, robot)
+    before, after = plain._tasks.stack, extended._tasks.stack
+    n = before.rows[0]
+    assert after.rows[0] == n + 2 and after.first_row[-1] == n
+    np.testing.assert_array_equal(after.jacobian[:n], before.jacobian[:n])
+    np.testing.assert_array_equal(after.target[:n], before.target[:n])
+    head = extended._model.getFrameId("head")
+    jac = pin.getFrameJacobian(extended._model, extended._data, head, LWA)
+    np.testing.assert_allclose(after.jacobian[n : n + 2], jac[3:5], atol=1e-14)
+    np.testing.assert_array_equal(after.weight[n : n + 2], 5.0)
+    ctrl = WithHead()
+    ctrl.reset(robot, WithHead.Params(), 0.001)
+    for k in range(5):
+        command = ctrl.step(0.001 * k, kist_home_snapshot())
+        assert np.all(np.isfinite(command.ctrl))
+    assert ctrl._tasks.stack.rows[0] == n - 6 + 2  # double support: no swing rows
+
+
+def test_a_task_on_an_unknown_frame_or_axis_names_the_valid_ones() -> None:
+    """task_table rejects an unknown frame, a linear axis on an orientation and an unknown
+    joint, naming what is valid."""
+    joints = ("a", "b")
+    bad_frame = tasks.TaskSpec("t", tasks.TaskKind.ORIENTATION, "nose", ("rx",), 1, 1, 1, "")
+    with pytest.raises(ValueError, match="unknown frame 'nose'"):
+        tasks.task_table((bad_frame,), ("pelvis",), joints)
+    linear = tasks.TaskSpec("t", tasks.TaskKind.ORIENTATION, "pelvis", ("x",), 1, 1, 1, "")
+    with pytest.raises(ValueError, match="not among"):
+        tasks.task_table((linear,), ("pelvis",), joints)
+    posture = tasks.TaskSpec("t", tasks.TaskKind.POSTURE, ("c",), (), 1, 1, 1, "")
+    with pytest.raises(ValueError, match="unknown joints"):
+        tasks.task_table((posture,), ("pelvis",), joints)

@@ -16,12 +16,15 @@ axes, so Σ X_{C_k B}ᵀ R̃ U_k β_k is the base block of J_kᵀ (U_k β_k) wit
 contact wrench at the sole centre in world axes.
 
 Build, then solve. Each tick :func:`build_qp` writes the problem, from the tasks named as in
-the paper (:class:`CentroidalTasks`), into a :class:`QPProblem`: the matrices any QP library
-takes, min ½ xᵀPx + qᵀx s.t. A x = b, lb ≤ x ≤ ub. :class:`CentroidalQP` then solves it with
-the solver the controller names (:data:`QP_SOLVERS`): a ``qpsolvers`` backend, or
+the paper (:class:`CentroidalTasks`: b_1 and the declared tasks' stacked rows), into a
+:class:`QPProblem`: the matrices any QP library takes, min ½ xᵀPx + qᵀx s.t. A x = b,
+lb ≤ x ≤ ub. :class:`CentroidalQP` then solves it with the solver the controller names
+(:data:`QP_SOLVERS`): by default ``daqp`` through ``qpsolvers.solve_problem`` (chosen by
+measurement on Paper III's runs, docs/performance.md), or any other ``qpsolvers`` backend, or
 ``active_set``, this package's exact active set on the same matrices with ξ̈ eliminated
-(:mod:`.condensed`). Why numba: the build is ≈ 30 small matrix products and copies a tick,
-≈ 1 µs each from Python; compiled, the build, the active set and Eq. (9) are one call.
+(:mod:`.condensed`), an opt-in fast path. Why numba: the build is ≈ 30 small matrix products
+and copies a tick, ≈ 1 µs each from Python; compiled, the build is one call, and Eq. (9)
+another.
 """
 
 from __future__ import annotations
@@ -30,14 +33,23 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
-from numba.core import types
-from numba.experimental import structref
 
 from walkrepro.papers.jo_oh.condensed import solve_eliminated
+from walkrepro.runtime.records import define_record
+
+#: Rows of the floating base in ξ̇, M and C ξ̇ + g (Eq. 5's first block), and their count.
+N_BASE = 6
+BASE = slice(0, N_BASE)
+#: Rows of a contact wrench (force, moment) and of a support foot's constraint Φ_k ξ̈ = −Φ̇_k ξ̇.
+N_WRENCH = 6
 
 #: The QP solvers a controller may name: this package's exact active set, and the
 #: ``qpsolvers`` backends (each a pip install away: ``pip install qpsolvers[NAME]``).
 QP_SOLVERS = ("active_set", "daqp", "quadprog", "proxqp", "osqp")
+#: The backends that take the QP with ξ̈ eliminated (:func:`eliminate_accelerations`): the
+#: same minimiser, faster. OSQP (ADMM) solves the β-only QP worse (β off by ≈ 20 %, ξ̈ by
+#: 1e-4 on Paper III's runs, docs/performance.md), so it gets the full problem.
+ELIMINATING_SOLVERS = ("daqp", "quadprog", "proxqp")
 
 
 # ---- records (named tuples: numba passes them without copies) ----------------------------
@@ -53,18 +65,23 @@ class Dynamics(NamedTuple):
     nonlinear: np.ndarray
 
 
-class Task(NamedTuple):
-    """A task-space acceleration task ‖Φ_t ξ̈ − b_t‖²_{W_t} of §III-D.
+class TaskStack(NamedTuple):
+    """The task terms Σ_t ‖Φ_t ξ̈ − b_t‖²_{W_t} of §III-D, stacked row by row
+    (:func:`.tasks.stack_tasks` fills them from the declared tasks each tick).
 
     Attributes:
-        jacobian: Φ_t, shape (r, nv).
-        target: b_t = ẍ_r − Φ̇_t ξ̇, shape (r,) [m/s², rad/s²].
-        weight: the diagonal of W_t, shape (r,).
+        jacobian: Φ_t of every task, stacked, shape (max rows, nv).
+        target: b_t = ẍ_r − Φ̇_t ξ̇, shape (max rows,) [m/s², rad/s²].
+        weight: the diagonal of W_t, shape (max rows,).
+        first_row: each declared task's first row (−1: not in this tick's QP), shape (tasks,).
+        rows: the rows in use this tick (the first ``rows[0]``), shape (1,) int.
     """
 
     jacobian: np.ndarray
     target: np.ndarray
     weight: np.ndarray
+    first_row: np.ndarray
+    rows: np.ndarray
 
 
 class CentroidalTasks(NamedTuple):
@@ -74,18 +91,24 @@ class CentroidalTasks(NamedTuple):
         momentum_target: b_1 = X_GBᵀ ḣ_{G,r} − C_B ξ̇ (Eq. 7), shape (6,) [N, N m]; the term
             is ‖M_B ξ̈ − b_1‖²_{W_1}, with M_B from :class:`Dynamics`.
         momentum_weight: the diagonal of W_1, shape (6,).
-        pelvis: the body (pelvis) orientation, 3 rows.
-        torso: the trunk orientation, 3 rows.
-        posture: the arm and waist joints' home angles, one row per joint.
-        swing: the swing foot, Eq. (3), 6 rows; in the QP in single support only.
+        stack: the declared tasks' rows (pelvis and torso orientation, arm and waist posture,
+            swing foot in single support, as the controller declares them).
     """
 
     momentum_target: np.ndarray
     momentum_weight: np.ndarray
-    pelvis: Task
-    torso: Task
-    posture: Task
-    swing: Task
+    stack: TaskStack
+
+
+def empty_stack(n_rows: int, n_tasks: int, nv: int) -> TaskStack:
+    """A :class:`TaskStack` for at most ``n_rows`` rows of ``n_tasks`` tasks over ξ̈ (nv)."""
+    return TaskStack(
+        np.zeros((n_rows, nv)),
+        np.zeros(n_rows),
+        np.zeros(n_rows),
+        np.full(n_tasks, -1, dtype=np.int64),
+        np.zeros(1, dtype=np.int64),
+    )
 
 
 class SupportContacts(NamedTuple):
@@ -135,6 +158,23 @@ class QPProblem(NamedTuple):
     ub: np.ndarray
 
 
+class EliminatedQP(NamedTuple):
+    """The QP with ξ̈ eliminated (:func:`eliminate_accelerations`): min ½ βᵀHβ + gᵀβ, β ≥ 0,
+    and ξ̈ = ξ̈₀ + S β.
+
+    Attributes:
+        hessian: H = SᵀP_ξξS + W_4 I, shape (nβ, nβ).
+        gradient: g = Sᵀ(P_ξξ ξ̈₀ + q_ξ), shape (nβ,).
+        offset: ξ̈₀, the minimiser of the equality-constrained cost at β = 0, shape (nv,).
+        sensitivity: S = ∂ξ̈/∂β, shape (nv, nβ).
+    """
+
+    hessian: np.ndarray
+    gradient: np.ndarray
+    offset: np.ndarray
+    sensitivity: np.ndarray
+
+
 class QPSolution(NamedTuple):
     """The §III-D QP's solution and its Eq. (9) torques, written in place.
 
@@ -148,6 +188,21 @@ class QPSolution(NamedTuple):
     x: np.ndarray
     wrenches: np.ndarray
     tau: np.ndarray
+
+
+def stack_of(*blocks: tuple[np.ndarray, np.ndarray, np.ndarray]) -> TaskStack:
+    """A :class:`TaskStack` holding these tasks' (Φ_t, b_t, W_t diagonal) rows, in order (for
+    tests and for a QP built outside the controller)."""
+    jacobians, targets, weights = zip(*blocks, strict=True)
+    jacobian = np.vstack(jacobians)
+    first = np.cumsum([0, *(len(target) for target in targets)])[: len(blocks)]
+    return TaskStack(
+        jacobian,
+        np.concatenate(targets),
+        np.concatenate(weights),
+        first.astype(np.int64),
+        np.array([jacobian.shape[0]], dtype=np.int64),
+    )
 
 
 # ---- the friction pyramid (Eq. 8) ----------------------------------------------------------
@@ -207,14 +262,8 @@ def empty_qp(nv: int, n_beta: int, n_feet: int, force_weight: float) -> QPProble
     p = np.zeros((nx, nx))
     p[np.arange(nv, nx), np.arange(nv, nx)] = force_weight
     lb = np.concatenate([np.full(nv, -np.inf), np.zeros(n_beta)])
-    ne = 6 + 6 * n_feet
+    ne = N_BASE + N_WRENCH * n_feet
     return QPProblem(p, np.zeros(nx), np.zeros((ne, nx)), np.zeros(ne), lb, np.full(nx, np.inf))
-
-
-@numba.njit(cache=True)
-def _add_task(task: Task, rows: np.ndarray, rhs: np.ndarray, start: int) -> int:
-    """Write ‖Φ ξ̈ − b‖²_W as rows √W Φ ξ̈ ≈ √W b from ``start``; return the next row."""
-    return _add_rows(task.jacobian, task.target, task.weight, rows, rhs, start)
 
 
 @numba.njit(cache=True)
@@ -262,41 +311,33 @@ def build_qp(
     mass_matrix = dynamics.mass_matrix
     nv = mass_matrix.shape[0]
     n_feet, m = contacts.wrench_maps.shape[0], contacts.wrench_maps.shape[2]
-    single_support = n_feet == 1
-    # The weighted cost rows, in the order of the paper's terms.
-    n_rows = 6 + tasks.pelvis.weight.size + tasks.torso.weight.size + tasks.posture.weight.size
-    if single_support:
-        n_rows += tasks.swing.weight.size
-    rows, rhs = np.empty((n_rows, nv)), np.empty(n_rows)
-    row = _add_rows(mass_matrix[:6], tasks.momentum_target, tasks.momentum_weight, rows, rhs, 0)
-    row = _add_task(tasks.pelvis, rows, rhs, row)
-    row = _add_task(tasks.torso, rows, rhs, row)
-    row = _add_task(tasks.posture, rows, rhs, row)
-    if single_support:
-        row = _add_task(tasks.swing, rows, rhs, row)
+    # The weighted cost rows: the momentum term, then the tasks as stacked.
+    stack = tasks.stack
+    n_tasks = stack.rows[0]
+    rows, rhs = np.empty((N_BASE + n_tasks, nv)), np.empty(N_BASE + n_tasks)
+    row = _add_rows(mass_matrix[BASE], tasks.momentum_target, tasks.momentum_weight, rows, rhs, 0)
+    _add_rows(
+        stack.jacobian[:n_tasks], stack.target[:n_tasks], stack.weight[:n_tasks], rows, rhs, row
+    )
     hess = rows.T @ rows  # A_cᵀ A_c
     for i in range(nv):
         hess[i, i] += weights.accel  # + W_3 I
     problem.P[:nv, :nv] = hess
     problem.q[:nv] = -(rhs @ rows)
     # Floating-base rows of Eq. (5).
-    problem.A[:6, :nv] = mass_matrix[:6]
-    problem.b[:6] = -dynamics.nonlinear[:6]
+    problem.A[BASE, :nv] = mass_matrix[BASE]
+    problem.b[BASE] = -dynamics.nonlinear[BASE]
     for k in range(n_feet):
         jacobian = contacts.jacobians[k]
         # −X_{C_k B}ᵀ R̃_{C_k} U_k: the base columns of J_kᵀ applied to the wrench basis.
-        # Written out rather than `@` (BLAS): these are the sums, in their order, that the
-        # committed references were computed with; `@` moves the runs' metrics by ≈ 1e-12.
-        wrench_map = contacts.wrench_maps[k]
-        for i in range(6):
-            for c in range(m):
-                s = 0.0
-                for j in range(6):
-                    s += jacobian[j, i] * wrench_map[j, c]
-                problem.A[i, nv + k * m + c] = -s
+        beta = nv + k * m  # this foot's first β
+        problem.A[BASE, beta : beta + m] = -(
+            np.ascontiguousarray(jacobian[:, BASE].T) @ contacts.wrench_maps[k]
+        )
         # The support foot: Φ_k ξ̈ + Φ̇_k ξ̇ = 0.
-        problem.A[6 + 6 * k : 12 + 6 * k, :nv] = jacobian
-        problem.b[6 + 6 * k : 12 + 6 * k] = -contacts.drifts[k]
+        first = N_BASE + N_WRENCH * k
+        problem.A[first : first + N_WRENCH, :nv] = jacobian
+        problem.b[first : first + N_WRENCH] = -contacts.drifts[k]
 
 
 # ---- solve -------------------------------------------------------------------------------
@@ -312,15 +353,17 @@ def joint_torques(dynamics: Dynamics, contacts: SupportContacts, solution: QPSol
     nv = mass_matrix.shape[0]
     n_feet, m = wrench_maps.shape[0], wrench_maps.shape[2]
     for k in range(n_feet):
-        wrenches[k] = wrench_maps[k] @ x[nv + k * m : nv + (k + 1) * m]
+        beta = nv + k * m  # this foot's first β
+        wrenches[k] = wrench_maps[k] @ x[beta : beta + m]
     # Written as loops: Pinocchio's M is column-major, which numba's `@` takes slowly.
-    for i in range(nv - 6):
-        s = nonlinear[6 + i]
+    for i in range(nv - N_BASE):
+        joint = N_BASE + i
+        s = nonlinear[joint]
         for j in range(nv):
-            s += mass_matrix[6 + i, j] * x[j]
+            s += mass_matrix[joint, j] * x[j]
         for k in range(n_feet):
-            for j in range(6):
-                s -= jacobians[k, j, 6 + i] * wrenches[k, j]
+            for j in range(N_WRENCH):
+                s -= jacobians[k, j, joint] * wrenches[k, j]
         tau[i] = s
 
 
@@ -347,31 +390,18 @@ def solve_active_set(problem: QPProblem, nv: int, force_weight: float, x: np.nda
     )
 
 
-@structref.register
-class QPRecordsType(types.StructRef):
-    """numba's type of :class:`QPRecords` (its fields typed as given, not literal)."""
-
-    def preprocess_fields(self, fields: tuple) -> tuple:
-        """The fields' types without literal values."""
-        return tuple((name, types.unliteral(typ)) for name, typ in fields)
-
-
-class QPRecords(structref.StructRefProxy):
-    """One support set's QP as one argument of :func:`solve_centroidal`: its inputs and
-    outputs, made once by :func:`qp_records` (the arrays are filled in place every tick).
-
-    Fields: ``dynamics`` (:class:`Dynamics`), ``tasks`` (:class:`CentroidalTasks`),
-    ``contacts`` (:class:`SupportContacts`), ``weights`` (:class:`QPWeights`), ``problem``
-    (:class:`QPProblem`) and ``solution`` (:class:`QPSolution`). Why not the named tuples
-    themselves: numba finds the type of a named tuple argument in Python, field by field, at
-    every call (≈ 30 fields here, ≈ 25–30 µs a tick, measured); a StructRef carries its type.
-    """
-
-
-structref.define_proxy(
-    QPRecords,
-    QPRecordsType,
-    ["dynamics", "tasks", "contacts", "weights", "problem", "solution"],
+#: One support set's QP as one argument of :func:`solve_centroidal`: its inputs and outputs,
+#: made once by :func:`qp_records` (the arrays are filled in place every tick): ``dynamics``
+#: (:class:`Dynamics`), ``tasks`` (:class:`CentroidalTasks`), ``contacts``
+#: (:class:`SupportContacts`), ``weights`` (:class:`QPWeights`), ``problem``
+#: (:class:`QPProblem`), ``eliminated`` (:class:`EliminatedQP`) and ``solution``
+#: (:class:`QPSolution`). A StructRef: numba finds the
+#: type of a named tuple argument in Python, field by field, at every call (≈ 25–30 µs a tick
+#: here, measured); a StructRef carries its type.
+QPRecordsType, QPRecords = define_record(
+    "QPRecords",
+    ("dynamics", "tasks", "contacts", "weights", "problem", "eliminated", "solution"),
+    __name__,
 )
 
 
@@ -382,11 +412,78 @@ def qp_records(
     contacts: SupportContacts,
     weights: QPWeights,
     problem: QPProblem,
+    eliminated: EliminatedQP,
     solution: QPSolution,
 ) -> QPRecords:
     """The :class:`QPRecords` of these records (compiled and cached, unlike the proxy's own
     constructor)."""
-    return QPRecords(dynamics, tasks, contacts, weights, problem, solution)
+    return QPRecords(dynamics, tasks, contacts, weights, problem, eliminated, solution)
+
+
+def empty_eliminated(nv: int, n_beta: int) -> EliminatedQP:
+    """An :class:`EliminatedQP` for ξ̈ of size nv and nβ pyramid coefficients."""
+    return EliminatedQP(
+        np.zeros((n_beta, n_beta)), np.zeros(n_beta), np.zeros(nv), np.zeros((nv, n_beta))
+    )
+
+
+#: Columns of the right-hand sides :func:`eliminate_accelerations` solves for: ξ̈₀'s, then S's.
+OFFSET_COLUMN, FIRST_SENSITIVITY_COLUMN = 0, 1
+
+
+@numba.njit(cache=True)
+def eliminate_accelerations(
+    problem: QPProblem, nv: int, force_weight: float, out: EliminatedQP
+) -> None:
+    """The §III-D QP as a QP in β alone, exactly: for fixed β the cost's minimiser over ξ̈
+    subject to A_ξ ξ̈ + A_β β = b solves the KKT system
+
+        [P_ξξ  A_ξᵀ] [ξ̈]   [−q_ξ       ]
+        [A_ξ   0   ] [ν ] = [b − A_β β ],
+
+    so ξ̈ = ξ̈₀ + S β (one solve, 1 + nβ right-hand sides), and the cost along it is
+    ½ βᵀ(SᵀP_ξξS + W_4 I)β + (Sᵀ(P_ξξ ξ̈₀ + q_ξ))ᵀβ + const. The equalities then hold for
+    every β; only β ≥ 0 remains (the bounds of :func:`empty_qp`'s shape).
+    """
+    p_xx, q_x = problem.P[:nv, :nv], problem.q[:nv]
+    a_x, a_b = problem.A[:, :nv], problem.A[:, nv:]
+    n_eq, n_beta = a_x.shape[0], a_b.shape[1]
+    kkt = np.zeros((nv + n_eq, nv + n_eq))
+    kkt[:nv, :nv] = p_xx
+    kkt[:nv, nv:] = a_x.T
+    kkt[nv:, :nv] = a_x
+    rhs = np.zeros((nv + n_eq, FIRST_SENSITIVITY_COLUMN + n_beta))
+    rhs[:nv, OFFSET_COLUMN] = -q_x
+    rhs[nv:, OFFSET_COLUMN] = problem.b
+    rhs[nv:, FIRST_SENSITIVITY_COLUMN:] = -a_b
+    solution = np.linalg.solve(kkt, rhs)
+    offset, sensitivity = out.offset, out.sensitivity
+    offset[:] = solution[:nv, OFFSET_COLUMN]
+    sensitivity[:] = solution[:nv, FIRST_SENSITIVITY_COLUMN:]
+    weighted = np.ascontiguousarray(p_xx) @ sensitivity  # P_ξξ S
+    out.hessian[:] = sensitivity.T @ weighted
+    for i in range(n_beta):
+        out.hessian[i, i] += force_weight  # + W_4 I
+    out.gradient[:] = sensitivity.T @ (np.ascontiguousarray(p_xx) @ offset + q_x)
+
+
+@numba.njit(cache=True)
+def build_eliminated(qp: QPRecords) -> None:
+    """:func:`build_qp`, then :func:`eliminate_accelerations`, in one compiled call."""
+    build_qp(qp.dynamics, qp.tasks, qp.contacts, qp.weights, qp.problem)
+    nv = qp.dynamics.mass_matrix.shape[0]
+    eliminate_accelerations(qp.problem, nv, qp.weights.force, qp.eliminated)
+
+
+@numba.njit(cache=True)
+def finish_eliminated(qp: QPRecords, eliminated_accelerations: bool) -> None:
+    """With ``eliminated_accelerations``, x ← (ξ̈₀ + S β, β) from the solution's β; then
+    Eq. (9) (:func:`joint_torques`)."""
+    eliminated, x = qp.eliminated, qp.solution.x
+    nv = eliminated.offset.shape[0]
+    if eliminated_accelerations:
+        x[:nv] = eliminated.offset + eliminated.sensitivity @ x[nv:]
+    joint_torques(qp.dynamics, qp.contacts, qp.solution)
 
 
 @numba.njit(cache=True)
@@ -405,6 +502,13 @@ def solve_centroidal(qp: QPRecords) -> int:
     if iterations >= 0:
         joint_torques(dynamics, contacts, solution)
     return iterations
+
+
+@numba.njit(cache=True)
+def build_centroidal(qp: QPRecords) -> None:
+    """:func:`build_qp` on the records' inputs (one compiled call: the records carry their
+    type, where the named tuples would be typed field by field at every call)."""
+    build_qp(qp.dynamics, qp.tasks, qp.contacts, qp.weights, qp.problem)
 
 
 def solve_with_qpsolvers(
@@ -434,6 +538,31 @@ def solve_with_qpsolvers(
 
         p, a = sparse.csc_matrix(p), sparse.csc_matrix(a)
     qp = qpsolvers.Problem(p, problem.q, None, None, a, problem.b, problem.lb, problem.ub)
+    solution = qpsolvers.solve_problem(qp, solver=solver, initvals=initvals, **options)
+    return solution.x if solution.found else None
+
+
+def solve_bounded_with_qpsolvers(
+    eliminated: EliminatedQP, solver: str, initvals: np.ndarray | None = None, **options: object
+) -> np.ndarray | None:
+    """min ½ βᵀHβ + gᵀβ s.t. β ≥ 0 (the QP with ξ̈ eliminated) through
+    ``qpsolvers.solve_problem``; β*, or None when no solution."""
+    import qpsolvers  # only the library solvers need it
+
+    if solver not in qpsolvers.available_solvers:
+        raise ValueError(
+            f"QP solver {solver!r} is not installed; installed: "
+            f"{', '.join(qpsolvers.available_solvers)} (pip install qpsolvers[{solver}])"
+        )
+    hessian = eliminated.hessian
+    if solver == "proxqp":
+        options = {"backend": "dense", **options}
+    elif solver == "osqp":
+        from scipy import sparse
+
+        hessian = sparse.csc_matrix(hessian)
+    lower = np.zeros(eliminated.gradient.size)
+    qp = qpsolvers.Problem(hessian, eliminated.gradient, lb=lower)
     solution = qpsolvers.solve_problem(qp, solver=solver, initvals=initvals, **options)
     return solution.x if solution.found else None
 
@@ -478,7 +607,7 @@ class CentroidalQP:
         n_feet: int,
         n_beta_per_foot: int,
         weights: QPWeights,
-        solver: str = "active_set",
+        solver: str = "daqp",
         tolerance: float = 1e-9,
     ) -> None:
         if solver not in QP_SOLVERS:
@@ -486,6 +615,7 @@ class CentroidalQP:
         self.nv, self.solver, self._weights = nv, solver, weights
         self._options = solver_options(solver, tolerance)
         self.problem = empty_qp(nv, n_feet * n_beta_per_foot, n_feet, weights.force)
+        self.eliminated = empty_eliminated(nv, n_feet * n_beta_per_foot)
         nx = self.problem.q.size
         self.solution = QPSolution(np.zeros(nx), np.zeros((n_feet, 6)), np.zeros(nv - 6))
         self._inputs: tuple | None = None
@@ -511,12 +641,12 @@ class CentroidalQP:
         """Take the tick's inputs by reference (no copies): a caller that fills the same
         arrays in place every tick sets them once."""
         self._inputs = (dynamics, tasks, contacts, self._weights, self.problem)
-        self._records = qp_records(*self._inputs, self.solution)
+        self._records = qp_records(*self._inputs, self.eliminated, self.solution)
 
     def build(self) -> QPProblem:
         """This tick's problem (:func:`build_qp`), for inspection or a library solver."""
         assert self._inputs is not None, "set_inputs first"
-        build_qp(*self._inputs)
+        build_centroidal(self._records)
         return self.problem
 
     def solve(self, warm: bool) -> bool:
@@ -531,12 +661,20 @@ class CentroidalQP:
             if not warm:
                 x[self.nv :] = 0.0  # cold: every β at its bound
             return solve_centroidal(self._records) >= 0
-        found = solve_with_qpsolvers(
-            self.build(), self.solver, x.copy() if warm else None, **self._options
-        )
-        if found is None:
+        if self.solver not in ELIMINATING_SOLVERS:
+            found = solve_with_qpsolvers(
+                self.build(), self.solver, x.copy() if warm else None, **self._options
+            )
+            if found is None:
+                return False
+            x[:] = found
+            finish_eliminated(self._records, False)
+            return True
+        build_eliminated(self._records)
+        start = x[self.nv :].copy() if warm else None
+        beta = solve_bounded_with_qpsolvers(self.eliminated, self.solver, start, **self._options)
+        if beta is None:
             return False
-        x[:] = found
-        dynamics, _, contacts, _, _ = self._inputs
-        joint_torques(dynamics, contacts, self.solution)
+        x[self.nv :] = beta
+        finish_eliminated(self._records, True)
         return True

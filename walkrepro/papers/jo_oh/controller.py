@@ -47,8 +47,8 @@ from walkrepro.papers.jo_oh.centroidal_qp import (
     Dynamics,
     QPWeights,
     SupportContacts,
-    Task,
     contact_wrench_basis,
+    empty_stack,
     friction_basis,
 )
 from walkrepro.papers.jo_oh.footsteps import (
@@ -64,21 +64,29 @@ from walkrepro.papers.jo_oh.tasks import (
     COM_SAMPLE,
     FOOT_SIGNALS,
     IMPEDANCE_STATE,
+    PITCH,
+    ROLL,
+    SPATIAL_AXES,
     SWING_PLAN,
-    FrameChains,
+    FrameKinematics,
     ImpedanceGains,
     RobotTerms,
     SensorReadings,
-    SoleKinematics,
-    TaskConstants,
-    TaskGains,
+    TaskKind,
     TaskOutputs,
-    TaskReferences,
+    TaskParams,
+    TaskSpec,
     TaskState,
+    TickParams,
+    X,
+    Y,
+    Z,
     kinematic_chain,
     pack_swing,
     task_records,
+    task_row_count,
     task_rows,
+    task_table,
 )
 from walkrepro.sim.robot import Robot, pin_state_buffer, pin_state_into
 from walkrepro.sim.sensors import SensorSnapshot
@@ -86,6 +94,8 @@ from walkrepro.specs.origin import assumed, calibrated, paper
 
 #: Support sets, each with its own QP (its β blocks differ).
 SUPPORTS = ((LEFT, RIGHT), (RIGHT,), (LEFT,))
+#: The support set of each phase, by its swing foot (−1: none, LEFT, RIGHT).
+SUPPORT_OF_SWING = {-1: SUPPORTS[0], LEFT: (RIGHT,), RIGHT: (LEFT,)}
 #: The logged signals, declared once, all floats. :func:`.tasks.task_rows` writes the plan's
 #: time, the swing foot, each foot's block (``left_fz`` …, :data:`.tasks.FOOT_SIGNALS`) and
 #: the CoM; the tick adds each foot's f_z from the QP [N] (NaN, so not in the tick's
@@ -450,14 +460,16 @@ class QPImpedanceParams(ControllerParams):
         json_schema_extra=assumed("§III-C: an m-sided polygon, m not given; 4"),
     )
     qp_solver: Literal["active_set", "daqp", "quadprog", "proxqp", "osqp"] = Field(
-        "active_set",
-        description="solver of the §III-D QP: active_set (this package's exact active set on "
-        "the same problem, ξ̈ eliminated, compiled and warm-started) or a qpsolvers backend "
-        "(daqp, quadprog: exact active sets; proxqp, osqp: iterative, to qp_tolerance)",
+        "daqp",
+        description="solver of the §III-D QP: a qpsolvers backend (daqp, quadprog: exact "
+        "active sets; proxqp, osqp: iterative, to qp_tolerance), or active_set (this "
+        "package's exact active set on the same problem, ξ̈ eliminated, compiled and "
+        "warm-started: an opt-in fast path)",
         json_schema_extra=assumed(
             "§III-D names no solver. Criterion, fixed before any run: the QP's exact "
-            "minimiser (an active-set method, not a tolerance), and of those the fastest per "
-            "tick on walkrepro bench: active_set (docs/performance.md)"
+            "minimiser through qpsolvers, and of the backends that reach it (KKT residuals, "
+            "distance to the exact solution) the fastest per solve on Paper III's runs: daqp "
+            "(docs/performance.md, Paper III's QP solver, chosen by measurement)"
         ),
     )
     qp_tolerance: float = Field(
@@ -478,6 +490,38 @@ class QPImpedanceParams(ControllerParams):
         return kp, kv
 
 
+#: The leg joints' name prefixes: the QP moves them for support and swing; the other joints
+#: (arms, waist) are the posture task's.
+LEG_JOINTS = ("l_hip", "r_hip", "l_knee", "r_knee", "l_ankle", "r_ankle")
+#: The frame rows an orientation task selects: all three angular axes.
+UPRIGHT = ("rx", "ry", "rz")
+#: The floating base's joint in Pinocchio's model (joint 0 is the universe).
+BASE_JOINT = 1
+#: The free joint's position [m] and quaternion (w, x, y, z) in MuJoCo's ``qpos``.
+BASE_POSITION, BASE_QUATERNION = slice(0, 3), slice(3, 7)
+
+
+def paper_tasks(p: QPImpedanceParams, joint_names: tuple[str, ...]) -> tuple[TaskSpec, ...]:
+    """The tasks of §III-D besides the centroidal momentum, in the order of their rows.
+
+    This list is the one place to add, remove or re-weight a task (a controller subclass may
+    return another list from :meth:`QPImpedanceController.tasks`); :func:`.tasks.stack_tasks`
+    stacks whatever it holds.
+    """
+    kp_swing, kv_swing = p.swing_gains
+    posture = tuple(name for name in joint_names if not name.startswith(LEG_JOINTS))
+    return (
+        TaskSpec("pelvis", TaskKind.ORIENTATION, "pelvis", UPRIGHT, p.kp_orient, p.kv_orient,
+                 p.w_pelvis, "§III-D: the body orientation, ẍ_r of Eq. (3)'s form"),
+        TaskSpec("torso", TaskKind.ORIENTATION, "torso", UPRIGHT, p.kp_orient, p.kv_orient,
+                 p.w_torso, "§III-D: the trunk orientation"),
+        TaskSpec("posture", TaskKind.POSTURE, posture, (), p.kp_posture, p.kv_posture,
+                 p.w_posture, "§III-D: the arm and waist joints at home"),
+        TaskSpec("swing_foot", TaskKind.SWING_FOOT, "", SPATIAL_AXES, kp_swing, kv_swing,
+                 p.w_swing, "Eq. (3), with the impedance-modified reference of Eqs. (1)-(2)"),
+    )  # fmt: skip
+
+
 class _DataViews:
     """Numpy views of the Pinocchio ``Data`` fields a tick reads, taken once.
 
@@ -488,51 +532,47 @@ class _DataViews:
     :meth:`refresh` every tick.
 
     Args:
-        data: the controller's Pinocchio data.
-        frames: Pinocchio frame ids of the left sole, right sole, pelvis and torso.
-        parents: each of those frames' parent joint.
+        model, data: the controller's Pinocchio model and data.
+        frames: Pinocchio frame ids of the frames the tick reads (the soles first).
     """
 
-    def __init__(self, data: pin.Data, frames: tuple[int, ...], parents: tuple[int, ...]):
-        self._data, self._frames, self._parents = data, frames, parents
+    def __init__(self, model: pin.Model, data: pin.Data, frames: tuple[int, ...]):
+        self._model, self._data, self._frames = model, data, frames
+        self._offsets = [model.frames[f].placement.translation.copy() for f in frames]
+        self._chains = [kinematic_chain(model, f) for f in frames]
         self.refresh()
 
     def refresh(self) -> None:
         """(Re)take every view from ``Data``."""
-        data = self._data
-        left, right, pelvis, torso = self._frames
-        left_joint, right_joint, _, torso_joint = self._parents
+        data, model = self._data, self._model
         self.jacobians, self.mass_matrix, self.nle, self.g = data.J, data.M, data.nle, data.g
         self.com, self.vcom, self.angular_momentum = data.com[0], data.vcom[0], data.hg.angular
-        self.base_rotation, self.base_position = data.oMi[1].rotation, data.oMi[1].translation
-        self.base_drift = data.a[1].vector
-        self.pelvis_rotation = data.oMf[pelvis].rotation
-        self.torso_rotation = data.oMf[torso].rotation
-        self.torso_joint_rotation = data.oMi[torso_joint].rotation
-        self.torso_joint_drift = data.a[torso_joint].vector
-        #: per sole (left, right): its placement and its parent joint's R, v, a
-        self.soles = tuple(
-            SoleKinematics(
+        base = data.oMi[BASE_JOINT]
+        self.base_rotation, self.base_position = base.rotation, base.translation
+        #: per frame: its placement, its parent joint's R, v, a, and its constants
+        self.frames = tuple(
+            FrameKinematics(
                 rotation=data.oMf[frame].rotation,
                 position=data.oMf[frame].translation,
-                joint_rotation=data.oMi[joint].rotation,
-                joint_velocity=data.v[joint].vector,
-                joint_drift=data.a[joint].vector,
+                joint_rotation=data.oMi[model.frames[frame].parentJoint].rotation,
+                joint_velocity=data.v[model.frames[frame].parentJoint].vector,
+                joint_drift=data.a[model.frames[frame].parentJoint].vector,
+                offset=offset,
+                chain=chain,
             )
-            for frame, joint in ((left, left_joint), (right, right_joint))
+            for frame, offset, chain in zip(self._frames, self._offsets, self._chains, strict=True)
         )
 
     def _arrays(self) -> list[np.ndarray]:
         return [
             self.jacobians, self.mass_matrix, self.nle, self.g, self.com, self.vcom,
-            self.angular_momentum, self.base_rotation, self.base_position, self.base_drift,
-            self.pelvis_rotation, self.torso_rotation, self.torso_joint_rotation,
-            self.torso_joint_drift, *self.soles[LEFT], *self.soles[RIGHT],
+            self.angular_momentum, self.base_rotation, self.base_position,
+            *(array for frame in self.frames for array in frame),
         ]  # fmt: skip
 
     def follows(self) -> bool:
         """True if every view holds what a fresh read of ``Data`` gives."""
-        fresh = _DataViews(self._data, self._frames, self._parents)
+        fresh = _DataViews(self._model, self._data, self._frames)
         return all(
             np.array_equal(a, b) for a, b in zip(self._arrays(), fresh._arrays(), strict=True)
         )
@@ -544,158 +584,53 @@ class QPImpedanceController(Controller):
     A tick runs at 1 kHz, so :meth:`step` makes few Python calls: one compiled call forms
     (q, v), one ``computeAllTerms`` (and ``updateFramePlacements``) gives Pinocchio's terms,
     read through views of ``Data`` taken at reset (:class:`_DataViews`); one compiled call
-    (:func:`.tasks.task_rows`) forms every task row, frame drift, log₃ and RPY angle,
-    contact wrench and impedance update, and one compiled call solves the QP
-    (:class:`CentroidalQP`, whose inputs reference the controller's buffers and are set
-    once). Arrays are preallocated in :meth:`reset`.
+    (:func:`.tasks.task_rows`) forms b_1, the declared tasks' rows (:meth:`tasks`), every
+    frame drift, contact wrench and impedance update, and the QP (:class:`CentroidalQP`,
+    whose inputs reference the controller's buffers) is solved. Arrays are preallocated in
+    :meth:`reset`: the tick's parameters in one record (``_params``), its state in another
+    (``_state``).
     """
 
     Params = QPImpedanceParams
 
+    def tasks(self, params: QPImpedanceParams, robot: Robot) -> tuple[TaskSpec, ...]:
+        """The task list of the QP (:func:`paper_tasks`); override to add or swap a task."""
+        return paper_tasks(params, robot.joint_names)
+
     def reset(self, robot: Robot, params: ControllerParams, control_period: float) -> None:
-        """Plan the walk, generate the CoM pattern and cache the model quantities."""
+        """Plan the walk, generate the CoM pattern, declare the tasks and build the QPs."""
         assert isinstance(params, QPImpedanceParams)
         if robot.control_mode != "torque":
             raise ValueError("qpimpedance needs a torque-controlled robot")
         self._robot, self._p = robot, params
-        p = params
         model = robot.pin_model
         self._model, self._data = model, model.createData()
         self._sole = [robot.pin_frame_id(f"{s}_sole") for s in SIDES]
-        self._pelvis = robot.pin_frame_id("pelvis")
-        self._torso = robot.pin_frame_id("torso")
-        self._sole_site_rotation, self._sole_site_position, self._sole_foot_com = _foot_geometry(
-            robot
-        )
-        length, width = robot.sole_size
-        corners = np.array(
-            [[sx * length / 2, sy * width / 2, 0.0] for sx in (1, -1) for sy in (1, -1)]
-        )
-        pyramid = friction_basis(p.friction, p.pyramid_edges)
-
-        # Walking pattern: footsteps, ZMP reference and the preview-control CoM (ref. [23]).
-        com_height = p.com_height or robot.nominal_com_height
-        first = LEFT if p.first_swing == "left" else RIGHT
-        pattern = WalkPattern(
-            p.foot_y,
-            p.stride,
-            p.n_steps,
-            first,
-            p.t_start,
-            p.t_single,
-            p.t_double,
-            p.t_end_hold,
-        )
-        self._plan: FootstepPlan = plan_walk(pattern, p.preview_dt)
-        self._phase_ends = [ph.t1 for ph in self._plan.phases]
-        gains = preview_gains(p.preview_dt, com_height, p.preview_time, p.preview_q, p.preview_r)
         q0, v0 = robot.pin_state_from_mujoco(robot.home_qpos, np.zeros(robot.mj_model.nv))
         com0 = pin.centerOfMass(model, self._data, q0)
-        ref = self._plan.zmp_xy.copy()
-        com_x, _ = generate_com(gains, ref[:, 0], np.array([com0[0], 0.0, 0.0]))
-        com_y, _ = generate_com(gains, ref[:, 1], np.array([com0[1], 0.0, 0.0]))
-        # generate_com gives each axis's (c, ċ, c̈) per sample.
-        self._com_plan = np.zeros(len(com_x), dtype=COM_SAMPLE)
-        for order, name in enumerate(("position", "velocity", "acceleration")):
-            self._com_plan[name] = np.column_stack([com_x[:, order], com_y[:, order]])
-        com_z = float(com0[2] if p.com_height is None else p.com_height)
-
-        names = robot.joint_names
-        self._posture_idx = np.array(
-            [
-                i
-                for i, j in enumerate(names)
-                if not j.startswith(("l_hip", "r_hip", "l_knee", "r_knee", "l_ankle", "r_ankle"))
-            ]
-        )
-        self._q_home_posture = robot.home_joint_pos[self._posture_idx].copy()
-        self._v_idx = np.ascontiguousarray(robot.pin_v_idx, dtype=np.int64)
+        com_plan = self._plan_walk(params, robot, com0)
+        specs = self.tasks(params, robot)
+        frame_names = tuple(dict.fromkeys(
+            ("left_sole", "right_sole",
+             *(s.target for s in specs if s.kind == TaskKind.ORIENTATION))
+        ))  # fmt: skip
+        self._views = _DataViews(model, self._data, tuple(map(robot.pin_frame_id, frame_names)))
         self._pin_state, self._q, self._v = pin_state_buffer(model)
-        frames = (self._sole[LEFT], self._sole[RIGHT], self._pelvis, self._torso)
-        self._chains = FrameChains(*(kinematic_chain(model, fid) for fid in frames))
-        parents = tuple(model.frames[fid].parentJoint for fid in frames)
-        if parents[2] != 1:
-            raise ValueError("qpimpedance needs the pelvis frame on the floating base")
-        # Each sole's origin in its ankle joint's frame, for its drift (robot.frame_classical_acceleration).
-        self._sole_offset = np.array([model.frames[f].placement.translation for f in frames[:2]])
-        self._views = _DataViews(self._data, frames, parents)
-        self._gains = TaskGains(
-            dt=float(control_period),
-            mass=float(robot.total_mass),
-            foot_mass=_foot_mass(robot),
-            k_h=p.k_h,
-            k_i=p.k_i,
-            k_h_angular=p.k_h_angular,
-            kp_orient=p.kp_orient,
-            kv_orient=p.kv_orient,
-            kp_posture=p.kp_posture,
-            kv_posture=p.kv_posture,
-            kp_swing=float(p.swing_gains[0]),
-            kv_swing=float(p.swing_gains[1]),
-            impedance=bool(p.impedance),
-            preview_dt=p.preview_dt,
-            plan_end=float(self._plan.end),
-            com_z=com_z,
+        self._params = self._tick_params(
+            params, robot, control_period, com_plan, task_table(specs, frame_names, robot.joint_names),
+            float(com0[Z] if params.com_height is None else params.com_height),
+        )  # fmt: skip
+        self._state = TaskState(
+            impedance=np.zeros(2, dtype=IMPEDANCE_STATE),
+            prev_foot_vel=np.zeros((2, 6)),
+            foot_acc_cmd=np.zeros((2, 3)),
+            swing_plan=np.zeros(1, dtype=SWING_PLAN),  # tasks.pack_swing
+            stance_z=np.zeros(2),  # planned height of each foot in support [m]
+            swing_motion=np.zeros((3, 6)),
         )
-        self._impedance_gains = ImpedanceGains(
-            mass=np.array(p.m_d, dtype=np.float64),
-            damping=np.array(p.b_d, dtype=np.float64),
-            stiffness=np.array(p.k_d, dtype=np.float64),
-            threshold=np.array((p.force_threshold, p.torque_threshold, p.torque_threshold)),
-        )
-        # Per-tick state: each foot's impedance (x_m, ẋ_m, ẍ_m) and (armed, active), its
-        # previous sole velocity and its commanded acceleration; the swing trajectory.
-        self._impedance = np.zeros(2, dtype=IMPEDANCE_STATE)
-        self._prev_foot_vel = np.zeros((2, 6))
-        self._foot_acc_cmd = np.zeros((2, 3))
-        self._swing_plan = np.zeros(1, dtype=SWING_PLAN)  # tasks.pack_swing
-        self._stance_z = np.zeros(2)  # planned height of each foot in support [m]
-        self._phase_index = -1
+        self._phase_index, self._qp_fail = -1, 0
         self._tau = np.zeros(robot.n_joints)
-        self._qp_fail = 0
-
-        # The QP's cost terms of §III-D (task_rows fills them each tick): the momentum target
-        # b_1 and W_1; the pelvis and torso orientation, the arm and waist posture (Φ_t a
-        # constant selection of each joint) and the swing foot (in single support only).
-        nv, n_post = model.nv, self._posture_idx.size
-
-        def task(rows: int, weight: float) -> Task:
-            return Task(np.zeros((rows, nv)), np.zeros(rows), np.full(rows, weight))
-
-        self._tasks = CentroidalTasks(
-            np.zeros(6),
-            np.array([p.w_momentum_linear] * 3 + [p.w_momentum_angular] * 3),
-            task(3, p.w_pelvis),
-            task(3, p.w_torso),
-            task(n_post, p.w_posture),
-            task(6, p.w_swing),
-        )
-        self._tasks.posture.jacobian[np.arange(n_post), self._v_idx[self._posture_idx]] = 1.0
-        self._local_map = contact_wrench_basis(np.eye(3), corners, pyramid)
-        # Each foot's sole Jacobian, drift and rotated wrench basis; the QP of a support set
-        # takes the feet's slices of these (no copies).
-        self._sole_jacobians = np.zeros((2, 6, nv))
-        self._sole_drifts = np.zeros((2, 6))
-        self._wrench_maps = np.zeros((2, 6, self._local_map.shape[1]))
-        self._support_slices = {
-            support: slice(min(support), max(support) + 1) for support in SUPPORTS
-        }
-        self._qps = {
-            support: CentroidalQP(
-                nv,
-                len(support),
-                self._local_map.shape[1],
-                QPWeights(p.w_accel, p.w_force),
-                p.qp_solver,
-                p.qp_tolerance,
-            )
-            for support in SUPPORTS
-        }
-        self._warm_support: tuple[int, ...] | None = None  # QP solved on the previous tick
-        # The tick's signals (SIGNALS): task_rows writes its fields; a QP f_z stays NaN here.
-        self._signal_record = np.zeros(1, dtype=SIGNALS)
-        self._signal_record[FZ_QP[LEFT]] = self._signal_record[FZ_QP[RIGHT]] = np.nan
-        self._signal_vector = self._signal_record.view(np.float64)  # the same memory
+        self._build_outputs(params, self._params)
         self._refresh_views = False
         self._check_views(q0)
         self._bind_task_args()
@@ -704,6 +639,102 @@ class QPImpedanceController(Controller):
         # Wall time of the tick's parts [s], for benchmarks only (never logged: logs stay
         # deterministic). Running totals: memory stays flat however long the run.
         self._timing = dict.fromkeys(("dynamics", "tasks", "qp_solve", "output"), 0.0)
+
+    def _plan_walk(self, p: QPImpedanceParams, robot: Robot, com0: np.ndarray) -> np.ndarray:
+        """Footsteps, ZMP reference and the preview-control CoM pattern (ref. [23]).
+
+        Returns:
+            The CoM pattern, shape (N,) of :data:`.tasks.COM_SAMPLE`.
+        """
+        com_height = p.com_height or robot.nominal_com_height
+        first = LEFT if p.first_swing == "left" else RIGHT
+        pattern = WalkPattern(
+            p.foot_y, p.stride, p.n_steps, first, p.t_start, p.t_single, p.t_double, p.t_end_hold
+        )
+        self._plan: FootstepPlan = plan_walk(pattern, p.preview_dt)
+        self._phase_ends = [ph.t1 for ph in self._plan.phases]
+        gains = preview_gains(p.preview_dt, com_height, p.preview_time, p.preview_q, p.preview_r)
+        ref = self._plan.zmp_xy
+        columns = [
+            generate_com(gains, ref[:, axis], np.array([com0[axis], 0.0, 0.0]))[0]
+            for axis in (X, Y)
+        ]  # each axis's (c, ċ, c̈) per sample
+        com_plan = np.zeros(len(columns[X]), dtype=COM_SAMPLE)
+        for order, name in enumerate(("position", "velocity", "acceleration")):
+            com_plan[name] = np.column_stack([column[:, order] for column in columns])
+        return com_plan
+
+    def _tick_params(
+        self,
+        p: QPImpedanceParams,
+        robot: Robot,
+        control_period: float,
+        com_plan: np.ndarray,
+        table: np.ndarray,
+        com_z: float,
+    ) -> TaskParams:
+        """The tick's parameters record (:class:`.tasks.TaskParams`), built once."""
+        site_rotation, site_position, foot_com = _foot_geometry(robot)
+        length, width = robot.sole_size
+        corners = np.array(
+            [[sx * length / 2, sy * width / 2, 0.0] for sx in (1, -1) for sy in (1, -1)]
+        )
+        pyramid = friction_basis(p.friction, p.pyramid_edges)
+        tick = TickParams(
+            dt=float(control_period),
+            mass=float(robot.total_mass),
+            foot_mass=_foot_mass(robot),
+            k_h=p.k_h,
+            k_i=p.k_i,
+            k_h_angular=p.k_h_angular,
+            impedance=bool(p.impedance),
+            preview_dt=p.preview_dt,
+            plan_end=float(self._plan.end),
+            com_z=com_z,
+        )
+        impedance = ImpedanceGains(
+            mass=np.array(p.m_d, dtype=np.float64),
+            damping=np.array(p.b_d, dtype=np.float64),
+            stiffness=np.array(p.k_d, dtype=np.float64),
+            threshold=np.array((p.force_threshold, p.torque_threshold, p.torque_threshold)),
+        )
+        return TaskParams(
+            tick, impedance, table,
+            np.ascontiguousarray(robot.pin_v_idx, dtype=np.int64),
+            robot.home_joint_pos.astype(np.float64),
+            site_rotation, site_position, foot_com,
+            contact_wrench_basis(np.eye(3), corners, pyramid), com_plan,
+        )  # fmt: skip
+
+    def _build_outputs(self, p: QPImpedanceParams, params: TaskParams) -> None:
+        """The buffers the tick writes (cost terms, each foot's contact terms, signals) and
+        each support set's QP."""
+        nv, n_beta = self._model.nv, params.local_wrench_map.shape[1]
+        # The QP's cost terms of §III-D (task_rows fills them each tick): b_1 and W_1, and
+        # the declared tasks' rows.
+        self._tasks = CentroidalTasks(
+            np.zeros(6),
+            np.array([p.w_momentum_linear] * 3 + [p.w_momentum_angular] * 3),
+            empty_stack(task_row_count(params.tasks), params.tasks.size, nv),
+        )
+        # Each foot's sole Jacobian, drift and rotated wrench basis; the QP of a support set
+        # takes the feet's slices of these (no copies).
+        self._sole_jacobians = np.zeros((2, 6, nv))
+        self._sole_drifts = np.zeros((2, 6))
+        self._wrench_maps = np.zeros((2, 6, n_beta))
+        self._support_slices = {
+            support: slice(min(support), max(support) + 1) for support in SUPPORTS
+        }
+        weights = QPWeights(p.w_accel, p.w_force)
+        self._qps = {
+            support: CentroidalQP(nv, len(support), n_beta, weights, p.qp_solver, p.qp_tolerance)
+            for support in SUPPORTS
+        }
+        self._warm_support: tuple[int, ...] | None = None  # QP solved on the previous tick
+        # The tick's signals (SIGNALS): task_rows writes its fields; a QP f_z stays NaN here.
+        self._signal_record = np.zeros(1, dtype=SIGNALS)
+        self._signal_record[FZ_QP[LEFT]] = self._signal_record[FZ_QP[RIGHT]] = np.nan
+        self._signal_vector = self._signal_record.view(np.float64)  # the same memory
 
     def timing(self) -> dict[str, float]:
         """Wall time [s] of the tick's parts: Pinocchio, tasks, QP (build, solve, Eq. 9), output."""
@@ -743,7 +774,8 @@ class QPImpedanceController(Controller):
         """Compile (or load from numba's cache) the tick's kernels for the argument types of a
         real tick, by running them once at home, at rest; then undo that tick's state."""
         robot = self._robot
-        home_pos, home_quat = robot.home_qpos[0:3].copy(), robot.home_qpos[3:7].copy()
+        home = robot.home_qpos
+        home_pos, home_quat = home[BASE_POSITION].copy(), home[BASE_QUATERNION].copy()
         home_joints, zero_joints = robot.home_joint_pos.copy(), np.zeros(robot.n_joints)
         zero3, zero_ft = np.zeros(3), np.zeros(6)
         pin_state_into(
@@ -756,11 +788,12 @@ class QPImpedanceController(Controller):
         for qp in self._qps.values():  # the QP's kernels (a library solver's too)
             qp.solve(warm=False)
             qp.solution.x[:] = 0.0
-        self._impedance[:] = np.zeros(1, dtype=IMPEDANCE_STATE)
-        self._prev_foot_vel[:] = 0.0
-        self._foot_acc_cmd[:] = 0.0
+        state = self._state
+        state.impedance[:] = np.zeros(1, dtype=IMPEDANCE_STATE)
+        state.prev_foot_vel[:] = 0.0
+        state.foot_acc_cmd[:] = 0.0
 
-    def _state(self, s: SensorSnapshot) -> tuple[np.ndarray, np.ndarray]:
+    def _pin_state_of(self, s: SensorSnapshot) -> tuple[np.ndarray, np.ndarray]:
         """Pinocchio (q, v) as ``s.pinocchio_state``, written into preallocated arrays."""
         if s.base_pos is None or s.base_quat is None or s.base_linvel is None:
             return s.pinocchio_state(self._robot, "qpimpedance (as in §IV)")  # names the fix
@@ -785,7 +818,7 @@ class QPImpedanceController(Controller):
             return
         sole = self._data.oMf[self._sole[phase.swing]]
         rpy = pin.rpy.matrixToRpy(sole.rotation)
-        start = np.array([*sole.translation, rpy[0], rpy[1]])
+        start = np.array([*sole.translation, rpy[ROLL], rpy[PITCH]])
         target = np.array([*phase.target, 0.0, 0.0])
         p = self._p
         pack_swing(
@@ -795,16 +828,16 @@ class QPImpedanceController(Controller):
             target,
             p.swing_height,
             p.swing_rise_fraction,
-            self._swing_plan,
+            self._state.swing_plan,
         )
-        self._stance_z[phase.swing] = phase.target[2]
+        self._state.stance_z[phase.swing] = phase.target[Z]
 
     def _bind_task_args(self) -> None:
         """Gather :func:`.tasks.task_rows`' records, which hold the same arrays every tick.
 
-        Data's views and ξ̇, the constants, the walking pattern, the per-tick state and the
-        output buffers: all are filled in place, so a tick passes one prebuilt
-        :class:`.tasks.TaskRecords` instead of looking up fifty attributes.
+        Data's views and ξ̇, the parameters, the state and the output buffers: all are filled
+        in place, so a tick passes one prebuilt :class:`.tasks.TaskRecords` instead of
+        looking up fifty attributes.
         """
         views = self._views
         terms = RobotTerms(
@@ -817,30 +850,9 @@ class QPImpedanceController(Controller):
             views.angular_momentum,
             views.base_rotation,
             views.base_position,
-            views.base_drift,
-            views.pelvis_rotation,
-            views.torso_rotation,
-            views.torso_joint_rotation,
-            views.torso_joint_drift,
-            views.soles[LEFT],
-            views.soles[RIGHT],
+            views.frames,
             self._v,
         )
-        constants = TaskConstants(
-            self._gains,
-            self._impedance_gains,
-            self._chains,
-            self._posture_idx,
-            self._sole_site_rotation,
-            self._sole_site_position,
-            self._sole_foot_com,
-            self._sole_offset,
-            self._local_map,
-        )
-        references = TaskReferences(
-            self._com_plan, self._swing_plan, self._stance_z, self._q_home_posture
-        )
-        state = TaskState(self._impedance, self._prev_foot_vel, self._foot_acc_cmd)
         outputs = TaskOutputs(
             self._tasks,
             self._sole_jacobians,
@@ -848,7 +860,7 @@ class QPImpedanceController(Controller):
             self._wrench_maps,
             self._signal_record,
         )
-        self._task_records = task_records(terms, constants, references, state, outputs)
+        self._task_records = task_records(terms, self._params, self._state, outputs)
 
     def _task_rows(
         self,
@@ -871,7 +883,7 @@ class QPImpedanceController(Controller):
         """One tick of §III-D: tasks → QP → Eq. (9)."""
         t0 = time.perf_counter()
         model, data = self._model, self._data
-        q, v = self._state(s)
+        q, v = self._pin_state_of(s)
         # M, C ξ̇ + g, g, the joint Jacobians, the CoM and h_G. Its forward pass also leaves
         # the drift accelerations (ξ̈ = 0) in data.a, so J̇ ξ̇ needs no second kinematics pass.
         pin.computeAllTerms(model, data, q, v)
@@ -886,7 +898,7 @@ class QPImpedanceController(Controller):
         if index != self._phase_index:
             self._enter_phase(index)
         swing = self._plan.phases[index].swing
-        support = SUPPORTS[swing + 1]
+        support = SUPPORT_OF_SWING[swing]
         # Momentum, orientation, posture and swing rows; feet states, wrenches, impedance.
         switched_on = self._task_rows(t, swing, s.joint_pos, s.joint_vel, s.left_ft, s.right_ft)
         events: list[dict] = []
@@ -904,7 +916,7 @@ class QPImpedanceController(Controller):
         if solved:
             self._warm_support = support
             self._tau = tau = qp.tau.copy()  # a new array each tick (ctrl), held for a failure
-            fz_qp = qp.wrenches[:, 2].tolist()
+            fz_qp = qp.wrenches[:, Z].tolist()
         else:
             self._qp_fail += 1
             self._warm_support = None

@@ -1,59 +1,171 @@
-"""The per-tick task algebra of §III-D in one compiled call: cost rows, contact terms, impedance.
+"""Paper III's tasks (§III-D), declared by name, and the per-tick algebra that stacks them.
 
-Each tick the controller turns Pinocchio's quantities and the sensor readings into
+A researcher edits a list of :class:`TaskSpec` (the controller's
+:meth:`~.controller.QPImpedanceController.tasks`): each task's name, its kind, the frame or
+joints it moves, the axes it selects, its gains K_P, K_V, its weight W_t and the paper's
+equation. One compiled routine, :func:`stack_tasks`, stacks them each tick into the rows of
+Σ_t ‖Φ_t ξ̈ − b_t‖²_{W_t} (a :class:`.centroidal_qp.TaskStack`), every task in the same form
+(pink's ``compute_error`` / ``compute_jacobian``):
 
-- the QP's cost terms, named as in the paper (:class:`.centroidal_qp.CentroidalTasks`): the
-  centroidal momentum target b_1 (Eq. 7), and each task's Φ_t and b_t = ẍ_r − Φ̇_t ξ̇: pelvis
-  and torso orientation, arm and waist posture, swing foot (Eq. 3);
-- each foot's sole Jacobian, drift J̇ ξ̇ and rotated wrench basis R̃ U_k (Eq. 8), which the
-  QP takes for the support feet;
-- each foot's contact wrench from its F/T sensor and the impedance modification of the
-  swing reference (Eqs. 1–3), with the signals the log records.
+    ẍ_r = ẍ_d + K_V (ẋ_d − ẋ) + K_P e,     b_t = ẍ_r − Φ̇_t ξ̇,                     (Eq. 3)
 
-Why numba: written in Python this is ≈ 70 small numpy calls and Python-float expressions on
-3- to 28-vectors, ≈ 65 µs of the ≈ 200 µs a 1 kHz tick may take at 5× real time (numpy
-costs about 1 µs per call on such small arrays). One compiled call, :func:`task_rows`, does
-the same arithmetic, in the same order, in a few µs. Its inputs are views of Pinocchio's
-``Data`` after ``computeAllTerms`` (M, C ξ̇ + g, the joint Jacobians, frame and joint
-placements, the joints' velocities and drift accelerations), passed without copies. The
-frames' drifts J̇ ξ̇, log₃ and roll–pitch–yaw angles are formed here
-(:func:`~walkrepro.sim.robot.frame_classical_acceleration`, :func:`~walkrepro.sim.robot.log3`,
-:func:`matrix_to_rpy`) in Pinocchio's operations, tested against its Python functions to
-1e-12, instead of eight calls from Python (≈ 0.4–1 µs each;
-``benchmarks/pinocchio_ports.py``). The small kernels it calls are compiled functions too,
-each tested against a reference (Pinocchio's frame Jacobians, numpy expressions) or for its
-properties (the swing trajectory, the impedance filter). Like
-:mod:`.condensed`, the kernels are cached on disk (``cache=True``) and compiled or loaded
-when the controller resets.
+with e = x_d − x (an orientation's e = log₃(R_d R⁻¹), R_d = I: upright, heading +x). The rows
+and their offsets are counted from the selected axes, never typed.
 
-:func:`task_rows` takes its inputs in records of named fields (named tuples,
-:class:`RobotTerms` … :class:`TaskOutputs`), which the controller builds once at reset and
-gathers into one :class:`TaskRecords` (a numba StructRef: numba reads its type from the
-object, where it would type a named tuple's fields one by one in Python on every call); the
-arrays in them are filled in place every tick; the gains and times are a record of floats
-(:class:`TaskGains`). The signals it writes are fields of a structured record
-(:data:`FOOT_SIGNALS` per foot), named as in the log.
+Besides the tasks, each tick forms the centroidal momentum target b_1 (Eq. 7), each foot's
+sole Jacobian, drift J̇ ξ̇ and rotated wrench basis R̃ U_k (Eq. 8), which the QP takes for the
+support feet, and each foot's contact wrench from its F/T sensor and the impedance
+modification of the swing reference (Eqs. 1–3), with the signals the log records.
+
+Why numba: written in Python this is ≈ 70 small numpy calls on 3- to 28-vectors, ≈ 65 µs of
+the ≈ 200 µs a 1 kHz tick may take at 5× real time. One compiled call, :func:`task_rows`,
+does it in a few µs. Its inputs are views of Pinocchio's ``Data`` after ``computeAllTerms``
+(M, C ξ̇ + g, the joint Jacobians, frame and joint placements, the joints' velocities and
+drift accelerations), passed without copies, in one :class:`TaskRecords` (a StructRef made by
+:func:`walkrepro.runtime.records.define_record`): its ``params`` are set at reset, its
+``state`` is carried from tick to tick, both records of named fields.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from enum import IntEnum
 from typing import NamedTuple
 
 import numba
 import numpy as np
 import pinocchio as pin
-from numba.core import types
-from numba.experimental import structref
 
-from walkrepro.papers.jo_oh.centroidal_qp import CentroidalTasks, Task
-from walkrepro.sim.robot import eigen_rotate, frame_classical_acceleration, frame_jacobian, log3
+from walkrepro.papers.jo_oh.centroidal_qp import CentroidalTasks
+from walkrepro.papers.jo_oh.footsteps import LEFT, RIGHT
+from walkrepro.runtime.records import define_record
+from walkrepro.sim.robot import frame_classical_acceleration, frame_jacobian, log3
 
 GRAVITY = 9.81  # [m/s^2]
+#: The universe joint of a Pinocchio model (no velocity; not in a frame's chain).
+UNIVERSE = 0
+#: The axes of a 3-vector, and the rows and columns of a rotation matrix.
+X, Y, Z = 0, 1, 2
+#: The angles of (roll, pitch, yaw) [rad].
+ROLL, PITCH, YAW = 0, 1, 2
+#: A spatial vector's rows (LOCAL_WORLD_ALIGNED): linear x, y, z, then angular rx, ry, rz.
+RX, RY, RZ = 3, 4, 5
+#: The first row of a spatial vector's linear and angular halves.
+LINEAR_ROW, ANGULAR_ROW = 0, 3
+#: A spatial vector's axes by name, in row order (a frame task selects among them).
+SPATIAL_AXES = ("x", "y", "z", "rx", "ry", "rz")
+#: The swing plan's coordinates: the sole centre's (x, y, z [m], roll, pitch [rad]).
+SWING_X, SWING_Y, SWING_Z, SWING_ROLL, SWING_PITCH = 0, 1, 2, 3, 4
+#: The swing plan's coordinates the impedance modifies, (z, φ_x, φ_y) (§II).
+IMPEDANCE_COORDS = slice(SWING_Z, SWING_PITCH + 1)
+#: Rows of a foot's reference signals: x_d, ẋ_d, ẍ_d (desired), x_m, ẋ_m, ẍ_m (modified).
+DESIRED_POS, DESIRED_VEL, DESIRED_ACC, MODIFIED_POS, MODIFIED_VEL, MODIFIED_ACC = range(6)
+#: Rows of a task's desired motion: x_d, ẋ_d, ẍ_d.
+POSITION, VELOCITY, ACCELERATION = 0, 1, 2
 
 
-class TaskGains(NamedTuple):
-    """The tick's gains, masses and times, set at reset.
+class TaskKind(IntEnum):
+    """What a task moves, and so how its Jacobian and error are formed (:func:`stack_tasks`)."""
+
+    #: A frame held upright, heading +x: Φ_t its angular Jacobian rows, e = −log₃ R.
+    ORIENTATION = 0
+    #: Joints held at their home angles: Φ_t selects them, e = q_home − q.
+    POSTURE = 1
+    #: The swing foot's sole on its swing trajectory (Eq. 3), impedance-modified on
+    #: (z, φ_x, φ_y) (Eqs. 1–2); in the QP in single support only.
+    SWING_FOOT = 2
+
+
+@dataclass(frozen=True)
+class TaskSpec:
+    """One task of the §III-D QP, ‖Φ_t ξ̈ − b_t‖²_{W_t}, as a researcher declares it.
+
+    Attributes:
+        name: the task's name (its rows' name in tests and docs).
+        kind: what it moves (:class:`TaskKind`).
+        target: the Pinocchio frame of an ORIENTATION task; the joint names of a POSTURE
+            task (one row each); unused by SWING_FOOT (the swinging sole).
+        axes: the selected rows of a frame task, names of :data:`SPATIAL_AXES` (an
+            orientation selects among rx, ry, rz); ignored by POSTURE.
+        kp: K_P [1/s²].
+        kv: K_V [1/s].
+        weight: W_t, the same on each row [-].
+        equation: where the paper states it.
+    """
+
+    name: str
+    kind: TaskKind
+    target: str | tuple[str, ...]
+    axes: tuple[str, ...]
+    kp: float
+    kv: float
+    weight: float
+    equation: str
+
+
+def task_table(
+    specs: tuple[TaskSpec, ...], frames: tuple[str, ...], joint_names: tuple[str, ...]
+) -> np.ndarray:
+    """The compiled form of ``specs``: a structured array of :func:`task_dtype`, one per task.
+
+    Args:
+        specs: the tasks, in the order their rows are stacked.
+        frames: the frames of :class:`FrameKinematics` the tick has, by name (a task's
+            ``frame`` field is its index here).
+        joint_names: the actuated joints, actuator order.
+
+    Raises:
+        ValueError: an unknown frame, joint or axis, or an orientation selecting a linear axis.
+    """
+    table = np.zeros(len(specs), dtype=task_dtype(len(joint_names)))
+    for row, spec in zip(table, specs, strict=True):
+        row["kind"], row["kp"], row["kv"], row["weight"] = spec.kind, spec.kp, spec.kv, spec.weight
+        row["frame"] = -1
+        if spec.kind == TaskKind.POSTURE:
+            unknown = set(spec.target) - set(joint_names)
+            if unknown:
+                raise ValueError(
+                    f"task {spec.name!r}: unknown joints {sorted(unknown)}; valid: {joint_names}"
+                )
+            row["joints"] = [name in spec.target for name in joint_names]
+            continue
+        allowed = SPATIAL_AXES[ANGULAR_ROW:] if spec.kind == TaskKind.ORIENTATION else SPATIAL_AXES
+        if not spec.axes or not set(spec.axes) <= set(allowed):
+            raise ValueError(f"task {spec.name!r}: axes {spec.axes} not among {allowed}")
+        row["axes"] = [axis in spec.axes for axis in SPATIAL_AXES]
+        if spec.kind == TaskKind.ORIENTATION:
+            if spec.target not in frames:
+                raise ValueError(f"task {spec.name!r}: unknown frame {spec.target!r}")
+            row["frame"] = frames.index(spec.target)
+    return table
+
+
+def task_dtype(n_joints: int) -> np.dtype:
+    """A compiled task's fields: kind, frame index (−1: none), selected spatial axes (6,) and
+    joints (n_joints,) (1: selected; numba takes no nested bool arrays), K_P [1/s²], K_V [1/s], W_t."""
+    return np.dtype(
+        [
+            ("kind", np.int64),
+            ("frame", np.int64),
+            ("axes", np.uint8, (len(SPATIAL_AXES),)),
+            ("joints", np.uint8, (n_joints,)),
+            ("kp", np.float64),
+            ("kv", np.float64),
+            ("weight", np.float64),
+        ],
+        align=True,
+    )
+
+
+def task_row_count(table: np.ndarray) -> int:
+    """Most rows the tasks can stack (every task active)."""
+    return int(sum(row["joints"].sum() if row["kind"] == TaskKind.POSTURE else row["axes"].sum()
+                   for row in table))  # fmt: skip
+
+
+class TickParams(NamedTuple):
+    """The tick's parameters besides the tasks, set at reset.
 
     Attributes:
         dt: control period [s].
@@ -62,9 +174,6 @@ class TaskGains(NamedTuple):
         k_h: linear momentum gain K_h [1/s].
         k_i: linear momentum integral gain K_I [1/s²].
         k_h_angular: angular momentum gain [1/s].
-        kp_orient, kv_orient: pelvis and torso K_P [1/s²], K_V [1/s].
-        kp_posture, kv_posture: arm and waist K_P [1/s²], K_V [1/s].
-        kp_swing, kv_swing: swing-foot K_P [1/s²], K_V [1/s] (Eq. 3).
         impedance: modify the swing reference by Eqs. (1)–(3).
         preview_dt: sample time of the CoM pattern [s].
         plan_end: time the footstep plan ends [s].
@@ -77,12 +186,6 @@ class TaskGains(NamedTuple):
     k_h: float
     k_i: float
     k_h_angular: float
-    kp_orient: float
-    kv_orient: float
-    kp_posture: float
-    kv_posture: float
-    kp_swing: float
-    kv_swing: float
     impedance: bool
     preview_dt: float
     plan_end: float
@@ -165,29 +268,17 @@ class ImpedanceGains(NamedTuple):
     threshold: np.ndarray
 
 
-class FrameChains(NamedTuple):
-    """Which velocities move each frame whose Jacobian :func:`task_rows` forms (see
-    :func:`kinematic_chain`), each of shape (nv,) bool.
+class FrameKinematics(NamedTuple):
+    """A frame's placement and its parent joint's motion (views of Pinocchio's ``Data``), and
+    its constants.
 
     Attributes:
-        left_sole, right_sole: the soles (contact and swing rows).
-        pelvis, torso: the orientation tasks' frames.
-    """
-
-    left_sole: np.ndarray
-    right_sole: np.ndarray
-    pelvis: np.ndarray
-    torso: np.ndarray
-
-
-class SoleKinematics(NamedTuple):
-    """A sole frame's placement and its parent joint's motion, from Pinocchio's ``Data``.
-
-    Attributes:
-        rotation, position: world placement of the sole frame (``data.oMf``) [-, m].
+        rotation, position: world placement of the frame (``data.oMf``) [-, m].
         joint_rotation: its parent joint's world rotation (``data.oMi[j].rotation``).
         joint_velocity: its parent joint's spatial velocity, joint axes (``data.v[j]``).
         joint_drift: its parent joint's drift acceleration, joint axes (``data.a[j]``).
+        offset: the frame origin in its parent joint's frame [m], shape (3,).
+        chain: which velocities move the frame (:func:`kinematic_chain`), shape (nv,) bool.
     """
 
     rotation: np.ndarray
@@ -195,12 +286,13 @@ class SoleKinematics(NamedTuple):
     joint_rotation: np.ndarray
     joint_velocity: np.ndarray
     joint_drift: np.ndarray
+    offset: np.ndarray
+    chain: np.ndarray
 
 
 class RobotTerms(NamedTuple):
-    """Pinocchio's terms of the tick (after ``computeAllTerms`` and ``updateFramePlacements``;
-    the drifts J̇ ξ̇ follow from the joints' ``data.v``, ``data.a`` by
-    :func:`~walkrepro.sim.robot.frame_classical_acceleration`), and ξ̇.
+    """Pinocchio's terms of the tick (after ``computeAllTerms`` and ``updateFramePlacements``),
+    and ξ̇.
 
     Attributes:
         joint_jacobians: ``data.J``, shape (6, nv).
@@ -209,13 +301,9 @@ class RobotTerms(NamedTuple):
         gravity_torques: g (``data.g``), shape (nv,).
         com, com_vel: CoM position [m] and velocity [m/s] in the world, shape (3,).
         angular_momentum: k, the angular part of h_G [kg m²/s], shape (3,).
-        base_rotation, base_position: world-from-base placement (``data.oMi[1]``), which
-            is also the pelvis frame's parent joint.
-        base_drift: the base joint's drift acceleration (``data.a[1].vector``), shape (6,).
-        pelvis_rotation, torso_rotation: the frame's world rotation (``data.oMf``).
-        torso_joint_rotation, torso_joint_drift: the torso frame's parent joint's world
-            rotation and drift acceleration (``data.oMi[j].rotation``, ``data.a[j].vector``).
-        left, right: the soles.
+        base_rotation, base_position: world-from-base placement (``data.oMi`` of the base).
+        frames: the frames the tick reads, :class:`FrameKinematics` each: the left and right
+            soles (indices LEFT, RIGHT), then those the tasks name (a task's ``frame``).
         velocity: ξ̇ (Pinocchio's v), shape (nv,).
     """
 
@@ -228,13 +316,7 @@ class RobotTerms(NamedTuple):
     angular_momentum: np.ndarray
     base_rotation: np.ndarray
     base_position: np.ndarray
-    base_drift: np.ndarray
-    pelvis_rotation: np.ndarray
-    torso_rotation: np.ndarray
-    torso_joint_rotation: np.ndarray
-    torso_joint_drift: np.ndarray
-    left: SoleKinematics
-    right: SoleKinematics
+    frames: tuple
     velocity: np.ndarray
 
 
@@ -253,68 +335,61 @@ class SensorReadings(NamedTuple):
     right_ft: np.ndarray
 
 
-class TaskConstants(NamedTuple):
-    """Gains, weights and the robot's geometry, set at reset.
+class TaskParams(NamedTuple):
+    """The tick's parameters, built once at reset.
 
     Attributes:
-        gains: gains, masses and times.
+        tick: gains, masses and times (:class:`TickParams`).
         impedance_gains: M_d, B_d, K_d and thresholds (see :func:`advance_impedance`).
-        chains: per frame, whether each velocity moves it.
-        posture_idx: actuator indices of the arm and waist joints.
+        tasks: the declared tasks, compiled (:func:`task_table`), in stacking order.
+        joint_v_index: each actuated joint's column in ξ̇, shape (n,) int.
+        home_joint_pos: the joints' home angles [rad], shape (n,) (a posture's q_home).
         sole_site_rotation, sole_site_position: each F/T sensor's placement in its sole
             frame, shapes (2, 3, 3) and (2, 3) [-, m].
         sole_foot_com: each foot body's centre of mass in its sole frame, shape (2, 3) [m].
-        sole_offset: each sole frame's origin in its parent joint's frame [m], shape (2, 3).
         local_wrench_map: U_k in the contact frame (Eq. 8), shape (6, m N_c).
+        com_plan: the preview CoM pattern, shape (N,) of :data:`COM_SAMPLE`.
     """
 
-    gains: TaskGains
+    tick: TickParams
     impedance_gains: ImpedanceGains
-    chains: FrameChains
-    posture_idx: np.ndarray
+    tasks: np.ndarray
+    joint_v_index: np.ndarray
+    home_joint_pos: np.ndarray
     sole_site_rotation: np.ndarray
     sole_site_position: np.ndarray
     sole_foot_com: np.ndarray
-    sole_offset: np.ndarray
     local_wrench_map: np.ndarray
-
-
-class TaskReferences(NamedTuple):
-    """The walking pattern the tasks track: set at reset, the swing at each phase's start.
-
-    Attributes:
-        com_plan: the preview CoM pattern, shape (N,) of :data:`COM_SAMPLE`.
-        swing_plan: this phase's swing trajectory, shape (1,) of :data:`SWING_PLAN`.
-        stance_z: each foot's planned stance height [m], shape (2,).
-        posture_home: home angles of the arm and waist joints [rad] (``posture_idx``).
-    """
-
     com_plan: np.ndarray
-    swing_plan: np.ndarray
-    stance_z: np.ndarray
-    posture_home: np.ndarray
 
 
 class TaskState(NamedTuple):
-    """Each foot's state carried from tick to tick, updated in place.
+    """What a tick carries to the next, updated in place.
 
     Attributes:
         impedance: each foot's impedance state, shape (2,) of :data:`IMPEDANCE_STATE`.
         prev_foot_vel: each sole's spatial velocity of the previous tick, shape (2, 6).
         foot_acc_cmd: each sole's commanded linear acceleration [m/s²], shape (2, 3).
+        swing_plan: this phase's swing trajectory, shape (1,) of :data:`SWING_PLAN`.
+        stance_z: each foot's planned stance height [m], shape (2,).
+        swing_motion: the swing sole's desired (x, y, z, φ_x, φ_y, φ_z) [m, rad], rates and
+            accelerations (rows POSITION, VELOCITY, ACCELERATION), the impedance-modified
+            reference on (z, φ_x, φ_y), shape (3, 6).
     """
 
     impedance: np.ndarray
     prev_foot_vel: np.ndarray
     foot_acc_cmd: np.ndarray
+    swing_plan: np.ndarray
+    stance_z: np.ndarray
+    swing_motion: np.ndarray
 
 
 class TaskOutputs(NamedTuple):
     """What :func:`task_rows` writes each tick.
 
     Attributes:
-        tasks: the QP's cost terms: b_1, and each task's Φ_t and b_t (the posture's Φ_t is
-            a constant selection, set at reset, and the weights are constants).
+        tasks: the QP's cost terms: b_1 (W_1 constant) and the stacked task rows.
         sole_jacobians, sole_drifts, wrench_maps: per foot, J_k (6, nv), J̇_k ξ̇ (6,) and
             R̃ U_k (6, m N_c).
         signals: the controller's signal record, shape (1,): a structured array with the
@@ -327,18 +402,6 @@ class TaskOutputs(NamedTuple):
     sole_drifts: np.ndarray
     wrench_maps: np.ndarray
     signals: np.ndarray
-
-
-class RowGains(NamedTuple):
-    """A task's gains in ẍ_r = ẍ_d + K_V (ẋ_d − ẋ) + K_P (x_d − x).
-
-    Attributes:
-        kp: K_P [1/s²].
-        kv: K_V [1/s].
-    """
-
-    kp: float
-    kv: float
 
 
 class DesiredMotion(NamedTuple):
@@ -355,6 +418,23 @@ class DesiredMotion(NamedTuple):
     acceleration: np.ndarray
 
 
+#: Everything :func:`task_rows` reads and writes besides the readings, as one argument (a
+#: StructRef: numba reads its type from the object, where it would type named tuples field by
+#: field in Python at every call, ≈ 15 µs here): ``terms`` (:class:`RobotTerms`), ``params``
+#: (:class:`TaskParams`), ``state`` (:class:`TaskState`), ``outputs`` (:class:`TaskOutputs`).
+TaskRecordsType, TaskRecords = define_record(
+    "TaskRecords", ("terms", "params", "state", "outputs"), __name__
+)
+
+
+@numba.njit(cache=True)
+def task_records(
+    terms: RobotTerms, params: TaskParams, state: TaskState, outputs: TaskOutputs
+) -> TaskRecords:
+    """The :class:`TaskRecords` of these records (compiled and cached)."""
+    return TaskRecords(terms, params, state, outputs)
+
+
 def kinematic_chain(model: pin.Model, frame_id: int) -> np.ndarray:
     """Which velocities move a frame: those of its parent joint and the joints supporting it.
 
@@ -362,7 +442,9 @@ def kinematic_chain(model: pin.Model, frame_id: int) -> np.ndarray:
         Shape (nv,) bool: the columns Pinocchio's ``getFrameJacobian`` fills.
     """
     chain = np.zeros(model.nv, dtype=bool)
-    for joint in list(model.supports[model.frames[frame_id].parentJoint])[1:]:  # not universe
+    for joint in list(model.supports[model.frames[frame_id].parentJoint]):
+        if joint == UNIVERSE:
+            continue
         start = model.joints[joint].idx_v
         chain[start : start + model.joints[joint].nv] = True
     return chain
@@ -380,22 +462,22 @@ def matrix_to_rpy(rotation: np.ndarray, rpy: np.ndarray) -> None:
         rpy: out, (roll, pitch, yaw) [rad], shape (3,).
     """
     r = rotation
-    yaw = math.atan2(r[1, 0], r[0, 0])
-    c2 = math.sqrt(r[2, 2] * r[2, 2] + r[2, 1] * r[2, 1])
+    yaw = math.atan2(r[Y, X], r[X, X])
+    c2 = math.sqrt(r[Z, Z] * r[Z, Z] + r[Z, Y] * r[Z, Y])
     if yaw < 0.0:
         yaw += math.pi
-        pitch = math.atan2(-r[2, 0], -c2)
+        pitch = math.atan2(-r[Z, X], -c2)
     else:
-        pitch = math.atan2(-r[2, 0], c2)
+        pitch = math.atan2(-r[Z, X], c2)
     s1, c1 = math.sin(yaw), math.cos(yaw)
-    roll = math.atan2(s1 * r[0, 2] - c1 * r[1, 2], c1 * r[1, 1] - s1 * r[0, 1])
+    roll = math.atan2(s1 * r[X, Z] - c1 * r[Y, Z], c1 * r[Y, Y] - s1 * r[X, Y])
     if pitch < -math.pi / 2:
         pitch += 2 * math.pi
     if pitch > math.pi / 2:
         pitch = math.pi - pitch
         roll = roll + math.pi if roll < 0.0 else roll - math.pi
         yaw -= math.pi
-    rpy[0], rpy[1], rpy[2] = roll, pitch, yaw
+    rpy[ROLL], rpy[PITCH], rpy[YAW] = roll, pitch, yaw
 
 
 @numba.njit(cache=True)
@@ -457,17 +539,17 @@ def swing_reference(
         pos[i] = start[i] + b * delta
         vel[i] = db * delta
         acc[i] = ddb * delta
-    top = max(start[2], target[2]) + apex
+    top = max(start[SWING_Z], target[SWING_Z]) + apex
     t_rise = rise_fraction * duration
     if s < t_rise:
         bz, dbz, ddbz = quintic(s, t_rise)
-        z0, z1 = start[2], top
+        z0, z1 = start[SWING_Z], top
     else:
         bz, dbz, ddbz = quintic(s - t_rise, duration - t_rise)
-        z0, z1 = top, target[2]
-    pos[2] = z0 + bz * (z1 - z0)
-    vel[2] = dbz * (z1 - z0)
-    acc[2] = ddbz * (z1 - z0)
+        z0, z1 = top, target[SWING_Z]
+    pos[SWING_Z] = z0 + bz * (z1 - z0)
+    vel[SWING_Z] = dbz * (z1 - z0)
+    acc[SWING_Z] = ddbz * (z1 - z0)
 
 
 @numba.njit(cache=True)
@@ -576,21 +658,23 @@ def contact_wrench(
     s = np.empty(3)
     for i in range(3):  # sensor axes -> world axes
         f[i] = (
-            site_rotation[i, 0] * ft[0] + site_rotation[i, 1] * ft[1] + site_rotation[i, 2] * ft[2]
+            site_rotation[i, X] * ft[X] + site_rotation[i, Y] * ft[Y] + site_rotation[i, Z] * ft[Z]
         )
         s[i] = (
-            site_rotation[i, 0] * ft[3] + site_rotation[i, 1] * ft[4] + site_rotation[i, 2] * ft[5]
+            site_rotation[i, X] * ft[RX]
+            + site_rotation[i, Y] * ft[RY]
+            + site_rotation[i, Z] * ft[RZ]
         )
     m = foot_mass
-    a0, a1, a2 = foot_acc[0], foot_acc[1], foot_acc[2]
-    p0, p1, p2 = site_position[0], site_position[1], site_position[2]
+    a0, a1, a2 = foot_acc[X], foot_acc[Y], foot_acc[Z]
+    p0, p1, p2 = site_position[X], site_position[Y], site_position[Z]
     # f_c = f_s − m g_vec + m a, with g_vec = (0, 0, −g).
-    fc0, fc1, fc2 = f[0] + m * a0, f[1] + m * a1, f[2] + m * GRAVITY + m * a2
-    r0, r1, r2 = foot_com[0] - p0, foot_com[1] - p1, foot_com[2] - p2  # foot CoM from sensor
+    fc0, fc1, fc2 = f[X] + m * a0, f[Y] + m * a1, f[Z] + m * GRAVITY + m * a2
+    r0, r1, r2 = foot_com[X] - p0, foot_com[Y] - p1, foot_com[Z] - p2  # foot CoM from sensor
     h0, h1, h2 = -m * a0, -m * a1, m * (-GRAVITY - a2)  # m (g_vec − a)
-    mc0 = s[0] - (r1 * h2 - r2 * h1)
-    mc1 = s[1] - (r2 * h0 - r0 * h2)
-    d0, d1, d2 = p0 - sole_position[0], p1 - sole_position[1], p2 - sole_position[2]
+    mc0 = s[X] - (r1 * h2 - r2 * h1)
+    mc1 = s[Y] - (r2 * h0 - r0 * h2)
+    d0, d1, d2 = p0 - sole_position[X], p1 - sole_position[Y], p2 - sole_position[Z]
     return fc2, mc0 + (d1 * fc2 - d2 * fc1), mc1 + (d2 * fc0 - d0 * fc2)
 
 
@@ -617,318 +701,339 @@ def desired_com(
         com_z: desired CoM height [m].
         pos, vel, acc: out, shape (3,).
     """
-    n = com_plan.shape[0]
+    n = com_plan.shape[X]
     if t >= plan_end:
-        last = com_plan[n - 1].position
-        pos[0], pos[1], pos[2] = last[0], last[1], com_z
+        final = n - 1
+        last = com_plan[final].position
+        pos[X], pos[Y], pos[Z] = last[X], last[Y], com_z
         vel[:] = 0.0
         acc[:] = 0.0
         return
     k = t / preview_dt
     i = int(min(max(np.floor(k), 0.0), n - 2))
     a = min(max(k - i, 0.0), 1.0)
-    before, after = com_plan[i], com_plan[i + 1]
-    for axis in range(2):
+    after = i + 1
+    before, after = com_plan[i], com_plan[after]
+    for axis in (X, Y):
         pos[axis] = (1 - a) * before.position[axis] + a * after.position[axis]
         vel[axis] = (1 - a) * before.velocity[axis] + a * after.velocity[axis]
         acc[axis] = (1 - a) * before.acceleration[axis] + a * after.acceleration[axis]
-    pos[2], vel[2], acc[2] = com_z, 0.0, 0.0
+    pos[Z], vel[Z], acc[Z] = com_z, 0.0, 0.0
 
 
 @numba.njit(cache=True)
 def _write_references(foot: np.void, refs: np.ndarray) -> None:
-    """A foot's reference signals (:data:`FOOT_SIGNALS`) from ``refs``, rows x_d, ẋ_d, ẍ_d,
-    x_m, ẋ_m, ẍ_m, columns (z [m], φ_x, φ_y [rad]) and their rates."""
-    foot.z_d, foot.roll_d, foot.pitch_d = refs[0, 0], refs[0, 1], refs[0, 2]
-    foot.z_dot_d, foot.roll_dot_d, foot.pitch_dot_d = refs[1, 0], refs[1, 1], refs[1, 2]
-    foot.z_ddot_d, foot.roll_ddot_d, foot.pitch_ddot_d = refs[2, 0], refs[2, 1], refs[2, 2]
-    foot.z_m, foot.roll_m, foot.pitch_m = refs[3, 0], refs[3, 1], refs[3, 2]
-    foot.z_dot_m, foot.roll_dot_m, foot.pitch_dot_m = refs[4, 0], refs[4, 1], refs[4, 2]
-    foot.z_ddot_m, foot.roll_ddot_m, foot.pitch_ddot_m = refs[5, 0], refs[5, 1], refs[5, 2]
+    """A foot's reference signals (:data:`FOOT_SIGNALS`) from ``refs``: rows x_d, ẋ_d, ẍ_d,
+    x_m, ẋ_m, ẍ_m (:data:`DESIRED_POS` …), columns (z [m], φ_x, φ_y [rad]) and their rates."""
+    z, roll, pitch = X, Y, Z  # the columns of refs: the impedance coordinates
+    foot.z_d, foot.roll_d, foot.pitch_d = (
+        refs[DESIRED_POS, z],
+        refs[DESIRED_POS, roll],
+        refs[DESIRED_POS, pitch],
+    )
+    foot.z_dot_d, foot.roll_dot_d, foot.pitch_dot_d = (
+        refs[DESIRED_VEL, z],
+        refs[DESIRED_VEL, roll],
+        refs[DESIRED_VEL, pitch],
+    )
+    foot.z_ddot_d, foot.roll_ddot_d, foot.pitch_ddot_d = (
+        refs[DESIRED_ACC, z],
+        refs[DESIRED_ACC, roll],
+        refs[DESIRED_ACC, pitch],
+    )
+    foot.z_m, foot.roll_m, foot.pitch_m = (
+        refs[MODIFIED_POS, z],
+        refs[MODIFIED_POS, roll],
+        refs[MODIFIED_POS, pitch],
+    )
+    foot.z_dot_m, foot.roll_dot_m, foot.pitch_dot_m = (
+        refs[MODIFIED_VEL, z],
+        refs[MODIFIED_VEL, roll],
+        refs[MODIFIED_VEL, pitch],
+    )
+    foot.z_ddot_m, foot.roll_ddot_m, foot.pitch_ddot_m = refs[MODIFIED_ACC, z], refs[MODIFIED_ACC, roll], refs[MODIFIED_ACC, pitch]  # fmt: skip
 
 
 @numba.njit(cache=True)
-def _set_task(
-    task: Task, source: np.ndarray, first: int, acc_ref: np.ndarray, drift: np.ndarray
+def momentum_target(
+    t: float, terms: RobotTerms, params: TaskParams, b_1: np.ndarray, c_d: np.ndarray
 ) -> None:
-    """A task's Φ_t = ``source[first:first+r]`` and b_t = ẍ_r − Φ̇_t ξ̇ (r rows of ``task``)."""
-    jacobian, target = task.jacobian, task.target
-    for r in range(target.shape[0]):
-        for j in range(source.shape[1]):
-            jacobian[r, j] = source[first + r, j]
-        target[r] = acc_ref[r] - drift[r]
+    """b_1 = X_GBᵀ ḣ_{G,r} − C_B ξ̇ (Eq. 7), with the momentum rate reference of §III-D
+    ḣ_lin = m (c̈_d + K_h (ċ_d − ċ) + K_I (c_d − c)) and ḣ_ang = −K_h k (about the CoM), moved
+    to the base origin; both halves in the base frame [N, N m].
 
-
-@numba.njit(cache=True)
-def _orientation_task(
-    terms: RobotTerms,
-    chain: np.ndarray,
-    log_r: np.ndarray,
-    drift: np.ndarray,
-    gains: RowGains,
-    frame_jac: np.ndarray,
-    task: Task,
-) -> None:
-    """A frame held upright, heading +x: Φ_t its angular Jacobian, ẍ_r = K_P log(R⁻¹) − K_V ω.
-
-    ``chain`` marks the velocities that move the frame; ``log_r`` is log₃ R of the frame's
-    world rotation (so −log_r is the error), ``drift`` the angular part of its J̇ ξ̇;
-    ``frame_jac`` is scratch (6, nv).
+    Args:
+        t: time [s].
+        terms: Pinocchio's terms of the tick.
+        params: the tick's parameters (gains, the CoM pattern).
+        b_1: out, shape (6,).
+        c_d: out, the desired CoM [m], shape (3,).
     """
-    velocity, kp, kv = terms.velocity, gains.kp, gains.kv
-    origin = np.zeros(3)  # the angular rows do not depend on the point
-    frame_jacobian(terms.joint_jacobians, chain, origin, frame_jac)
-    acc_ref = np.empty(3)
+    tick = params.tick
+    com, com_vel, base_rotation = terms.com, terms.com_vel, terms.base_rotation
+    v_d, a_d = np.empty(3), np.empty(3)
+    desired_com(params.com_plan, t, tick.preview_dt, tick.plan_end, tick.com_z, c_d, v_d, a_d)
+    m, kh, ki = tick.mass, tick.k_h, tick.k_i
+    # ḣ_lin = m (c̈_d + K_h (ċ_d − ċ) + K_I (c_d − c)), with ∫(h_d − h) = m (c_d − c).
+    lin = np.empty(3)
     for i in range(3):
-        omega = 0.0
-        for j in range(velocity.shape[0]):
-            omega += frame_jac[3 + i, j] * velocity[j]
-        acc_ref[i] = -kp * log_r[i] - kv * omega
-    _set_task(task, frame_jac, 3, acc_ref, drift)
-
-
-@structref.register
-class TaskRecordsType(types.StructRef):
-    """numba's type of :class:`TaskRecords` (its fields typed as given, not literal)."""
-
-    def preprocess_fields(self, fields: tuple) -> tuple:
-        """The fields' types without literal values."""
-        return tuple((name, types.unliteral(typ)) for name, typ in fields)
-
-
-class TaskRecords(structref.StructRefProxy):
-    """Everything :func:`task_rows` reads and writes besides the readings, as one argument;
-    make it with :func:`task_records` once at reset (its arrays are filled in place).
-
-    Fields: ``terms`` (:class:`RobotTerms`), ``constants`` (:class:`TaskConstants`),
-    ``references`` (:class:`TaskReferences`), ``state`` (:class:`TaskState`), ``outputs``
-    (:class:`TaskOutputs`). Why not the named tuples themselves: numba finds the type of a
-    named tuple argument in Python, field by field, at every call (≈ 0.2 µs a field, ≈ 15 µs
-    for these); a StructRef carries its type, and its arrays were unboxed once, when it was
-    made.
-    """
-
-
-structref.define_proxy(
-    TaskRecords, TaskRecordsType, ["terms", "constants", "references", "state", "outputs"]
-)
+        lin[i] = m * (a_d[i] + kh * (v_d[i] - com_vel[i]) + ki * (c_d[i] - com[i]))
+    r = com - terms.base_position  # the CoM from the base origin [m]
+    k, kh_ang = terms.angular_momentum, tick.k_h_angular
+    ang = np.empty(3)  # ḣ_ang + (c − p_B) × ḣ_lin, with ḣ_ang = −K_h k
+    ang[X] = -kh_ang * k[X] + (r[Y] * lin[Z] - r[Z] * lin[Y])
+    ang[Y] = -kh_ang * k[Y] + (r[Z] * lin[X] - r[X] * lin[Z])
+    ang[Z] = -kh_ang * k[Z] + (r[X] * lin[Y] - r[Y] * lin[X])
+    # Both halves in the base frame, minus (C ξ̇)_B = (nle − g)_B.
+    bias = terms.nonlinear - terms.gravity_torques
+    for i in range(3):
+        h_lin = base_rotation[X, i] * lin[X] + base_rotation[Y, i] * lin[Y]
+        h_lin += base_rotation[Z, i] * lin[Z]
+        h_ang = base_rotation[X, i] * ang[X] + base_rotation[Y, i] * ang[Y]
+        h_ang += base_rotation[Z, i] * ang[Z]
+        b_1[LINEAR_ROW + i] = h_lin - bias[LINEAR_ROW + i]
+        b_1[ANGULAR_ROW + i] = h_ang - bias[ANGULAR_ROW + i]
 
 
 @numba.njit(cache=True)
-def task_records(
-    terms: RobotTerms,
-    constants: TaskConstants,
-    references: TaskReferences,
-    state: TaskState,
-    outputs: TaskOutputs,
-) -> TaskRecords:
-    """The :class:`TaskRecords` of these records (compiled and cached, unlike the proxy's own
-    constructor)."""
-    return TaskRecords(terms, constants, references, state, outputs)
+def _sole_terms(
+    side: int,
+    records: TaskRecords,
+    site_rot: np.ndarray,
+    site_pos: np.ndarray,
+    foot_com: np.ndarray,
+) -> np.ndarray:
+    """A sole's J_k, J̇_k ξ̇, R̃ U_k (into the outputs), its F/T sensor's and foot CoM's world
+    placements (into ``site_rot``, ``site_pos``, ``foot_com``); returns its spatial velocity."""
+    terms, params, outputs = records.terms, records.params, records.outputs
+    sole = terms.frames[side]
+    rot, pos, velocity = sole.rotation, sole.position, terms.velocity
+    sole_jac = outputs.sole_jacobians[side]
+    frame_jacobian(terms.joint_jacobians, sole.chain, pos, sole_jac)
+    frame_classical_acceleration(
+        sole.joint_rotation, sole.joint_velocity, sole.joint_drift, sole.offset,
+        outputs.sole_drifts[side],
+    )  # fmt: skip
+    # R̃ U_k: both halves (forces, moments) of the contact-frame basis rotated.
+    local, maps = params.local_wrench_map, outputs.wrench_maps[side]
+    for half in (LINEAR_ROW, ANGULAR_ROW):
+        for i in range(3):
+            for c in range(local.shape[1]):
+                s = 0.0
+                for k in range(3):
+                    s += rot[i, k] * local[half + k, c]
+                maps[half + i, c] = s
+    # Sensor and foot-CoM placements from the sole's (all on the ankle's body).
+    for i in range(3):
+        site_pos[i] = pos[i]
+        foot_com[i] = pos[i]
+        for k in range(3):
+            site_pos[i] += rot[i, k] * params.sole_site_position[side, k]
+            foot_com[i] += rot[i, k] * params.sole_foot_com[side, k]
+            s = 0.0
+            for j in range(3):
+                s += rot[i, j] * params.sole_site_rotation[side, j, k]
+            site_rot[i, k] = s
+    vel = np.empty(6)
+    for i in range(6):
+        s = 0.0
+        for j in range(velocity.shape[0]):
+            s += sole_jac[i, j] * velocity[j]
+        vel[i] = s
+    return vel
+
+
+@numba.njit(cache=True)
+def _foot_state(
+    side: int, t: float, swing: int, ft: np.ndarray, foot: np.void, records: TaskRecords
+) -> bool:
+    """A foot's sole terms, measured contact wrench, signals and impedance (Eqs. 1–2); for
+    the swing foot, its desired motion (``state.swing_motion``). Returns whether its
+    impedance modification switched on."""
+    terms, params, state = records.terms, records.params, records.state
+    tick, sole = params.tick, terms.frames[side]
+    site_rot, site_pos, foot_com, rpy = np.empty((3, 3)), np.empty(3), np.empty(3), np.empty(3)
+    vel = _sole_terms(side, records, site_rot, site_pos, foot_com)
+    acc_meas = (vel - state.prev_foot_vel[side]) / tick.dt
+    state.prev_foot_vel[side] = vel
+    pos = sole.position
+    fz, mx, my = contact_wrench(
+        ft, site_rot, site_pos, foot_com, pos, state.foot_acc_cmd[side], tick.foot_mass
+    )
+    matrix_to_rpy(sole.rotation, rpy)
+    foot.fz, foot.mx, foot.my = fz, mx, my
+    foot.x, foot.z, foot.roll, foot.pitch = pos[X], pos[Z], rpy[ROLL], rpy[PITCH]
+    foot.vz, foot.wx, foot.wy = vel[Z], vel[RX], vel[RY]
+    foot.az, foot.alphax, foot.alphay = acc_meas[Z], acc_meas[RX], acc_meas[RY]
+    foot_state = state.impedance[side]
+    refs = np.zeros((6, 3))  # x_d, ẋ_d, ẍ_d, x_m, ẋ_m, ẍ_m of (z, φ_x, φ_y)
+    if side != swing:
+        # Support: re-initialise the impedance at the foot's state (§IV), no command.
+        foot_state.armed = foot_state.active = False
+        x_m = foot_state.position
+        x_m[X], x_m[Y], x_m[Z] = pos[Z], rpy[ROLL], rpy[PITCH]
+        foot_state.velocity[:] = 0.0
+        foot_state.acceleration[:] = 0.0
+        state.foot_acc_cmd[side] = 0.0
+        foot.impedance_on = 0.0
+        # The references of a support foot: at its planned height, at rest, level.
+        refs[DESIRED_POS, X] = refs[MODIFIED_POS, X] = state.stance_z[side]
+        _write_references(foot, refs)
+        return False
+    pos_d, vel_d, acc_d = np.empty(5), np.empty(5), np.empty(5)
+    swing_reference(state.swing_plan, t, pos_d, vel_d, acc_d)
+    desired = DesiredMotion(
+        pos_d[IMPEDANCE_COORDS], vel_d[IMPEDANCE_COORDS], acc_d[IMPEDANCE_COORDS]
+    )
+    wrench = np.array((fz, mx, my))
+    switched_on = advance_impedance(
+        foot_state, desired, wrench, params.impedance_gains, tick.dt, tick.impedance
+    )
+    foot.impedance_on = 1.0 if foot_state.active else 0.0
+    # The swing task's desired motion: x, y and yaw follow the plan (yaw 0), (z, φx, φy)
+    # the modified reference x_m, ẋ_m, ẍ_m.
+    motion = state.swing_motion
+    motion[:] = 0.0
+    for row, plan, modified in (
+        (POSITION, pos_d, foot_state.position),
+        (VELOCITY, vel_d, foot_state.velocity),
+        (ACCELERATION, acc_d, foot_state.acceleration),
+    ):
+        motion[row, X], motion[row, Y] = plan[SWING_X], plan[SWING_Y]
+        motion[row, Z], motion[row, RX], motion[row, RY] = modified[X], modified[Y], modified[Z]
+    refs[DESIRED_POS], refs[DESIRED_VEL], refs[DESIRED_ACC] = desired
+    refs[MODIFIED_POS], refs[MODIFIED_VEL] = foot_state.position, foot_state.velocity
+    refs[MODIFIED_ACC] = foot_state.acceleration
+    _write_references(foot, refs)
+    return switched_on
+
+
+@numba.njit(cache=True)
+def _frame_motion(
+    spec: np.void,
+    swing: int,
+    records: TaskRecords,
+    jac: np.ndarray,
+    motion: np.ndarray,
+    actual: np.ndarray,
+    drift: np.ndarray,
+) -> None:
+    """A frame task's Φ_t (``jac``), Φ̇_t ξ̇ (``drift``), desired motion (rows POSITION,
+    VELOCITY, ACCELERATION) and actual (x, ẋ) on the six spatial axes (compute_jacobian,
+    compute_error); an orientation's x is log₃ R, its x_d = 0 (R_d = I)."""
+    terms, outputs = records.terms, records.outputs
+    velocity = terms.velocity
+    if spec.kind == TaskKind.SWING_FOOT:
+        sole = terms.frames[swing]
+        jac[:] = outputs.sole_jacobians[swing]
+        drift[:] = outputs.sole_drifts[swing]
+        motion[:] = records.state.swing_motion
+        rpy = np.empty(3)
+        matrix_to_rpy(sole.rotation, rpy)
+        for i in range(3):
+            actual[POSITION, LINEAR_ROW + i] = sole.position[i]
+            actual[POSITION, ANGULAR_ROW + i] = rpy[i]
+    else:  # ORIENTATION
+        frame = terms.frames[spec.frame]
+        frame_jacobian(terms.joint_jacobians, frame.chain, frame.position, jac)
+        frame_classical_acceleration(
+            frame.joint_rotation, frame.joint_velocity, frame.joint_drift, frame.offset, drift
+        )
+        motion[:] = 0.0
+        actual[POSITION] = 0.0
+        log3(frame.rotation, actual[POSITION, ANGULAR_ROW:])
+    for i in range(jac.shape[0]):
+        s = 0.0
+        for j in range(velocity.shape[0]):
+            s += jac[i, j] * velocity[j]
+        actual[VELOCITY, i] = s
+
+
+@numba.njit(cache=True)
+def reference_acceleration(
+    kp: float, kv: float, x_d: float, v_d: float, a_d: float, x: float, v: float
+) -> float:
+    """ẍ_r = ẍ_d + K_V (ẋ_d − ẋ) + K_P (x_d − x) (Eq. 3, and every task of §III-D)."""
+    return a_d + kv * (v_d - v) + kp * (x_d - x)
+
+
+@numba.njit(cache=True)
+def stack_tasks(swing: int, readings: SensorReadings, records: TaskRecords) -> int:
+    """Stack the declared tasks (``params.tasks``) into the rows √W … of the QP's task term:
+    for each task in order, its selected rows of Φ_t, b_t = ẍ_r − Φ̇_t ξ̇ and W_t, from the next
+    free row (its first row is written to ``stack.first_row``; −1 when inactive: a swing-foot
+    task in double support). Writes the swing foot's commanded linear acceleration.
+
+    Returns:
+        The number of rows stacked (also ``stack.rows``).
+    """
+    params, state = records.params, records.state
+    stack, specs = records.outputs.tasks.stack, params.tasks
+    nv = records.terms.velocity.shape[0]
+    jac, drift = np.empty((6, nv)), np.empty(6)
+    motion, actual, acc_ref = np.empty((3, 6)), np.empty((2, 6)), np.empty(6)
+    row = 0
+    for k in range(specs.shape[0]):
+        spec = specs[k]
+        kp, kv = spec.kp, spec.kv
+        if spec.kind == TaskKind.SWING_FOOT and swing < 0:
+            stack.first_row[k] = -1
+            continue
+        stack.first_row[k] = row
+        if spec.kind == TaskKind.POSTURE:  # Φ_t selects each joint (Φ̇_t = 0), x_d = q_home
+            q, qd, home = readings.joint_pos, readings.joint_vel, params.home_joint_pos
+            for joint in range(q.shape[0]):
+                if spec.joints[joint]:
+                    stack.jacobian[row] = 0.0
+                    stack.jacobian[row, params.joint_v_index[joint]] = 1.0
+                    acc = reference_acceleration(kp, kv, home[joint], 0.0, 0.0, q[joint], qd[joint])
+                    stack.target[row], stack.weight[row] = acc, spec.weight
+                    row += 1
+            continue
+        _frame_motion(spec, swing, records, jac, motion, actual, drift)
+        for i in range(6):
+            acc_ref[i] = reference_acceleration(
+                kp, kv, motion[POSITION, i], motion[VELOCITY, i], motion[ACCELERATION, i],
+                actual[POSITION, i], actual[VELOCITY, i],
+            )  # fmt: skip
+            if spec.axes[i]:
+                stack.jacobian[row] = jac[i]
+                stack.target[row], stack.weight[row] = acc_ref[i] - drift[i], spec.weight
+                row += 1
+        if spec.kind == TaskKind.SWING_FOOT:
+            for i in range(3):
+                state.foot_acc_cmd[swing, i] = acc_ref[LINEAR_ROW + i]
+    stack.rows[0] = row
+    return row
 
 
 @numba.njit(cache=True)
 def task_rows(t: float, swing: int, readings: SensorReadings, records: TaskRecords) -> int:
-    """One tick's task rows (§III-D), foot states, contact wrenches and impedance (Eqs. 1–3).
+    """One tick's QP cost terms (§III-D), foot states, contact wrenches and impedance (Eqs. 1–3).
 
     Args:
         t: time [s].
         swing: the swing foot (0 left, 1 right), or −1 in double support.
         readings: the joint encoders and each foot's F/T reading.
-        records: (:class:`TaskRecords`) Pinocchio's terms of the tick and ξ̇; the gains,
-            weights and geometry (set at reset); the CoM pattern, this phase's swing
-            trajectory, stance heights and home posture; each foot's impedance state,
-            previous velocity and commanded acceleration (updated in place); the outputs: the
-            QP's cost terms, each foot's J_k, J̇_k ξ̇ and R̃ U_k, and the signals.
+        records: (:class:`TaskRecords`) Pinocchio's terms of the tick and ξ̇; the parameters
+            (set at reset); the state (updated in place); the outputs: b_1, the stacked task
+            rows, each foot's J_k, J̇_k ξ̇ and R̃ U_k, and the signals.
 
     Returns:
         A bit per foot (1 left, 2 right) whose impedance modification switched on this tick.
     """
-    terms, constants = records.terms, records.constants
-    references, state, outputs = records.references, records.state, records.outputs
-    joint_jacobians, velocity = terms.joint_jacobians, terms.velocity
-    nonlinear, gravity_torques = terms.nonlinear, terms.gravity_torques
-    com, com_vel, angular_momentum = terms.com, terms.com_vel, terms.angular_momentum
-    base_rotation, base_position, base_drift = (
-        terms.base_rotation, terms.base_position, terms.base_drift
-    )  # fmt: skip
-    joint_pos, joint_vel = readings.joint_pos, readings.joint_vel
-    gains, chains = constants.gains, constants.chains
-    posture_idx, posture_home = constants.posture_idx, references.posture_home
-    local_wrench_map = constants.local_wrench_map
-    impedance = state.impedance
-    prev_foot_vel, foot_acc_cmd = state.prev_foot_vel, state.foot_acc_cmd
-    tasks = outputs.tasks
-    sole_jacobians, sole_drifts, wrench_maps = (
-        outputs.sole_jacobians,
-        outputs.sole_drifts,
-        outputs.wrench_maps,
-    )
+    terms, outputs = records.terms, records.outputs
     signals = outputs.signals[0]
-    nv = velocity.shape[0]
-    m = gains.mass
-    # ---- centroidal momentum reference (§III-D) --------------------------------------
-    c_d, v_d, a_d = np.empty(3), np.empty(3), np.empty(3)
-    desired_com(
-        references.com_plan,
-        t,
-        gains.preview_dt,
-        gains.plan_end,
-        gains.com_z,
-        c_d,
-        v_d,
-        a_d,
-    )
-    kh, ki = gains.k_h, gains.k_i
-    # ḣ_lin = m (c̈_d + K_h (ċ_d − ċ) + K_I (c_d − c)), with ∫(h_d − h) = m (c_d − c).
-    lin = np.empty(3)
-    for i in range(3):
-        lin[i] = m * (a_d[i] + kh * (v_d[i] - com_vel[i]) + ki * (c_d[i] - com[i]))
-    r0, r1, r2 = com[0] - base_position[0], com[1] - base_position[1], com[2] - base_position[2]
-    ang = np.empty(3)  # ḣ_ang + (c − p_B) × ḣ_lin, with ḣ_ang = −K_h k
-    ang[0] = -gains.k_h_angular * angular_momentum[0] + (r1 * lin[2] - r2 * lin[1])
-    ang[1] = -gains.k_h_angular * angular_momentum[1] + (r2 * lin[0] - r0 * lin[2])
-    ang[2] = -gains.k_h_angular * angular_momentum[2] + (r0 * lin[1] - r1 * lin[0])
-    # b_1 = X_GBᵀ ḣ_{G,r} − C_B ξ̇ (Eq. 7): both halves in the base frame, minus (C ξ̇)_B.
-    b_1 = tasks.momentum_target
-    for i in range(3):
-        h_lin = base_rotation[0, i] * lin[0] + base_rotation[1, i] * lin[1]
-        h_lin += base_rotation[2, i] * lin[2]
-        h_ang = base_rotation[0, i] * ang[0] + base_rotation[1, i] * ang[1]
-        h_ang += base_rotation[2, i] * ang[2]
-        b_1[i] = h_lin - (nonlinear[i] - gravity_torques[i])
-        b_1[3 + i] = h_ang - (nonlinear[3 + i] - gravity_torques[3 + i])
-
-    # ---- pelvis and torso upright, heading +x ----------------------------------------
-    frame_jac = np.empty((6, nv))
-    orientation = RowGains(gains.kp_orient, gains.kv_orient)
-    drift = np.empty(3)  # angular part of the frame's J̇ ξ̇: the joint's α in world axes
-    log_r = np.empty(3)
-    drift[0], drift[1], drift[2] = eigen_rotate(
-        base_rotation, base_drift[3], base_drift[4], base_drift[5]
-    )
-    log3(terms.pelvis_rotation, log_r)
-    _orientation_task(terms, chains.pelvis, log_r, drift, orientation, frame_jac, tasks.pelvis)
-    torso_drift = terms.torso_joint_drift
-    drift[0], drift[1], drift[2] = eigen_rotate(
-        terms.torso_joint_rotation, torso_drift[3], torso_drift[4], torso_drift[5]
-    )
-    log3(terms.torso_rotation, log_r)
-    _orientation_task(terms, chains.torso, log_r, drift, orientation, frame_jac, tasks.torso)
-
-    # ---- arm and waist joints: hold home ---------------------------------------------
-    n_post = posture_idx.shape[0]
-    for r in range(n_post):
-        k = posture_idx[r]
-        acc = gains.kp_posture * (posture_home[r] - joint_pos[k])
-        acc -= gains.kv_posture * joint_vel[k]
-        tasks.posture.target[r] = acc  # Φ_t selects the joint (constant), Φ̇_t = 0
-
-    # ---- feet: state, measured contact wrench, impedance, swing rows -----------------
+    c_d = np.empty(3)
+    momentum_target(t, terms, records.params, outputs.tasks.momentum_target, c_d)
     signals.t_plan, signals.swing_foot = t, float(swing)
-    dt = gains.dt
     switched_on = 0
-    acc_ref = np.empty(6)
-    site_rot, site_pos, foot_com = np.empty((3, 3)), np.empty(3), np.empty(3)
-    pos_d, vel_d, acc_d = np.empty(5), np.empty(5), np.empty(5)
-    rpy = np.empty(3)
-    for side in range(2):
-        if side == 0:  # the sole's placement and parent joint's R, v, a; its F/T reading
-            sole, ft, foot = terms.left, readings.left_ft, signals.left
-            chain = chains.left_sole
-        else:
-            sole, ft, foot = terms.right, readings.right_ft, signals.right
-            chain = chains.right_sole
-        rot, pos = sole.rotation, sole.position
-        joint_r, joint_v, joint_a = sole.joint_rotation, sole.joint_velocity, sole.joint_drift
-        sole_jac = sole_jacobians[side]
-        frame_jacobian(joint_jacobians, chain, pos, sole_jac)
-        drift = sole_drifts[side]
-        frame_classical_acceleration(joint_r, joint_v, joint_a, constants.sole_offset[side], drift)
-        # R̃ U_k: both halves (forces, moments) of the contact-frame basis rotated.
-        for half in range(2):
-            for i in range(3):
-                for c in range(local_wrench_map.shape[1]):
-                    s = 0.0
-                    for k in range(3):
-                        s += rot[i, k] * local_wrench_map[3 * half + k, c]
-                    wrench_maps[side, 3 * half + i, c] = s
-        # Sensor and foot-CoM placements from the sole's (all on the ankle's body).
-        for i in range(3):
-            site_pos[i] = pos[i]
-            foot_com[i] = pos[i]
-            for k in range(3):
-                site_pos[i] += rot[i, k] * constants.sole_site_position[side, k]
-                foot_com[i] += rot[i, k] * constants.sole_foot_com[side, k]
-                s = 0.0
-                for j in range(3):
-                    s += rot[i, j] * constants.sole_site_rotation[side, j, k]
-                site_rot[i, k] = s
-        vel = np.empty(6)
-        for i in range(6):
-            s = 0.0
-            for j in range(nv):
-                s += sole_jac[i, j] * velocity[j]
-            vel[i] = s
-        acc_meas = (vel - prev_foot_vel[side]) / dt
-        prev_foot_vel[side] = vel
-        fz, mx, my = contact_wrench(
-            ft, site_rot, site_pos, foot_com, pos, foot_acc_cmd[side], gains.foot_mass
-        )
-        matrix_to_rpy(rot, rpy)
-        roll, pitch, yaw = rpy[0], rpy[1], rpy[2]
-        foot.fz, foot.mx, foot.my = fz, mx, my
-        foot.x, foot.z, foot.roll, foot.pitch = pos[0], pos[2], roll, pitch
-        foot.vz, foot.wx, foot.wy = vel[2], vel[3], vel[4]
-        foot.az, foot.alphax, foot.alphay = acc_meas[2], acc_meas[3], acc_meas[4]
-        foot_state = impedance[side]
-        if side != swing:
-            # Support: re-initialise the impedance at the foot's state (§IV), no command.
-            foot_state.armed = foot_state.active = False
-            x_m = foot_state.position
-            x_m[0], x_m[1], x_m[2] = pos[2], roll, pitch
-            foot_state.velocity[:] = 0.0
-            foot_state.acceleration[:] = 0.0
-            foot_acc_cmd[side] = 0.0
-            foot.impedance_on = 0.0
-            # The references of a support foot: at its planned height, at rest, level.
-            stance = np.zeros((6, 3))  # x_d, ẋ_d, ẍ_d, x_m, ẋ_m, ẍ_m of (z, φ_x, φ_y)
-            stance[0, 0] = stance[3, 0] = references.stance_z[side]
-            _write_references(foot, stance)
-            continue
-        swing_reference(references.swing_plan, t, pos_d, vel_d, acc_d)
-        wrench = np.array((fz, mx, my))
-        desired = DesiredMotion(pos_d[2:5], vel_d[2:5], acc_d[2:5])
-        if advance_impedance(
-            foot_state,
-            desired,
-            wrench,
-            constants.impedance_gains,
-            dt,
-            gains.impedance,
-        ):
-            switched_on |= 1 << side
-        # Eq. (3), ẍ_r = ẍ_m + K_v (ẋ_m − ẋ) + K_p (x_m − x), for (z, φx, φy) with the
-        # modified reference; x, y and yaw follow the plan (the same form, unmodified).
-        kp, kv = gains.kp_swing, gains.kv_swing
-        x_now = (pos[2], roll, pitch)
-        acc_ref[0] = acc_d[0] + kv * (vel_d[0] - vel[0]) + kp * (pos_d[0] - pos[0])
-        acc_ref[1] = acc_d[1] + kv * (vel_d[1] - vel[1]) + kp * (pos_d[1] - pos[1])
-        for i in range(3):
-            acc_ref[2 + i] = (
-                foot_state.acceleration[i]
-                + kv * (foot_state.velocity[i] - vel[2 + i])
-                + kp * (foot_state.position[i] - x_now[i])
-            )
-        acc_ref[5] = -kv * vel[5] - kp * yaw
-        foot_acc_cmd[side] = acc_ref[:3]
-        _set_task(tasks.swing, sole_jac, 0, acc_ref, drift)
-        foot.impedance_on = 1.0 if foot_state.active else 0.0
-        swing_refs = np.empty((6, 3))  # x_d, ẋ_d, ẍ_d, x_m, ẋ_m, ẍ_m of (z, φ_x, φ_y)
-        swing_refs[0], swing_refs[1], swing_refs[2] = pos_d[2:5], vel_d[2:5], acc_d[2:5]
-        swing_refs[3], swing_refs[4] = foot_state.position, foot_state.velocity
-        swing_refs[5] = foot_state.acceleration
-        _write_references(foot, swing_refs)
-    signals.com_x, signals.com_y, signals.com_z = com[0], com[1], com[2]
-    signals.com_x_d, signals.com_y_d, signals.com_z_d = c_d[0], c_d[1], c_d[2]
+    if _foot_state(LEFT, t, swing, readings.left_ft, signals.left, records):
+        switched_on |= 1 << LEFT
+    if _foot_state(RIGHT, t, swing, readings.right_ft, signals.right, records):
+        switched_on |= 1 << RIGHT
+    stack_tasks(swing, readings, records)
+    com = terms.com
+    signals.com_x, signals.com_y, signals.com_z = com[X], com[Y], com[Z]
+    signals.com_x_d, signals.com_y_d, signals.com_z_d = c_d[X], c_d[Y], c_d[Z]
     return switched_on
