@@ -221,15 +221,9 @@ def execute(
     """
     if interrupt is None:
         with InterruptFlag() as own:
+            given = {"progress": progress, "outputs": outputs, "overrides": overrides}
             return execute(
-                spec,
-                out_root,
-                progress=progress,
-                outputs=outputs,
-                overrides=overrides,
-                interrupt=own,
-                run_dir=run_dir,
-                resolved=resolved,
+                spec, out_root, interrupt=own, run_dir=run_dir, resolved=resolved, **given
             )
     flag = interrupt
     # The flag is installed before the run directory exists: a stop from the moment the
@@ -257,11 +251,22 @@ def execute(
         if hasattr(exc, "add_note"):  # Python >= 3.11
             exc.add_note(f"run directory: {final} (run.json records the failure)")
         raise
-    final = run_dir.finish()
-    stopped = flag.requested or result.outcome == "interrupted"
+    return _summary(spec, run_dir.finish(), job, values, verdict, flag)
+
+
+def _summary(
+    spec: ExperimentSpec,
+    final: Path,
+    job: _RunRecord,
+    values: dict,
+    verdict: checks.Verdict,
+    flag: InterruptFlag,
+) -> RunSummary:
+    """The finished run's :class:`RunSummary` (its result moved to the final directory)."""
+    stopped = flag.requested or job.result.outcome == "interrupted"
     return RunSummary(
         run_dir=final,
-        result=_moved(result, final),
+        result=_moved(job.result, final),
         metrics=values,
         verdict=verdict,
         relative=any(e.relative_to is not None for e in spec.expect),
