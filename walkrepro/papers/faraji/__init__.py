@@ -8,7 +8,8 @@ control* (``coman_lab``; ``coman`` for ablations), declared as a plugin (:data:`
 - :mod:`.projection`: time projection (Eqs. 15-18) as look-up tables of torque and footstep
   gains over the phase (Fig. 13);
 - :mod:`.controller` (registered as ``timeprojection``) with :mod:`.estimation`,
-  :mod:`.openloop`, :mod:`.ik` and :mod:`.lift` around them;
+  :mod:`.openloop`, :mod:`.ik` and :mod:`.lift` around them, and :mod:`.joints` (the leg
+  vector and the joints it names, found by name in the robot model at reset);
 - :mod:`.metrics` and :mod:`.figures`: the paper's metrics and figures, from the log;
   :mod:`.plots`: its key signals, for viewers of a run.
 

@@ -4,11 +4,13 @@ centroidal momentum dynamics using QP* (``kist_humanoid``), declared as a plugin
 
 Modules: :mod:`.footsteps` (footstep plan, ZMP reference, swing trajectory),
 :mod:`.preview` (LIPM CoM–ZMP preview control, the paper's ref. [23]), :mod:`.tasks` (the
-impedance modification, Eqs. 1–3, and the tasks of §III-D), :mod:`.centroidal_qp` (the QP of
-§III-D, built and solved, and Eq. 9), :mod:`.condensed` (its exact ``active_set`` solver),
-:mod:`.controller` (registered as ``qpimpedance``), :mod:`.metrics` and
-:mod:`.figures` (the paper's metrics and figures, from the log), :mod:`.plots` (its key
-signals, for viewers of a run).
+impedance modification, Eqs. 1–3, and the tasks of §III-D declared by name,
+:class:`~.tasks.TaskSpec`, stacked each tick by :func:`~.tasks.stack_tasks`),
+:mod:`.centroidal_qp` (the QP of §III-D, built, solved through ``qpsolvers`` (``daqp`` by
+default, ξ̈ eliminated) or by the opt-in ``active_set``, and Eq. 9), :mod:`.condensed` (the
+opt-in ``active_set`` solver), :mod:`.controller` (registered as ``qpimpedance``; its task
+list is :func:`~.controller.paper_tasks`), :mod:`.metrics` and :mod:`.figures` (the paper's
+metrics and figures, from the log), :mod:`.plots` (its key signals, for viewers of a run).
 """
 
 from walkrepro.plugins import Paper, Plugin
