@@ -83,8 +83,8 @@ def test_fresh_reads_give_the_same_tick_as_views() -> None:
 
 def _moving_dyros(seed: int, joint_scale: float = 0.05, velocity_scale: float = 0.5) -> tuple:
     """dyros_red near home with random joint offsets and velocities (standard deviations
-    ``joint_scale`` [rad], ``velocity_scale``); computeAllTerms and the frames updated.
-    Returns robot, Pinocchio model and data, and the velocity v."""
+    ``joint_scale`` [rad], ``velocity_scale``); computeAllTerms, computeMinverse and the
+    frames updated. Returns robot, Pinocchio model and data, and the velocity v."""
     robot = load_robot("dyros_red")
     model, data = robot.pin_model, robot.pin_model.createData()
     rng = np.random.default_rng(seed)
@@ -94,21 +94,21 @@ def _moving_dyros(seed: int, joint_scale: float = 0.05, velocity_scale: float = 
         qpos, rng.normal(scale=velocity_scale, size=robot.mj_model.nv)
     )
     pin.computeAllTerms(model, data, q, v)
+    pin.computeMinverse(model, data, q)
     pin.updateFramePlacements(model, data)
     return robot, model, data, v
 
 
 @pytest.mark.parametrize("seed", range(3))
 def test_inverse_inertia_is_pinocchios(seed: int) -> None:
-    """A⁻¹ agrees with Pinocchio's cholesky.decompose + computeMinv at a tolerance, and is
-    symmetric."""
+    """The tick's A⁻¹ (computeMinverse's upper triangle, mirrored) is symmetric and agrees
+    with Pinocchio's cholesky.decompose + computeMinv and with A's inverse."""
     _, model, data, _ = _moving_dyros(seed)
-    out = kernels.inverse_inertia(data.M)
-    pin.cholesky.decompose(model, data)
-    want = pin.cholesky.computeMinv(model, data)
-    _close(out, want, rel=1e-10)
+    out = kernels.symmetric_from_upper(data.Minv)
     np.testing.assert_array_equal(out, out.T)
-    _close(out @ (np.triu(data.M) + np.triu(data.M, 1).T), np.eye(model.nv), rel=1e-9)
+    pin.cholesky.decompose(model, data)
+    _close(out, pin.cholesky.computeMinv(model, data), rel=1e-10)
+    _close(out @ kernels.symmetric_from_upper(data.M), np.eye(model.nv), rel=1e-9)
 
 
 @pytest.mark.parametrize("seed", range(3))

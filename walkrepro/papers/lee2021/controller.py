@@ -11,7 +11,8 @@ three prioritized tasks (Eq. 11):
 
 The equations live in :mod:`.fsm` (the E-FSM, Eqs. 2–4, Table I) and :mod:`.wbc` (P, W,
 Φ, Λ, Ñ, the hierarchy of Eq. 11, Appendices A–D). Speed: the tick runs at 2 kHz, so it
-calls Pinocchio's combined algorithm once (``computeAllTerms``), reads its results through
+calls Pinocchio's combined algorithm once (``computeAllTerms``, then ``computeMinverse`` for
+A⁻¹), reads their results through
 views of ``Data`` taken at reset, and does everything else (O_w, the E-FSM, footsteps, the
 WBC, the CoPs) in one compiled numba call, :func:`.kernels.tick`, which runs those modules'
 functions (why numba: see :mod:`.kernels`). Python keeps the first tick's set-up, the
@@ -298,7 +299,7 @@ class _PoseViews:
         """(Re)take every view from ``Data``."""
         data = self._data
         self.terms = kernels.PinocchioTerms(
-            mass=data.M,
+            mass_inv=data.Minv,
             nle=data.nle,
             j_world=data.J,
             j_com=data.Jcom,
@@ -475,7 +476,9 @@ class EfsmController(Controller):
         q, v = self._home_snapshot().pinocchio_state(self._robot)
         for scale in (0.0, 0.01):  # two states: the views must follow
             dq = np.full(model.nv, scale)
-            pin.computeAllTerms(model, data, pin.integrate(model, q, dq), v + scale)
+            q_moved = pin.integrate(model, q, dq)
+            pin.computeAllTerms(model, data, q_moved, v + scale)
+            pin.computeMinverse(model, data, q_moved)
             if not self._pose.aliases():
                 self._refresh_pose = True
 
@@ -522,8 +525,9 @@ class EfsmController(Controller):
         """
         q, v = self._pin_state(sensors)
         # One pass: M, b + g, joint Jacobians and placements, CoM and its Jacobian, and (with
-        # q̈ = 0) the bias accelerations of every joint.
+        # q̈ = 0) the bias accelerations of every joint; then A⁻¹.
         pin.computeAllTerms(self._model, self._data, q, v)
+        pin.computeMinverse(self._model, self._data, q)
         if self._refresh_pose:
             self._pose.refresh()
             self._records = self._tick_records()

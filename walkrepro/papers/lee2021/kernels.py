@@ -68,25 +68,19 @@ Q_ROW, V_ROW = 0, 1
 
 
 # ---- Pinocchio's last steps, in the tick ----------------------------------------------------
-# After computeAllTerms a tick also needs A⁻¹, the soles' and F/T frames' placements and
-# the soles' classical accelerations. Calling Pinocchio for them from Python costs about
-# 1 µs of binding per call and a fresh array; computing them in the tick costs a few µs in
-# all. A⁻¹ and the placements are the matrix expressions (tests/test_efsm_kernels.py checks
-# them against Pinocchio at a tolerance); the classical acceleration is
+# After computeAllTerms (and computeMinverse, for A⁻¹) a tick also needs the soles' and F/T
+# frames' placements and the soles' classical accelerations. Calling Pinocchio for them from
+# Python costs about 1 µs of binding per call and a fresh array; computing them in the tick
+# costs well under a µs. The placements are the matrix expressions (tests/test_efsm_kernels.py
+# checks them against Pinocchio at a tolerance); the classical acceleration is
 # robot.frame_classical_acceleration, shared with Paper III's controller.
 
 
 @_jit
-def inverse_inertia(mass: np.ndarray) -> np.ndarray:
-    """A⁻¹, the inverse joint-space inertia, symmetric.
-
-    Args:
-        mass: A as ``data.M`` after ``computeAllTerms`` (only its upper triangle is
-            filled), shape (n, n).
-    """
-    upper = np.triu(mass)
-    a_inv = np.linalg.inv(upper + np.triu(mass, 1).T)
-    return 0.5 * (a_inv + a_inv.T)
+def symmetric_from_upper(upper: np.ndarray) -> np.ndarray:
+    """The symmetric matrix whose upper triangle is ``upper``'s (Pinocchio fills only the
+    upper triangle of ``data.M`` and ``data.Minv``)."""
+    return np.triu(upper) + np.triu(upper, 1).T
 
 
 @_jit
@@ -382,7 +376,8 @@ class PinocchioTerms(NamedTuple):
     """What a tick reads of Pinocchio's ``computeAllTerms`` (views of ``Data``), world axes.
 
     Attributes:
-        mass: A, ``data.M`` (only its upper triangle is read), shape (n, n).
+        mass_inv: A⁻¹, ``data.Minv`` after ``computeMinverse`` (only its upper triangle is
+            read), shape (n, n).
         nle: b + g, ``data.nle``, shape (n,).
         j_world: the joint Jacobians ``data.J``, shape (6, n).
         j_com: the CoM Jacobian ``data.Jcom``, shape (3, n).
@@ -390,7 +385,7 @@ class PinocchioTerms(NamedTuple):
         pelvis_rot: world-from-pelvis rotation, ``data.oMi[1].rotation``.
     """
 
-    mass: np.ndarray
+    mass_inv: np.ndarray
     nle: np.ndarray
     j_world: np.ndarray
     j_com: np.ndarray
@@ -641,11 +636,11 @@ def tick(records: TickRecords) -> int:
     eps_onset = ds_onset(params, st, efsm.xp_des)
     # The CoM target (Table II): y 0 and z z_m0 in O_w; along x task 1 follows x_p^des.
     com_ref = p_sup + rot_w @ np.array([efsm.ow.com_w[X], 0.0, targets.z_m0])
-    n = terms.mass.shape[0]
+    n = terms.mass_inv.shape[0]
     # Γ = Γ_t + Γ_c + Γ_gc (Eqs. 7 and 11, Appendices A–D), saturated, actuator order.
     wbc = whole_body_torques(
         WbcDynamics(
-            inverse_inertia(terms.mass), terms.nle, contact_bias(feet, params.feet, sup, double),
+            symmetric_from_upper(terms.mass_inv), terms.nle, contact_bias(feet, params.feet, sup, double),
             terms.j_world, terms.j_com, terms.com, terms.vcom, st.pin_state[V_ROW, :n],
         ),
         WbcFrames(

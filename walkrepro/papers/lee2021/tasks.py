@@ -203,16 +203,6 @@ class TaskStack(NamedTuple):
 
 
 @_jit
-def in_walking_frame(rot_w: np.ndarray, spatial: np.ndarray) -> np.ndarray:
-    """A stack of world-axes spatial rows (6, …) in O_w axes (``rot_w``: world-from-O_w)."""
-    rot_w_t = np.ascontiguousarray(rot_w.T)
-    out = np.empty_like(spatial)
-    out[LINEAR] = rot_w_t @ spatial[LINEAR]
-    out[ANGULAR] = rot_w_t @ spatial[ANGULAR]
-    return out
-
-
-@_jit
 def stack_tasks(
     rows: TaskRows,
     double: bool,
@@ -222,6 +212,9 @@ def stack_tasks(
     rot_w: np.ndarray,
 ) -> TaskStack:
     """The task rows of a tick: J, ẍ* (Eq. 6) and the priority levels (Eq. 11).
+
+    A row on axis a of O_w reads the world-axes part (linear or angular) p of its quantity
+    along O_w's axis a, the column a of ``rot_w``: r_aᵀ p.
 
     Args:
         rows: the hierarchy (:func:`task_rows`).
@@ -236,20 +229,20 @@ def stack_tasks(
         keep &= rows.quantity != Quantity.SWING_FOOT.value
     active = np.flatnonzero(keep)
     m, n = active.size, jac.shape[2]
-    # Each quantity in O_w axes as well (three small products; rows pick what they need).
-    jac_w, err_w, vel_w = np.empty_like(jac), np.empty_like(err), np.empty_like(vel)
-    for q in range(jac.shape[0]):
-        jac_w[q] = in_walking_frame(rot_w, jac[q])
-        err_w[q] = in_walking_frame(rot_w, err[q])
-        vel_w[q] = in_walking_frame(rot_w, vel[q])
     jacobian, acc = np.empty((m, n)), np.empty(m)
     opens = np.zeros(m, dtype=np.bool_)  # the rows that open a priority level
     previous = -1
     for i, r in enumerate(active):
         q, axis = rows.quantity[r], rows.axis[r]
-        walking = rows.frame[r] == Frame.WALKING
-        jacobian[i] = jac_w[q, axis] if walking else jac[q, axis]
-        e, v = (err_w[q, axis], vel_w[q, axis]) if walking else (err[q, axis], vel[q, axis])
+        if rows.frame[r] == Frame.WALKING:
+            angular = axis >= ROLL
+            part = ANGULAR if angular else LINEAR
+            r_a = np.ascontiguousarray(rot_w[:, axis - ROLL if angular else axis])
+            jacobian[i] = r_a @ jac[q, part]
+            e, v = r_a @ err[q, part], r_a @ vel[q, part]
+        else:
+            jacobian[i] = jac[q, axis]
+            e, v = err[q, axis], vel[q, axis]
         acc[i] = rows.kp[r] * e - rows.kv[r] * v  # Eq. (6)
         opens[i] = rows.level[r] != previous
         previous = rows.level[r]
