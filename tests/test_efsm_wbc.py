@@ -13,7 +13,7 @@ import pytest
 
 from walkrepro.papers.lee2021 import wbc
 from walkrepro.papers.lee2021.fsm import Phase
-from walkrepro.papers.lee2021.tasks import HIERARCHY, TaskSpec, task_rows
+from walkrepro.papers.lee2021.tasks import HIERARCHY, TaskSpec, task_rows, task_set
 from walkrepro.sim.robot import load_robot
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -352,7 +352,7 @@ def _whole_body(
             p_sw.translation + rng.normal(scale=0.02, size=3), int(phase), 0.6, 0.5, 0.02, 0.3,
         ),
         wbc.WbcParams(
-            task_rows(tasks, 100.0, 20.0), 30.0, 10.0, wbc.UNIFORM, balance, 0.03, 1e9,
+            task_set(tasks, 100.0, 20.0), 30.0, 10.0, wbc.UNIFORM, balance, 0.03, 1e9,
             np.array([0.15, 0.075]), np.arange(s.k),
         ),
         tau,

@@ -44,7 +44,7 @@ from walkrepro.controllers.ranges import (
 from walkrepro.log.signals import SignalLayout, Signals
 from walkrepro.papers.lee2021 import kernels, wbc
 from walkrepro.papers.lee2021.fsm import DS_TO_SSD, SSA_TO_DS, SSD_TO_SSA, FsmParams, Phase
-from walkrepro.papers.lee2021.tasks import HIERARCHY, ROLL, Law, TaskSpec, task_rows
+from walkrepro.papers.lee2021.tasks import HIERARCHY, TaskSpec, task_set
 from walkrepro.sim.robot import Robot, pin_state_into
 from walkrepro.sim.sensors import SensorSnapshot
 from walkrepro.specs.origin import assumed, calibrated, paper, source
@@ -401,7 +401,7 @@ class EfsmController(Controller):
         """The tick's parameter record (:class:`.kernels.TickParams`): ``p``, the task
         hierarchy :attr:`TASKS`, and the feet's frames in the model."""
         wbc_params = wbc.WbcParams(
-            tasks=task_rows(self.TASKS, p.kp, p.kv),
+            tasks=task_set(self.TASKS, p.kp, p.kv),
             fs_max_force=p.fs_max_force,
             fs_max_moment=p.fs_max_moment,
             fs_saturation=int(_saturation_mode(p)),
@@ -619,13 +619,10 @@ class EfsmController(Controller):
         Args:
             lam: Λ_2; acc: ẍ*, in the level's row order (the swing rows left out in DS).
         """
-        rows = task_rows(self.TASKS, self._p.kp, self._p.kv)
-        level = rows.level[np.flatnonzero(rows.law == Law.SWING)[0]]
-        in_level = np.flatnonzero(rows.level == level)
-        swing = rows.law[in_level] == Law.SWING
-        angular = rows.axis[in_level] >= ROLL
-        lin = np.flatnonzero(swing & ~angular) if not double else np.zeros(0, dtype=np.int64)
-        ang = np.flatnonzero(swing & angular) if not double else np.zeros(0, dtype=np.int64)
+        tasks = task_set(self.TASKS, self._p.kp, self._p.kv)
+        layout = tasks.double if double else tasks.single
+        first = layout.first[layout.swing_level] if layout.swing_level >= 0 else 0
+        lin, ang = layout.swing_lin - first, layout.swing_ang - first
         p = self._p
         return wbc.task2_force(
             np.ascontiguousarray(lam, dtype=float),

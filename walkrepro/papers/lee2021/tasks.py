@@ -185,54 +185,97 @@ def _check_axis(task: TaskSpec, axis: int) -> None:
         raise ValueError(f"task {task.name!r}: the swing law is the swing foot's")
 
 
-class TaskStack(NamedTuple):
-    """The rows of a tick (:func:`stack_tasks`), highest priority first.
+class TaskLayout(NamedTuple):
+    """The stacked rows of one support mode (single or double support), computed once at
+    reset (:func:`task_set`): the offsets no one types.
 
     Attributes:
-        rows: the index into :class:`TaskRows` of each stacked row, shape (m,).
-        jacobian: the task Jacobian J of Eq. (11), shape (m, n).
-        acc: ẍ* = k_p e − k_v ẋ, the reference accelerations of Eq. (6), shape (m,).
+        rows: the :class:`TaskRows` index of each stacked row, highest priority first
+            (in DS without the swing foot's), shape (m,).
         first, end: each priority level's first row and the row after its last, (levels,).
+        swing_level: the level of the swing foot's rows (:data:`Law.SWING`), −1 if none.
+        swing_lin, swing_ang: the stacked rows of F_s's force and moment components.
+        cop: the stacked row of the CoP law (Appendix D-1), none or one.
+        balance: the stacked rows of the balance law (Appendix D-3), none or two.
     """
 
     rows: np.ndarray
-    jacobian: np.ndarray
-    acc: np.ndarray
     first: np.ndarray
     end: np.ndarray
+    swing_level: int
+    swing_lin: np.ndarray
+    swing_ang: np.ndarray
+    cop: np.ndarray
+    balance: np.ndarray
+
+
+class TaskSet(NamedTuple):
+    """A hierarchy as the tick reads it (:func:`task_set`).
+
+    Attributes:
+        rows: the row table (:class:`TaskRows`).
+        single, double: the :class:`TaskLayout` out of DS and in DS.
+    """
+
+    rows: TaskRows
+    single: TaskLayout
+    double: TaskLayout
+
+
+def task_layout(rows: TaskRows, double: bool) -> TaskLayout:
+    """The stacked rows of ``rows`` in DS (``double``: the swing foot's left out) or out."""
+    active = np.flatnonzero(~(double & (rows.quantity == Quantity.SWING_FOOT)))
+    level = rows.level[active]
+    first = np.flatnonzero(np.diff(level, prepend=-1) != 0)  # the rows opening a level
+    end = np.flatnonzero(np.diff(level, append=-1) != 0) + 1  # after the rows closing one
+    law, angular = rows.law[active], rows.axis[active] >= ROLL
+    swing = np.flatnonzero(law == Law.SWING)
+    swing_level = int(np.searchsorted(first, swing[0], side="right") - 1) if swing.size else -1
+    return TaskLayout(
+        rows=active.astype(np.int64),
+        first=first.astype(np.int64),
+        end=end.astype(np.int64),
+        swing_level=swing_level,
+        swing_lin=np.flatnonzero((law == Law.SWING) & ~angular).astype(np.int64),
+        swing_ang=np.flatnonzero((law == Law.SWING) & angular).astype(np.int64),
+        cop=np.flatnonzero(law == Law.COP).astype(np.int64),
+        balance=np.flatnonzero(law == Law.BALANCE).astype(np.int64),
+    )
+
+
+def task_set(tasks: Sequence[TaskSpec], kp: float, kv: float) -> TaskSet:
+    """The row table of ``tasks`` (:func:`task_rows`) and its layouts out of and in DS."""
+    rows = task_rows(tasks, kp, kv)
+    if np.unique(rows.level[rows.law == Law.SWING]).size > 1:
+        raise ValueError("the swing foot's rows take one priority level")
+    return TaskSet(rows, task_layout(rows, False), task_layout(rows, True))
 
 
 @_jit
 def stack_tasks(
     rows: TaskRows,
-    double: bool,
+    layout: TaskLayout,
     jac: np.ndarray,
     err: np.ndarray,
     vel: np.ndarray,
     rot_w: np.ndarray,
-) -> TaskStack:
-    """The task rows of a tick: J, ẍ* (Eq. 6) and the priority levels (Eq. 11).
+) -> tuple[np.ndarray, np.ndarray]:
+    """The task rows of a tick: the task Jacobian J of Eq. (11), shape (m, n), and the
+    reference accelerations ẍ* = k_p e − k_v ẋ of Eq. (6), shape (m,).
 
     A row on axis a of O_w reads the world-axes part (linear or angular) p of its quantity
     along O_w's axis a, the column a of ``rot_w``: r_aᵀ p.
 
     Args:
-        rows: the hierarchy (:func:`task_rows`).
-        double: DS: the swing foot is a contact, its rows are left out.
+        rows: the hierarchy (:func:`task_rows`); layout: its rows this tick (:func:`task_layout`).
         jac: each quantity's Jacobian, world axes, shape (quantities, 6, n).
         err: each quantity's error (target − actual), world axes, shape (quantities, 6).
         vel: each quantity's velocity, world axes, shape (quantities, 6).
         rot_w: world-from-O_w rotation.
     """
-    keep = np.ones(rows.axis.size, dtype=np.bool_)
-    if double:
-        keep &= rows.quantity != Quantity.SWING_FOOT.value
-    active = np.flatnonzero(keep)
-    m, n = active.size, jac.shape[2]
+    m, n = layout.rows.size, jac.shape[2]
     jacobian, acc = np.empty((m, n)), np.empty(m)
-    opens = np.zeros(m, dtype=np.bool_)  # the rows that open a priority level
-    previous = -1
-    for i, r in enumerate(active):
+    for i, r in enumerate(layout.rows):
         q, axis = rows.quantity[r], rows.axis[r]
         if rows.frame[r] == Frame.WALKING:
             angular = axis >= ROLL
@@ -244,28 +287,4 @@ def stack_tasks(
             jacobian[i] = jac[q, axis]
             e, v = err[q, axis], vel[q, axis]
         acc[i] = rows.kp[r] * e - rows.kv[r] * v  # Eq. (6)
-        opens[i] = rows.level[r] != previous
-        previous = rows.level[r]
-    closes = np.zeros(m, dtype=np.bool_)  # the rows that close one (walking back)
-    following = -1
-    for i in range(m - 1, -1, -1):
-        closes[i] = rows.level[active[i]] != following
-        following = rows.level[active[i]]
-    first, end = np.flatnonzero(opens), np.flatnonzero(closes) + 1
-    return TaskStack(active, jacobian, acc, first, end)
-
-
-@_jit
-def rows_of(
-    rows: TaskRows, stack: TaskStack, first: int, end: int, law: int, angular: bool
-) -> np.ndarray:
-    """The rows ``first`` … ``end`` − 1 of ``stack`` with ``law`` on linear (or angular)
-    axes, as offsets from ``first``."""
-    picked = np.empty(end - first, dtype=np.int64)
-    count = 0
-    for i in range(first, end):
-        r = stack.rows[i]
-        if rows.law[r] == law and (rows.axis[r] >= ROLL) == angular:
-            picked[count] = i - first
-            count += 1
-    return picked[:count]
+    return jacobian, acc

@@ -38,11 +38,9 @@ from walkrepro.papers.lee2021.tasks import (
     LINEAR,
     N_QUANTITIES,
     SPATIAL,
-    Law,
     Quantity,
-    TaskRows,
-    TaskStack,
-    rows_of,
+    TaskLayout,
+    TaskSet,
     stack_tasks,
 )
 from walkrepro.sim.robot import frame_jacobian, log3
@@ -551,8 +549,8 @@ class WbcParams(NamedTuple):
     """The OS-WBC's parameters (``EfsmParams``; §V-B), made once at reset.
 
     Attributes:
-        tasks: the task hierarchy of Eq. (11) with each row's gains k_p, k_v (Eq. 6)
-            (:func:`.tasks.task_rows` of :data:`.tasks.HIERARCHY`).
+        tasks: the task hierarchy of Eq. (11) with each row's gains k_p, k_v (Eq. 6) and
+            its rows out of and in DS (:func:`.tasks.task_set` of :data:`.tasks.HIERARCHY`).
         fs_max_force, fs_max_moment: the bound of each F_s force [N] and moment [Nm]
             component.
         fs_saturation: :class:`Saturation`.
@@ -563,7 +561,7 @@ class WbcParams(NamedTuple):
         actuator_rows: the joint-torque row of each actuator, shape (k,).
     """
 
-    tasks: TaskRows
+    tasks: TaskSet
     fs_max_force: float
     fs_max_moment: float
     fs_saturation: int
@@ -697,20 +695,26 @@ def task_quantities(
 
 @_jit
 def task_forces(
-    hierarchy: Hierarchy, stack: TaskStack, targets: WbcTargets, params: WbcParams
+    hierarchy: Hierarchy,
+    layout: TaskLayout,
+    acc: np.ndarray,
+    targets: WbcTargets,
+    params: WbcParams,
 ) -> np.ndarray:
     """[F_1; F_2; …] = Λ_i ẍ_i* of each level (Eq. 6), the swing foot's F_s saturated and
     scaled by ε (:func:`task2_force`); the CoP row's force is set apart (Appendix D-1)."""
-    forces = np.empty(stack.acc.size)
+    forces = np.empty(acc.size)
     scale_swing = targets.eps if targets.phase == Phase.SSA else 1.0
-    for level in range(stack.first.size):
-        s, e = stack.first[level], stack.end[level]
-        lin = rows_of(params.tasks, stack, s, e, Law.SWING, False)
-        ang = rows_of(params.tasks, stack, s, e, Law.SWING, True)
-        forces[s:e] = task2_force(
-            np.ascontiguousarray(hierarchy.lam[s:e, s:e]), stack.acc[s:e], lin, ang,
-            scale_swing, params.fs_max_force, params.fs_max_moment, params.fs_saturation,
-        )  # fmt: skip
+    for level in range(layout.first.size):
+        s, e = layout.first[level], layout.end[level]
+        lam = np.ascontiguousarray(hierarchy.lam[s:e, s:e])
+        if level == layout.swing_level:
+            forces[s:e] = task2_force(
+                lam, acc[s:e], layout.swing_lin - s, layout.swing_ang - s, scale_swing,
+                params.fs_max_force, params.fs_max_moment, params.fs_saturation,
+            )  # fmt: skip
+        else:
+            forces[s:e] = lam @ acc[s:e]
     return forces
 
 
@@ -719,7 +723,7 @@ def expected_wrench(
     k_tasks: np.ndarray,
     forces: np.ndarray,
     fc_b: np.ndarray,
-    stack: TaskStack,
+    layout: TaskLayout,
     frames: WbcFrames,
     targets: WbcTargets,
     params: WbcParams,
@@ -732,15 +736,14 @@ def expected_wrench(
         forces: the task forces (:func:`task_forces`), updated.
         fc_b: K (Ψ Γ_gc + f_bias), the resultant of Γ_gc and the bias (Eqs. 8, 10).
     """
-    cop = rows_of(params.tasks, stack, 0, forces.size, Law.COP, False)
     f1 = 0.0
-    for i in cop:  # Appendix D-1, Eqs. (17)–(21): the CoM x-force for x_p^des
+    for i in layout.cop:  # Appendix D-1, Eqs. (17)–(21): the CoM x-force for x_p^des
         forces[i] = 0.0
         fc_rest = k_tasks @ forces  # of the other tasks
         f1 = com_force_for_cop(targets.xp_des, k_tasks[MY, i], fc_rest[FZ] + fc_b[FZ], fc_b[MY])
         forces[i] = f1
     fc = k_tasks @ forces + fc_b
-    bal = rows_of(params.tasks, stack, 0, forces.size, Law.BALANCE, True)
+    bal = layout.balance
     balancing = False
     if params.balance and bal.size:  # Appendix D-3: the CoP out of the shrunk polygon
         k_bal = np.ascontiguousarray(k_tasks[:, bal])
@@ -788,10 +791,11 @@ def whole_body_torques(
     cd = contact_dynamics(dynamics.a_inv, dynamics.nle, j_contacts, dynamics.jc_dot_v)
 
     # The task rows (Eqs. 6, 11), their hierarchy (Appendix A) and forces.
+    layout = params.tasks.double if double else params.tasks.single
     jac, err, vel = task_quantities(dynamics, frames, targets, j_swing)
-    stack = stack_tasks(params.tasks, double, jac, err, vel, frames.rot_w)
-    hierarchy = task_hierarchy(cd, task_phi(cd, stack.jacobian), stack.first, stack.end)
-    forces = task_forces(hierarchy, stack, targets, params)
+    jacobian, acc = stack_tasks(params.tasks.rows, layout, jac, err, vel, frames.rot_w)
+    hierarchy = task_hierarchy(cd, task_phi(cd, jacobian), layout.first, layout.end)
+    forces = task_forces(hierarchy, layout, acc, targets, params)
 
     # The wrenches in O_w about the support centre, K Ψ Γ (Eqs. 8, 10); task 1's force for
     # x_p^des (Appendix D-1) and the balancing force (Appendix D-3).
@@ -801,7 +805,7 @@ def whole_body_torques(
     k_psi = kmap @ cd.psi
     k_tasks = k_psi @ hierarchy.torque_map  # resultant wrench per task force, (6, m)
     fc_b = kmap @ (cd.psi @ cd.gamma_gc + cd.f_bias)  # of Γ_gc and the bias
-    fc, f1, balancing = expected_wrench(k_tasks, forces, fc_b, stack, frames, targets, params)
+    fc, f1, balancing = expected_wrench(k_tasks, forces, fc_b, layout, frames, targets, params)
     gamma = hierarchy.torque_map @ forces + cd.gamma_gc  # Γ_t + Γ_gc
 
     # The contact wrench redistribution in DS (Appendix C) with ε (§IV-B).
