@@ -621,14 +621,14 @@ class EfsmController(Controller):
         """
         tasks = task_set(self.TASKS, self._p.kp, self._p.kv)
         layout = tasks.double if double else tasks.single
-        first = layout.first[layout.swing_level] if layout.swing_level >= 0 else 0
-        lin, ang = layout.swing_lin - first, layout.swing_ang - first
+        level_first = layout.first[layout.swing_level] if layout.swing_level >= 0 else 0
         p = self._p
         return wbc.task2_force(
             np.ascontiguousarray(lam, dtype=float),
             np.ascontiguousarray(acc, dtype=float),
-            lin,
-            ang,
+            max(layout.swing_first - level_first, 0),
+            layout.swing_lin.size,
+            layout.swing_ang.size,
             eps if phase is Phase.SSA else 1.0,
             p.fs_max_force,
             p.fs_max_moment,

@@ -194,6 +194,7 @@ class TaskLayout(NamedTuple):
             (in DS without the swing foot's), shape (m,).
         first, end: each priority level's first row and the row after its last, (levels,).
         swing_level: the level of the swing foot's rows (:data:`Law.SWING`), −1 if none.
+        swing_first: the first of them (stacked row), −1 if none; they are consecutive.
         swing_lin, swing_ang: the stacked rows of F_s's force and moment components.
         cop: the stacked row of the CoP law (Appendix D-1), none or one.
         balance: the stacked rows of the balance law (Appendix D-3), none or two.
@@ -203,6 +204,7 @@ class TaskLayout(NamedTuple):
     first: np.ndarray
     end: np.ndarray
     swing_level: int
+    swing_first: int
     swing_lin: np.ndarray
     swing_ang: np.ndarray
     cop: np.ndarray
@@ -236,6 +238,7 @@ def task_layout(rows: TaskRows, double: bool) -> TaskLayout:
         first=first.astype(np.int64),
         end=end.astype(np.int64),
         swing_level=swing_level,
+        swing_first=int(swing[0]) if swing.size else -1,
         swing_lin=np.flatnonzero((law == Law.SWING) & ~angular).astype(np.int64),
         swing_ang=np.flatnonzero((law == Law.SWING) & angular).astype(np.int64),
         cop=np.flatnonzero(law == Law.COP).astype(np.int64),
@@ -246,9 +249,11 @@ def task_layout(rows: TaskRows, double: bool) -> TaskLayout:
 def task_set(tasks: Sequence[TaskSpec], kp: float, kv: float) -> TaskSet:
     """The row table of ``tasks`` (:func:`task_rows`) and its layouts out of and in DS."""
     rows = task_rows(tasks, kp, kv)
-    if np.unique(rows.level[rows.law == Law.SWING]).size > 1:
-        raise ValueError("the swing foot's rows take one priority level")
-    return TaskSet(rows, task_layout(rows, False), task_layout(rows, True))
+    single = task_layout(rows, False)
+    swing = np.r_[single.swing_lin, single.swing_ang]
+    if swing.size and not np.array_equal(swing, np.arange(swing.size) + single.swing_first):
+        raise ValueError("the swing foot's rows are one task: force axes, then moment axes")
+    return TaskSet(rows, single, task_layout(rows, True))
 
 
 @_jit

@@ -428,8 +428,9 @@ def uniform_scale(a: np.ndarray, b: np.ndarray, f_max: float) -> float:
 def task2_force(
     lam: np.ndarray,
     acc: np.ndarray,
-    lin: np.ndarray,
-    ang: np.ndarray,
+    first: int,
+    n_lin: int,
+    n_ang: int,
     scale_swing: float,
     f_max: float,
     m_max: float,
@@ -438,29 +439,32 @@ def task2_force(
     """F = Λ ẍ* (Eq. 6) of one priority level, its swing-foot wrench F_s saturated and
     scaled by ε.
 
-    F_s (the rows ``lin``: force, ``ang``: moment) is bounded component-wise (§V-B) and
-    multiplied by ``scale_swing`` (ε in SSA, §IV-C). With :data:`UNIFORM` the bound is met by
-    scaling the commanded linear swing acceleration (so every force component stays within
-    it and the foot keeps heading for its target); with :data:`DECOUPLED_CLIP` the force
-    rows are clipped one by one, with the orientation acceleration kept: clipping the force
-    rows of Λ ẍ* alone (:data:`CLIP`) leaves in the moment rows the coupling term of an
-    acceleration that is no longer produced, which pitched the swing foot 14° toe-up in free
-    swing and 35° against the obstacle. The level's other forces (CoM, yaw) are then computed
-    with the swing-foot acceleration that this bounded F_s actually produces, so that they do
-    not carry the coupling of an unbounded one.
+    F_s (the level's rows ``first`` …: ``n_lin`` force, then ``n_ang`` moment components) is
+    bounded component-wise (§V-B) and multiplied by ``scale_swing`` (ε in SSA, §IV-C). With
+    :data:`UNIFORM` the bound is met by scaling the commanded linear swing acceleration (so
+    every force component stays within it and the foot keeps heading for its target); with
+    :data:`DECOUPLED_CLIP` the force rows are clipped one by one, with the orientation
+    acceleration kept: clipping the force rows of Λ ẍ* alone (:data:`CLIP`) leaves in the
+    moment rows the coupling term of an acceleration that is no longer produced, which
+    pitched the swing foot 14° toe-up in free swing and 35° against the obstacle. The
+    level's other forces (CoM, yaw) are then computed with the swing-foot acceleration that
+    this bounded F_s actually produces, so that they do not carry the coupling of an
+    unbounded one.
 
     Args:
         lam: Λ of the level, shape (m, m); acc: ẍ*, shape (m,).
-        lin, ang: the level's swing-foot force and moment rows (empty in DS: F = Λ ẍ*).
+        first, n_lin, n_ang: F_s's rows (none in DS: F = Λ ẍ*).
         scale_swing: factor on F_s (ε in SSA, else 1).
         f_max, m_max: the bounds of each force [N] and moment [Nm] component of F_s.
         saturation: :class:`Saturation`.
     """
     f_free = lam @ acc  # Λ ẍ*, unbounded
-    swing = np.concatenate((lin, ang))
-    if swing.size == 0:
+    n_sw = n_lin + n_ang
+    if n_sw == 0:
         return f_free
-    lam_ll = np.ascontiguousarray(lam[lin][:, lin])
+    swing, lin = slice(first, first + n_sw), slice(first, first + n_lin)
+    ang = slice(first + n_lin, first + n_sw)
+    lam_ll = np.ascontiguousarray(lam[lin, lin])
     if saturation == Saturation.UNIFORM:
         # F_i = s a_i + b_i (a: the part of Λ ẍ* due to ẍ_s*, b: the rest).
         a = lam_ll @ acc[lin]
@@ -469,24 +473,24 @@ def task2_force(
             acc_bounded = acc.copy()
             acc_bounded[lin] *= s
             f_free = lam @ acc_bounded
-    n_lin = lin.size
-    fs = f_free[swing]  # F_s: force, moment (a copy)
+    fs = f_free[swing].copy()  # F_s: force, moment
     if saturation == Saturation.DECOUPLED_CLIP:
         fs[:n_lin] = np.clip(fs[:n_lin], -f_max, f_max)
         cut = fs[:n_lin] - f_free[lin]
         if np.any(cut != 0.0):  # keep the orientation acceleration: Λ_s couples the rows
-            fs[n_lin:] += np.ascontiguousarray(lam[ang][:, lin]) @ np.linalg.solve(lam_ll, cut)
+            fs[n_lin:] += np.ascontiguousarray(lam[ang, lin]) @ np.linalg.solve(lam_ll, cut)
     fs[:n_lin] = np.clip(fs[:n_lin], -f_max, f_max)
     fs[n_lin:] = np.clip(fs[n_lin:], -m_max, m_max)
     fs *= scale_swing
     cut = fs - f_free[swing]
     f = f_free
-    is_swing = np.zeros(acc.size, dtype=np.bool_)
-    is_swing[swing] = True
-    rest = np.flatnonzero(~is_swing)
-    if np.any(cut != 0.0) and rest.size:  # the other forces of what F_s produces
-        lam_ss = np.ascontiguousarray(lam[swing][:, swing])
-        f[rest] += np.ascontiguousarray(lam[rest][:, swing]) @ np.linalg.solve(lam_ss, cut)
+    if np.any(cut != 0.0):  # the other forces of what F_s produces
+        x = np.linalg.solve(np.ascontiguousarray(lam[swing, swing]), cut)
+        end = first + n_sw  # the level's other rows: before and after F_s's
+        if first > 0:
+            f[:first] += np.ascontiguousarray(lam[:first, swing]) @ x
+        if end < acc.size:
+            f[end:] += np.ascontiguousarray(lam[end:, swing]) @ x
     f[swing] = fs
     return f
 
@@ -710,7 +714,8 @@ def task_forces(
         lam = np.ascontiguousarray(hierarchy.lam[s:e, s:e])
         if level == layout.swing_level:
             forces[s:e] = task2_force(
-                lam, acc[s:e], layout.swing_lin - s, layout.swing_ang - s, scale_swing,
+                lam, acc[s:e], layout.swing_first - s, layout.swing_lin.size,
+                layout.swing_ang.size, scale_swing,
                 params.fs_max_force, params.fs_max_moment, params.fs_saturation,
             )  # fmt: skip
         else:
