@@ -79,8 +79,13 @@ Q_ROW, V_ROW = 0, 1
 @_jit
 def symmetric_from_upper(upper: np.ndarray) -> np.ndarray:
     """The symmetric matrix whose upper triangle is ``upper``'s (Pinocchio fills only the
-    upper triangle of ``data.M`` and ``data.Minv``)."""
-    return np.triu(upper) + np.triu(upper, 1).T
+    upper triangle of ``data.M`` and ``data.Minv``): the upper triangle mirrored (a copy
+    loop: ``np.triu(m) + np.triu(m, 1).T`` gives the same values for 1 µs more)."""
+    out = upper.copy()
+    for i in range(out.shape[0]):
+        for j in range(i):
+            out[i, j] = out[j, i]
+    return out
 
 
 @_jit
