@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from types import SimpleNamespace
 
 import numpy as np
@@ -200,7 +201,7 @@ def test_first_ds_weight_shift_holds_double_support_for_its_time() -> None:
     for shift, ticks, still_ds in ((0.1, 200, True), (0.0, 200, False)):
         ctrl = EfsmController()
         ctrl.reset(robot, EfsmParams(first_ds_shift=shift), 0.0005)
-        assert ctrl._st["shift_ticks"] == round(shift / 0.0005)
+        assert ctrl._params.shift_ticks == round(shift / 0.0005)
         for k in range(ticks):
             ctrl.step(k * 0.0005, snapshot)
             if still_ds:
@@ -208,3 +209,25 @@ def test_first_ds_weight_shift_holds_double_support_for_its_time() -> None:
                 assert ctrl._st["steps_done"] == 0
                 assert 0.0 <= ctrl._st["xp_des"] <= 0.21
         assert bool(ctrl._st["steps_done"] == 0) == still_ds
+
+
+class _NoUpperBodyTask(EfsmController):
+    """Paper I's controller without task 3 (the upper body's roll and pitch)."""
+
+    TASKS = tuple(t for t in EfsmController.TASKS if t.name != "upper_body_roll_pitch")
+
+
+def test_controller_without_the_upper_body_task_builds_and_runs() -> None:
+    """Removing a task from the hierarchy is one edit: the controller resets and ticks, with
+    finite torques that differ from those of the full hierarchy."""
+    robot = load_robot("dyros_red")
+    torques = []
+    for cls in (EfsmController, _NoUpperBodyTask):
+        ctrl = cls()
+        ctrl.reset(robot, EfsmParams(), 0.0005)
+        # The upper body rolling and pitching: task 3 has a force to make.
+        home = dataclasses.replace(ctrl._home_snapshot(), base_angvel=np.array([0.1, -0.2, 0]))
+        ctrl._st["phase"] = Phase.SSD
+        torques.append([ctrl.step(k * 0.0005, home).ctrl for k in range(5)])
+    assert np.all(np.isfinite(torques[1]))
+    assert not np.allclose(torques[0], torques[1])

@@ -58,7 +58,7 @@ def test_warm_up_compiles_what_a_tick_uses() -> None:
     compiled = len(kernels.tick.signatures)
     home = ctrl._home_snapshot()
     ctrl.step(0.0, home)
-    ctrl._st["phase"] = int(Phase.SSD)
+    ctrl._st["phase"] = Phase.SSD
     cmd = ctrl.step(0.0005, home)
     assert cmd.signals["efsm_phase"] != int(Phase.DS)
     assert len(kernels.tick.signatures) == compiled
@@ -83,8 +83,8 @@ def test_fresh_reads_give_the_same_tick_as_views() -> None:
 
 def _moving_dyros(seed: int, joint_scale: float = 0.05, velocity_scale: float = 0.5) -> tuple:
     """dyros_red near home with random joint offsets and velocities (standard deviations
-    ``joint_scale`` [rad], ``velocity_scale``); computeAllTerms and the frames updated.
-    Returns robot, Pinocchio model and data, and the velocity v."""
+    ``joint_scale`` [rad], ``velocity_scale``); computeAllTerms, computeMinverse and the
+    frames updated. Returns robot, Pinocchio model and data, and the velocity v."""
     robot = load_robot("dyros_red")
     model, data = robot.pin_model, robot.pin_model.createData()
     rng = np.random.default_rng(seed)
@@ -94,21 +94,21 @@ def _moving_dyros(seed: int, joint_scale: float = 0.05, velocity_scale: float = 
         qpos, rng.normal(scale=velocity_scale, size=robot.mj_model.nv)
     )
     pin.computeAllTerms(model, data, q, v)
+    pin.computeMinverse(model, data, q)
     pin.updateFramePlacements(model, data)
     return robot, model, data, v
 
 
 @pytest.mark.parametrize("seed", range(3))
-def test_mass_matrix_inverse_is_pinocchios(seed: int) -> None:
-    """A⁻¹ agrees with Pinocchio's cholesky.decompose + computeMinv to 1e-12."""
+def test_inverse_inertia_is_pinocchios(seed: int) -> None:
+    """The tick's A⁻¹ (computeMinverse's upper triangle, mirrored) is symmetric and agrees
+    with Pinocchio's cholesky.decompose + computeMinv and with A's inverse."""
     _, model, data, _ = _moving_dyros(seed)
-    parents = np.array(data.parents_fromRow, dtype=np.int64)
-    subtree = np.array(data.nvSubtree_fromRow, dtype=np.int64)
-    out = np.empty((model.nv, model.nv))
-    kernels.mass_matrix_inverse(data.M, parents, subtree, out)
+    out = kernels.symmetric_from_upper(data.Minv)
+    np.testing.assert_array_equal(out, out.T)
     pin.cholesky.decompose(model, data)
-    np.testing.assert_allclose(out, pin.cholesky.computeMinv(model, data), rtol=1e-12, atol=1e-12)
-    _close(out @ (np.triu(data.M) + np.triu(data.M, 1).T), np.eye(model.nv), rel=1e-9)
+    _close(out, pin.cholesky.computeMinv(model, data), rel=1e-10)
+    _close(out @ kernels.symmetric_from_upper(data.M), np.eye(model.nv), rel=1e-9)
 
 
 @pytest.mark.parametrize("seed", range(3))
@@ -119,18 +119,15 @@ def test_frames_match_pinocchio(seed: int) -> None:
     for name in ("left_sole", "right_sole", "left_foot_ft", "right_foot_ft"):
         frame = model.frames[robot.pin_frame_id(name)]
         joint = frame.parentJoint
-        rot, pos = np.empty((3, 3)), np.empty(3)
-        kernels.frame_placement(
+        rot, pos = kernels.frame_placement(
             data.oMi[joint].rotation,
             data.oMi[joint].translation,
             frame.placement.rotation,
             frame.placement.translation,
-            rot,
-            pos,
         )
         want = data.oMf[robot.pin_frame_id(name)]
-        _close(rot, want.rotation, rel=1e-15)
-        _close(pos, want.translation, rel=1e-15)
+        _close(rot, want.rotation, rel=1e-14)
+        _close(pos, want.translation, rel=1e-14)
 
 
 def test_next_swing_target_is_the_planned_step() -> None:
@@ -165,6 +162,7 @@ def _reference_tick(ctrl: EfsmController, sensors, state: np.ndarray) -> tuple:
     the package's E-FSM step and whole_body_torques, the footstep planner's formula and the
     F/T CoP. Returns Γ, the signals by name, and the transition bits."""
     st, p, model, data = state[0], ctrl._p, ctrl._model, ctrl._data
+    targets, feet = ctrl._targets, ctrl._params.feet
     q, v = sensors.pinocchio_state(ctrl._robot)
     pin.computeAllTerms(model, data, q, v)
     pin.updateFramePlacements(model, data)
@@ -172,7 +170,7 @@ def _reference_tick(ctrl: EfsmController, sensors, state: np.ndarray) -> tuple:
     params = FsmParams(p.zeta, p.r, p.dxp, p.d_thr, p.v_stop, p.use_epsilon)
     sup = int(st["support"])
     sw = 1 - sup
-    com, vcom, rot, z_m0 = data.com[0], data.vcom[0], st["rot_w"].copy(), float(st["z_m0"])
+    com, vcom, rot, z_m0 = data.com[0], data.vcom[0], st["rot_w"].copy(), targets.z_m0
     ow = kernels.ow_frame(soles[sup].translation, soles[sw].translation, com, vcom, rot)
     x_cp = capture_point(ow.com_w[0], ow.vcom_w[0], z_m0)
     out = fsm_step(
@@ -186,8 +184,8 @@ def _reference_tick(ctrl: EfsmController, sensors, state: np.ndarray) -> tuple:
         sup, sw, steps = sw, sup, steps + 1
         length = p.step_length if p.n_steps is None or steps <= p.n_steps else 0.0
         side = 1.0 if sw == 0 else -1.0
-        target = soles[sup].translation + st["heading"] * length
-        target = target + side * float(st["width"]) * st["lateral"]
+        target = soles[sup].translation + targets.heading * length
+        target = target + side * targets.width * targets.lateral
         ow = kernels.ow_frame(soles[sup].translation, soles[sw].translation, com, vcom, rot)
         x_cp = capture_point(ow.com_w[0], ow.vcom_w[0], z_m0)
         xp_des = 0.0
@@ -207,24 +205,22 @@ def _reference_tick(ctrl: EfsmController, sensors, state: np.ndarray) -> tuple:
     )  # fmt: skip
     pin.cholesky.decompose(model, data)
     tau = np.empty(st["tau"].size)
+    minv = pin.cholesky.computeMinv(model, data)
     report = wbc.whole_body_torques(
         wbc.WbcDynamics(
-            pin.cholesky.computeMinv(model, data), data.nle, jc_dot_v, data.J, data.Jcom, v
+            np.triu(minv) + np.triu(minv, 1).T, data.nle, jc_dot_v, data.J, data.Jcom, com,
+            vcom, v,
         ),
         wbc.WbcFrames(
             rot, p_sup, p_sw, soles[sup].rotation, soles[sw].rotation, data.oMi[1].rotation,
-            st["sole_chain"][sup], st["sole_chain"][sw],
+            feet.sole_chain[sup], feet.sole_chain[sw],
         ),
         wbc.WbcTargets(
-            st["rot_des_pelvis"], st["rot_des_swing"], np.array([0.0 - com_w[1], z_m0 - com_w[2]]),
-            np.array([vcom_w[1], vcom_w[2]]), sw_ref, int(out.phase), out.epsilon, eps_on, xp_des,
-            x_s,
+            targets.rot_des_pelvis, targets.rot_des_swing,
+            p_sup + rot @ np.array([com_w[0], 0.0, z_m0]), sw_ref, int(out.phase), out.epsilon,
+            eps_on, xp_des, x_s,
         ),
-        wbc.WbcParams(
-            p.kp, p.kv, p.fs_max_force, p.fs_max_moment, int(st["fs_saturation"]), p.balance,
-            p.cop_margin, p.torque_limit, st["half_sole"].copy(),
-        ),
-        st["actuator_rows"],
+        ctrl._params.wbc,
         tau,
     )  # fmt: skip
     meas = ctrl._measured_cop(sensors)

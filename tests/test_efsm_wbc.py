@@ -3,7 +3,9 @@ against Pinocchio's constrained dynamics and numpy's linear algebra."""
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -11,6 +13,7 @@ import pytest
 
 from walkrepro.papers.lee2021 import wbc
 from walkrepro.papers.lee2021.fsm import Phase
+from walkrepro.papers.lee2021.tasks import HIERARCHY, TaskSpec, task_rows, task_set
 from walkrepro.sim.robot import load_robot
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -170,20 +173,26 @@ def _random_tasks(cd: wbc.ContactDynamics, m2: int, seed: int) -> np.ndarray:
     return wbc.task_phi(cd, rng.normal(size=(3 + m2, cd.P.shape[0])))
 
 
+def _three_levels(cd: wbc.ContactDynamics, phi: np.ndarray, m2: int) -> wbc.Hierarchy:
+    """The hierarchy of ``phi`` stacked as three levels: 1, ``m2`` and the rest."""
+    m = phi.shape[0]
+    return wbc.task_hierarchy(cd, phi, np.array([0, 1, 1 + m2]), np.array([1, 1 + m2, m]))
+
+
 @pytest.mark.parametrize(("feet", "m2"), [(ONE_FOOT, 9), (TWO_FEET, 3)])
 def test_task_hierarchy_matches_projector_form(feet: tuple[str, ...], m2: int) -> None:
     """The stacked hierarchy equals the tasks built from the projectors Ñ_1ᵀ, Ñ_12ᵀ (Eq. 11)."""
     s = Setup(feet)
     cd = s.cd
     phi = _random_tasks(cd, m2, seed=len(feet))
-    hier = wbc.task_hierarchy(cd, phi, 1, m2)
+    hier = _three_levels(cd, phi, m2)
     s1, s2, s3 = slice(0, 1), slice(1, 1 + m2), slice(1 + m2, None)
     refs = (
         wbc.prioritized_task(cd, phi[s1], np.eye(s.k)),
         wbc.prioritized_task(cd, phi[s2], wbc.null_space_t(cd, phi[s1])),
         wbc.prioritized_task(cd, phi[s3], wbc.null_space_t(cd, phi[0 : 1 + m2])),
     )
-    lams = (hier.lam1, hier.lam2, hier.lam3)
+    lams = (hier.lam[s1, s1], hier.lam[s2, s2], hier.lam[s3, s3])
     for rows, ref, lam in zip((s1, s2, s3), refs, lams, strict=True):
         tm = hier.torque_map[:, rows]
         np.testing.assert_allclose(tm, ref.torque_map, rtol=0, atol=1e-8 * np.abs(tm).max())
@@ -197,10 +206,11 @@ def test_each_task_is_achieved_in_the_null_space_of_the_higher(
     """Task i's torque J̃_iᵀ F_i gives Λ_i⁻¹ F_i on task i and nothing on the tasks above."""
     s = Setup(feet)
     phi = _random_tasks(s.cd, m2, seed=7)
-    hier = wbc.task_hierarchy(s.cd, phi, 1, m2)
+    hier = _three_levels(s.cd, phi, m2)
     rows = (slice(0, 1), slice(1, 1 + m2), slice(1 + m2, None))
     rng = np.random.default_rng(7)
-    for rows_i, lam in zip(rows, (hier.lam1, hier.lam2, hier.lam3), strict=True):
+    for rows_i in rows:
+        lam = hier.lam[rows_i, rows_i]
         force = rng.normal(size=lam.shape[0])
         acc = phi @ (hier.torque_map[:, rows_i] @ force)  # Φ J̃ᵀ F: every task's acceleration
         np.testing.assert_allclose(acc[rows_i], np.linalg.solve(lam, force), rtol=1e-6, atol=1e-9)
@@ -232,11 +242,11 @@ def test_hierarchy_falls_back_when_a_task_is_singular() -> None:
     s = Setup(ONE_FOOT)
     phi = _random_tasks(s.cd, 9, seed=4)
     phi[-1] = phi[3]  # fully inside task 2's space: Φ_3 Ñ_12ᵀ J̃_3ᵀ is rank one
-    hier = wbc.task_hierarchy(s.cd, phi, 1, 9)
+    hier = _three_levels(s.cd, phi, 9)
     ref = wbc.prioritized_task(s.cd, phi[10:], wbc.null_space_t(s.cd, phi[:10]))
-    np.testing.assert_allclose(hier.lam3, ref.lam)
+    np.testing.assert_allclose(hier.lam[10:, 10:], ref.lam)
     np.testing.assert_allclose(hier.torque_map[:, 10:], ref.torque_map)
-    assert np.linalg.matrix_rank(hier.lam3) == 1
+    assert np.linalg.matrix_rank(hier.lam[10:, 10:]) == 1
 
 
 def _yaw(angle: float) -> np.ndarray:
@@ -307,9 +317,15 @@ def test_balance_force_restores_cop_to_the_polygon() -> None:
     assert cop[1] == pytest.approx(0.0, abs=1e-9)
 
 
-def _whole_body(s: Setup, phase: Phase, balance: bool = False) -> tuple[np.ndarray, wbc.WbcOutput]:
+def _whole_body(
+    s: Setup,
+    phase: Phase,
+    balance: bool = False,
+    tasks: tuple[TaskSpec, ...] = HIERARCHY,
+) -> tuple[np.ndarray, wbc.WbcOutput]:
     """Γ (joint order, unsaturated) and the report of whole_body_torques at the state of
-    ``s`` (left foot the support, O_w yawed 0.2 rad, x_p^des 2 cm)."""
+    ``s`` (left foot the support, O_w yawed 0.2 rad, x_p^des 2 cm; random CoM y/z errors and
+    velocities in O_w and swing-foot target)."""
     rng = np.random.default_rng(int(phase))
     n = s.a.shape[0]
     chains = [
@@ -318,23 +334,90 @@ def _whole_body(s: Setup, phase: Phase, balance: bool = False) -> tuple[np.ndarr
     ]
     tau = np.empty(s.k)
     p_sw = s.data.oMf[s.robot.pin_frame_id("right_sole")]
+    rot_w = _yaw(0.2)
+    com = s.data.com[0].copy()
+    com_err_w, vcom_w = rng.normal(scale=0.02, size=2), rng.normal(scale=0.02, size=2)
     out = wbc.whole_body_torques(
-        wbc.WbcDynamics(np.linalg.inv(s.a), s.nle, s.jc_dot_v, s.j_world, s.j_com, s.v),
+        wbc.WbcDynamics(
+            np.linalg.inv(s.a), s.nle, s.jc_dot_v, s.j_world, s.j_com, com,
+            rot_w @ np.r_[0.0, vcom_w], s.v,
+        ),
         wbc.WbcFrames(
-            _yaw(0.2), s.sole_pos[0], p_sw.translation.copy(), s.sole_rot[0],
+            rot_w, s.sole_pos[0], p_sw.translation.copy(), s.sole_rot[0],
             p_sw.rotation.copy(), s.pelvis_rot, chains[0].astype(np.int64),
             chains[1].astype(np.int64),
         ),
         wbc.WbcTargets(
-            _yaw(0.05), _yaw(-0.03), rng.normal(scale=0.02, size=2), rng.normal(scale=0.02, size=2),
+            _yaw(0.05), _yaw(-0.03), com + rot_w @ np.r_[0.0, com_err_w],
             p_sw.translation + rng.normal(scale=0.02, size=3), int(phase), 0.6, 0.5, 0.02, 0.3,
         ),
-        wbc.WbcParams(100.0, 20.0, 30.0, 10.0, wbc.UNIFORM, balance, 0.03, 1e9, np.array([0.15, 0.075])),
-        np.arange(s.k),
+        wbc.WbcParams(
+            task_set(tasks, 100.0, 20.0), 30.0, 10.0, wbc.UNIFORM, balance, 0.03, 1e9,
+            np.array([0.15, 0.075]), np.arange(s.k),
+        ),
         tau,
     )  # fmt: skip
     assert n == s.k + 6
     return tau, out
+
+
+#: Γ and the report of the hand-stacked whole_body_torques (task rows by slices) before the
+#: hierarchy was declared by name, at the states of _whole_body (written by that code).
+BEFORE = Path(__file__).parent / "data" / "lee2021_wbc_before.json"
+
+
+@pytest.mark.parametrize("phase", list(Phase))
+@pytest.mark.parametrize("balance", [False, True])
+def test_declared_hierarchy_gives_the_hand_stacked_torques(phase: Phase, balance: bool) -> None:
+    """HIERARCHY stacked by stack_tasks gives the torques, F_1, balancing and expected CoP
+    of the former hand-stacked rows (j_tasks[4:10], acc2[6:9], …) up to rounding."""
+    want = json.loads(BEFORE.read_text())[f"{phase.name}_{'balance' if balance else 'plain'}"]
+    s = Setup(TWO_FEET if phase is Phase.DS else ONE_FOOT, seed=8 + int(phase))
+    tau, out = _whole_body(s, phase, balance)
+    scale = np.abs(want["tau"]).max()
+    np.testing.assert_allclose(tau, want["tau"], rtol=0, atol=1e-9 * scale)
+    assert out.com_force_x == pytest.approx(want["com_force_x"], rel=1e-9)
+    assert out.balancing == want["balancing"]
+    assert [out.cop_exp_x, out.cop_exp_y] == pytest.approx(want["cop_exp"], rel=1e-9, abs=1e-12)
+
+
+@pytest.mark.parametrize("phase", list(Phase))
+def test_a_hierarchy_without_the_upper_body_task_still_stacks(phase: Phase) -> None:
+    """Removing task 3 (the upper body's roll and pitch) is one edit: the hierarchy stacks
+    two levels, the balancing force (task 3's) no longer acts, and Γ changes."""
+    tasks = tuple(t for t in HIERARCHY if t.name != "upper_body_roll_pitch")
+    s = Setup(TWO_FEET if phase is Phase.DS else ONE_FOOT, seed=8 + int(phase))
+    tau, out = _whole_body(s, phase, balance=True, tasks=tasks)
+    full, _ = _whole_body(s, phase, balance=True)
+    assert np.all(np.isfinite(tau)) and not out.balancing
+    assert np.abs(tau - full).max() > 1e-3 * np.abs(full).max()
+
+
+def test_a_task_moved_to_its_own_priority_is_one_more_level() -> None:
+    """Moving the CoM height below the swing foot (priority 2.5) adds a level; the rows keep
+    their names' quantities and axes, and the gains default to k_p, k_v."""
+    tasks = tuple(t._replace(priority=2.5) if t.name == "com_yz" else t for t in HIERARCHY)
+    rows = task_rows(tasks, 100.0, 20.0)
+    assert list(rows.level) == [0, 1, 1, 1, 1, 1, 1, 1, 2, 2, 3, 3]
+    assert np.all(rows.kp == 100.0) and np.all(rows.kv == 20.0)
+    own = task_rows((HIERARCHY[0]._replace(kp=50.0),), 100.0, 20.0)
+    assert own.kp.tolist() == [50.0]
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda t: t._replace(axes=(6,)) if t.name == "com_yz" else t, "axis 6"),
+        (lambda t: t._replace(axes=(3,)) if t.name == "com_yz" else t, "no angular"),
+        (lambda t: t._replace(axes=(2,)) if t.name == "com_x" else t, "CoP law"),
+        (lambda t: t._replace(axes=(5,)) if t.name == "upper_body_roll_pitch" else t, "balance"),
+        (lambda t: t._replace(name="com_x"), "repeat"),
+    ],
+)
+def test_a_hierarchy_the_laws_cannot_take_is_refused(edit, message: str) -> None:
+    """A task the force laws cannot take is refused with its name, at reset."""
+    with pytest.raises(ValueError, match=message):
+        task_rows(tuple(edit(t) for t in HIERARCHY), 100.0, 20.0)
 
 
 @pytest.mark.parametrize("phase", list(Phase))

@@ -11,7 +11,8 @@ three prioritized tasks (Eq. 11):
 
 The equations live in :mod:`.fsm` (the E-FSM, Eqs. 2–4, Table I) and :mod:`.wbc` (P, W,
 Φ, Λ, Ñ, the hierarchy of Eq. 11, Appendices A–D). Speed: the tick runs at 2 kHz, so it
-calls Pinocchio's combined algorithm once (``computeAllTerms``), reads its results through
+calls Pinocchio's combined algorithm once (``computeAllTerms``, then ``computeMinverse`` for
+A⁻¹), reads their results through
 views of ``Data`` taken at reset, and does everything else (O_w, the E-FSM, footsteps, the
 WBC, the CoPs) in one compiled numba call, :func:`.kernels.tick`, which runs those modules'
 functions (why numba: see :mod:`.kernels`). Python keeps the first tick's set-up, the
@@ -21,10 +22,12 @@ events and the signal dict.
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Literal
 
 import numpy as np
 import pinocchio as pin
+from numba import NumbaPerformanceWarning
 from pydantic import Field
 
 from walkrepro.controllers.base import Command, Controller, ControllerParams
@@ -40,7 +43,8 @@ from walkrepro.controllers.ranges import (
 )
 from walkrepro.log.signals import SignalLayout, Signals
 from walkrepro.papers.lee2021 import kernels, wbc
-from walkrepro.papers.lee2021.fsm import DS_TO_SSD, SSA_TO_DS, SSD_TO_SSA, Phase
+from walkrepro.papers.lee2021.fsm import DS_TO_SSD, SSA_TO_DS, SSD_TO_SSA, FsmParams, Phase
+from walkrepro.papers.lee2021.tasks import HIERARCHY, TaskSpec, task_set
 from walkrepro.sim.robot import Robot, pin_state_into
 from walkrepro.sim.sensors import SensorSnapshot
 from walkrepro.specs.origin import assumed, calibrated, paper, source
@@ -49,6 +53,10 @@ GRAVITY = 9.81  # [m/s^2]
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 FEET = ("left", "right")  # a foot is its index here: 0 left, 1 right; 1 - i the other one
 PELVIS_JOINT = 1  # the free-flyer root: the rigid upper body
+UNIVERSE = 0  # Pinocchio's joint 0, the world
+X, Y, Z = 0, 1, 2  # axes (of a point; a rotation's columns)
+#: A free joint's qpos in MuJoCo: position [m], then quaternion (w, x, y, z).
+FREE_POS, FREE_QUAT = slice(0, 3), slice(3, 7)
 
 
 def signal_layout(n_actuators: int) -> SignalLayout:
@@ -291,7 +299,7 @@ class _PoseViews:
         """(Re)take every view from ``Data``."""
         data = self._data
         self.terms = kernels.PinocchioTerms(
-            mass=data.M,
+            mass_inv=data.Minv,
             nle=data.nle,
             j_world=data.J,
             j_com=data.Jcom,
@@ -331,6 +339,9 @@ class EfsmController(Controller):
 
     Params = EfsmParams
     FRAMES = ("O_w",)
+    #: The task hierarchy of Eq. (11) (:data:`.tasks.HIERARCHY`); a subclass, or an
+    #: instance before reset, may set another.
+    TASKS: tuple[TaskSpec, ...] = HIERARCHY
 
     def reset(self, robot: Robot, params: ControllerParams, control_period: float) -> None:
         """Cache models and start in DS with the CoP moving onto the first support foot.
@@ -343,7 +354,7 @@ class EfsmController(Controller):
         self._warm_up(robot, params, control_period)
 
     def _setup(self, robot: Robot, params: ControllerParams, control_period: float) -> None:
-        """Models, constants, buffers and the initial state of a run."""
+        """Models, parameters, buffers and the initial state of a run."""
         assert isinstance(params, EfsmParams)
         if robot.control_mode != "torque":
             raise ValueError("the E-FSM controller needs a torque-controlled robot")
@@ -362,57 +373,83 @@ class EfsmController(Controller):
         self._pose = _PoseViews(data, ankle)
         self._refresh_pose = False
         nv, n_act = model.nv, len(robot.pin_v_idx)
-        # Everything the tick kernel keeps or reads besides Pinocchio's Data, as one record;
-        # the controller works through views of its fields.
+        self._params = self._tick_params(robot, params, control_period, ankle)
+        self._targets = _placeholder_targets()  # recorded on the first tick (_start)
+        # The state the tick kernel keeps, as one record; the controller works through views
+        # of its fields.
         self._state = state = kernels.tick_state(model.nq, nv, n_act)
         self._st = st = state[0]
         # Pinocchio's (q, v), rewritten in place every tick (nothing keeps them across ticks).
         self._pin_buffer = st["pin_state"]
-        self._q, self._v = self._pin_buffer[0, : model.nq], self._pin_buffer[1, :nv]
+        self._q = self._pin_buffer[kernels.Q_ROW, : model.nq]
+        self._v = self._pin_buffer[kernels.V_ROW, :nv]
         self._tau, self._rot_w, self._ft_wrench = st["tau"], st["rot_w"], st["ft_wrench"]
         self._signal_layout = signal_layout(n_act)
         # The tick writes the signals by name into a record whose bytes are the log's vector.
         self._signal_record = np.zeros(1, dtype=kernels.signal_dtype(n_act))
         self._signals = self._signal_record.view(np.float64)
-        # Γ is in joint order, ctrl in actuator order: the joint-torque row of each actuator.
-        st["actuator_rows"] = np.asarray(robot.pin_v_idx, dtype=np.int64) - 6
-        st["half_sole"] = np.asarray(robot.sole_size, dtype=float) / 2.0
-        st["fs_saturation"] = _saturation_mode(params)
-        st["balance"] = params.balance
-        for name in (
-            "kp", "kv", "fs_max_force", "fs_max_moment", "cop_margin", "torque_limit",
-            "zeta", "r", "dxp", "d_thr", "v_stop", "step_length",
-        ):  # fmt: skip
-            st[name] = getattr(params, name)
-        st["use_epsilon"], st["ds_onset_ramp"] = params.use_epsilon, params.ds_onset_ramp
-        st["raise_height"], st["land_height"] = params.raise_height, params.land_height
-        st["n_steps"] = -1 if params.n_steps is None else params.n_steps
-        st["control_period"] = control_period
-        st["shift_ticks"] = round(params.first_ds_shift / control_period)
-        st["first_step_scale"] = params.first_step_scale
-        # The kinematic tree as Pinocchio's Cholesky factorisation walks it.
-        st["parents_from_row"] = list(data.parents_fromRow)
-        st["nv_subtree_from_row"] = list(data.nvSubtree_fromRow)
-        for i, f in enumerate(FEET):
-            # Each sole and F/T frame in its joint, and the coordinates that move the sole
-            # (the joint's ancestors in the tree).
-            for key, frame in (("sole", self._sole[f]), ("ft", self._ft[f])):
-                st[f"{key}_local_rot"][i] = model.frames[frame].placement.rotation
-                st[f"{key}_local_pos"][i] = model.frames[frame].placement.translation
-            for j in model.supports[ankle[i]][1:]:  # without the universe
-                first = model.joints[j].idx_v
-                st["sole_chain"][i, first : first + model.joints[j].nv] = 1
-            # The part of the foot below its F/T sensor (the ankle-roll link): its weight and
-            # its CoM in the sensor frame (both on that link, so the offset is constant).
-            inertia = model.inertias[ankle[i]]
-            st["foot_weight"][i] = inertia.mass * GRAVITY  # [N]
-            st["foot_com"][i] = model.frames[self._ft[f]].placement.actInv(inertia.lever)  # [m]
-        st["support"] = 0 if params.first_swing == "right" else 1  # index into FEET
-        st["phase"] = int(Phase.DS)  # Table I: the first footstep starts in DS
+        st["support"] = FEET.index("left" if params.first_swing == "right" else "right")
+        st["phase"] = Phase.DS  # Table I: the first footstep starts in DS
         st["ds_start_xp"] = math.nan
         self._rot_w[:] = np.eye(3)  # world-from-O_w, rewritten in place every tick
         self._started = False
         self._records = self._tick_records()
+
+    def _tick_params(
+        self, robot: Robot, p: EfsmParams, control_period: float, ankle: tuple[int, ...]
+    ) -> kernels.TickParams:
+        """The tick's parameter record (:class:`.kernels.TickParams`): ``p``, the task
+        hierarchy :attr:`TASKS`, and the feet's frames in the model."""
+        wbc_params = wbc.WbcParams(
+            tasks=task_set(self.TASKS, p.kp, p.kv),
+            fs_max_force=p.fs_max_force,
+            fs_max_moment=p.fs_max_moment,
+            fs_saturation=int(_saturation_mode(p)),
+            balance=p.balance,
+            cop_margin=p.cop_margin,
+            torque_limit=p.torque_limit,
+            half_sole=np.asarray(robot.sole_size, dtype=float) / 2.0,
+            # Γ is in joint order, ctrl in actuator order: each actuator's joint-torque row.
+            actuator_rows=np.asarray(robot.pin_v_idx, dtype=np.int64) - 6,
+        )
+        return kernels.TickParams(
+            fsm=FsmParams(p.zeta, p.r, p.dxp, p.d_thr, p.v_stop, p.use_epsilon),
+            wbc=wbc_params,
+            ds_onset_ramp=p.ds_onset_ramp,
+            raise_height=p.raise_height,
+            land_height=p.land_height,
+            step_length=p.step_length,
+            n_steps=-1 if p.n_steps is None else p.n_steps,
+            first_step_scale=p.first_step_scale,
+            shift_ticks=round(p.first_ds_shift / control_period),
+            control_period=control_period,
+            feet=self._foot_frames(ankle),
+        )
+
+    def _foot_frames(self, ankle: tuple[int, ...]) -> kernels.FootFrames:
+        """Each sole and F/T frame in its joint, the coordinates that move the sole (the
+        joint's ancestors in the tree), and the part of the foot below its F/T sensor (the
+        ankle-roll link): its weight and its CoM in the sensor frame (both on that link, so
+        the offset is constant)."""
+        model = self._model
+        chain = np.zeros((len(FEET), model.nv), dtype=np.int64)
+        for i, joint in enumerate(ankle):
+            for j in model.supports[joint]:
+                if j != UNIVERSE:
+                    first = model.joints[j].idx_v
+                    chain[i, first : first + model.joints[j].nv] = 1
+        sole = [model.frames[self._sole[f]].placement for f in FEET]
+        ft = [model.frames[self._ft[f]].placement for f in FEET]
+        inertia = [model.inertias[j] for j in ankle]
+        return kernels.FootFrames(
+            sole_chain=chain,
+            sole_local_rot=np.array([x.rotation for x in sole]),
+            sole_local_pos=np.array([x.translation for x in sole]),
+            ft_local_rot=np.array([x.rotation for x in ft]),
+            ft_local_pos=np.array([x.translation for x in ft]),
+            foot_com=np.array([x.actInv(m.lever) for x, m in zip(ft, inertia, strict=True)]),
+            foot_weight=np.array([m.mass * GRAVITY for m in inertia]),  # [N]
+        )
 
     def _home_snapshot(self) -> SensorSnapshot:
         """The robot standing still in its home posture, as sensed."""
@@ -427,8 +464,8 @@ class EfsmController(Controller):
             imu_acc=zeros3,
             left_ft=np.zeros(6),
             right_ft=np.zeros(6),
-            base_pos=qpos[0:3].copy(),
-            base_quat=qpos[3:7].copy(),
+            base_pos=qpos[FREE_POS].copy(),
+            base_quat=qpos[FREE_QUAT].copy(),
             base_linvel=zeros3,
             base_angvel=zeros3,
         )
@@ -439,19 +476,31 @@ class EfsmController(Controller):
         q, v = self._home_snapshot().pinocchio_state(self._robot)
         for scale in (0.0, 0.01):  # two states: the views must follow
             dq = np.full(model.nv, scale)
-            pin.computeAllTerms(model, data, pin.integrate(model, q, dq), v + scale)
+            q_moved = pin.integrate(model, q, dq)
+            pin.computeAllTerms(model, data, q_moved, v + scale)
+            pin.computeMinverse(model, data, q_moved)
             if not self._pose.aliases():
                 self._refresh_pose = True
 
     def _warm_up(self, robot: Robot, params: ControllerParams, control_period: float) -> None:
-        """Compile the kernels with a throwaway controller: one tick in DS, one in SSD."""
-        twin = EfsmController()
+        """Compile the kernels with a throwaway controller: one tick in DS, one in SSD.
+
+        numba notes, when it compiles, that ``@`` on a block of a matrix (a strided view)
+        copies it for BLAS; at these sizes (≤ 18 × 18) the copy costs less than writing the
+        blocks out, so that note is silenced here, and only here.
+        """
+        twin = type(self)()
+        twin.TASKS = self.TASKS
         twin._setup(robot, params, control_period)
         twin._refresh_pose = self._refresh_pose
         home = self._home_snapshot()
-        twin.step(0.0, home)
-        twin._st["phase"] = int(Phase.SSD)
-        twin.step(0.0, home)
+        with warnings.catch_warnings():
+            warnings.filterwarnings(
+                "ignore", ".*is faster on contiguous arrays", NumbaPerformanceWarning
+            )
+            twin.step(0.0, home)
+            twin._st["phase"] = Phase.SSD
+            twin.step(0.0, home)
 
     # ---- frames ------------------------------------------------------------------------
 
@@ -462,7 +511,7 @@ class EfsmController(Controller):
     @staticmethod
     def _ow_rotation(p_sup: np.ndarray, p_sw: np.ndarray) -> np.ndarray:
         """O_w axes (§III-A1): x from the support to the swing foot's ground projection."""
-        dx, dy = float(p_sw[0] - p_sup[0]), float(p_sw[1] - p_sup[1])
+        dx, dy = float(p_sw[X] - p_sup[X]), float(p_sw[Y] - p_sup[Y])
         return _yaw_rotation(math.atan2(dy, dx))
 
     # ---- the control tick ----------------------------------------------------------------
@@ -476,14 +525,16 @@ class EfsmController(Controller):
         """
         q, v = self._pin_state(sensors)
         # One pass: M, b + g, joint Jacobians and placements, CoM and its Jacobian, and (with
-        # q̈ = 0) the bias accelerations of every joint.
+        # q̈ = 0) the bias accelerations of every joint; then A⁻¹.
         pin.computeAllTerms(self._model, self._data, q, v)
+        pin.computeMinverse(self._model, self._data, q)
         if self._refresh_pose:
             self._pose.refresh()
             self._records = self._tick_records()
         if not self._started:
             self._start()
-        self._ft_wrench[0], self._ft_wrench[1] = sensors.left_ft, sensors.right_ft
+        self._ft_wrench[kernels.LEFT] = sensors.left_ft
+        self._ft_wrench[kernels.RIGHT] = sensors.right_ft
         transitions = kernels.tick(self._records)
         signals = Signals(self._signal_layout, self._signals.copy())
         events = self._events(transitions) if transitions else ()
@@ -495,7 +546,9 @@ class EfsmController(Controller):
         """The one argument of :func:`.kernels.tick`: the views of ``Data``, the tick state
         and the signal record (made once at reset; again only if the views are re-taken)."""
         pose = self._pose
-        return kernels.tick_records(pose.terms, pose.feet, self._state, self._signal_record)
+        return kernels.tick_records(
+            pose.terms, pose.feet, self._params, self._targets, self._state, self._signal_record
+        )
 
     def _events(self, transitions: int) -> tuple[dict, ...]:
         """The E-FSM transitions of a tick, then the footstep when the feet swapped roles."""
@@ -536,48 +589,46 @@ class EfsmController(Controller):
         pin.updateFramePlacements(model, data)  # once: the kernel places the frames it needs
         p_left, p_right = (data.oMf[self._sole[f]].translation for f in FEET)
         rot_ub_des = _yaw_only(data.oMi[PELVIS_JOINT].rotation)
-        st["rot_des_pelvis"] = rot_ub_des  # Table II: the upper body level, initial heading
-        st["rot_des_swing"] = _yaw_only(data.oMf[self._sole["left"]].rotation)  # sole level
-        st["heading"], st["lateral"] = rot_ub_des[:, 0], rot_ub_des[:, 1]
-        spacing = float(rot_ub_des[:, 1] @ (p_left - p_right))
-        st["width"] = spacing if p.step_width is None else p.step_width
-        com = data.com[0]
-        st["z_m0"] = float(com[2] - 0.5 * (p_left[2] + p_right[2]))
+        spacing = float(rot_ub_des[:, Y] @ (p_left - p_right))
+        self._targets = kernels.WalkTargets(
+            z_m0=float(data.com[0][Z] - 0.5 * (p_left[Z] + p_right[Z])),
+            width=spacing if p.step_width is None else p.step_width,
+            heading=rot_ub_des[:, X].copy(),
+            lateral=rot_ub_des[:, Y].copy(),
+            rot_des_pelvis=rot_ub_des,  # Table II: the upper body level, initial heading
+            rot_des_swing=_yaw_only(data.oMf[self._sole["left"]].rotation),  # sole level
+        )
+        self._records = self._tick_records()
         # The first DS: O_w sits on the first swing foot, the CoP moves onto the support
         # foot (x_s); it starts where the CoM projects (standing still, CoP ≈ CoM).
         sw = int(st["support"])  # roles in the first DS
         sup = 1 - sw
         st["support"] = sup
-        p_sup, p_sw = (p_left, p_right) if sup == 0 else (p_right, p_left)
+        p_sup, p_sw = (p_left, p_right) if FEET[sup] == "left" else (p_right, p_left)
         rot = self._ow_rotation(p_sup, p_sw)
-        st["xp_des"] = float((rot.T @ (com - p_sup))[0])
+        st["xp_des"] = float((rot.T @ (data.com[0] - p_sup))[X])
         self._rot_w[:] = rot
 
     def _task2_force(
         self, lam: np.ndarray, acc: np.ndarray, double: bool, eps: float, phase: Phase
     ) -> np.ndarray:
-        """F_2 = Λ ẍ* (Eq. 6) with the swing-foot wrench F_s saturated and scaled by ε.
+        """F = Λ ẍ* (Eq. 6) of task 2 of :attr:`TASKS` (the swing foot's level), with the
+        swing-foot wrench F_s saturated and scaled by ε in SSA, as the tick computes it
+        (:func:`.wbc.task2_force`, which documents the saturation modes).
 
-        Out of DS the last six rows are the swing foot. F_s is bounded component-wise
-        (§V-B) and multiplied by ε in SSA (§IV-C). With ``fs_saturation="uniform"`` the
-        bound is met by scaling the commanded linear swing acceleration (so every force
-        component stays within it and the foot keeps heading for its target); with
-        ``"component"`` the force rows are clipped one by one, with the
-        orientation acceleration kept (``fs_decoupled_saturation``): clipping the force
-        rows of Λ ẍ* alone leaves in the moment rows the coupling term of an acceleration
-        that is no longer produced, which pitched the swing foot 14° toe-up in free swing
-        and 35° against the obstacle. The CoM/yaw forces are then computed
-        with the swing-foot acceleration that this bounded F_s actually produces, so that
-        they do not carry the coupling of an unbounded swing acceleration.
-
-        The tick computes this inside :func:`.wbc.whole_body_torques`
-        (:func:`.wbc.task2_force`); this method is that function with the parameters.
+        Args:
+            lam: Λ_2; acc: ẍ*, in the level's row order (the swing rows left out in DS).
         """
+        tasks = task_set(self.TASKS, self._p.kp, self._p.kv)
+        layout = tasks.double if double else tasks.single
+        level_first = layout.first[layout.swing_level] if layout.swing_level >= 0 else 0
         p = self._p
         return wbc.task2_force(
             np.ascontiguousarray(lam, dtype=float),
             np.ascontiguousarray(acc, dtype=float),
-            double,
+            max(layout.swing_first - level_first, 0),
+            layout.swing_lin.size,
+            layout.swing_ang.size,
             eps if phase is Phase.SSA else 1.0,
             p.fs_max_force,
             p.fs_max_moment,
@@ -594,17 +645,23 @@ class EfsmController(Controller):
         the F/T frames of ``Data``'s last ``updateFramePlacements``.
         """
         frames = [self._data.oMf[self._ft[f]] for f in FEET]
+        feet = self._params.feet
         return kernels.measured_cop(
             np.array([f.rotation for f in frames]),
             np.array([f.translation for f in frames]),
             sensors.left_ft,
             sensors.right_ft,
-            self._st["foot_com"],
-            self._st["foot_weight"],
+            feet.foot_com,
+            feet.foot_weight,
         )
 
 
-def _saturation_mode(p: EfsmParams) -> int:
+def _placeholder_targets() -> kernels.WalkTargets:
+    """Targets of the right types until the first tick records the real ones."""
+    return kernels.WalkTargets(0.0, 0.0, np.zeros(3), np.zeros(3), np.eye(3), np.eye(3))
+
+
+def _saturation_mode(p: EfsmParams) -> wbc.Saturation:
     """F_s saturation as :func:`.wbc.task2_force` reads it."""
     if not p.fs_decoupled_saturation:
         return wbc.CLIP
@@ -613,9 +670,7 @@ def _saturation_mode(p: EfsmParams) -> int:
 
 def _rot_z(c: float, s: float) -> np.ndarray:
     """Rotation about z with cosine ``c`` and sine ``s``."""
-    rot = np.eye(3)
-    rot[0, 0], rot[0, 1], rot[1, 0], rot[1, 1] = c, -s, s, c
-    return rot
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 def _yaw_rotation(yaw: float) -> np.ndarray:
@@ -625,4 +680,4 @@ def _yaw_rotation(yaw: float) -> np.ndarray:
 
 def _yaw_only(rot: np.ndarray) -> np.ndarray:
     """The yaw part of a rotation: level, with the same heading."""
-    return _yaw_rotation(math.atan2(rot[1, 0], rot[0, 0]))
+    return _yaw_rotation(math.atan2(rot[Y, X], rot[X, X]))

@@ -5,13 +5,16 @@ feet's frames, the walking frame O_w (§III-A1), the E-FSM (:mod:`.fsm`, Table I
 footstep planner, A⁻¹ and J̇_c q̇, Γ (:mod:`.wbc`, Eq. 7) and the expected and measured
 CoPs, then the logged signals. It is one numba call because the Python around it cost
 more than the algebra: numba's dispatcher types each argument in Python at every call
-(≈ 50 ns an array, µs a named tuple or a structured array; hence :class:`TickRecords`, one
-StructRef of the views of Pinocchio's ``Data``, :func:`tick_state` and the signal record,
-made once at reset), a Pinocchio call ≈ 1 µs, a line of Python ≈ 0.1 µs. Records passed between compiled
-functions (:class:`.wbc.WbcDynamics`, :class:`.fsm.FsmInput`, …) are named tuples built in
-compiled code, where they cost nothing. ``cache=True`` keeps the machine code on disk, so
-only the first process compiles; the controller's reset compiles or loads it with two
-throwaway ticks.
+(≈ 50 ns an array, µs a named tuple or a structured array), a Pinocchio call ≈ 1 µs, a line
+of Python ≈ 0.1 µs. So the tick takes one argument, :class:`TickRecords` (a record of
+:mod:`walkrepro.runtime.records`, made once at reset and again on the first tick), which
+holds the views of Pinocchio's ``Data``, the parameters (:class:`TickParams`, made at reset),
+the targets the first tick records (:class:`WalkTargets`, Table II), the state
+(:func:`tick_state`) and the signal record. Records passed between compiled functions
+(:class:`.wbc.WbcDynamics`, :class:`.fsm.FsmInput`, …) are named tuples built in compiled
+code, where they cost nothing. ``cache=True`` keeps the machine code on disk, so only the
+first process compiles; the controller's reset compiles or loads it with two throwaway
+ticks.
 
 The signals the tick writes are declared once, :data:`SIGNALS`; :func:`signal_dtype` makes
 the record the tick writes them into by name, :func:`signal_layout` the log's layout of the
@@ -25,8 +28,6 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
-from numba import types
-from numba.experimental import structref
 
 from walkrepro.log.signals import SignalLayout
 from walkrepro.papers.lee2021.fsm import (
@@ -41,127 +42,66 @@ from walkrepro.papers.lee2021.fsm import (
     transition_distance,
     weight_shift_cop,
 )
+from walkrepro.papers.lee2021.tasks import ANGULAR, LINEAR, SPATIAL
 from walkrepro.papers.lee2021.wbc import (
     WbcDynamics,
     WbcFrames,
+    WbcOutput,
     WbcParams,
     WbcTargets,
     whole_body_torques,
 )
-from walkrepro.sim.robot import eigen_rotate, frame_classical_acceleration
+from walkrepro.runtime.records import define_record
+from walkrepro.sim.robot import frame_classical_acceleration
 
 #: Compiled, cached on disk; float division by zero gives inf/NaN as in numpy.
 _jit = numba.njit(cache=True, error_model="numpy")
 
-# Phases of fsm.Phase, as plain ints for the compiled code.
-_SSD, _DS = int(Phase.SSD), int(Phase.DS)
+#: Axes of a point or vector; its x and y; a wrench's force and moment.
+X, Y, Z = 0, 1, 2
+XY = slice(X, Z)
+FORCE, MOMENT = LINEAR, ANGULAR
+#: The feet, indexed as ``controller.FEET``: 0 left, 1 right (1 − i the other one).
+LEFT, RIGHT = 0, 1
+#: The rows of :func:`tick_state`'s ``pin_state``: Pinocchio's q, then v.
+Q_ROW, V_ROW = 0, 1
 
 
 # ---- Pinocchio's last steps, in the tick ----------------------------------------------------
-# After computeAllTerms a tick also called Pinocchio's cholesky.decompose, computeMinv and
-# getFrameClassicalAcceleration: about 1 µs of Python binding each, and a fresh 18 × 18 array.
-# These kernels (and robot.frame_classical_acceleration, shared with Paper III's controller)
-# compute what those calls return inside the tick, in Pinocchio's operations;
-# tests/test_efsm_kernels.py checks them against Pinocchio to 1e-12, and
-# benchmarks/pinocchio_ports.py measures what calling Pinocchio instead would cost.
+# After computeAllTerms (and computeMinverse, for A⁻¹) a tick also needs the soles' and F/T
+# frames' placements and the soles' classical accelerations. Calling Pinocchio for them from
+# Python costs about 1 µs of binding per call and a fresh array; computing them in the tick
+# costs well under a µs. The placements are the matrix expressions (tests/test_efsm_kernels.py
+# checks them against Pinocchio at a tolerance); the classical acceleration is
+# robot.frame_classical_acceleration, shared with Paper III's controller.
 
 
 @_jit
-def mass_matrix_inverse(
-    mass: np.ndarray, parent: np.ndarray, subtree: np.ndarray, out: np.ndarray
-) -> None:
-    """A⁻¹ from A's upper triangle, as Pinocchio's ``cholesky.decompose`` + ``computeMinv``.
-
-    A = U D Uᵀ along the kinematic tree (U unit upper triangular, non-zero only between a
-    velocity coordinate and its ancestors); then column c of A⁻¹ is U⁻ᵀ D⁻¹ U⁻¹ e_c, of which
-    the upper triangle is kept and mirrored. Every entry gets the terms of Pinocchio's sums
-    in Pinocchio's order (left to right: its dot products run along strided rows, which
-    Eigen does not vectorize). Only the loops are turned, so that independent sums
-    (ancestors; columns) run side by side rather than one after the other: a direct port
-    of Pinocchio's column-by-column loops cost as much as the two Python calls it replaces.
-
-    Args:
-        mass: A (``data.M`` after computeAllTerms; only its upper triangle is read), (n, n).
-        parent: ``data.parents_fromRow``, (n,); subtree: ``data.nvSubtree_fromRow``, (n,).
-        out: A⁻¹, both triangles, (n, n).
-    """
-    n = mass.shape[0]
-    u = np.zeros((n, n))  # U's strict upper triangle
-    d, d_inv, du, acc = np.empty((4, n))  # D, D⁻¹ and two work vectors: one allocation
-    rows = np.empty(n, dtype=np.int64)
-    # cholesky.decompose, last coordinate first: D_j = A_jj − Σ_k U_jk D_k U_jk and
-    # U_ij = (A_ij − Σ_k U_ik D_k U_jk) / D_j for each ancestor i, k over j's subtree.
-    for j in range(n - 1, -1, -1):
-        below = subtree[j] - 1  # the coordinates j + 1 … j + below move with j
-        for k in range(below):
-            du[k] = u[j, j + 1 + k] * d[j + 1 + k]
-        n_rows, i = 0, j  # j, then its ancestors
-        while i >= 0:
-            rows[n_rows] = i
-            n_rows += 1
-            i = parent[i]
-        for r in range(n_rows):  # Eigen's sums: the first term, then + each next one
-            acc[r] = u[rows[r], j + 1] * du[0] if below else 0.0
-        for k in range(1, below):
-            for r in range(n_rows):
-                acc[r] = acc[r] + u[rows[r], j + 1 + k] * du[k]
-        d[j] = mass[j, j] - acc[0]
-        d_inv[j] = 1.0 / d[j]
-        for r in range(1, n_rows):
-            u[rows[r], j] = (mass[rows[r], j] - acc[r]) * d_inv[j]
-    # computeMinv: column c is e_c, then U⁻¹ (back substitution), D⁻¹ on rows ≤ c, and U⁻ᵀ
-    # (forward substitution); all columns at once, the rows > c left out (Pinocchio
-    # computes them, then overwrites them with the mirror image).
-    # In U⁻¹ e_c only the ancestors of c (and c) are non-zero: the other terms of
-    # Pinocchio's sums are ±0, which change no non-zero sum, so they are skipped; the
-    # non-zero ones are added in its order, from +0.0 (its first term may be ±0: the same).
-    for i in range(n):
-        for c in range(n):
-            out[i, c] = 1.0 if i == c else 0.0
-    for k in range(n - 2, -1, -1):
-        end = k + subtree[k]  # the columns below k: k + 1 … end − 1
-        acc[k + 1 : end] = 0.0
-        for i in range(k + 1, end):
-            u_ki = u[k, i]
-            for c in range(i, i + subtree[i]):  # the columns with row i non-zero
-                acc[c] = acc[c] + u_ki * out[i, c]
-        for c in range(k + 1, end):
-            out[k, c] = -acc[c]
-    for k in range(n):
-        for c in range(k, n):
-            out[k, c] *= d_inv[k]
-    for k in range(n):
-        for i in range(k + 1, k + subtree[k]):
-            u_ki = u[k, i]
-            for c in range(i, n):
-                out[i, c] -= u_ki * out[k, c]
-    for i in range(n):
-        for c in range(i):
-            out[i, c] = out[c, i]
+def symmetric_from_upper(upper: np.ndarray) -> np.ndarray:
+    """The symmetric matrix whose upper triangle is ``upper``'s (Pinocchio fills only the
+    upper triangle of ``data.M`` and ``data.Minv``): the upper triangle mirrored (a copy
+    loop: ``np.triu(m) + np.triu(m, 1).T`` gives the same values for 1 µs more)."""
+    out = upper.copy()
+    for i in range(out.shape[0]):
+        for j in range(i):
+            out[i, j] = out[j, i]
+    return out
 
 
 @_jit
 def frame_placement(
-    joint_rot: np.ndarray,
-    joint_pos: np.ndarray,
-    local_rot: np.ndarray,
-    local_pos: np.ndarray,
-    rot: np.ndarray,
-    pos: np.ndarray,
-) -> None:
-    """A frame's world placement, as Pinocchio's ``updateFramePlacements`` (oMf = oMi · iMf).
+    joint_rot: np.ndarray, joint_pos: np.ndarray, local_rot: np.ndarray, local_pos: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """A frame's world placement oMf = oMi · iMf (Pinocchio's ``updateFramePlacements``).
 
     Args:
         joint_rot, joint_pos: ``data.oMi[j]`` of the frame's joint.
         local_rot, local_pos: the frame's placement in the joint (``model.frames[f]``).
-        rot, pos: out: the frame's world rotation (3, 3) and position (3,) [m].
+
+    Returns:
+        The frame's world rotation (3, 3) and position (3,) [m].
     """
-    for col in range(3):
-        rot[0, col], rot[1, col], rot[2, col] = eigen_rotate(
-            joint_rot, local_rot[0, col], local_rot[1, col], local_rot[2, col]
-        )
-    x0, x1, x2 = eigen_rotate(joint_rot, local_pos[0], local_pos[1], local_pos[2])
-    pos[0], pos[1], pos[2] = joint_pos[0] + x0, joint_pos[1] + x1, joint_pos[2] + x2
+    return joint_rot @ local_rot, joint_pos + joint_rot @ local_pos
 
 
 class WalkingFrame(NamedTuple):
@@ -192,12 +132,12 @@ def ow_frame(
         com, vcom: CoM position [m] and velocity [m/s] in the world.
         rot_w: out: the world-from-O_w rotation, (3, 3).
     """
-    yaw = math.atan2(p_sw[1] - p_sup[1], p_sw[0] - p_sup[0])
+    yaw = math.atan2(p_sw[Y] - p_sup[Y], p_sw[X] - p_sup[X])
     c, s = math.cos(yaw), math.sin(yaw)
     rot_w[:] = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     w_from_world = np.ascontiguousarray(rot_w.T)
     return WalkingFrame(
-        yaw, w_from_world @ (com - p_sup), w_from_world @ vcom, (w_from_world @ (p_sw - p_sup))[0]
+        yaw, w_from_world @ (com - p_sup), w_from_world @ vcom, (w_from_world @ (p_sw - p_sup))[X]
     )
 
 
@@ -226,19 +166,19 @@ def measured_cop(
     """
     force_z = 0.0
     moment = np.zeros(3)  # about the world origin [Nm]
-    for foot in range(2):
-        wrench = wrench_left if foot == 0 else wrench_right
+    for foot in (LEFT, RIGHT):
+        wrench = wrench_left if foot == LEFT else wrench_right
         rot, pos = ft_rot[foot], ft_pos[foot]
-        force = rot @ wrench[:3]  # [N], world axes
+        force = rot @ wrench[FORCE]  # [N], world axes
         weight = np.array([0.0, 0.0, foot_weight[foot]])  # [N], along +z
-        if force[2] + weight[2] <= 0.0:
+        if force[Z] + weight[Z] <= 0.0:
             continue
         com = pos + rot @ foot_com[foot]  # [m], world
-        force_z += force[2] + weight[2]
-        moment += rot @ wrench[3:] + np.cross(pos, force) + np.cross(com, weight)
+        force_z += force[Z] + weight[Z]
+        moment += rot @ wrench[MOMENT] + np.cross(pos, force) + np.cross(com, weight)
     if force_z <= 1e-6:
         return math.nan, math.nan
-    return -moment[1] / force_z, moment[0] / force_z
+    return -moment[Y] / force_z, moment[X] / force_z
 
 
 @_jit
@@ -332,91 +272,106 @@ def signal_dtype(n_actuators: int) -> np.dtype:
     )
 
 
-def tick_state(nq: int, nv: int, n_actuators: int) -> np.ndarray:
-    """A zeroed state of :func:`tick`: one numpy record (a structured array of length 1).
+class FootFrames(NamedTuple):
+    """Each foot's constant frames in the kinematic tree (left, right; from the model).
 
-    The controller's own arrays and numbers, as one argument: numba unboxes a record in one
-    step, where two dozen separate arrays and numbers cost ≈ 50 ns each. The controller
-    keeps views of the fields it writes or reads (``state["tau"][0]`` is a view). A field
-    with a leading axis of 2 holds one entry per foot, indexed as ``controller.FEET``
-    (0 left, 1 right).
+    Attributes:
+        sole_chain: whether each velocity coordinate moves the sole (1/0), shape (2, n).
+        sole_local_rot, sole_local_pos: the sole frame in its joint (ankle roll), (2, 3, 3)
+            and (2, 3) [m].
+        ft_local_rot, ft_local_pos: the F/T sensor frame in the same joint.
+        foot_com: the CoM of the part below the F/T sensor, sensor frame [m], (2, 3).
+        foot_weight: that part's weight [N], shape (2,) (:func:`measured_cop`).
+    """
+
+    sole_chain: np.ndarray
+    sole_local_rot: np.ndarray
+    sole_local_pos: np.ndarray
+    ft_local_rot: np.ndarray
+    ft_local_pos: np.ndarray
+    foot_com: np.ndarray
+    foot_weight: np.ndarray
+
+
+class TickParams(NamedTuple):
+    """The controller's parameters as the tick reads them, made once at reset
+    (``EfsmParams``; :meth:`.controller.EfsmController.reset`).
+
+    Attributes:
+        fsm: the E-FSM's (:class:`.fsm.FsmParams`). wbc: the OS-WBC's, with its task
+            hierarchy (:class:`.wbc.WbcParams`).
+        ds_onset_ramp: ε's ramp at DS onset (``EfsmParams.ds_onset_ramp``).
+        raise_height, land_height: swing heights in SSD and otherwise (Table II) [m].
+        step_length [m], n_steps (−1: no limit), first_step_scale: the footstep planner.
+        shift_ticks: the first DS's weight shift in ticks (``EfsmParams.first_ds_shift``).
+        control_period: [s].
+        feet: :class:`FootFrames`.
+    """
+
+    fsm: FsmParams
+    wbc: WbcParams
+    ds_onset_ramp: bool
+    raise_height: float
+    land_height: float
+    step_length: float
+    n_steps: int
+    first_step_scale: float
+    shift_ticks: int
+    control_period: float
+    feet: FootFrames
+
+
+class WalkTargets(NamedTuple):
+    """The walk's targets, recorded on the first tick from the standing robot (Table II).
+
+    Attributes:
+        z_m0: the CoM height above the soles (Eq. 2) [m].
+        width: the lateral foot spacing [m].
+        heading, lateral: the walking direction and the left-pointing axis, world (3,).
+        rot_des_pelvis, rot_des_swing: orientation targets, world-from-target (level, the
+            initial heading).
+    """
+
+    z_m0: float
+    width: float
+    heading: np.ndarray
+    lateral: np.ndarray
+    rot_des_pelvis: np.ndarray
+    rot_des_swing: np.ndarray
+
+
+def tick_state(nq: int, nv: int, n_actuators: int) -> np.ndarray:
+    """A zeroed state of :func:`tick`: one numpy record (a structured array of length 1),
+    what the tick reads and writes and nothing it only reads (:class:`TickParams`).
+
+    The controller keeps views of the fields it writes or reads (``state["tau"][0]`` is a
+    view).
 
     Fields:
-        kp, kv, fs_max_force, fs_max_moment, fs_saturation (wbc.CLIP, …), balance (1/0),
-            cop_margin, torque_limit, half_sole: :class:`.wbc.WbcParams`.
-        zeta, r, dxp, d_thr, v_stop, use_epsilon: :class:`.fsm.FsmParams`;
-            ds_onset_ramp: ε's ramp at DS onset (1/0, ``EfsmParams.ds_onset_ramp``).
-        step_length, n_steps (−1: no limit), width, heading, lateral: the footstep planner.
-        z_m0, raise_height, land_height: CoM height (Eq. 2) and swing heights (Table II) [m].
-        rot_des_pelvis, rot_des_swing: orientation targets (Table II), world-from-target.
-        actuator_rows: the joint-torque row of each actuator.
-        parents_from_row, nv_subtree_from_row: Pinocchio's tree (:func:`mass_matrix_inverse`).
-        sole_chain: per foot, whether each velocity coordinate moves the sole (1/0).
-        sole_local_rot/pos, ft_local_rot/pos: per foot, the sole and F/T frame in its joint.
-        foot_com, foot_weight: per foot, as :func:`measured_cop`.
-        support (0 left, 1 right), phase (fsm.Phase), xp_des [m], ds_start_xp (x_p^des when
-            DS started; NaN out of DS) [m], steps_done, swing_target [m]: the E-FSM's state.
-        shift_ticks, shift_tick, control_period [s]: the first DS's weight shift
-            (``EfsmParams.first_ds_shift``: its length in ticks, the ticks done);
-            first_step_scale: the first footstep's fraction of step_length.
+        support (0 left, 1 right), phase (:class:`.fsm.Phase`), xp_des [m], ds_start_xp
+            (x_p^des when DS started; NaN out of DS) [m], steps_done, swing_target [m]: the
+            E-FSM's and the planner's state.
+        shift_tick: the ticks done of the first DS's weight shift.
         rot_w: world-from-O_w, rewritten every tick.
-        pin_state: Pinocchio's q (row 0, first nq entries) and v (row 1, first nv entries)
-            of the tick, written by the controller (:func:`walkrepro.sim.robot.pin_state_into`).
+        pin_state: Pinocchio's q (row :data:`Q_ROW`, first nq entries) and v (row
+            :data:`V_ROW`, first nv entries) of the tick, written by the controller
+            (:func:`walkrepro.sim.robot.pin_state_into`).
         ft_wrench: per foot, the F/T reading of the tick (see :func:`measured_cop`), written
             by the controller.
         tau: out: actuator torques [Nm].
     """
     f8, i8 = np.float64, np.int64
     fields = [
-        ("kp", f8),
-        ("kv", f8),
-        ("fs_max_force", f8),
-        ("fs_max_moment", f8),
-        ("fs_saturation", i8),
-        ("balance", i8),
-        ("cop_margin", f8),
-        ("torque_limit", f8),
-        ("half_sole", f8, (2,)),
-        ("zeta", f8),
-        ("r", f8),
-        ("dxp", f8),
-        ("d_thr", f8),
-        ("v_stop", f8),
-        ("use_epsilon", i8),
-        ("ds_onset_ramp", i8),
-        ("step_length", f8),
-        ("n_steps", i8),
-        ("width", f8),
-        ("heading", f8, (3,)),
-        ("lateral", f8, (3,)),
-        ("z_m0", f8),
-        ("raise_height", f8),
-        ("land_height", f8),
-        ("rot_des_pelvis", f8, (3, 3)),
-        ("rot_des_swing", f8, (3, 3)),
-        ("actuator_rows", i8, (n_actuators,)),
-        ("parents_from_row", i8, (nv,)),
-        ("nv_subtree_from_row", i8, (nv,)),
-        ("sole_chain", i8, (2, nv)),
-        ("sole_local_rot", f8, (2, 3, 3)),
-        ("sole_local_pos", f8, (2, 3)),
-        ("ft_local_rot", f8, (2, 3, 3)),
-        ("ft_local_pos", f8, (2, 3)),
-        ("foot_com", f8, (2, 3)),
-        ("foot_weight", f8, (2,)),
         ("support", i8),
         ("phase", i8),
         ("xp_des", f8),
         ("ds_start_xp", f8),
         ("steps_done", i8),
         ("swing_target", f8, (3,)),
-        ("shift_ticks", i8),
         ("shift_tick", i8),
-        ("control_period", f8),
-        ("first_step_scale", f8),
         ("rot_w", f8, (3, 3)),
         ("pin_state", f8, (2, max(nq, nv))),
-        ("ft_wrench", f8, (2, 6)),
+        ("ft_wrench", f8, (2, SPATIAL)),
         ("tau", f8, (n_actuators,)),
     ]
     return np.zeros(1, dtype=np.dtype(fields, align=True))
@@ -426,7 +381,8 @@ class PinocchioTerms(NamedTuple):
     """What a tick reads of Pinocchio's ``computeAllTerms`` (views of ``Data``), world axes.
 
     Attributes:
-        mass: A, ``data.M`` (only its upper triangle is read), shape (n, n).
+        mass_inv: A⁻¹, ``data.Minv`` after ``computeMinverse`` (only its upper triangle is
+            read), shape (n, n).
         nle: b + g, ``data.nle``, shape (n,).
         j_world: the joint Jacobians ``data.J``, shape (6, n).
         j_com: the CoM Jacobian ``data.Jcom``, shape (3, n).
@@ -434,7 +390,7 @@ class PinocchioTerms(NamedTuple):
         pelvis_rot: world-from-pelvis rotation, ``data.oMi[1].rotation``.
     """
 
-    mass: np.ndarray
+    mass_inv: np.ndarray
     nle: np.ndarray
     j_world: np.ndarray
     j_com: np.ndarray
@@ -458,45 +414,201 @@ class FootJoint(NamedTuple):
     acc: np.ndarray
 
 
-@structref.register
-class TickRecordsType(types.StructRef):
-    """numba's type of :class:`TickRecords` (its fields typed as given, not literal)."""
-
-    def preprocess_fields(self, fields: tuple) -> tuple:
-        """The fields' types without literal values."""
-        return tuple((name, types.unliteral(typ)) for name, typ in fields)
-
-
-class TickRecords(structref.StructRefProxy):
-    """Everything :func:`tick` reads and writes, as one argument; make it with
-    :func:`tick_records` once at reset (its arrays are views, filled in place every tick).
-
-    Fields: ``terms`` (:class:`PinocchioTerms`) and ``feet`` (:class:`FootJoint` of the
-    left, then the right foot), views of Pinocchio's ``Data``; ``state`` (:func:`tick_state`)
-    and ``signals`` (a record of :func:`signal_dtype`). Why not separate arguments or a named
-    tuple: numba's dispatcher finds the type of every argument in Python at every call,
-    ≈ 2 µs for the fifteen arrays of ``terms`` and ``feet`` and ≈ 15–20 µs for the two
-    structured arrays (more than a tenth of the tick); a StructRef carries its type, and its
-    arrays were unboxed once, when it was made.
-    """
-
-
-structref.define_proxy(TickRecords, TickRecordsType, ["terms", "feet", "state", "signals"])
+#: Everything :func:`tick` reads and writes, as one argument (:mod:`walkrepro.runtime.records`):
+#: ``terms`` (:class:`PinocchioTerms`) and ``feet`` (:class:`FootJoint` of the left, then the
+#: right foot), views of Pinocchio's ``Data``; ``params`` (:class:`TickParams`); ``targets``
+#: (:class:`WalkTargets`); ``state`` (:func:`tick_state`) and ``signals`` (a record of
+#: :func:`signal_dtype`). Make it with :func:`tick_records`.
+TickRecordsType, TickRecords = define_record(
+    "TickRecords", ("terms", "feet", "params", "targets", "state", "signals"), __name__
+)
 
 
 @_jit
 def tick_records(
     terms: PinocchioTerms,
     feet: tuple[FootJoint, FootJoint],
+    params: TickParams,
+    targets: WalkTargets,
     state: np.ndarray,
     signals: np.ndarray,
 ) -> TickRecords:
     """The :class:`TickRecords` of these views and records (``feet``: left, right); compiled
     and cached, unlike the proxy's own constructor."""
-    return TickRecords(terms, feet, state, signals)
+    return TickRecords(terms, feet, params, targets, state, signals)
 
 
 # ---- the control tick: O_w, E-FSM, footsteps, OS-WBC ----------------------------------------
+
+
+class FootPlacements(NamedTuple):
+    """The soles' and F/T frames' world placements of a tick (left, right).
+
+    Attributes:
+        sole_rot, sole_pos: world-from-sole rotations (2, 3, 3), sole centres [m] (2, 3).
+        ft_rot, ft_pos: the same of the F/T sensor frames.
+    """
+
+    sole_rot: np.ndarray
+    sole_pos: np.ndarray
+    ft_rot: np.ndarray
+    ft_pos: np.ndarray
+
+
+@_jit
+def place_feet(feet: tuple[FootJoint, FootJoint], frames: FootFrames) -> FootPlacements:
+    """The soles and the F/T frames (left, right), as ``updateFramePlacements``."""
+    out = FootPlacements(
+        np.empty((2, 3, 3)), np.empty((2, 3)), np.empty((2, 3, 3)), np.empty((2, 3))
+    )
+    for f in (LEFT, RIGHT):
+        rot, pos = feet[f].rot, feet[f].pos
+        out.sole_rot[f], out.sole_pos[f] = frame_placement(
+            rot, pos, frames.sole_local_rot[f], frames.sole_local_pos[f]
+        )
+        out.ft_rot[f], out.ft_pos[f] = frame_placement(
+            rot, pos, frames.ft_local_rot[f], frames.ft_local_pos[f]
+        )
+    return out
+
+
+class EfsmTick(NamedTuple):
+    """The E-FSM's part of a tick (:func:`efsm_tick`).
+
+    Attributes:
+        fsm: :class:`.fsm.FsmOutput` (its ``xp_des`` in the old O_w when DS ended).
+        ow: :class:`WalkingFrame` of the tick's support foot.
+        x_cp: the capture point along x of O_w, Eq. (2) [m].
+        xp_des: x_p^des in that O_w [m].
+    """
+
+    fsm: FsmOutput
+    ow: WalkingFrame
+    x_cp: float
+    xp_des: float
+
+
+@_jit
+def efsm_tick(
+    params: TickParams,
+    targets: WalkTargets,
+    st: np.ndarray,
+    sole_pos: np.ndarray,
+    com: np.ndarray,
+    vcom: np.ndarray,
+) -> EfsmTick:
+    """O_w and the E-FSM inputs (§III-A1, Eq. 2), the E-FSM (Table I), and when DS ends the
+    feet's new roles and the next footstep; ``st`` (:func:`tick_state`) updated."""
+    sup, rot_w, z_m0 = st.support, st.rot_w, targets.z_m0
+    sw = 1 - sup
+    ow = ow_frame(sole_pos[sup], sole_pos[sw], com, vcom, rot_w)
+    x_cp = capture_point(ow.com_w[X], ow.vcom_w[X], z_m0)
+    fsm_input = FsmInput(ow.com_w[X], ow.vcom_w[X], x_cp, ow.x_s)
+    fp = params.fsm
+    if st.phase == Phase.DS and st.steps_done == 0 and st.shift_tick < params.shift_ticks:
+        # The first DS's weight shift (EfsmParams.first_ds_shift): the lab's capture-point
+        # law puts x_p^des until the shift's time is up; ε and d as in every DS (§IV-B).
+        st.shift_tick += 1
+        remaining = (params.shift_ticks - st.shift_tick) * params.control_period
+        xp_shift = weight_shift_cop(x_cp, ow.x_s, remaining, z_m0)
+        d_shift = transition_distance(Phase.DS, ow.x_s, xp_shift, x_cp, fp.r)
+        eps_shift = epsilon(d_shift, fp.d_thr) if fp.use_epsilon else 1.0
+        fsm = FsmOutput(Phase.DS.value, xp_shift, eps_shift, d_shift, 0)
+    else:
+        fsm = fsm_step(st.phase, st.xp_des, fsm_input, fp)
+    xp_des = fsm.xp_des
+    if fsm.transitions & DS_TO_SSD:
+        # DS ends: the swing foot becomes the support foot; next footstep target; O_w moves
+        # (x_p^des, the new support centre, is 0 in it).
+        sup, sw = sw, sup
+        st.support = sup
+        st.steps_done += 1
+        st.swing_target[:] = next_swing_target(
+            sole_pos[sup], sw, st.steps_done, params.step_length, params.n_steps,
+            targets.width, targets.heading, targets.lateral, params.first_step_scale,
+        )  # fmt: skip
+        ow = ow_frame(sole_pos[sup], sole_pos[sw], com, vcom, rot_w)
+        x_cp = capture_point(ow.com_w[X], ow.vcom_w[X], z_m0)
+        xp_des = 0.0
+    st.phase, st.xp_des = fsm.phase, xp_des
+    return EfsmTick(fsm, ow, x_cp, xp_des)
+
+
+@_jit
+def ds_onset(params: TickParams, st: np.ndarray, xp_des: float) -> float:
+    """ε's ramp at DS onset (``EfsmParams.ds_onset_ramp``): the landing foot's wrench grows
+    from 0 over the first d^thr of the x_p^des ramp; 1 out of DS (``st`` updated)."""
+    if st.phase != Phase.DS:
+        st.ds_start_xp = math.nan  # Γ_c = 0
+        return 1.0
+    if math.isnan(st.ds_start_xp):
+        st.ds_start_xp = xp_des
+    # Not in the first DS's weight shift: both feet stand from the start, none lands.
+    standing = st.steps_done == 0 and params.shift_ticks > 0
+    if params.fsm.use_epsilon and params.ds_onset_ramp and not standing:
+        return epsilon(abs(xp_des - st.ds_start_xp), params.fsm.d_thr)
+    return 1.0
+
+
+@_jit
+def contact_bias(
+    feet: tuple[FootJoint, FootJoint], frames: FootFrames, sup: int, double: bool
+) -> np.ndarray:
+    """J̇_c q̇ of the contacts, as Pinocchio's classical accelerations: the support sole,
+    then the swing sole in DS, shape (6 or 12,)."""
+    contacts = (sup, 1 - sup) if double else (sup, sup)
+    bias = np.empty((2, SPATIAL))
+    for i, f in enumerate(contacts):
+        frame_classical_acceleration(
+            feet[f].rot, feet[f].vel, feet[f].acc, frames.sole_local_pos[f], bias[i]
+        )
+    return bias.ravel() if double else bias[LEFT].copy()
+
+
+@_jit
+def write_signals(
+    out: np.ndarray,
+    st: np.ndarray,
+    terms: PinocchioTerms,
+    efsm: EfsmTick,
+    eps_onset: float,
+    sole_pos: np.ndarray,
+    swing_ref: np.ndarray,
+    wbc: WbcOutput,
+    cop_meas: tuple[float, float],
+    r: float,
+) -> None:
+    """The signals (:data:`SIGNALS`) of a tick into ``out``, by name."""
+    ow, fsm, sup = efsm.ow, efsm.fsm, st.support
+    sw = 1 - sup
+    double = st.phase == Phase.DS
+    p_sup, p_sw, rot_w = sole_pos[sup], sole_pos[sw], st.rot_w
+    out.fsm_state = 0.0 if double else (1.0 if sup == LEFT else -1.0)
+    out.efsm_phase = st.phase
+    out.epsilon, out.epsilon_onset = fsm.epsilon, eps_onset
+    out.d = fsm.d if math.isfinite(fsm.d) else 1.0
+    out.com_w[:] = ow.com_w
+    out.com_vel_w[:] = ow.vcom_w
+    out.com_world[:] = terms.com
+    out.com_vel_world[:] = terms.vcom
+    out.cp_w, out.cp_ref_w, out.x_s_w, out.xp_des_w = efsm.x_cp, ow.x_s - r, ow.x_s, efsm.xp_des
+    rot_w_xy = rot_w[XY, XY]  # (c, −s; s, c)
+    out.xp_des_world[:] = p_sup[XY] + rot_w_xy[:, X] * efsm.xp_des
+    out.cop_exp_w[X], out.cop_exp_w[Y] = wbc.cop_exp_x, wbc.cop_exp_y
+    out.cop_exp_world[:] = p_sup[XY] + rot_w_xy @ out.cop_exp_w
+    meas_valid = math.isfinite(cop_meas[X]) and math.isfinite(cop_meas[Y])
+    if meas_valid:
+        out.cop_meas_world[X], out.cop_meas_world[Y] = cop_meas
+    else:  # no foot loaded: logs hold finite numbers only
+        out.cop_meas_world[:] = 0.0
+    out.cop_meas_valid = meas_valid
+    out.swing_pos_world[:] = p_sw
+    out.swing_ref_world[:] = swing_ref
+    out.swing_foot = 0.0 if double else (1.0 if sup == LEFT else -1.0)
+    out.support_pos_world[:] = p_sup
+    out.ow_yaw = ow.yaw
+    out.com_force_x, out.balancing, out.steps_done = wbc.com_force_x, wbc.balancing, st.steps_done
+    out.tau_ref[:] = st.tau
 
 
 @_jit
@@ -506,143 +618,53 @@ def tick(records: TickRecords) -> int:
 
     Args:
         records: (:class:`TickRecords`) ``terms`` and ``feet``: views of ``Data`` after
-            computeAllTerms, the dynamics, CoM and pelvis (:class:`PinocchioTerms`) and the
-            joint carrying each foot's sole and F/T frame (:class:`FootJoint`, left and
-            right); ``state``: :func:`tick_state`, read and updated (``ft_wrench``: the
-            tick's F/T readings, written by the controller; ``tau`` is written);
-            ``signals``: out: a record of :func:`signal_dtype` (length 1), every field
-            written.
+            computeAllTerms; ``params``, ``targets``: read; ``state``: :func:`tick_state`,
+            read and updated (``ft_wrench``: the tick's F/T readings, written by the
+            controller; ``tau`` is written); ``signals``: out: a record of
+            :func:`signal_dtype` (length 1), every field written.
 
     Returns:
         The E-FSM transitions of the tick as bits (:data:`.fsm.DS_TO_SSD`: the feet swapped
         roles).
     """
-    terms, feet = records.terms, records.feet
+    terms, feet, params, targets = records.terms, records.feet, records.params, records.targets
     st = records.state[0]
-    n = terms.mass.shape[0]
-    # The soles and the F/T frames (left, right), as updateFramePlacements.
-    sole_rot, sole_pos = np.empty((2, 3, 3)), np.empty((2, 3))
-    ft_rot, ft_pos = np.empty((2, 3, 3)), np.empty((2, 3))
-    for f in range(2):
-        rot, pos = feet[f].rot, feet[f].pos
-        frame_placement(
-            rot, pos, st.sole_local_rot[f], st.sole_local_pos[f], sole_rot[f], sole_pos[f]
-        )
-        frame_placement(rot, pos, st.ft_local_rot[f], st.ft_local_pos[f], ft_rot[f], ft_pos[f])
-
-    # O_w and the E-FSM inputs (§III-A1, Eq. 2); the E-FSM (Table I).
-    sup = st.support
+    placed = place_feet(feet, params.feet)
+    efsm = efsm_tick(params, targets, st, placed.sole_pos, terms.com, terms.vcom)
+    phase, sup, rot_w = st.phase, st.support, st.rot_w
     sw = 1 - sup
-    rot_w = st.rot_w
-    com, vcom = terms.com, terms.vcom
-    ow = ow_frame(sole_pos[sup], sole_pos[sw], com, vcom, rot_w)
-    x_cp = capture_point(ow.com_w[0], ow.vcom_w[0], st.z_m0)
-    fsm_params = FsmParams(st.zeta, st.r, st.dxp, st.d_thr, st.v_stop, st.use_epsilon != 0)
-    fsm_input = FsmInput(ow.com_w[0], ow.vcom_w[0], x_cp, ow.x_s)
-    if st.phase == _DS and st.steps_done == 0 and st.shift_tick < st.shift_ticks:
-        # The first DS's weight shift (EfsmParams.first_ds_shift): the lab's capture-point
-        # law puts x_p^des until the shift's time is up; ε and d as in every DS (§IV-B).
-        st.shift_tick += 1
-        remaining = (st.shift_ticks - st.shift_tick) * st.control_period
-        xp_shift = weight_shift_cop(x_cp, ow.x_s, remaining, st.z_m0)
-        d_shift = transition_distance(_DS, ow.x_s, xp_shift, x_cp, st.r)
-        eps_shift = epsilon(d_shift, st.d_thr) if st.use_epsilon != 0 else 1.0
-        fsm = FsmOutput(_DS, xp_shift, eps_shift, d_shift, 0)
-    else:
-        fsm = fsm_step(st.phase, st.xp_des, fsm_input, fsm_params)
-    phase, xp_des = fsm.phase, fsm.xp_des
-    if fsm.transitions & DS_TO_SSD:
-        # DS ends: the swing foot becomes the support foot; next footstep target; O_w moves
-        # (x_p^des, the new support centre, is 0 in it).
-        sup, sw = sw, sup
-        st.support = sup
-        st.steps_done += 1
-        st.swing_target[:] = next_swing_target(
-            sole_pos[sup], sw, st.steps_done, st.step_length, st.n_steps, st.width,
-            st.heading, st.lateral, st.first_step_scale,
-        )  # fmt: skip
-        ow = ow_frame(sole_pos[sup], sole_pos[sw], com, vcom, rot_w)
-        x_cp = capture_point(ow.com_w[0], ow.vcom_w[0], st.z_m0)
-        xp_des = 0.0
-    st.phase, st.xp_des = phase, xp_des
-    double = phase == _DS
-    p_sup, p_sw = sole_pos[sup], sole_pos[sw]
-
+    double = phase == Phase.DS
+    p_sup, p_sw = placed.sole_pos[sup], placed.sole_pos[sw]
     # The swing-foot reference (Table II): the planned xy, raised in SSD, lowered otherwise.
     swing_ref = st.swing_target.copy()
-    swing_ref[2] = p_sup[2] + (st.raise_height if phase == _SSD else st.land_height)
-
-    # ε's ramp at DS onset (EfsmParams.ds_onset_ramp): the landing foot's wrench grows
-    # from 0 over the first d^thr of the x_p^des ramp.
-    eps_onset = 1.0
-    if double:
-        if math.isnan(st.ds_start_xp):
-            st.ds_start_xp = xp_des
-        # Not in the first DS's weight shift: both feet stand from the start, none lands.
-        standing = st.steps_done == 0 and st.shift_ticks > 0
-        if st.use_epsilon != 0 and st.ds_onset_ramp != 0 and not standing:
-            eps_onset = epsilon(abs(xp_des - st.ds_start_xp), st.d_thr)
-    else:
-        st.ds_start_xp = math.nan  # Γ_c = 0
-
-    # A⁻¹ and J̇_c q̇ (support foot first, the swing foot's rows in DS), as Pinocchio.
-    a_inv = np.empty((n, n))
-    mass_matrix_inverse(terms.mass, st.parents_from_row, st.nv_subtree_from_row, a_inv)
-    jc_dot_v = np.empty(12 if double else 6)
-    for i in range(2 if double else 1):
-        f = sup if i == 0 else sw
-        frame_classical_acceleration(
-            feet[f].rot, feet[f].vel, feet[f].acc, st.sole_local_pos[f], jc_dot_v[6 * i : 6 * i + 6]
-        )
-
+    swing_ref[Z] = p_sup[Z] + (params.raise_height if phase == Phase.SSD else params.land_height)
+    eps_onset = ds_onset(params, st, efsm.xp_des)
+    # The CoM target (Table II): y 0 and z z_m0 in O_w; along x task 1 follows x_p^des.
+    com_ref = p_sup + rot_w @ np.array([efsm.ow.com_w[X], 0.0, targets.z_m0])
+    n = terms.mass_inv.shape[0]
     # Γ = Γ_t + Γ_c + Γ_gc (Eqs. 7 and 11, Appendices A–D), saturated, actuator order.
     wbc = whole_body_torques(
-        WbcDynamics(a_inv, terms.nle, jc_dot_v, terms.j_world, terms.j_com, st.pin_state[1, :n]),
+        WbcDynamics(
+            symmetric_from_upper(terms.mass_inv), terms.nle, contact_bias(feet, params.feet, sup, double),
+            terms.j_world, terms.j_com, terms.com, terms.vcom, st.pin_state[V_ROW, :n],
+        ),
         WbcFrames(
-            rot_w, p_sup, p_sw, sole_rot[sup], sole_rot[sw], terms.pelvis_rot,
-            st.sole_chain[sup], st.sole_chain[sw],
+            rot_w, p_sup, p_sw, placed.sole_rot[sup], placed.sole_rot[sw], terms.pelvis_rot,
+            params.feet.sole_chain[sup], params.feet.sole_chain[sw],
         ),
         WbcTargets(
-            st.rot_des_pelvis, st.rot_des_swing,
-            np.array([0.0 - ow.com_w[1], st.z_m0 - ow.com_w[2]]),  # CoM y, z targets (Table II)
-            ow.vcom_w[1:], swing_ref, phase, fsm.epsilon, eps_onset, xp_des, ow.x_s,
+            targets.rot_des_pelvis, targets.rot_des_swing, com_ref, swing_ref, phase,
+            efsm.fsm.epsilon, eps_onset, efsm.xp_des, efsm.ow.x_s,
         ),
-        WbcParams(
-            st.kp, st.kv, st.fs_max_force, st.fs_max_moment, st.fs_saturation, st.balance != 0,
-            st.cop_margin, st.torque_limit, st.half_sole,
-        ),
-        st.actuator_rows,
+        params.wbc,
         st.tau,
     )  # fmt: skip
-    meas_x, meas_y = measured_cop(
-        ft_rot, ft_pos, st.ft_wrench[0], st.ft_wrench[1], st.foot_com, st.foot_weight
-    )
-    meas_valid = math.isfinite(meas_x) and math.isfinite(meas_y)
-    if not meas_valid:  # no foot loaded: logs hold finite numbers only
-        meas_x, meas_y = 0.0, 0.0
-
-    # The signals (SIGNALS), by name.
-    out = records.signals[0]
-    out.fsm_state = 0.0 if double else (1.0 if sup == 0 else -1.0)
-    out.efsm_phase = phase
-    out.epsilon, out.epsilon_onset = fsm.epsilon, eps_onset
-    out.d = fsm.d if math.isfinite(fsm.d) else 1.0
-    out.com_w[:] = ow.com_w
-    out.com_vel_w[:] = ow.vcom_w
-    out.com_world[:] = com
-    out.com_vel_world[:] = vcom
-    out.cp_w, out.cp_ref_w, out.x_s_w, out.xp_des_w = x_cp, ow.x_s - st.r, ow.x_s, xp_des
-    rot_w_xy = rot_w[:2, :2]  # (c, −s; s, c)
-    out.xp_des_world[:] = p_sup[:2] + rot_w_xy[:, 0] * xp_des
-    out.cop_exp_w[0], out.cop_exp_w[1] = wbc.cop_exp_x, wbc.cop_exp_y
-    out.cop_exp_world[:] = p_sup[:2] + rot_w_xy @ out.cop_exp_w
-    out.cop_meas_world[0], out.cop_meas_world[1] = meas_x, meas_y
-    out.cop_meas_valid = meas_valid
-    out.swing_pos_world[:] = p_sw
-    out.swing_ref_world[:] = swing_ref
-    out.swing_foot = 0.0 if double else (1.0 if sw == 1 else -1.0)
-    out.support_pos_world[:] = p_sup
-    out.ow_yaw = ow.yaw
-    out.com_force_x, out.balancing, out.steps_done = wbc.com_force_x, wbc.balancing, st.steps_done
-    out.tau_ref[:] = st.tau
-    return fsm.transitions
+    cop_meas = measured_cop(
+        placed.ft_rot, placed.ft_pos, st.ft_wrench[LEFT], st.ft_wrench[RIGHT],
+        params.feet.foot_com, params.feet.foot_weight,
+    )  # fmt: skip
+    write_signals(
+        records.signals[0], st, terms, efsm, eps_onset, placed.sole_pos, swing_ref, wbc, cop_meas,
+        params.fsm.r,
+    )  # fmt: skip
+    return efsm.fsm.transitions

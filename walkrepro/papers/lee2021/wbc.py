@@ -26,34 +26,59 @@ these functions against Pinocchio's constrained dynamics (``tests/test_efsm_wbc.
 from __future__ import annotations
 
 import math
-import warnings
+from enum import IntEnum
 from typing import NamedTuple
 
 import numba
 import numpy as np
 
+from walkrepro.papers.lee2021.fsm import Phase
+from walkrepro.papers.lee2021.tasks import (
+    ANGULAR,
+    LINEAR,
+    N_QUANTITIES,
+    SPATIAL,
+    Quantity,
+    TaskLayout,
+    TaskSet,
+    stack_tasks,
+)
 from walkrepro.sim.robot import frame_jacobian, log3
 
 #: Relative singular-value cut-off of the pseudo-inverses (W is rank-deficient in DS).
 PINV_RCOND = 1e-9
-#: Rows of the two stacked foot wrenches other than the normal forces (Appendix C).
-TANGENTIAL_ROWS = np.array([0, 1, 3, 4, 5, 6, 7, 9, 10, 11])
 #: numpy's cut-off of ``lstsq(rcond=None)`` for the 10 × 6 problem of Appendix C.
 LSTSQ_RCOND = float(np.finfo(np.float64).eps) * 10
-#: How F_s meets its bound (:func:`task2_force`; ``EfsmParams.fs_saturation``).
-CLIP, DECOUPLED_CLIP, UNIFORM = 0, 1, 2
-#: E-FSM phases (fsm.Phase) as plain ints for the compiled code.
-_SSA, _DS = 1, 2
+#: The rows of a wrench (f, m), world or O axes, and of a point or vector (x, y, z).
+FX, FY, FZ, MX, MY, MZ = range(6)
+X, Y, Z = FX, FY, FZ
+#: Its force and moment; the x and y moments (the CoP's, Eqs. 18, 22, 28); x and y.
+FORCE, MOMENT, MOMENT_XY, XY = LINEAR, ANGULAR, slice(MX, MZ), slice(X, Z)
+#: The floating base's velocity coordinates (the pelvis's, the first six).
+BASE = slice(0, SPATIAL)
+#: The actuated joints' velocity coordinates, S's rows (after the base).
+JOINTS = slice(SPATIAL, None)
+#: The DS contact rows: the leaving (support) foot's wrench, then the landing foot's.
+LEAVING, LANDING = slice(0, SPATIAL), slice(SPATIAL, 2 * SPATIAL)
+#: W's null space in DS: the second foot's six contact constraints (Eq. 14).
+NULL_DIM = SPATIAL
+#: Rows of the two stacked foot wrenches other than the normal forces (Appendix C).
+TANGENTIAL_ROWS = np.flatnonzero(np.tile(np.arange(SPATIAL) != FZ, 2))
+
+
+class Saturation(IntEnum):
+    """How F_s meets its bound (:func:`task2_force`; ``EfsmParams.fs_saturation``)."""
+
+    CLIP = 0  #: each row of Λ ẍ* clipped alone
+    DECOUPLED_CLIP = 1  #: the force rows clipped, the orientation acceleration kept
+    UNIFORM = 2  #: the linear swing acceleration scaled until every force row is in bounds
+
+
+CLIP, DECOUPLED_CLIP, UNIFORM = Saturation
 
 #: Compiled, cached on disk; float division by zero gives inf/NaN as in numpy (the tests of
 #: singular matrices rely on it) rather than raising.
 _jit = numba.njit(cache=True, error_model="numpy")
-
-# Blocks of the matrices below are strided views; numba copies them for BLAS and says so.
-# At these sizes (≤ 18 × 18) the copy costs less than writing the blocks out by hand.
-warnings.filterwarnings(
-    "ignore", message=".*is faster on contiguous arrays", category=numba.NumbaPerformanceWarning
-)
 
 
 # ---- pseudo-inverses ---------------------------------------------------------------------
@@ -162,20 +187,20 @@ def contact_dynamics(
     lam_c = np.linalg.inv(jc_a_inv @ jc.T)  # Λ_c = (J_c A⁻¹ J_cᵀ)⁻¹
     jbar_t = lam_c @ jc_a_inv  # J̄_cᵀ = Λ_c J_c A⁻¹, shape (c, n)
     P = a_inv - jbar_t.T @ jc_a_inv  # A⁻¹(I − J_cᵀ J̄_cᵀ) = A⁻¹ − J̄_c J_c A⁻¹
-    W = np.ascontiguousarray(P[6:, 6:])  # S P Sᵀ
+    W = np.ascontiguousarray(P[JOINTS, JOINTS])  # S P Sᵀ
     well = False
     W_pinv = np.zeros_like(W)
     w_eigvec = np.zeros((0, 0))
-    if jc.shape[0] <= 6:
+    if jc.shape[0] <= SPATIAL:  # one foot
         well, W_pinv = inv_if_well_conditioned(W)
     if not well:
         W_pinv, w_eigvec = pinv_symmetric(W)
     # Eq. (8): f_c = J̄_cᵀ (SᵀΓ − b − g) + Λ_c J̇_c q̇, the wrench the feet exert on the ground.
-    psi = np.ascontiguousarray(jbar_t[:, 6:])  # J̄_cᵀ Sᵀ
+    psi = np.ascontiguousarray(jbar_t[:, JOINTS])  # J̄_cᵀ Sᵀ
     f_bias = lam_c @ jc_dot_v - jbar_t @ nle
     # Appendix B: S q̈ = W Γ − S P (b + g) − S A⁻¹ J_cᵀ Λ_c J̇_c q̇; Γ_gc = W⁺ (S P (b + g)
     # + S J̄_c J̇_c q̇) holds the joints still.
-    bias_acc = P[6:, :] @ nle + psi.T @ jc_dot_v
+    bias_acc = P[JOINTS] @ nle + psi.T @ jc_dot_v
     gamma_gc = W_pinv @ bias_acc
     return ContactDynamics(P, W, W_pinv, psi, f_bias, gamma_gc, w_eigvec)
 
@@ -186,7 +211,7 @@ def contact_dynamics(
 @_jit
 def task_phi(cd: ContactDynamics, jacobian: np.ndarray) -> np.ndarray:
     """Φ = J P Sᵀ, the task acceleration per joint torque, shape (m, k) (Appendix A)."""
-    return jacobian @ np.ascontiguousarray(cd.P[:, 6:])
+    return jacobian @ np.ascontiguousarray(cd.P[:, JOINTS])
 
 
 @_jit
@@ -219,56 +244,69 @@ def prioritized_task(cd: ContactDynamics, phi: np.ndarray, n_prec_t: np.ndarray)
 
 
 class Hierarchy(NamedTuple):
-    """Three prioritized tasks of Eq. (11), their rows stacked (task 1, task 2, task 3).
+    """The prioritized tasks of Eq. (11), their rows stacked by priority level.
 
     Attributes:
-        torque_map: [J̃_1ᵀ, Ñ_1ᵀ J̃_2ᵀ, Ñ_12ᵀ J̃_3ᵀ], the torque per task force, shape (k, m);
-            Γ_t = torque_map [F_1; F_2; F_3] (Eq. 11).
-        lam1, lam2, lam3: Λ of each prioritized task, shapes (m_i, m_i).
+        torque_map: [J̃_1ᵀ, Ñ_1ᵀ J̃_2ᵀ, Ñ_12ᵀ J̃_3ᵀ, …], the torque per task force, shape
+            (k, m); Γ_t = torque_map [F_1; F_2; …] (Eq. 11).
+        lam: Λ_i of each prioritized level on its rows' diagonal block, zero elsewhere,
+            shape (m, m).
     """
 
     torque_map: np.ndarray
-    lam1: np.ndarray
-    lam2: np.ndarray
-    lam3: np.ndarray
+    lam: np.ndarray
 
 
 @_jit
-def task_hierarchy(cd: ContactDynamics, phi: np.ndarray, m1: int, m2: int) -> Hierarchy:
-    """Three prioritized tasks of Eq. (11), stacked in ``phi`` (m1 rows, m2 rows, the rest).
+def task_hierarchy(
+    cd: ContactDynamics, phi: np.ndarray, first: np.ndarray, end: np.ndarray
+) -> Hierarchy:
+    """The prioritized tasks of Eq. (11), level i the rows ``first[i]`` … ``end[i]`` − 1 of
+    ``phi`` (highest priority first).
 
-    The same tasks as ``prioritized_task(cd, Φ_1, I)``, ``prioritized_task(cd, Φ_2, Ñ_1ᵀ)``
-    and ``prioritized_task(cd, Φ_3, Ñ_12ᵀ)``, without forming the k × k projectors: with
+    The same tasks as ``prioritized_task(cd, Φ_i, Ñ_<iᵀ)`` (Ñ_<iᵀ the projector of all the
+    rows above level i; I for the first), without forming the k × k projectors: with
     J̃ᵀ = W⁺Φᵀ, G = Φ W⁺ Φᵀ and W⁺ W W⁺ = W⁺,
 
-        Ñ_1ᵀ J̃_2ᵀ  = J̃_2ᵀ − J̃_1ᵀ Λ_1 G_12,
-        Ñ_12ᵀ J̃_3ᵀ = J̃_3ᵀ − J̃_12ᵀ Λ_12 G_12,3,   Λ_12 = (G_12,12)⁺,
+        Ñ_<iᵀ J̃_iᵀ = J̃_iᵀ − J̃_<iᵀ Λ_<i G_<i,i,   Λ_<i = (G_<i,<i)⁺,
 
-    and Φ_2 Ñ_1ᵀ J̃_2ᵀ = G_22 − G_21 Λ_1 G_12, the Schur complement of G_11 in G_12,12,
-    whose inverse Λ_2 is the lower-right block of Λ_12 (by eigenvalue interlacing no
-    worse conditioned than G_12,12, so that block is also its pseudo-inverse).
+    and Φ_i Ñ_<iᵀ J̃_iᵀ is the Schur complement of G_<i,<i in G_≤i,≤i, whose inverse Λ_i is
+    the lower-right block of Λ_≤i (by eigenvalue interlacing no worse conditioned than
+    G_≤i,≤i, so that block is also its pseudo-inverse); the last level inverts its Schur
+    complement itself.
 
     The inverses are plain inverses when that provably equals the pseudo-inverse
     (:func:`inv_if_well_conditioned`); otherwise this takes the projector form.
     """
-    m12 = m1 + m2
+    m = phi.shape[0]
     jt = cd.W_pinv @ phi.T  # J̃ᵀ of every row, shape (k, m)
     gram = phi @ jt  # G = Φ W⁺ Φᵀ
-    ok1, lam1 = inv_if_well_conditioned(gram[:m1, :m1])
-    ok12, lam12 = inv_if_well_conditioned(gram[:m12, :m12])
-    if ok1 and ok12:
-        torque_map = jt.copy()
-        torque_map[:, m1:m12] -= jt[:, :m1] @ (lam1 @ gram[:m1, m1:m12])  # Ñ_1ᵀ J̃_2ᵀ
-        torque_map[:, m12:] -= jt[:, :m12] @ (lam12 @ gram[:m12, m12:])  # Ñ_12ᵀ J̃_3ᵀ
-        ok3, lam3 = inv_if_well_conditioned(phi[m12:] @ torque_map[:, m12:])
-        if ok3:
-            return Hierarchy(torque_map, lam1, np.ascontiguousarray(lam12[m1:, m1:]), lam3)
+    torque_map, lam = jt.copy(), np.zeros((m, m))
+    lam_above = np.zeros((0, 0))  # Λ_<i
+    ok = True
+    for level in range(first.size):
+        s, e = first[level], end[level]
+        if s > 0:  # Ñ_<iᵀ J̃_iᵀ
+            torque_map[:, s:e] -= jt[:, :s] @ (lam_above @ gram[:s, s:e])
+        if e < m:
+            ok, lam_above = inv_if_well_conditioned(gram[:e, :e])  # Λ_≤i
+            lam[s:e, s:e] = lam_above[s:, s:]
+        else:
+            ok, lam_i = inv_if_well_conditioned(phi[s:e] @ torque_map[:, s:e])
+            lam[s:e, s:e] = lam_i
+        if not ok:
+            break
+    if ok:
+        return Hierarchy(torque_map, lam)
     # Ill-conditioned: the pseudo-inverses of the projector form (Appendix A).
-    task1 = prioritized_task(cd, phi[:m1], np.eye(cd.W.shape[0]))
-    task2 = prioritized_task(cd, phi[m1:m12], null_space_t(cd, phi[:m1]))
-    task3 = prioritized_task(cd, phi[m12:], null_space_t(cd, phi[:m12]))
-    torque_map = np.hstack((task1.torque_map, task2.torque_map, task3.torque_map))
-    return Hierarchy(torque_map, task1.lam, task2.lam, task3.lam)
+    k = cd.W.shape[0]
+    for level in range(first.size):
+        s, e = first[level], end[level]
+        n_above_t = null_space_t(cd, phi[:s]) if s > 0 else np.eye(k)
+        task = prioritized_task(cd, phi[s:e], n_above_t)
+        torque_map[:, s:e] = task.torque_map
+        lam[s:e, s:e] = task.lam
+    return Hierarchy(torque_map, lam)
 
 
 # ---- Appendices C and D: wrenches, CoP, redistribution ------------------------------------
@@ -277,7 +315,8 @@ def task_hierarchy(cd: ContactDynamics, phi: np.ndarray, m1: int, m2: int) -> Hi
 @_jit
 def skew(d: np.ndarray) -> np.ndarray:
     """[d]×, the matrix of d × (·)."""
-    return np.array([[0.0, -d[2], d[1]], [d[2], 0.0, -d[0]], [-d[1], d[0], 0.0]])
+    x, y, z = d[X], d[Y], d[Z]
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
 @_jit
@@ -293,24 +332,24 @@ def grasp_map(rot_o: np.ndarray, origin: np.ndarray, contact_points: np.ndarray)
         K, shape (6, 6 · feet): per foot [[Rᵀ, 0], [[d]× Rᵀ, Rᵀ]], d = Rᵀ (p − o) in O axes.
     """
     rt = np.ascontiguousarray(rot_o.T)
-    kmap = np.zeros((6, 6 * contact_points.shape[0]))
-    for foot in range(contact_points.shape[0]):
+    feet = contact_points.shape[0]
+    kmap = np.zeros((SPATIAL, feet, SPATIAL))  # [resultant row, foot, foot's wrench row]
+    for foot in range(feet):
         d = rt @ (contact_points[foot] - origin)  # [m], O axes
-        c = 6 * foot
-        kmap[:3, c : c + 3] = rt
-        kmap[3:, c : c + 3] = skew(d) @ rt
-        kmap[3:, c + 3 : c + 6] = rt
-    return kmap
+        kmap[FORCE, foot, FORCE] = rt
+        kmap[MOMENT, foot, FORCE] = skew(d) @ rt
+        kmap[MOMENT, foot, MOMENT] = rt
+    return kmap.reshape((SPATIAL, feet * SPATIAL))
 
 
 @_jit
 def cop_of(wrench_o: np.ndarray) -> tuple[float, float]:
     """CoP (x, y) in O of a resultant wrench (f, m) in O, Eqs. (18) and (22) [m]:
     (−m_y / f_z, m_x / f_z); NaN when unloaded."""
-    fz = wrench_o[2]
+    fz = wrench_o[FZ]
     if abs(fz) < 1e-9:
         return math.nan, math.nan
-    return -wrench_o[4] / fz, wrench_o[3] / fz
+    return -wrench_o[MY] / fz, wrench_o[MX] / fz
 
 
 @_jit
@@ -357,85 +396,103 @@ def redistribution_torque(
     Returns:
         Γ_c, shape (k,) [Nm], and the leaving foot's reference wrench, shape (6,).
     """
-    v2 = np.ascontiguousarray(cd.w_eigvec[:, :6])  # the six smallest: W's null space (Eq. 14)
+    # The six smallest eigenvectors: W's null space (Eq. 14).
+    v2 = np.ascontiguousarray(cd.w_eigvec[:, :NULL_DIM])
     g = cd.psi @ v2  # wrench change per α, shape (12, 6)
     alpha_opt = least_squares(g[TANGENTIAL_ROWS], -f_now[TANGENTIAL_ROWS])
-    target = f_now[:6] + g[:6] @ alpha_opt  # the leaving foot's rows of the optimum
+    target = f_now[LEAVING] + g[LEAVING] @ alpha_opt  # the leaving foot's rows of the optimum
     if eps_onset < 1.0:
         # The whole resultant about the leaving sole centre: the landing foot's moment
         # moves by (p_land − p_leave) × f_land.
-        f_land = f_now[6:].copy()
-        f_land[3:] += np.cross(-lever, f_land[:3])
-        target = eps_onset * target + (1.0 - eps_onset) * (f_now[:6] + f_land)
+        f_land = f_now[LANDING].copy()
+        f_land[MOMENT] += np.cross(-lever, f_land[FORCE])
+        target = eps_onset * target + (1.0 - eps_onset) * (f_now[LEAVING] + f_land)
     f_ref = eps * target
-    alpha = np.linalg.solve(g[:6], f_ref - f_now[:6])  # Y_c f_c^cor (Eq. 16)
+    alpha = np.linalg.solve(g[LEAVING], f_ref - f_now[LEAVING])  # Y_c f_c^cor (Eq. 16)
     return v2 @ alpha, f_ref
+
+
+@_jit
+def uniform_scale(a: np.ndarray, b: np.ndarray, f_max: float) -> float:
+    """The largest s ∈ [0, 1] for which every row s a_i + b_i stays within ±f_max."""
+    s = 1.0
+    for i in range(a.size):
+        if a[i] > 0.0:
+            s = min(s, (f_max - b[i]) / a[i])
+        elif a[i] < 0.0:
+            s = min(s, (-f_max - b[i]) / a[i])
+    return max(s, 0.0)
 
 
 @_jit
 def task2_force(
     lam: np.ndarray,
     acc: np.ndarray,
-    double: bool,
+    first: int,
+    n_lin: int,
+    n_ang: int,
     scale_swing: float,
     f_max: float,
     m_max: float,
     saturation: int,
 ) -> np.ndarray:
-    """F_2 = Λ ẍ* (Eq. 6) with the swing-foot wrench F_s saturated and scaled by ε.
+    """F = Λ ẍ* (Eq. 6) of one priority level, its swing-foot wrench F_s saturated and
+    scaled by ε.
 
-    Out of DS the last six rows are the swing foot (force, then moment). F_s is bounded
-    component-wise (§V-B) and multiplied by ``scale_swing`` (ε in SSA, §IV-C). With
-    :data:`UNIFORM` the bound is met by scaling the commanded linear swing acceleration
-    (so every force component stays within it and the foot keeps heading for its target);
-    with :data:`DECOUPLED_CLIP` the force rows are clipped one by one, with the orientation
+    F_s (the level's rows ``first`` …: ``n_lin`` force, then ``n_ang`` moment components) is
+    bounded component-wise (§V-B) and multiplied by ``scale_swing`` (ε in SSA, §IV-C). With
+    :data:`UNIFORM` the bound is met by scaling the commanded linear swing acceleration (so
+    every force component stays within it and the foot keeps heading for its target); with
+    :data:`DECOUPLED_CLIP` the force rows are clipped one by one, with the orientation
     acceleration kept: clipping the force rows of Λ ẍ* alone (:data:`CLIP`) leaves in the
     moment rows the coupling term of an acceleration that is no longer produced, which
     pitched the swing foot 14° toe-up in free swing and 35° against the obstacle. The
-    CoM/yaw forces are then computed with the swing-foot acceleration that this bounded
-    F_s actually produces, so that they do not carry the coupling of an unbounded one.
+    level's other forces (CoM, yaw) are then computed with the swing-foot acceleration that
+    this bounded F_s actually produces, so that they do not carry the coupling of an
+    unbounded one.
 
     Args:
-        lam: Λ_2, shape (m2, m2); acc: ẍ*, shape (m2,).
-        double: DS (no swing foot: F_2 = Λ ẍ*).
+        lam: Λ of the level, shape (m, m); acc: ẍ*, shape (m,).
+        first, n_lin, n_ang: F_s's rows (none in DS: F = Λ ẍ*).
         scale_swing: factor on F_s (ε in SSA, else 1).
         f_max, m_max: the bounds of each force [N] and moment [Nm] component of F_s.
-        saturation: :data:`CLIP`, :data:`DECOUPLED_CLIP` or :data:`UNIFORM`.
+        saturation: :class:`Saturation`.
     """
     f_free = lam @ acc  # Λ ẍ*, unbounded
-    if double:
+    n_sw = n_lin + n_ang
+    if n_sw == 0:
         return f_free
-    if saturation == UNIFORM:
-        # The largest s ≤ 1 for which every force row F_i = s a_i + b_i stays within the
-        # bound (a: the part of Λ ẍ* due to ẍ_s*, b: the rest).
-        a = lam[3:6, 3:6] @ acc[3:6]
-        b = f_free[3:6] - a
-        s = 1.0
-        for i in range(3):
-            if a[i] > 0.0:
-                s = min(s, (f_max - b[i]) / a[i])
-            elif a[i] < 0.0:
-                s = min(s, (-f_max - b[i]) / a[i])
-        s = max(s, 0.0)
+    swing, lin = slice(first, first + n_sw), slice(first, first + n_lin)
+    ang = slice(first + n_lin, first + n_sw)
+    lam_ll = np.ascontiguousarray(lam[lin, lin])
+    if saturation == Saturation.UNIFORM:
+        # F_i = s a_i + b_i (a: the part of Λ ẍ* due to ẍ_s*, b: the rest).
+        a = lam_ll @ acc[lin]
+        s = uniform_scale(a, f_free[lin] - a, f_max)
         if s < 1.0:
             acc_bounded = acc.copy()
-            acc_bounded[3:6] *= s
+            acc_bounded[lin] *= s
             f_free = lam @ acc_bounded
-    fs = f_free[3:9].copy()  # F_s: force, moment
-    if saturation == DECOUPLED_CLIP:
-        fs[:3] = np.clip(fs[:3], -f_max, f_max)
-        cut = fs[:3] - f_free[3:6]
+    fs = f_free[swing].copy()  # F_s: force, moment
+    if saturation == Saturation.DECOUPLED_CLIP:
+        fs[:n_lin] = np.clip(fs[:n_lin], -f_max, f_max)
+        cut = fs[:n_lin] - f_free[lin]
         if np.any(cut != 0.0):  # keep the orientation acceleration: Λ_s couples the rows
-            fs[3:] += lam[6:9, 3:6] @ np.linalg.solve(lam[3:6, 3:6], cut)
-    fs[:3] = np.clip(fs[:3], -f_max, f_max)
-    fs[3:] = np.clip(fs[3:], -m_max, m_max)
+            fs[n_lin:] += np.ascontiguousarray(lam[ang, lin]) @ np.linalg.solve(lam_ll, cut)
+    fs[:n_lin] = np.clip(fs[:n_lin], -f_max, f_max)
+    fs[n_lin:] = np.clip(fs[n_lin:], -m_max, m_max)
     fs *= scale_swing
-    cut = fs - f_free[3:9]
-    f2 = f_free
-    if np.any(cut != 0.0):  # the CoM/yaw forces of the swing acceleration F_s produces
-        f2[:3] += lam[0:3, 3:9] @ np.linalg.solve(lam[3:9, 3:9], cut)
-    f2[3:] = fs
-    return f2
+    cut = fs - f_free[swing]
+    f = f_free
+    if np.any(cut != 0.0):  # the other forces of what F_s produces
+        x = np.linalg.solve(np.ascontiguousarray(lam[swing, swing]), cut)
+        end = first + n_sw  # the level's other rows: before and after F_s's
+        if first > 0:
+            f[:first] += np.ascontiguousarray(lam[:first, swing]) @ x
+        if end < acc.size:
+            f[end:] += np.ascontiguousarray(lam[end:, swing]) @ x
+    f[swing] = fs
+    return f
 
 
 @_jit
@@ -471,15 +528,16 @@ def balance_force(
     cop_x, cop_y = cop_of(fc)
     if not (math.isfinite(cop_x) and math.isfinite(cop_y)):
         return False, out
-    rot_w_sole = (rot_w.T @ sole_rot)[:2, :2]  # O_w-from-sole, xy
+    rot_w_sole = (rot_w.T @ sole_rot)[XY, XY]  # O_w-from-sole, xy
     half = np.abs(rot_w_sole) @ half_sole - margin  # the polygon's half extents in O_w [m]
-    hi_x = half[0] + x_s if math.isfinite(x_s) else half[0]
-    cx, cy = min(max(cop_x, -half[0]), hi_x), min(max(cop_y, -half[1]), half[1])
+    half_x, half_y = half[X], half[Y]
+    hi_x = half_x + x_s if math.isfinite(x_s) else half_x
+    cx, cy = min(max(cop_x, -half_x), hi_x), min(max(cop_y, -half_y), half_y)
     if abs(cx - cop_x) <= 1e-8 + 1e-5 * abs(cop_x) and abs(cy - cop_y) <= 1e-8 + 1e-5 * abs(cop_y):
         return False, out  # inside (as np.isclose)
     fsig = fc - kpsi3 @ f3  # the wrench without task 3
-    m_des = np.array([cy * fsig[2] - fsig[3], -cx * fsig[2] - fsig[4]])  # Eqs. (26)-(27)
-    q3 = np.ascontiguousarray(kpsi3[3:5])  # Eq. (28)
+    m_des = np.array([cy * fsig[FZ] - fsig[MX], -cx * fsig[FZ] - fsig[MY]])  # Eqs. (26)-(27)
+    q3 = np.ascontiguousarray(kpsi3[MOMENT_XY])  # Eq. (28)
     if abs(np.linalg.det(q3)) < 1e-12:
         return False, out
     return True, np.linalg.solve(q3, m_des)  # F_3 + F_3^bal, Eq. (29)
@@ -492,21 +550,22 @@ def balance_force(
 
 
 class WbcParams(NamedTuple):
-    """The OS-WBC's parameters (``EfsmParams``; §V-B).
+    """The OS-WBC's parameters (``EfsmParams``; §V-B), made once at reset.
 
     Attributes:
-        kp: task stiffness k_p [1/s²]; kv: task damping k_v [1/s] (Eq. 6).
+        tasks: the task hierarchy of Eq. (11) with each row's gains k_p, k_v (Eq. 6) and
+            its rows out of and in DS (:func:`.tasks.task_set` of :data:`.tasks.HIERARCHY`).
         fs_max_force, fs_max_moment: the bound of each F_s force [N] and moment [Nm]
             component.
-        fs_saturation: :data:`CLIP`, :data:`DECOUPLED_CLIP` or :data:`UNIFORM`.
+        fs_saturation: :class:`Saturation`.
         balance: F_3^bal when the expected CoP leaves the polygon (Appendix D-3).
         cop_margin: safety margin of the support polygon [m].
         torque_limit: actuator saturation [Nm].
         half_sole: half the sole's length and width [m], shape (2,).
+        actuator_rows: the joint-torque row of each actuator, shape (k,).
     """
 
-    kp: float
-    kv: float
+    tasks: TaskSet
     fs_max_force: float
     fs_max_moment: float
     fs_saturation: int
@@ -514,6 +573,7 @@ class WbcParams(NamedTuple):
     cop_margin: float
     torque_limit: float
     half_sole: np.ndarray
+    actuator_rows: np.ndarray
 
 
 class WbcDynamics(NamedTuple):
@@ -527,6 +587,7 @@ class WbcDynamics(NamedTuple):
         j_world: Pinocchio's joint Jacobians ``data.J``, shape (6, n) (see
             :func:`walkrepro.sim.robot.frame_jacobian`); the pelvis's are its first six columns.
         j_com: CoM Jacobian, shape (3, n).
+        com, vcom: the CoM [m] and its velocity [m/s], shape (3,).
         v: generalized velocity, shape (n,).
     """
 
@@ -535,6 +596,8 @@ class WbcDynamics(NamedTuple):
     jc_dot_v: np.ndarray
     j_world: np.ndarray
     j_com: np.ndarray
+    com: np.ndarray
+    vcom: np.ndarray
     v: np.ndarray
 
 
@@ -564,10 +627,10 @@ class WbcTargets(NamedTuple):
 
     Attributes:
         rot_des_pelvis, rot_des_swing: orientation targets (Table II), world-from-target.
-        com_yz_err_w: CoM y and z errors (target − CoM) in O_w [m], shape (2,).
-        com_yz_vel_w: CoM y and z velocities in O_w [m/s], shape (2,).
+        com_ref: the CoM target in the world [m], (3,) (Table II: y 0 and z z_m0 in O_w;
+            along x of O_w task 1 follows x_p^des instead).
         swing_ref: swing-sole position reference in the world [m] (unused in DS), (3,).
-        phase: E-FSM phase (fsm.Phase as int).
+        phase: E-FSM phase (:class:`.fsm.Phase`).
         eps: ε; eps_onset: ε's onset ramp in DS (:func:`redistribution_torque`).
         xp_des: desired CoP along x of O_w [m].
         x_s: swing-foot centre along x of O_w [m].
@@ -575,8 +638,7 @@ class WbcTargets(NamedTuple):
 
     rot_des_pelvis: np.ndarray
     rot_des_swing: np.ndarray
-    com_yz_err_w: np.ndarray
-    com_yz_vel_w: np.ndarray
+    com_ref: np.ndarray
     swing_ref: np.ndarray
     phase: int
     eps: float
@@ -589,7 +651,7 @@ class WbcOutput(NamedTuple):
     """What a tick's OS-WBC reports besides Γ.
 
     Attributes:
-        com_force_x: F_1, the CoM x-force of task 1 [N] (Appendix D-1).
+        com_force_x: F_1, the CoM x-force of task 1 [N] (Appendix D-1; 0 without that task).
         balancing: whether F_3^bal acted (Appendix D-3).
         cop_exp_x, cop_exp_y: the expected CoP in O_w [m] (NaN if unloaded).
     """
@@ -609,116 +671,156 @@ def orientation_error(rot_des: np.ndarray, rot: np.ndarray) -> np.ndarray:
 
 
 @_jit
+def task_quantities(
+    dynamics: WbcDynamics, frames: WbcFrames, targets: WbcTargets, j_swing: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each :class:`.tasks.Quantity`'s Jacobian, error (target − actual; Table II) and
+    velocity, world axes: shapes (quantities, 6, n), (quantities, 6), (quantities, 6).
+
+    The pelvis is the floating base: its Jacobian is the base columns of ``data.J``; it has
+    no position target (its linear error is 0). The CoM has no angular rows.
+    """
+    n = dynamics.v.size
+    jac = np.zeros((N_QUANTITIES, SPATIAL, n))
+    err, vel = np.zeros((N_QUANTITIES, SPATIAL)), np.zeros((N_QUANTITIES, SPATIAL))
+    com, pelvis, swing = Quantity.COM.value, Quantity.UPPER_BODY.value, Quantity.SWING_FOOT.value
+    jac[com, LINEAR] = dynamics.j_com
+    err[com, LINEAR] = targets.com_ref - dynamics.com  # [m]
+    vel[com, LINEAR] = dynamics.vcom  # [m/s]
+    jac[pelvis, :, BASE] = dynamics.j_world[:, BASE]
+    err[pelvis, ANGULAR] = orientation_error(targets.rot_des_pelvis, frames.pelvis_rot)  # [rad]
+    vel[pelvis] = jac[pelvis] @ dynamics.v
+    jac[swing] = j_swing
+    err[swing, LINEAR] = targets.swing_ref - frames.p_sw  # [m]
+    err[swing, ANGULAR] = orientation_error(targets.rot_des_swing, frames.sole_rot_sw)  # [rad]
+    vel[swing] = j_swing @ dynamics.v
+    return jac, err, vel
+
+
+@_jit
+def task_forces(
+    hierarchy: Hierarchy,
+    layout: TaskLayout,
+    acc: np.ndarray,
+    targets: WbcTargets,
+    params: WbcParams,
+) -> np.ndarray:
+    """[F_1; F_2; …] = Λ_i ẍ_i* of each level (Eq. 6), the swing foot's F_s saturated and
+    scaled by ε (:func:`task2_force`); the CoP row's force is set apart (Appendix D-1)."""
+    forces = np.empty(acc.size)
+    scale_swing = targets.eps if targets.phase == Phase.SSA else 1.0
+    for level in range(layout.first.size):
+        s, e = layout.first[level], layout.end[level]
+        lam = np.ascontiguousarray(hierarchy.lam[s:e, s:e])
+        if level == layout.swing_level:
+            forces[s:e] = task2_force(
+                lam, acc[s:e], layout.swing_first - s, layout.swing_lin.size,
+                layout.swing_ang.size, scale_swing,
+                params.fs_max_force, params.fs_max_moment, params.fs_saturation,
+            )  # fmt: skip
+        else:
+            forces[s:e] = lam @ acc[s:e]
+    return forces
+
+
+@_jit
+def expected_wrench(
+    k_tasks: np.ndarray,
+    forces: np.ndarray,
+    fc_b: np.ndarray,
+    layout: TaskLayout,
+    frames: WbcFrames,
+    targets: WbcTargets,
+    params: WbcParams,
+) -> tuple[np.ndarray, float, bool]:
+    """The expected resultant wrench in O_w with the CoP row's force (Appendix D-1) and the
+    balancing force (Appendix D-3) set in ``forces``; also F_1 and whether F_3^bal acted.
+
+    Args:
+        k_tasks: K Ψ J̃ᵀ, the resultant wrench in O_w per task force, shape (6, m).
+        forces: the task forces (:func:`task_forces`), updated.
+        fc_b: K (Ψ Γ_gc + f_bias), the resultant of Γ_gc and the bias (Eqs. 8, 10).
+    """
+    f1 = 0.0
+    for i in layout.cop:  # Appendix D-1, Eqs. (17)–(21): the CoM x-force for x_p^des
+        forces[i] = 0.0
+        fc_rest = k_tasks @ forces  # of the other tasks
+        f1 = com_force_for_cop(targets.xp_des, k_tasks[MY, i], fc_rest[FZ] + fc_b[FZ], fc_b[MY])
+        forces[i] = f1
+    fc = k_tasks @ forces + fc_b
+    bal = layout.balance
+    balancing = False
+    if params.balance and bal.size:  # Appendix D-3: the CoP out of the shrunk polygon
+        k_bal = np.ascontiguousarray(k_tasks[:, bal])
+        f3 = forces[bal]
+        double = targets.phase == Phase.DS
+        balancing, f3_bal = balance_force(
+            fc, k_bal, f3, frames.rot_w, frames.sole_rot_sup, params.half_sole,
+            params.cop_margin, targets.x_s if double else math.nan,
+        )  # fmt: skip
+        if balancing:
+            fc += k_bal @ (f3_bal - f3)  # F_3 replaced by F_3 + F_3^bal
+            forces[bal] = f3_bal
+    return fc, f1, balancing
+
+
+@_jit
 def whole_body_torques(
     dynamics: WbcDynamics,
     frames: WbcFrames,
     targets: WbcTargets,
     params: WbcParams,
-    actuator_rows: np.ndarray,
     tau: np.ndarray,
 ) -> WbcOutput:
     """Γ = Γ_t + Γ_c + Γ_gc (Eq. 7) of one tick, saturated, into ``tau`` (actuator order).
 
-    The three tasks of Eq. (11): task 1 the CoM x-force for x_p^des (Appendix D-1); task 2
-    CoM y/z, pelvis yaw and, out of DS, the 6-D swing foot; task 3 pelvis roll/pitch, plus
-    F_3^bal (Appendix D-3). Γ_c redistributes the DS wrenches (Appendix C). Contacts: the
-    support sole, plus the swing sole in DS (its rows second).
+    The tasks of Eq. (11) are ``params.tasks`` (:data:`.tasks.HIERARCHY`: task 1 the CoM
+    x-force for x_p^des, Appendix D-1; task 2 CoM y/z, pelvis yaw and, out of DS, the 6-D
+    swing foot; task 3 pelvis roll/pitch, plus F_3^bal, Appendix D-3). Γ_c redistributes the
+    DS wrenches (Appendix C). Contacts: the support sole, plus the swing sole in DS (its rows
+    second).
 
     Args:
         dynamics, frames, targets, params: :class:`WbcDynamics`, :class:`WbcFrames`,
             :class:`WbcTargets`, :class:`WbcParams`.
-        actuator_rows: joint-torque row of each actuator, shape (k,).
         tau: out: actuator torques [Nm], shape (k,).
     """
-    a_inv, nle, jc_dot_v, j_world, j_com, v = dynamics
-    rot_w, p_sup, p_sw = frames.rot_w, frames.p_sup, frames.p_sw
-    kp, kv = params.kp, params.kv
-    n = a_inv.shape[0]
-    double = targets.phase == _DS
-
+    n = dynamics.v.size
+    double = targets.phase == Phase.DS
     # Contact Jacobians at the sole centres, world axes: the support sole, then the swing
-    # sole (a contact in DS, task 2 otherwise).
-    j_feet = np.empty((12, n))
-    frame_jacobian(j_world, frames.chain_sup, p_sup, j_feet[0:6])
-    frame_jacobian(j_world, frames.chain_sw, p_sw, j_feet[6:12])
-    j_swing = j_feet[6:12]
-    cd = contact_dynamics(a_inv, nle, j_feet[: 12 if double else 6], jc_dot_v)
+    # sole (a contact in DS, a task otherwise).
+    j_sup, j_swing = np.empty((SPATIAL, n)), np.empty((SPATIAL, n))
+    frame_jacobian(dynamics.j_world, frames.chain_sup, frames.p_sup, j_sup)
+    frame_jacobian(dynamics.j_world, frames.chain_sw, frames.p_sw, j_swing)
+    j_contacts = np.vstack((j_sup, j_swing)) if double else j_sup
+    cd = contact_dynamics(dynamics.a_inv, dynamics.nle, j_contacts, dynamics.jc_dot_v)
 
-    # Task Jacobians (Eq. 11), stacked [CoM x | CoM y, z, pelvis yaw, (swing foot) | pelvis
-    # roll, pitch]; the CoM and roll/pitch rows in O_w axes. The pelvis is the floating
-    # base: its Jacobian is the base columns of data.J.
-    rot_w_t = np.ascontiguousarray(rot_w.T)
-    j_com_w = rot_w_t @ j_com
-    j_pelvis = np.zeros((6, n))
-    j_pelvis[:, :6] = j_world[:, :6]
-    m2 = 3 if double else 9
-    j_tasks = np.empty((m2 + 3, n))
-    j_tasks[0] = j_com_w[0]  # task 1
-    j_tasks[1:3] = j_com_w[1:3]  # task 2
-    j_tasks[3] = j_pelvis[5]
-    if not double:
-        j_tasks[4:10] = j_swing
-    j_tasks[m2 + 1 :] = (rot_w_t @ j_pelvis[3:6])[:2]  # task 3
+    # The task rows (Eqs. 6, 11), their hierarchy (Appendix A) and forces.
+    layout = params.tasks.double if double else params.tasks.single
+    jac, err, vel = task_quantities(dynamics, frames, targets, j_swing)
+    jacobian, acc = stack_tasks(params.tasks.rows, layout, jac, err, vel, frames.rot_w)
+    hierarchy = task_hierarchy(cd, task_phi(cd, jacobian), layout.first, layout.end)
+    forces = task_forces(hierarchy, layout, acc, targets, params)
 
-    # Reference accelerations ẍ* = k_p e − k_v ẋ, Eq. (6) (Table II targets).
-    w_pelvis = j_pelvis[3:6] @ v  # [rad/s], world axes
-    e_pelvis = orientation_error(targets.rot_des_pelvis, frames.pelvis_rot)
-    acc2 = np.empty(m2)
-    acc2[0:2] = kp * targets.com_yz_err_w - kv * targets.com_yz_vel_w
-    acc2[2] = kp * e_pelvis[2] - kv * w_pelvis[2]
-    if not double:
-        v_swing = j_swing @ v
-        e_swing = orientation_error(targets.rot_des_swing, frames.sole_rot_sw)
-        acc2[3:6] = kp * (targets.swing_ref - p_sw) - kv * v_swing[:3]
-        acc2[6:9] = kp * e_swing - kv * v_swing[3:]
-    acc3 = (rot_w_t @ (kp * e_pelvis - kv * w_pelvis))[:2]
-
-    # The hierarchy (Eq. 11, Appendix A) and the forces of tasks 2 and 3.
-    phi = task_phi(cd, j_tasks)
-    hierarchy = task_hierarchy(cd, phi, 1, m2)
-    forces = np.empty(m2 + 3)  # [F_1; F_2; F_3]
-    scale_swing = targets.eps if targets.phase == _SSA else 1.0
-    forces[1 : m2 + 1] = task2_force(
-        hierarchy.lam2, acc2, double, scale_swing, params.fs_max_force, params.fs_max_moment,
-        params.fs_saturation,
-    )  # fmt: skip
-    forces[m2 + 1 :] = hierarchy.lam3 @ acc3
-
-    # The CoM x-force for x_p^des (Appendix D-1, Eqs. 17–21): the wrenches in O_w about the
-    # support centre, K Ψ Γ (Eqs. 8, 10).
-    points = np.empty((2 if double else 1, 3))
-    points[0] = p_sup
-    if double:
-        points[1] = p_sw
-    kmap = grasp_map(rot_w, p_sup, points)
+    # The wrenches in O_w about the support centre, K Ψ Γ (Eqs. 8, 10); task 1's force for
+    # x_p^des (Appendix D-1) and the balancing force (Appendix D-3).
+    contacts = 2 if double else 1
+    points = np.vstack((frames.p_sup, frames.p_sw))  # the soles in contact: the first
+    kmap = grasp_map(frames.rot_w, frames.p_sup, points[:contacts])
     k_psi = kmap @ cd.psi
     k_tasks = k_psi @ hierarchy.torque_map  # resultant wrench per task force, (6, m)
-    fc_23 = k_tasks[:, 1:] @ forces[1:]  # of tasks 2 and 3
     fc_b = kmap @ (cd.psi @ cd.gamma_gc + cd.f_bias)  # of Γ_gc and the bias
-    f1 = com_force_for_cop(targets.xp_des, k_tasks[4, 0], fc_23[2] + fc_b[2], fc_b[4])
-    forces[0] = f1
-    fc = k_tasks[:, 0] * f1 + fc_23 + fc_b  # the expected resultant wrench in O_w
-
-    # Balancing (Appendix D-3): the expected CoP out of the shrunk polygon -> F_3^bal.
-    balancing = False
-    if params.balance:
-        k_task3 = np.ascontiguousarray(k_tasks[:, m2 + 1 :])
-        f3 = forces[m2 + 1 :].copy()
-        balancing, f3_bal = balance_force(
-            fc, k_task3, f3, rot_w, frames.sole_rot_sup, params.half_sole, params.cop_margin,
-            targets.x_s if double else math.nan,
-        )  # fmt: skip
-        if balancing:
-            fc += k_task3 @ (f3_bal - f3)  # F_3 replaced
-            forces[m2 + 1 :] = f3_bal
+    fc, f1, balancing = expected_wrench(k_tasks, forces, fc_b, layout, frames, targets, params)
     gamma = hierarchy.torque_map @ forces + cd.gamma_gc  # Γ_t + Γ_gc
 
     # The contact wrench redistribution in DS (Appendix C) with ε (§IV-B).
     if double:
         f_now = cd.psi @ gamma + cd.f_bias  # Eq. (8)
-        gamma_c, _ = redistribution_torque(cd, f_now, targets.eps, targets.eps_onset, p_sup - p_sw)
+        lever = frames.p_sup - frames.p_sw
+        gamma_c, _ = redistribution_torque(cd, f_now, targets.eps, targets.eps_onset, lever)
         gamma += gamma_c  # Γ = Γ_t + Γ_c + Γ_gc, Eq. (7)
         fc += k_psi @ gamma_c
-    tau[:] = np.clip(gamma[actuator_rows], -params.torque_limit, params.torque_limit)
+    limit = params.torque_limit
+    tau[:] = np.clip(gamma[params.actuator_rows], -limit, limit)
     cop_x, cop_y = cop_of(fc)
     return WbcOutput(f1, balancing, cop_x, cop_y)
