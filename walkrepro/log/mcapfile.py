@@ -13,9 +13,14 @@ and two appends to the open chunk), and a chunk and its message indexes are pack
 chunk closes. Compression and its checksum (zstd, XXH64, in place of MCAP's optional chunk
 CRC) run in C. mcap's readers read the result; tests check that.
 
+Compressing and writing a closed chunk runs on one background thread (zstd and file writes
+release the GIL), so the caller only fills the next chunk meanwhile. Every write to the file
+goes through that thread in order, or waits for it, so the file's bytes are the same as
+written in line; an error there is raised by the next call of the writer. At most one chunk
+waits for it: a killed writer loses at most that chunk and the open one.
+
 Schemas and channels are written before the first message of their channel (all but one
-before any chunk), so a log cut short still names its topics; a killed writer loses at most
-the open chunk.
+before any chunk), so a log cut short still names its topics.
 
 :func:`read_mcap` reads such a file back the same way: the few records that are not messages
 with mcap's record classes, the messages of each chunk with one ``struct`` call each.
@@ -27,6 +32,7 @@ import io
 import struct
 import zlib
 from collections import defaultdict
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import BinaryIO
 
@@ -116,6 +122,9 @@ class McapFile:
                 ZSTD_LEVEL, write_checksum=ZSTD_CHECKSUM
             )
         )
+        # The thread that compresses and writes closed chunks, and its last job (None: idle).
+        self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mcap-chunks")
+        self._pending: Future[None] | None = None
         self._out.write(MAGIC)
         self._write(Header(profile="", library=library))
 
@@ -150,6 +159,7 @@ class McapFile:
         self, create_time: int, log_time: int, name: str, media_type: str, data: bytes
     ) -> None:
         """Writes an attachment record (outside chunks) and indexes it; times in [ns]."""
+        self.wait()
         offset = self._out.tell()
         length = self._write(
             Attachment(
@@ -176,24 +186,64 @@ class McapFile:
     def add_metadata(self, name: str, metadata: dict[str, str]) -> None:
         """Writes a metadata record (after closing the open chunk) and indexes it."""
         self.flush_chunk()
+        self.wait()
         offset = self._out.tell()
         length = self._write(Metadata(name=name, metadata=metadata))
         self._metadata_indexes.append(MetadataIndex(offset=offset, length=length, name=name))
         self._stats.metadata_count += 1
 
     def flush_chunk(self) -> None:
-        """Compresses and writes the open chunk and its message indexes, if it has messages."""
+        """Closes the open chunk, if it has messages: its records and message indexes are
+        compressed and written on the background thread (after the chunk before it)."""
         raw = self._chunk
         if not raw:
             return
+        self.wait()  # one chunk at a time: the file's order, and bounded memory
         indexes = {channel_id: flat for channel_id, flat in self._index.items() if flat}
         stamps = [flat[0::2] for flat in indexes.values()]
         start = min(map(min, stamps))
         end = max(map(max, stamps))
-        compressed = self._compressor.compress(raw)  # reads the bytearray in place: no copy
-        chunk_offset = self._out.tell()
+        stats = self._stats
+        for channel_id, flat in indexes.items():
+            n = len(flat) // 2
+            stats.channel_message_counts[channel_id] += n
+            stats.message_count += n
+        if stats.chunk_count == 0:
+            stats.message_start_time = start
+        stats.message_start_time = min(stats.message_start_time, start)
+        stats.message_end_time = max(stats.message_end_time, end)
+        stats.chunk_count += 1
+        # The thread gets copies: the open chunk and its indexes are emptied in place (the
+        # channel writers hold them) and refilled meanwhile.
+        indexes = {channel_id: flat.copy() for channel_id, flat in indexes.items()}
+        records = bytes(raw)
+        raw.clear()
+        for flat in self._index.values():
+            flat.clear()
+        self._pending = self._worker.submit(self._write_chunk, records, indexes, start, end)
+
+    def wait(self) -> None:
+        """Waits until the background thread has written every closed chunk; raises what
+        it raised."""
+        pending = self._pending
+        if pending is None:
+            return
+        try:
+            pending.result()
+        finally:
+            # Raised by the thread: once. Interrupted here (Ctrl-C): the job still runs, and
+            # the next call waits for it again.
+            if pending.done():
+                self._pending = None
+
+    def _write_chunk(self, raw: bytes, indexes: dict[int, list[int]], start: int, end: int) -> None:
+        """Compresses and writes one chunk and its message indexes, and indexes the chunk
+        (on the background thread)."""
+        compressed = self._compressor.compress(raw)
+        out = self._out
+        chunk_offset = out.tell()
         # The record as mcap's Chunk.write() lays it out, without copying the data twice.
-        self._out.write(
+        out.write(
             _CHUNK_HEAD.pack(
                 Opcode.CHUNK,
                 _CHUNK_HEAD.size - _RECORD_HEAD.size + len(compressed),
@@ -206,17 +256,14 @@ class McapFile:
                 len(compressed),
             )
         )
-        self._out.write(compressed)
-        chunk_length = self._out.tell() - chunk_offset
+        out.write(compressed)
+        chunk_length = out.tell() - chunk_offset
         index_offsets: dict[int, int] = {}
-        stats = self._stats
         for channel_id, flat in indexes.items():
-            index_offsets[channel_id] = self._out.tell()
+            index_offsets[channel_id] = out.tell()
             n = len(flat) // 2
             head = (Opcode.MESSAGE_INDEX, 6 + 16 * n, channel_id, 16 * n)
-            self._out.write(struct.pack(f"<BQHI{2 * n}Q", *head, *flat))
-            stats.channel_message_counts[channel_id] += n
-            stats.message_count += n
+            out.write(struct.pack(f"<BQHI{2 * n}Q", *head, *flat))
         self._chunk_indexes.append(
             ChunkIndex(
                 message_start_time=start,
@@ -224,24 +271,21 @@ class McapFile:
                 chunk_start_offset=chunk_offset,
                 chunk_length=chunk_length,
                 message_index_offsets=index_offsets,
-                message_index_length=self._out.tell() - chunk_offset - chunk_length,
+                message_index_length=out.tell() - chunk_offset - chunk_length,
                 compression="zstd",
                 compressed_size=len(compressed),
                 uncompressed_size=len(raw),
             )
         )
-        if stats.chunk_count == 0:
-            stats.message_start_time = start
-        stats.message_start_time = min(stats.message_start_time, start)
-        stats.message_end_time = max(stats.message_end_time, end)
-        stats.chunk_count += 1
-        raw.clear()
-        for flat in indexes.values():
-            flat.clear()
 
     def finish(self) -> None:
-        """Closes the open chunk and writes the summary, footer and closing magic."""
-        self.flush_chunk()
+        """Closes the open chunk and writes the summary, footer and closing magic; stops the
+        background thread."""
+        try:
+            self.flush_chunk()
+            self.wait()
+        finally:
+            self.shutdown()
         self._write(DataEnd(data_section_crc=0))
         summary_start = self._out.tell()
         summary = RecordBuilder()
@@ -271,8 +315,18 @@ class McapFile:
         self._write(Footer(summary_start, summary_offset_start, crc))
         self._out.write(MAGIC)
 
+    def shutdown(self) -> None:
+        """Lets the background thread finish its chunk, then stops it (idempotent). A file
+        left unfinished (an error while writing) keeps the chunks written so far."""
+        try:
+            self.wait()
+        finally:
+            self._worker.shutdown(wait=True)
+
     def _write(self, record: object) -> int:
-        """Writes one record with mcap's own encoder; returns its length in bytes."""
+        """Writes one record with mcap's own encoder (after the background thread's chunks);
+        returns its length in bytes."""
+        self.wait()
         builder = RecordBuilder()
         record.write(builder)  # type: ignore[attr-defined]
         data = builder.end()

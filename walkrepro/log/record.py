@@ -869,7 +869,10 @@ class LogWriter:
             self._writer.add_metadata(METADATA_NAME, record)
             self._writer.finish()
         finally:
-            self._file.close()
+            try:
+                self._writer.shutdown()  # the background thread's last chunk, if still writing
+            finally:
+                self._file.close()
 
     def __enter__(self) -> LogWriter:  # noqa: PYI034 - Self needs Python 3.11
         return self
