@@ -13,8 +13,10 @@ and two appends to the open chunk), and a chunk and its message indexes are pack
 chunk closes. Compression and its checksum (zstd, XXH64, in place of MCAP's optional chunk
 CRC) run in C. mcap's readers read the result; tests check that.
 
-Compressing and writing a closed chunk runs on one background thread (zstd and file writes
-release the GIL), so the caller only fills the next chunk meanwhile. Every write to the file
+Encoding a closed chunk's batches of rows (:meth:`ChannelWriter.append_rows`), compressing
+the chunk and writing it run on one background thread (numpy's large copies, zstd and file
+writes release the GIL), so the caller only fills the next chunk meanwhile; a batch's size in
+bytes is known before it is encoded, so every offset is computed when it is queued. Every write to the file
 goes through that thread in order, or waits for it, so the file's bytes are the same as
 written in line; an error there is raised by the next call of the writer. At most one chunk
 waits for it: a killed writer loses at most that chunk and the open one.
@@ -32,9 +34,10 @@ import io
 import struct
 import zlib
 from collections import defaultdict
+from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
-from typing import BinaryIO
+from typing import Any, BinaryIO, NamedTuple
 
 import numpy as np
 import zstandard
@@ -67,6 +70,8 @@ _MESSAGE_HEADS = np.dtype(
      ("log_time", "<u8"), ("publish_time", "<u8")]
 )  # fmt: skip
 _RECORD_HEAD = struct.Struct("<BQ")  # opcode, length of what follows
+# Message index record up to its entries: opcode, length, channel id, length of the entries.
+_INDEX_HEAD = struct.Struct("<BQHI")
 _CHANNEL_ID = struct.Struct("<H")
 _LOG_TIME = struct.Struct("<Q")
 _LOG_TIME_AT = 6  # a message record's body: channel id (2 bytes), sequence (4), log time (8)
@@ -112,11 +117,12 @@ class McapFile:
             metadata_count=0,
             schema_count=0,
         )
-        # The open chunk: its records and each channel's flat [time, offset, time, offset, ...]
-        # message index (the chunk's time span is read off the indexes when it closes). Both
-        # live as long as the file (emptied in place), so channel writers can hold them.
-        self._chunk = bytearray()
-        self._index: dict[int, list[int]] = {}
+        # The open chunk: its parts in order (records as bytes, and batches of rows still to
+        # encode), its length [bytes], and each channel's message index entries in order
+        # ((time, offset) pairs, and an (n, 2) array per batch).
+        self._parts: list[bytearray | _Rows] = []
+        self._chunk_length = 0
+        self._index: dict[int, list[Any]] = {}
         self._compressor = zstandard.ZstdCompressor(
             compression_params=zstandard.ZstdCompressionParameters.from_level(
                 ZSTD_LEVEL, write_checksum=ZSTD_CHECKSUM
@@ -193,34 +199,15 @@ class McapFile:
         self._stats.metadata_count += 1
 
     def flush_chunk(self) -> None:
-        """Closes the open chunk, if it has messages: its records and message indexes are
-        compressed and written on the background thread (after the chunk before it)."""
-        raw = self._chunk
-        if not raw:
+        """Closes the open chunk, if it has messages: it is encoded, compressed and written
+        with its message indexes on the background thread (after the chunk before it)."""
+        if not self._parts:
             return
         self.wait()  # one chunk at a time: the file's order, and bounded memory
-        indexes = {channel_id: flat for channel_id, flat in self._index.items() if flat}
-        stamps = [flat[0::2] for flat in indexes.values()]
-        start = min(map(min, stamps))
-        end = max(map(max, stamps))
-        stats = self._stats
-        for channel_id, flat in indexes.items():
-            n = len(flat) // 2
-            stats.channel_message_counts[channel_id] += n
-            stats.message_count += n
-        if stats.chunk_count == 0:
-            stats.message_start_time = start
-        stats.message_start_time = min(stats.message_start_time, start)
-        stats.message_end_time = max(stats.message_end_time, end)
-        stats.chunk_count += 1
-        # The thread gets copies: the open chunk and its indexes are emptied in place (the
-        # channel writers hold them) and refilled meanwhile.
-        indexes = {channel_id: flat.copy() for channel_id, flat in indexes.items()}
-        records = bytes(raw)
-        raw.clear()
-        for flat in self._index.values():
-            flat.clear()
-        self._pending = self._worker.submit(self._write_chunk, records, indexes, start, end)
+        parts, self._parts = self._parts, []
+        index, self._index = self._index, {channel_id: [] for channel_id in self._index}
+        length, self._chunk_length = self._chunk_length, 0
+        self._pending = self._worker.submit(self._write_chunk, parts, index, length)
 
     def wait(self) -> None:
         """Waits until the background thread has written every closed chunk; raises what
@@ -236,9 +223,23 @@ class McapFile:
             if pending.done():
                 self._pending = None
 
-    def _write_chunk(self, raw: bytes, indexes: dict[int, list[int]], start: int, end: int) -> None:
-        """Compresses and writes one chunk and its message indexes, and indexes the chunk
-        (on the background thread)."""
+    def _write_chunk(
+        self, parts: list[bytearray | _Rows], index: dict[int, list[Any]], length: int
+    ) -> None:
+        """Encodes, compresses and writes one chunk and its message indexes, indexes the
+        chunk and counts its messages (on the background thread)."""
+        raw = bytearray()
+        for part in parts:
+            raw += part if type(part) is bytearray else part.records()
+        if len(raw) != length:  # the offsets in the indexes were computed for ``length``
+            raise AssertionError(f"a chunk of {len(raw)} bytes, {length} expected")
+        entries = {
+            channel_id: np.concatenate([np.asarray(e, "<u8").reshape(-1, 2) for e in pieces])
+            for channel_id, pieces in index.items()
+            if pieces
+        }
+        start = min(int(pairs[:, 0].min()) for pairs in entries.values())
+        end = max(int(pairs[:, 0].max()) for pairs in entries.values())
         compressed = self._compressor.compress(raw)
         out = self._out
         chunk_offset = out.tell()
@@ -259,11 +260,11 @@ class McapFile:
         out.write(compressed)
         chunk_length = out.tell() - chunk_offset
         index_offsets: dict[int, int] = {}
-        for channel_id, flat in indexes.items():
+        for channel_id, pairs in entries.items():
             index_offsets[channel_id] = out.tell()
-            n = len(flat) // 2
-            head = (Opcode.MESSAGE_INDEX, 6 + 16 * n, channel_id, 16 * n)
-            out.write(struct.pack(f"<BQHI{2 * n}Q", *head, *flat))
+            n = len(pairs)
+            out.write(_INDEX_HEAD.pack(Opcode.MESSAGE_INDEX, 6 + 16 * n, channel_id, 16 * n))
+            out.write(pairs.tobytes())
         self._chunk_indexes.append(
             ChunkIndex(
                 message_start_time=start,
@@ -277,6 +278,19 @@ class McapFile:
                 uncompressed_size=len(raw),
             )
         )
+        self._count(entries, start, end)
+
+    def _count(self, entries: dict[int, np.ndarray], start: int, end: int) -> None:
+        """Adds a chunk's messages and time span [ns] to the statistics."""
+        stats = self._stats
+        for channel_id, pairs in entries.items():
+            stats.channel_message_counts[channel_id] += len(pairs)
+            stats.message_count += len(pairs)
+        if stats.chunk_count == 0:
+            stats.message_start_time = start
+        stats.message_start_time = min(stats.message_start_time, start)
+        stats.message_end_time = max(stats.message_end_time, end)
+        stats.chunk_count += 1
 
     def finish(self) -> None:
         """Closes the open chunk and writes the summary, footer and closing magic; stops the
@@ -341,66 +355,99 @@ class ChannelWriter:
     (a header packed with one ``struct`` call, then the data), and closing the chunk when full.
     """
 
-    __slots__ = ("_chunk", "_chunk_size", "_file", "_index", "id", "sequence")
+    __slots__ = ("_chunk_size", "_file", "id", "sequence")
 
     def __init__(self, file: McapFile, channel_id: int) -> None:
         self.id = channel_id
         self.sequence = 0  #: the next message's sequence number
         self._file = file
-        # The file's open chunk and this channel's index in it, bound once per channel.
-        self._chunk = file._chunk
-        self._index = file._index[channel_id]
         self._chunk_size = file._chunk_size
 
     def append(self, stamp: int, data: bytes) -> None:
         """Appends one message (log time = publish time = ``stamp`` [ns])."""
-        chunk = self._chunk
-        self._index += (stamp, len(chunk))
+        file = self._file
+        parts = file._parts
+        if not parts or type(parts[-1]) is not bytearray:
+            parts.append(bytearray())
+        offset = file._chunk_length
+        file._index[self.id].append((stamp, offset))
         sequence = self.sequence
         self.sequence = sequence + 1
-        chunk += _MESSAGE.pack(
+        part = parts[-1]
+        part += _MESSAGE.pack(
             _MESSAGE_OPCODE, _MESSAGE_FIXED + len(data), self.id, sequence, stamp, stamp
         )
-        chunk += data
-        if len(chunk) >= self._chunk_size:
-            self._file.flush_chunk()
+        part += data
+        file._chunk_length = offset + _MESSAGE.size + len(data)
+        if file._chunk_length >= self._chunk_size:
+            file.flush_chunk()
 
     def append_rows(
-        self, stamps: np.ndarray, payloads: np.ndarray, extras: list[bytes] | None = None
+        self,
+        stamps: np.ndarray,
+        size: int,
+        payloads: Callable[[], np.ndarray],
+        extras: list[bytes] | None = None,
     ) -> None:
-        """Appends a batch of messages: ``payloads`` (uint8, shape (n, size)) row by row, each
-        followed by its ``extras`` bytes if given, stamped ``stamps`` (int64, (n,)) [ns].
+        """Appends a batch of ``n = len(stamps)`` messages stamped ``stamps`` (int64, (n,))
+        [ns]: ``payloads()`` (uint8, shape (n, size)) row by row, each followed by its
+        ``extras`` bytes if given.
 
-        The same records as ``n`` calls of :meth:`append`, built with numpy. The chunk is not
-        closed here: the caller closes it after the batches that belong together.
+        The same records as ``n`` calls of :meth:`append`. ``payloads`` is called, and
+        ``stamps`` read, on the background thread when the chunk closes: until then neither
+        may change. The chunk is not closed here: the caller closes it after the batches
+        that belong together.
         """
-        n, size = payloads.shape
+        n = len(stamps)
         if n == 0:
             return
-        heads = np.empty(n, _MESSAGE_HEADS)
-        heads["opcode"] = _MESSAGE_OPCODE
-        heads["channel"] = self.id
-        heads["sequence"] = np.arange(self.sequence, self.sequence + n)
-        heads["log_time"] = stamps
-        heads["publish_time"] = stamps
-        self.sequence += n
-        chunk = self._chunk
-        head_bytes = heads.view(np.uint8).reshape(n, _MESSAGE_HEADS.itemsize)
+        file = self._file
         if extras is None or not any(extras):
-            heads["length"] = _MESSAGE_FIXED + size
-            record = _MESSAGE_HEADS.itemsize + size
-            offsets = len(chunk) + record * np.arange(n)
-            chunk += np.concatenate((head_bytes, payloads), axis=1).tobytes()
+            extras = None
+            records = np.full(n, _MESSAGE.size + size, dtype=np.int64)
         else:
-            lengths = size + np.fromiter(map(len, extras), dtype=np.int64, count=n)
-            heads["length"] = _MESSAGE_FIXED + lengths
-            records = _MESSAGE_HEADS.itemsize + lengths
-            offsets = len(chunk) + np.concatenate(([0], np.cumsum(records[:-1])))
-            rows = np.concatenate((head_bytes, payloads), axis=1)
-            chunk += b"".join(
-                part for row, extra in zip(rows, extras, strict=True) for part in (row, extra)
-            )
-        self._index += np.column_stack((stamps, offsets)).ravel().tolist()
+            records = _MESSAGE.size + size + np.fromiter(map(len, extras), np.int64, count=n)
+        ends = file._chunk_length + np.cumsum(records)
+        pairs = np.empty((n, 2), "<u8")
+        pairs[:, 0] = stamps
+        pairs[:, 1] = ends - records
+        file._index[self.id].append(pairs)
+        file._parts.append(_Rows(self.id, self.sequence, stamps, size, payloads, extras))
+        file._chunk_length = int(ends[-1])
+        self.sequence += n
+
+
+class _Rows(NamedTuple):
+    """A batch of one channel's messages queued in the open chunk, encoded when the chunk
+    closes (see :meth:`ChannelWriter.append_rows`)."""
+
+    channel_id: int
+    sequence: int  #: the first message's sequence number
+    stamps: np.ndarray
+    size: int
+    payloads: Callable[[], np.ndarray]
+    extras: list[bytes] | None
+
+    def records(self) -> bytes:
+        """The batch's message records, as ``n`` calls of :meth:`ChannelWriter.append`
+        write them: a header and a payload each (then its extra bytes)."""
+        n, size, extras = len(self.stamps), self.size, self.extras
+        head = _MESSAGE_HEADS.itemsize
+        rows = np.empty((n, head + size), np.uint8)
+        heads = np.ndarray(n, _MESSAGE_HEADS, rows, strides=(head + size,))  # views `rows`
+        heads["opcode"] = _MESSAGE_OPCODE
+        heads["channel"] = self.channel_id
+        heads["sequence"] = np.arange(self.sequence, self.sequence + n)
+        heads["log_time"] = self.stamps
+        heads["publish_time"] = self.stamps
+        rows[:, head:] = self.payloads()
+        if extras is None:
+            heads["length"] = _MESSAGE_FIXED + size
+            return rows.tobytes()
+        heads["length"] = _MESSAGE_FIXED + size + np.fromiter(map(len, extras), np.int64, count=n)
+        return b"".join(
+            part for row, extra in zip(rows, extras, strict=True) for part in (row, extra)
+        )
 
 
 @dataclass

@@ -39,6 +39,7 @@ own message encoding.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import re
@@ -305,11 +306,15 @@ class _RowBatch:
         self.n = 0
 
     def flush(self) -> None:
-        """Writes the rows gathered so far to the open chunk."""
+        """Queues the rows gathered so far in the open chunk; they are encoded when it
+        closes, on the file's background thread, so the batch gathers in new arrays."""
         n = self.n
         if n:
             extras = None if self.extras is None else self.extras[:n]
-            self.writer.append_rows(self.stamps[:n], self.encoder.encode(self.rows[:n]), extras)
+            rows, stamps = self.rows, self.stamps
+            encode = functools.partial(self.encoder.encode, rows[:n])
+            self.writer.append_rows(stamps[:n], self.encoder.size, encode, extras)
+            self.rows, self.stamps = np.empty_like(rows), np.empty_like(stamps)
             self.n, self.extras = 0, None
 
 
