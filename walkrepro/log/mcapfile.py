@@ -4,22 +4,25 @@ mcap's Python ``Writer`` spends about fifty interpreted calls on each message (r
 builder, statistics, per-message index entries), and a run writes 5-8 messages per control
 tick at 0.5-2 kHz. On forward_walk's format 2 messages (protobuf, ≈ 300 B each), with the
 chunks' zstd included, mcap's ``Writer`` costs 4.0x this writer per message (9.4 vs 2.3 µs on
-the shared 2-core VM; ≈ 35 µs more per 2 kHz control tick). This writer produces the same kind of file (header, schemas,
-channels, attachments, zstd chunks each followed by its message indexes, metadata, and a
-summary with schemas, channels, statistics and chunk/attachment/metadata indexes, summary
-offsets and footer), using mcap's own record classes for every record except the three that
-repeat: a message is one call of its channel's :class:`ChannelWriter` (one ``struct.pack``
-and two appends to the open chunk), and a chunk and its message indexes are packed when the
-chunk closes. Compression and its checksum (zstd, XXH64, in place of MCAP's optional chunk
-CRC) run in C. mcap's readers read the result; tests check that.
+the shared 2-core VM; ≈ 35 µs more per 2 kHz control tick). This writer produces the same
+kind of file (header, schemas, channels, attachments, zstd chunks each followed by its
+message indexes, metadata, and a summary with schemas, channels, statistics and
+chunk/attachment/metadata indexes, summary offsets and footer), using mcap's own record
+classes for every record except the three that repeat: a message is one call of its
+channel's :class:`ChannelWriter` (one ``struct.pack`` and two appends to the open chunk), or
+one row of a batch of a channel's messages (:meth:`ChannelWriter.append_rows`), and a chunk
+and its message indexes are packed when the chunk closes. Compression and its checksum
+(zstd, XXH64, in place of MCAP's optional chunk CRC) run in C. mcap's readers read the
+result; tests check that.
 
-Encoding a closed chunk's batches of rows (:meth:`ChannelWriter.append_rows`), compressing
-the chunk and writing it run on one background thread (numpy's large copies, zstd and file
-writes release the GIL), so the caller only fills the next chunk meanwhile; a batch's size in
-bytes is known before it is encoded, so every offset is computed when it is queued. Every write to the file
-goes through that thread in order, or waits for it, so the file's bytes are the same as
-written in line; an error there is raised by the next call of the writer. At most one chunk
-waits for it: a killed writer loses at most that chunk and the open one.
+A closed chunk is encoded (its batches of rows made into message records), compressed and
+written on one background thread, so the caller only fills the next chunk meanwhile: numpy's
+large copies, zstd and the file writes release the GIL. A batch's size in bytes is known
+before it is encoded, so its offsets and message index entries are computed when it is
+queued. Every write to the file goes through that thread in order, or waits for it, so the
+file's bytes are those of writing in line; an error there is raised by the writer's next
+call. At most one closed chunk waits for the thread: a killed writer loses at most that
+chunk and the open one.
 
 Schemas and channels are written before the first message of their channel (all but one
 before any chunk), so a log cut short still names its topics.
@@ -81,7 +84,8 @@ _CHUNK_HEAD = struct.Struct("<BQQQQII4sQ")
 #: zstd level of the chunks: one of zstd's fast (negative) levels. The chunks hold float64
 #: payloads, which barely compress at any level. Measured on a forward_walk chunk (0.88 MB of
 #: format 2 records, signals binary): level 1 compresses 1.34x in 2.1 ms, -3 1.27x in 0.9 ms,
-#: -7 1.20x; -3 keeps most of the gain at under half the cost (≈ 1.8 µs per 2 kHz tick).
+#: -7 1.20x; -3 keeps most of the gain at under half the cost (≈ 1.8 µs per 2 kHz tick, on
+#: the background thread).
 ZSTD_LEVEL = -3
 #: Whether each chunk's zstd frame ends with a checksum of its records (XXH64, verified by
 #: every zstd decompressor). It stands in for the chunk's CRC32, which MCAP makes optional

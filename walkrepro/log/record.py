@@ -100,7 +100,8 @@ SPEC_ATTACHMENT = "spec.yaml"
 #: Metadata keys the caller must give; the writer fills ``version``, ``mujoco_version``,
 #: ``pinocchio_version`` and ``start_time`` itself unless given.
 REQUIRED_METADATA = ("git_commit", "seed", "experiment")
-#: Default chunk size in [bytes] (uncompressed); a killed writer loses at most one chunk.
+#: Default chunk size in [bytes] (uncompressed); a killed writer loses at most two chunks (the
+#: open one, and the closed one the background thread may still be writing).
 DEFAULT_CHUNK_SIZE = 1 << 20
 
 # Keys each message must have; checked on write so a bad runner fails at once, not at verify.
@@ -122,7 +123,7 @@ _PROTO_MESSAGES = {
 }
 #: Most messages gathered per fixed-layout channel before the batches are written and the
 #: chunk closed; fewer where four state records per message would exceed the chunk size
-#: (≈ 400 at 1 MB for Paper I's robot). A killed writer loses at most one batch of ticks.
+#: (≈ 400 at 1 MB for Paper I's robot). A killed writer loses at most two batches of ticks.
 BATCH_ROWS = 512
 _FILE_ATTRIBUTE = re.compile(r"<(\w+)\b[^>]*?\sfile\s*=", re.DOTALL)
 
@@ -330,7 +331,8 @@ class LogWriter:
         scene_xml: the compiled scene; must load alone with ``MjModel.from_xml_string``.
         spec_yaml: the resolved experiment spec.
         metadata: string → string run metadata; must hold :data:`REQUIRED_METADATA`.
-        chunk_size: uncompressed chunk size in [bytes]; a killed writer loses at most one chunk.
+        chunk_size: uncompressed chunk size in [bytes]; a killed writer loses at most two
+            chunks (see :data:`DEFAULT_CHUNK_SIZE`).
         log_time_origin: wall-clock UTC of simulated time 0 in [ns since 1970]; default now.
 
     Raises:
