@@ -125,6 +125,8 @@ _PROTO_MESSAGES = {
 #: chunk closed; fewer where four state records per message would exceed the chunk size
 #: (≈ 400 at 1 MB for Paper I's robot). A killed writer loses at most two batches of ticks.
 BATCH_ROWS = 512
+#: Types of signal values :meth:`LogWriter._signal_vector` copies as they are.
+_PLAIN_NUMBERS = frozenset({float, int, bool, np.float64})
 _FILE_ATTRIBUTE = re.compile(r"<(\w+)\b[^>]*?\sfile\s*=", re.DOTALL)
 
 
@@ -407,6 +409,7 @@ class LogWriter:
         self._sensor_reading = False  # rows straight from SensorSnapshot.reading
         self._signal_rows: _RowBatch | None = None
         self._signal_layout: SignalLayout | None = None
+        self._signal_scalars: tuple[str, ...] | None = None  # names, when all are scalars
         self._batches = [self._state_rows, self._input_rows]
         self._frames = foxglove.FrameEncoder(model)
         # /sim/contacts: one batch per set of pairs, the current one gathering.
@@ -615,10 +618,7 @@ class LogWriter:
         """
         if self._signal_rows is None:
             self._start_signals(signals)
-        if type(signals) is Signals and signals.layout is self._signal_layout:
-            values = signals.vector
-        else:
-            values = self._signal_values(signals)
+        values = self._signal_vector(signals)
         if t != self._last_t:
             self._set_time(TOPIC_SIGNALS, t)
         batch = self._signal_rows
@@ -652,6 +652,8 @@ class LogWriter:
         )
         encoder = protolog.RowEncoder(protolog.row_fields(proto_layout, sizes))
         self._signal_layout = layout
+        scalars = all(size == 0 for _, size, _ in layout.fields)
+        self._signal_scalars = tuple(layout.slots) if scalars else None
         self._signal_rows = _RowBatch(
             encoder, self._channels[TOPIC_SIGNALS].writer, self._batch_rows
         )
@@ -663,6 +665,26 @@ class LogWriter:
             return Signals.of(self._signal_layout, signals).vector
         except ValueError as exc:
             raise ValueError(f"{TOPIC_SIGNALS}: {exc}") from None
+
+    def _signal_vector(self, signals: Signals | Mapping[str, Any]) -> Any:
+        """A tick's signal values in the run's layout, to copy into a row (None before the
+        first signals laid it out): the vector of :class:`Signals` of the layout; the values
+        of a dict of plain numbers with the layout's names in its order (a controller's few
+        scalars, e.g. the posture controller's, without building a vector); else
+        :meth:`_signal_values`, which checks each signal.
+
+        Raises:
+            ValueError: as :meth:`_signal_values`.
+        """
+        if type(signals) is Signals and signals.layout is self._signal_layout:
+            return signals.vector
+        if self._signal_layout is None:
+            return None
+        if type(signals) is dict and tuple(signals) == self._signal_scalars:
+            values = tuple(signals.values())
+            if all(type(value) in _PLAIN_NUMBERS for value in values):
+                return values  # a float64 row takes them as Signals.of's vector does
+        return self._signal_values(signals)
 
     def write_state(
         self, step: int, t: float, qpos: np.ndarray, qvel: np.ndarray, act: np.ndarray
@@ -720,11 +742,10 @@ class LogWriter:
         step, t, qpos, qvel, act = sim
         state, sensors, logged = self._state_rows, self._sensor_rows, self._signal_rows
         i = state.n
+        values = self._signal_vector(signals)
         if not (
             self._sensor_reading  # then /sensors is laid out
-            and logged is not None
-            and type(signals) is Signals
-            and signals.layout is self._signal_layout
+            and values is not None
             and snapshot.t == t
             and not xfrc
             and sensors.n == i == logged.n
@@ -752,7 +773,7 @@ class LogWriter:
         row[1:] = snapshot.reading
         row = logged.rows[i]
         row[0] = t
-        row[1:] = signals.vector
+        row[1:] = values
         inputs = self._input_rows
         j = inputs.n
         row = inputs.rows[j]
