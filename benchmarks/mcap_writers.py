@@ -7,7 +7,9 @@ reader). Then the same messages are written to a new file by each writer:
 
 - ``mcapfile``: :class:`walkrepro.log.mcapfile.McapFile` used the way ``LogWriter`` uses it: a
   batched topic's consecutive messages in one ``ChannelWriter.append_rows`` call (a uint8
-  array, one row per message, with any extra bytes of a row), the other topics one
+  array, one row per message, with any extra bytes of a row; copied into the chunk on the
+  file's background thread when the chunk closes, with the compression and the writes),
+  the other topics one
   ``ChannelWriter.append`` per message, the chunk closed where the log's chunk closes
   (zstd level -3 with its frame checksum, no chunk CRC);
 - ``mcapfile zstd 1``: the same at zstd level 1 (the SDK accepts no negative level);
@@ -239,7 +241,10 @@ def write_mcapfile(recording: Recording, plan: list[list[Rows | One]], path: Pat
         for calls in plan:
             for call in calls:
                 if type(call) is Rows:
-                    channels[call.channel].append_rows(call.stamps, call.payloads, call.extras)
+                    payloads = call.payloads
+                    channels[call.channel].append_rows(
+                        call.stamps, payloads.shape[1], lambda p=payloads: p, call.extras
+                    )
                 else:
                     channels[call.channel].append(call.stamp, call.data)
             writer.flush_chunk()

@@ -630,6 +630,32 @@ def test_write_signals_writes_the_bytes_of_write(tmp_path: Path, encoder: str) -
     assert raw[0] == raw[1] == raw[2] and len(raw[0]) == len(cases) + 1  # and the scene
 
 
+def test_a_dict_of_scalar_signals_writes_the_bytes_of_write(tmp_path: Path, encoder: str) -> None:
+    """A dict of plain numbers in the layout's order (copied without building a vector)
+    gives byte for byte what write() gives; a dict in another order, with a scalar left
+    out, or with an array where a number belongs goes through the checked path."""
+    cases: list[tuple[float, dict[str, Any]]] = [
+        (0.0005, {"err": 0.25, "phase": 2, "ok": True}),
+        (0.001, {"err": -0.0, "phase": 3, "ok": False}),
+        (0.0015, {"phase": 1, "err": np.float64(1e300), "ok": 1}),  # another order
+        (0.002, {"phase": 0, "ok": 0}),  # err not defined at this tick
+        (0.0025, {"err": 5e-324, "phase": -4, "ok": 1}),
+    ]
+    paths = tmp_path / "write.mcap", tmp_path / "signals.mcap"
+    origin = 1_700_000_000_000_000_000
+    with (
+        new_writer(paths[0], log_time_origin=origin) as slow,
+        new_writer(paths[1], log_time_origin=origin) as fast,
+    ):
+        for t, signals in cases:
+            slow.write(TOPIC_SIGNALS, {"t": t, **signals}, t)
+            fast.write_signals(t, signals)
+        with pytest.raises(ValueError, match="'err' is an array"):
+            fast.write_signals(0.003, {"err": np.zeros(2), "phase": 1, "ok": 1})
+    raw = [_raw_messages(path) for path in paths]
+    assert raw[0] == raw[1] and len(raw[0]) == len(cases) + 1  # and the scene
+
+
 def test_contact_pairs_keep_their_order_as_the_pair_set_changes(tmp_path: Path) -> None:
     """Contacts are gathered per set of pairs; as the set changes every few ticks (and comes
     back), the messages read back in order, with their names, values and sequence numbers."""

@@ -4,18 +4,28 @@ mcap's Python ``Writer`` spends about fifty interpreted calls on each message (r
 builder, statistics, per-message index entries), and a run writes 5-8 messages per control
 tick at 0.5-2 kHz. On forward_walk's format 2 messages (protobuf, ≈ 300 B each), with the
 chunks' zstd included, mcap's ``Writer`` costs 4.0x this writer per message (9.4 vs 2.3 µs on
-the shared 2-core VM; ≈ 35 µs more per 2 kHz control tick). This writer produces the same kind of file (header, schemas,
-channels, attachments, zstd chunks each followed by its message indexes, metadata, and a
-summary with schemas, channels, statistics and chunk/attachment/metadata indexes, summary
-offsets and footer), using mcap's own record classes for every record except the three that
-repeat: a message is one call of its channel's :class:`ChannelWriter` (one ``struct.pack``
-and two appends to the open chunk), and a chunk and its message indexes are packed when the
-chunk closes. Compression and its checksum (zstd, XXH64, in place of MCAP's optional chunk
-CRC) run in C. mcap's readers read the result; tests check that.
+the shared 2-core VM; ≈ 35 µs more per 2 kHz control tick). This writer produces the same
+kind of file (header, schemas, channels, attachments, zstd chunks each followed by its
+message indexes, metadata, and a summary with schemas, channels, statistics and
+chunk/attachment/metadata indexes, summary offsets and footer), using mcap's own record
+classes for every record except the three that repeat: a message is one call of its
+channel's :class:`ChannelWriter` (one ``struct.pack`` and two appends to the open chunk), or
+one row of a batch of a channel's messages (:meth:`ChannelWriter.append_rows`), and a chunk
+and its message indexes are packed when the chunk closes. Compression and its checksum
+(zstd, XXH64, in place of MCAP's optional chunk CRC) run in C. mcap's readers read the
+result; tests check that.
+
+A closed chunk is encoded (its batches of rows made into message records), compressed and
+written on one background thread, so the caller only fills the next chunk meanwhile: numpy's
+large copies, zstd and the file writes release the GIL. A batch's size in bytes is known
+before it is encoded, so its offsets and message index entries are computed when it is
+queued. Every write to the file goes through that thread in order, or waits for it, so the
+file's bytes are those of writing in line; an error there is raised by the writer's next
+call. At most one closed chunk waits for the thread: a killed writer loses at most that
+chunk and the open one.
 
 Schemas and channels are written before the first message of their channel (all but one
-before any chunk), so a log cut short still names its topics; a killed writer loses at most
-the open chunk.
+before any chunk), so a log cut short still names its topics.
 
 :func:`read_mcap` reads such a file back the same way: the few records that are not messages
 with mcap's record classes, the messages of each chunk with one ``struct`` call each.
@@ -27,8 +37,10 @@ import io
 import struct
 import zlib
 from collections import defaultdict
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
-from typing import BinaryIO
+from typing import Any, BinaryIO, NamedTuple
 
 import numpy as np
 import zstandard
@@ -61,6 +73,8 @@ _MESSAGE_HEADS = np.dtype(
      ("log_time", "<u8"), ("publish_time", "<u8")]
 )  # fmt: skip
 _RECORD_HEAD = struct.Struct("<BQ")  # opcode, length of what follows
+# Message index record up to its entries: opcode, length, channel id, length of the entries.
+_INDEX_HEAD = struct.Struct("<BQHI")
 _CHANNEL_ID = struct.Struct("<H")
 _LOG_TIME = struct.Struct("<Q")
 _LOG_TIME_AT = 6  # a message record's body: channel id (2 bytes), sequence (4), log time (8)
@@ -70,7 +84,8 @@ _CHUNK_HEAD = struct.Struct("<BQQQQII4sQ")
 #: zstd level of the chunks: one of zstd's fast (negative) levels. The chunks hold float64
 #: payloads, which barely compress at any level. Measured on a forward_walk chunk (0.88 MB of
 #: format 2 records, signals binary): level 1 compresses 1.34x in 2.1 ms, -3 1.27x in 0.9 ms,
-#: -7 1.20x; -3 keeps most of the gain at under half the cost (≈ 1.8 µs per 2 kHz tick).
+#: -7 1.20x; -3 keeps most of the gain at under half the cost (≈ 1.8 µs per 2 kHz tick, on
+#: the background thread).
 ZSTD_LEVEL = -3
 #: Whether each chunk's zstd frame ends with a checksum of its records (XXH64, verified by
 #: every zstd decompressor). It stands in for the chunk's CRC32, which MCAP makes optional
@@ -106,16 +121,20 @@ class McapFile:
             metadata_count=0,
             schema_count=0,
         )
-        # The open chunk: its records and each channel's flat [time, offset, time, offset, ...]
-        # message index (the chunk's time span is read off the indexes when it closes). Both
-        # live as long as the file (emptied in place), so channel writers can hold them.
-        self._chunk = bytearray()
-        self._index: dict[int, list[int]] = {}
+        # The open chunk: its parts in order (records as bytes, and batches of rows still to
+        # encode), its length [bytes], and each channel's message index entries in order
+        # ((time, offset) pairs, and an (n, 2) array per batch).
+        self._parts: list[bytearray | _Rows] = []
+        self._chunk_length = 0
+        self._index: dict[int, list[Any]] = {}
         self._compressor = zstandard.ZstdCompressor(
             compression_params=zstandard.ZstdCompressionParameters.from_level(
                 ZSTD_LEVEL, write_checksum=ZSTD_CHECKSUM
             )
         )
+        # The thread that compresses and writes closed chunks, and its last job (None: idle).
+        self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mcap-chunks")
+        self._pending: Future[None] | None = None
         self._out.write(MAGIC)
         self._write(Header(profile="", library=library))
 
@@ -150,6 +169,7 @@ class McapFile:
         self, create_time: int, log_time: int, name: str, media_type: str, data: bytes
     ) -> None:
         """Writes an attachment record (outside chunks) and indexes it; times in [ns]."""
+        self.wait()
         offset = self._out.tell()
         length = self._write(
             Attachment(
@@ -176,24 +196,59 @@ class McapFile:
     def add_metadata(self, name: str, metadata: dict[str, str]) -> None:
         """Writes a metadata record (after closing the open chunk) and indexes it."""
         self.flush_chunk()
+        self.wait()
         offset = self._out.tell()
         length = self._write(Metadata(name=name, metadata=metadata))
         self._metadata_indexes.append(MetadataIndex(offset=offset, length=length, name=name))
         self._stats.metadata_count += 1
 
     def flush_chunk(self) -> None:
-        """Compresses and writes the open chunk and its message indexes, if it has messages."""
-        raw = self._chunk
-        if not raw:
+        """Closes the open chunk, if it has messages: it is encoded, compressed and written
+        with its message indexes on the background thread (after the chunk before it)."""
+        if not self._parts:
             return
-        indexes = {channel_id: flat for channel_id, flat in self._index.items() if flat}
-        stamps = [flat[0::2] for flat in indexes.values()]
-        start = min(map(min, stamps))
-        end = max(map(max, stamps))
-        compressed = self._compressor.compress(raw)  # reads the bytearray in place: no copy
-        chunk_offset = self._out.tell()
+        self.wait()  # one chunk at a time: the file's order, and bounded memory
+        parts, self._parts = self._parts, []
+        index, self._index = self._index, {channel_id: [] for channel_id in self._index}
+        length, self._chunk_length = self._chunk_length, 0
+        self._pending = self._worker.submit(self._write_chunk, parts, index, length)
+
+    def wait(self) -> None:
+        """Waits until the background thread has written every closed chunk; raises what
+        it raised."""
+        pending = self._pending
+        if pending is None:
+            return
+        try:
+            pending.result()
+        finally:
+            # Raised by the thread: once. Interrupted here (Ctrl-C): the job still runs, and
+            # the next call waits for it again.
+            if pending.done():
+                self._pending = None
+
+    def _write_chunk(
+        self, parts: list[bytearray | _Rows], index: dict[int, list[Any]], length: int
+    ) -> None:
+        """Encodes, compresses and writes one chunk and its message indexes, indexes the
+        chunk and counts its messages (on the background thread)."""
+        raw = bytearray()
+        for part in parts:
+            raw += part if type(part) is bytearray else part.records()
+        if len(raw) != length:  # the offsets in the indexes were computed for ``length``
+            raise AssertionError(f"a chunk of {len(raw)} bytes, {length} expected")
+        entries = {
+            channel_id: np.concatenate([np.asarray(e, "<u8").reshape(-1, 2) for e in pieces])
+            for channel_id, pieces in index.items()
+            if pieces
+        }
+        start = min(int(pairs[:, 0].min()) for pairs in entries.values())
+        end = max(int(pairs[:, 0].max()) for pairs in entries.values())
+        compressed = self._compressor.compress(raw)
+        out = self._out
+        chunk_offset = out.tell()
         # The record as mcap's Chunk.write() lays it out, without copying the data twice.
-        self._out.write(
+        out.write(
             _CHUNK_HEAD.pack(
                 Opcode.CHUNK,
                 _CHUNK_HEAD.size - _RECORD_HEAD.size + len(compressed),
@@ -206,17 +261,14 @@ class McapFile:
                 len(compressed),
             )
         )
-        self._out.write(compressed)
-        chunk_length = self._out.tell() - chunk_offset
+        out.write(compressed)
+        chunk_length = out.tell() - chunk_offset
         index_offsets: dict[int, int] = {}
-        stats = self._stats
-        for channel_id, flat in indexes.items():
-            index_offsets[channel_id] = self._out.tell()
-            n = len(flat) // 2
-            head = (Opcode.MESSAGE_INDEX, 6 + 16 * n, channel_id, 16 * n)
-            self._out.write(struct.pack(f"<BQHI{2 * n}Q", *head, *flat))
-            stats.channel_message_counts[channel_id] += n
-            stats.message_count += n
+        for channel_id, pairs in entries.items():
+            index_offsets[channel_id] = out.tell()
+            n = len(pairs)
+            out.write(_INDEX_HEAD.pack(Opcode.MESSAGE_INDEX, 6 + 16 * n, channel_id, 16 * n))
+            out.write(pairs.tobytes())
         self._chunk_indexes.append(
             ChunkIndex(
                 message_start_time=start,
@@ -224,24 +276,34 @@ class McapFile:
                 chunk_start_offset=chunk_offset,
                 chunk_length=chunk_length,
                 message_index_offsets=index_offsets,
-                message_index_length=self._out.tell() - chunk_offset - chunk_length,
+                message_index_length=out.tell() - chunk_offset - chunk_length,
                 compression="zstd",
                 compressed_size=len(compressed),
                 uncompressed_size=len(raw),
             )
         )
+        self._count(entries, start, end)
+
+    def _count(self, entries: dict[int, np.ndarray], start: int, end: int) -> None:
+        """Adds a chunk's messages and time span [ns] to the statistics."""
+        stats = self._stats
+        for channel_id, pairs in entries.items():
+            stats.channel_message_counts[channel_id] += len(pairs)
+            stats.message_count += len(pairs)
         if stats.chunk_count == 0:
             stats.message_start_time = start
         stats.message_start_time = min(stats.message_start_time, start)
         stats.message_end_time = max(stats.message_end_time, end)
         stats.chunk_count += 1
-        raw.clear()
-        for flat in indexes.values():
-            flat.clear()
 
     def finish(self) -> None:
-        """Closes the open chunk and writes the summary, footer and closing magic."""
-        self.flush_chunk()
+        """Closes the open chunk and writes the summary, footer and closing magic; stops the
+        background thread."""
+        try:
+            self.flush_chunk()
+            self.wait()
+        finally:
+            self.shutdown()
         self._write(DataEnd(data_section_crc=0))
         summary_start = self._out.tell()
         summary = RecordBuilder()
@@ -271,8 +333,18 @@ class McapFile:
         self._write(Footer(summary_start, summary_offset_start, crc))
         self._out.write(MAGIC)
 
+    def shutdown(self) -> None:
+        """Lets the background thread finish its chunk, then stops it (idempotent). A file
+        left unfinished (an error while writing) keeps the chunks written so far."""
+        try:
+            self.wait()
+        finally:
+            self._worker.shutdown(wait=True)
+
     def _write(self, record: object) -> int:
-        """Writes one record with mcap's own encoder; returns its length in bytes."""
+        """Writes one record with mcap's own encoder (after the background thread's chunks);
+        returns its length in bytes."""
+        self.wait()
         builder = RecordBuilder()
         record.write(builder)  # type: ignore[attr-defined]
         data = builder.end()
@@ -287,66 +359,99 @@ class ChannelWriter:
     (a header packed with one ``struct`` call, then the data), and closing the chunk when full.
     """
 
-    __slots__ = ("_chunk", "_chunk_size", "_file", "_index", "id", "sequence")
+    __slots__ = ("_chunk_size", "_file", "id", "sequence")
 
     def __init__(self, file: McapFile, channel_id: int) -> None:
         self.id = channel_id
         self.sequence = 0  #: the next message's sequence number
         self._file = file
-        # The file's open chunk and this channel's index in it, bound once per channel.
-        self._chunk = file._chunk
-        self._index = file._index[channel_id]
         self._chunk_size = file._chunk_size
 
     def append(self, stamp: int, data: bytes) -> None:
         """Appends one message (log time = publish time = ``stamp`` [ns])."""
-        chunk = self._chunk
-        self._index += (stamp, len(chunk))
+        file = self._file
+        parts = file._parts
+        if not parts or type(parts[-1]) is not bytearray:
+            parts.append(bytearray())
+        offset = file._chunk_length
+        file._index[self.id].append((stamp, offset))
         sequence = self.sequence
         self.sequence = sequence + 1
-        chunk += _MESSAGE.pack(
+        part = parts[-1]
+        part += _MESSAGE.pack(
             _MESSAGE_OPCODE, _MESSAGE_FIXED + len(data), self.id, sequence, stamp, stamp
         )
-        chunk += data
-        if len(chunk) >= self._chunk_size:
-            self._file.flush_chunk()
+        part += data
+        file._chunk_length = offset + _MESSAGE.size + len(data)
+        if file._chunk_length >= self._chunk_size:
+            file.flush_chunk()
 
     def append_rows(
-        self, stamps: np.ndarray, payloads: np.ndarray, extras: list[bytes] | None = None
+        self,
+        stamps: np.ndarray,
+        size: int,
+        payloads: Callable[[], np.ndarray],
+        extras: list[bytes] | None = None,
     ) -> None:
-        """Appends a batch of messages: ``payloads`` (uint8, shape (n, size)) row by row, each
-        followed by its ``extras`` bytes if given, stamped ``stamps`` (int64, (n,)) [ns].
+        """Appends a batch of ``n = len(stamps)`` messages stamped ``stamps`` (int64, (n,))
+        [ns]: ``payloads()`` (uint8, shape (n, size)) row by row, each followed by its
+        ``extras`` bytes if given.
 
-        The same records as ``n`` calls of :meth:`append`, built with numpy. The chunk is not
-        closed here: the caller closes it after the batches that belong together.
+        The same records as ``n`` calls of :meth:`append`. ``payloads`` is called, and
+        ``stamps`` read, on the background thread when the chunk closes: until then neither
+        may change. The chunk is not closed here: the caller closes it after the batches
+        that belong together.
         """
-        n, size = payloads.shape
+        n = len(stamps)
         if n == 0:
             return
-        heads = np.empty(n, _MESSAGE_HEADS)
-        heads["opcode"] = _MESSAGE_OPCODE
-        heads["channel"] = self.id
-        heads["sequence"] = np.arange(self.sequence, self.sequence + n)
-        heads["log_time"] = stamps
-        heads["publish_time"] = stamps
-        self.sequence += n
-        chunk = self._chunk
-        head_bytes = heads.view(np.uint8).reshape(n, _MESSAGE_HEADS.itemsize)
+        file = self._file
         if extras is None or not any(extras):
-            heads["length"] = _MESSAGE_FIXED + size
-            record = _MESSAGE_HEADS.itemsize + size
-            offsets = len(chunk) + record * np.arange(n)
-            chunk += np.concatenate((head_bytes, payloads), axis=1).tobytes()
+            extras = None
+            records = np.full(n, _MESSAGE.size + size, dtype=np.int64)
         else:
-            lengths = size + np.fromiter(map(len, extras), dtype=np.int64, count=n)
-            heads["length"] = _MESSAGE_FIXED + lengths
-            records = _MESSAGE_HEADS.itemsize + lengths
-            offsets = len(chunk) + np.concatenate(([0], np.cumsum(records[:-1])))
-            rows = np.concatenate((head_bytes, payloads), axis=1)
-            chunk += b"".join(
-                part for row, extra in zip(rows, extras, strict=True) for part in (row, extra)
-            )
-        self._index += np.column_stack((stamps, offsets)).ravel().tolist()
+            records = _MESSAGE.size + size + np.fromiter(map(len, extras), np.int64, count=n)
+        ends = file._chunk_length + np.cumsum(records)
+        pairs = np.empty((n, 2), "<u8")
+        pairs[:, 0] = stamps
+        pairs[:, 1] = ends - records
+        file._index[self.id].append(pairs)
+        file._parts.append(_Rows(self.id, self.sequence, stamps, size, payloads, extras))
+        file._chunk_length = int(ends[-1])
+        self.sequence += n
+
+
+class _Rows(NamedTuple):
+    """A batch of one channel's messages queued in the open chunk, encoded when the chunk
+    closes (see :meth:`ChannelWriter.append_rows`)."""
+
+    channel_id: int
+    sequence: int  #: the first message's sequence number
+    stamps: np.ndarray
+    size: int
+    payloads: Callable[[], np.ndarray]
+    extras: list[bytes] | None
+
+    def records(self) -> bytes:
+        """The batch's message records, as ``n`` calls of :meth:`ChannelWriter.append`
+        write them: a header and a payload each (then its extra bytes)."""
+        n, size, extras = len(self.stamps), self.size, self.extras
+        head = _MESSAGE_HEADS.itemsize
+        rows = np.empty((n, head + size), np.uint8)
+        heads = np.ndarray(n, _MESSAGE_HEADS, rows, strides=(head + size,))  # views `rows`
+        heads["opcode"] = _MESSAGE_OPCODE
+        heads["channel"] = self.channel_id
+        heads["sequence"] = np.arange(self.sequence, self.sequence + n)
+        heads["log_time"] = self.stamps
+        heads["publish_time"] = self.stamps
+        rows[:, head:] = self.payloads()
+        if extras is None:
+            heads["length"] = _MESSAGE_FIXED + size
+            return rows.tobytes()
+        heads["length"] = _MESSAGE_FIXED + size + np.fromiter(map(len, extras), np.int64, count=n)
+        return b"".join(
+            part for row, extra in zip(rows, extras, strict=True) for part in (row, extra)
+        )
 
 
 @dataclass

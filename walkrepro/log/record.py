@@ -39,6 +39,7 @@ own message encoding.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import re
@@ -99,7 +100,8 @@ SPEC_ATTACHMENT = "spec.yaml"
 #: Metadata keys the caller must give; the writer fills ``version``, ``mujoco_version``,
 #: ``pinocchio_version`` and ``start_time`` itself unless given.
 REQUIRED_METADATA = ("git_commit", "seed", "experiment")
-#: Default chunk size in [bytes] (uncompressed); a killed writer loses at most one chunk.
+#: Default chunk size in [bytes] (uncompressed); a killed writer loses at most two chunks (the
+#: open one, and the closed one the background thread may still be writing).
 DEFAULT_CHUNK_SIZE = 1 << 20
 
 # Keys each message must have; checked on write so a bad runner fails at once, not at verify.
@@ -121,8 +123,10 @@ _PROTO_MESSAGES = {
 }
 #: Most messages gathered per fixed-layout channel before the batches are written and the
 #: chunk closed; fewer where four state records per message would exceed the chunk size
-#: (≈ 400 at 1 MB for Paper I's robot). A killed writer loses at most one batch of ticks.
+#: (≈ 400 at 1 MB for Paper I's robot). A killed writer loses at most two batches of ticks.
 BATCH_ROWS = 512
+#: Types of signal values :meth:`LogWriter._signal_vector` copies as they are.
+_PLAIN_NUMBERS = frozenset({float, int, bool, np.float64})
 _FILE_ATTRIBUTE = re.compile(r"<(\w+)\b[^>]*?\sfile\s*=", re.DOTALL)
 
 
@@ -305,11 +309,15 @@ class _RowBatch:
         self.n = 0
 
     def flush(self) -> None:
-        """Writes the rows gathered so far to the open chunk."""
+        """Queues the rows gathered so far in the open chunk; they are encoded when it
+        closes, on the file's background thread, so the batch gathers in new arrays."""
         n = self.n
         if n:
             extras = None if self.extras is None else self.extras[:n]
-            self.writer.append_rows(self.stamps[:n], self.encoder.encode(self.rows[:n]), extras)
+            rows, stamps = self.rows, self.stamps
+            encode = functools.partial(self.encoder.encode, rows[:n])
+            self.writer.append_rows(stamps[:n], self.encoder.size, encode, extras)
+            self.rows, self.stamps = np.empty_like(rows), np.empty_like(stamps)
             self.n, self.extras = 0, None
 
 
@@ -325,7 +333,8 @@ class LogWriter:
         scene_xml: the compiled scene; must load alone with ``MjModel.from_xml_string``.
         spec_yaml: the resolved experiment spec.
         metadata: string → string run metadata; must hold :data:`REQUIRED_METADATA`.
-        chunk_size: uncompressed chunk size in [bytes]; a killed writer loses at most one chunk.
+        chunk_size: uncompressed chunk size in [bytes]; a killed writer loses at most two
+            chunks (see :data:`DEFAULT_CHUNK_SIZE`).
         log_time_origin: wall-clock UTC of simulated time 0 in [ns since 1970]; default now.
 
     Raises:
@@ -400,6 +409,7 @@ class LogWriter:
         self._sensor_reading = False  # rows straight from SensorSnapshot.reading
         self._signal_rows: _RowBatch | None = None
         self._signal_layout: SignalLayout | None = None
+        self._signal_scalars: tuple[str, ...] | None = None  # names, when all are scalars
         self._batches = [self._state_rows, self._input_rows]
         self._frames = foxglove.FrameEncoder(model)
         # /sim/contacts: one batch per set of pairs, the current one gathering.
@@ -608,10 +618,7 @@ class LogWriter:
         """
         if self._signal_rows is None:
             self._start_signals(signals)
-        if type(signals) is Signals and signals.layout is self._signal_layout:
-            values = signals.vector
-        else:
-            values = self._signal_values(signals)
+        values = self._signal_vector(signals)
         if t != self._last_t:
             self._set_time(TOPIC_SIGNALS, t)
         batch = self._signal_rows
@@ -645,6 +652,8 @@ class LogWriter:
         )
         encoder = protolog.RowEncoder(protolog.row_fields(proto_layout, sizes))
         self._signal_layout = layout
+        scalars = all(size == 0 for _, size, _ in layout.fields)
+        self._signal_scalars = tuple(layout.slots) if scalars else None
         self._signal_rows = _RowBatch(
             encoder, self._channels[TOPIC_SIGNALS].writer, self._batch_rows
         )
@@ -656,6 +665,29 @@ class LogWriter:
             return Signals.of(self._signal_layout, signals).vector
         except ValueError as exc:
             raise ValueError(f"{TOPIC_SIGNALS}: {exc}") from None
+
+    def _signal_vector(self, signals: Signals | Mapping[str, Any]) -> Any:
+        """A tick's signal values in the run's layout, to copy into a row (None before the
+        first signals laid it out): the vector of :class:`Signals` of the layout; the values
+        of a dict of plain numbers with the layout's names in its order (a controller's few
+        scalars, e.g. the posture controller's, without building a vector); else
+        :meth:`_signal_values`, which checks each signal.
+
+        Raises:
+            ValueError: as :meth:`_signal_values`.
+        """
+        if type(signals) is Signals and signals.layout is self._signal_layout:
+            return signals.vector
+        if self._signal_layout is None:
+            return None
+        if type(signals) is dict and tuple(signals) == self._signal_scalars:
+            values = tuple(signals.values())
+            for value in values:
+                if type(value) not in _PLAIN_NUMBERS:
+                    break
+            else:
+                return values  # a float64 row takes them as Signals.of's vector does
+        return self._signal_values(signals)
 
     def write_state(
         self, step: int, t: float, qpos: np.ndarray, qvel: np.ndarray, act: np.ndarray
@@ -712,17 +744,16 @@ class LogWriter:
         """
         step, t, qpos, qvel, act = sim
         state, sensors, logged = self._state_rows, self._sensor_rows, self._signal_rows
-        if (
-            sensors is None
-            or logged is None
-            or not self._sensor_reading
-            or snapshot.reading is None
-            or snapshot.t != t
-            or type(signals) is not Signals
-            or signals.layout is not self._signal_layout
-            or not state.n == sensors.n == logged.n
-            or (len(qpos), len(qvel), len(act)) != self._state_dims
-            or xfrc
+        i = state.n
+        values = self._signal_vector(signals)
+        if not (
+            self._sensor_reading  # then /sensors is laid out
+            and values is not None
+            and snapshot.t == t
+            and not xfrc
+            and sensors.n == i == logged.n
+            and (len(qpos), len(qvel), len(act)) == self._state_dims
+            and snapshot.reading is not None
         ):
             self.write_state(step, t, qpos, qvel, act)
             self.write_sensors(snapshot)
@@ -731,14 +762,25 @@ class LogWriter:
             return
         if t != self._last_t:
             self._set_time(TOPIC_STATE, t)
-        i = state.n
-        self._fill_state_row(state.rows[i], step, t, qpos, qvel, act)
+        # The rows filled in line: this runs at up to 2 kHz.
+        a, b = self._state_split
+        row = state.rows[i]
+        row[0] = step
+        row[1] = t
+        row[2:a] = qpos
+        row[a:b] = qvel
+        if len(act):
+            row[b:] = act
         row = sensors.rows[i]
         row[0] = t
         row[1:] = snapshot.reading
         row = logged.rows[i]
         row[0] = t
-        row[1:] = signals.vector
+        if type(values) is tuple:  # a few plain numbers: one by one is faster than a slice
+            for k, value in enumerate(values, 1):
+                row[k] = value
+        else:
+            row[1:] = values
         inputs = self._input_rows
         j = inputs.n
         row = inputs.rows[j]
@@ -869,7 +911,10 @@ class LogWriter:
             self._writer.add_metadata(METADATA_NAME, record)
             self._writer.finish()
         finally:
-            self._file.close()
+            try:
+                self._writer.shutdown()  # the background thread's last chunk, if still writing
+            finally:
+                self._file.close()
 
     def __enter__(self) -> LogWriter:  # noqa: PYI034 - Self needs Python 3.11
         return self
