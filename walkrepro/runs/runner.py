@@ -308,6 +308,7 @@ class _Simulation:
             elif wrenches:
                 wrenches = {}
                 data.xfrc_applied[:] = 0.0
+            lap("bookkeeping")  # the disturbances (RunTiming's definition of the stage)
             if tick:
                 # The state this tick saw (unchanged since mj_step1), the snapshot, the
                 # signals, and the inputs of this step.
