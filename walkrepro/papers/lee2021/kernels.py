@@ -57,6 +57,11 @@ from walkrepro.sim.robot import frame_classical_acceleration
 #: Compiled, cached on disk; float division by zero gives inf/NaN as in numpy.
 _jit = numba.njit(cache=True, error_model="numpy")
 
+#: The same, inlined into its caller in numba's IR (the same operations, so the same
+#: results): for the functions that take the tick's large records, which a compiled call
+#: would otherwise pass by value, each array's reference count raised and dropped per call.
+_inline = numba.njit(cache=True, error_model="numpy", inline="always")
+
 #: Axes of a point or vector; its x and y; a wrench's force and moment.
 X, Y, Z = 0, 1, 2
 XY = slice(X, Z)
@@ -455,7 +460,7 @@ class FootPlacements(NamedTuple):
     ft_pos: np.ndarray
 
 
-@_jit
+@_inline
 def place_feet(feet: tuple[FootJoint, FootJoint], frames: FootFrames) -> FootPlacements:
     """The soles and the F/T frames (left, right), as ``updateFramePlacements``."""
     out = FootPlacements(
@@ -488,7 +493,7 @@ class EfsmTick(NamedTuple):
     xp_des: float
 
 
-@_jit
+@_inline
 def efsm_tick(
     params: TickParams,
     targets: WalkTargets,
@@ -534,7 +539,7 @@ def efsm_tick(
     return EfsmTick(fsm, ow, x_cp, xp_des)
 
 
-@_jit
+@_inline
 def ds_onset(params: TickParams, st: np.ndarray, xp_des: float) -> float:
     """ε's ramp at DS onset (``EfsmParams.ds_onset_ramp``): the landing foot's wrench grows
     from 0 over the first d^thr of the x_p^des ramp; 1 out of DS (``st`` updated)."""
@@ -550,7 +555,7 @@ def ds_onset(params: TickParams, st: np.ndarray, xp_des: float) -> float:
     return 1.0
 
 
-@_jit
+@_inline
 def contact_bias(
     feet: tuple[FootJoint, FootJoint], frames: FootFrames, sup: int, double: bool
 ) -> np.ndarray:
@@ -565,7 +570,7 @@ def contact_bias(
     return bias.ravel() if double else bias[LEFT].copy()
 
 
-@_jit
+@_inline
 def write_signals(
     out: np.ndarray,
     st: np.ndarray,

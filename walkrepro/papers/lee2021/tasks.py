@@ -24,6 +24,11 @@ import numpy as np
 #: Compiled, cached on disk, as the rest of the tick.
 _jit = numba.njit(cache=True, error_model="numpy")
 
+#: The same, inlined into its caller in numba's IR (the same operations, so the same
+#: results): for the functions that take the tick's large records, which a compiled call
+#: would otherwise pass by value, each array's reference count raised and dropped per call.
+_inline = numba.njit(cache=True, error_model="numpy", inline="always")
+
 #: The axes of a quantity's spatial vector (linear, then angular), world or O_w axes.
 X, Y, Z, ROLL, PITCH, YAW = range(6)
 #: The linear and the angular part of a spatial vector (force, moment; velocity, ω).
@@ -256,7 +261,7 @@ def task_set(tasks: Sequence[TaskSpec], kp: float, kv: float) -> TaskSet:
     return TaskSet(rows, single, task_layout(rows, True))
 
 
-@_jit
+@_inline
 def stack_tasks(
     rows: TaskRows,
     layout: TaskLayout,

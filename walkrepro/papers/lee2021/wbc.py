@@ -80,6 +80,11 @@ CLIP, DECOUPLED_CLIP, UNIFORM = Saturation
 #: singular matrices rely on it) rather than raising.
 _jit = numba.njit(cache=True, error_model="numpy")
 
+#: The same, inlined into its caller in numba's IR (the same operations, so the same
+#: results): for the functions that take the tick's large records, which a compiled call
+#: would otherwise pass by value, each array's reference count raised and dropped per call.
+_inline = numba.njit(cache=True, error_model="numpy", inline="always")
+
 
 # ---- pseudo-inverses ---------------------------------------------------------------------
 
@@ -208,7 +213,7 @@ def contact_dynamics(
 # ---- Appendix A and Eq. (11): the task hierarchy -----------------------------------------
 
 
-@_jit
+@_inline
 def task_phi(cd: ContactDynamics, jacobian: np.ndarray) -> np.ndarray:
     """Φ = J P Sᵀ, the task acceleration per joint torque, shape (m, k) (Appendix A)."""
     return jacobian @ np.ascontiguousarray(cd.P[:, JOINTS])
@@ -670,7 +675,7 @@ def orientation_error(rot_des: np.ndarray, rot: np.ndarray) -> np.ndarray:
     return e
 
 
-@_jit
+@_inline
 def task_quantities(
     dynamics: WbcDynamics, frames: WbcFrames, targets: WbcTargets, j_swing: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -697,7 +702,7 @@ def task_quantities(
     return jac, err, vel
 
 
-@_jit
+@_inline
 def task_forces(
     hierarchy: Hierarchy,
     layout: TaskLayout,
@@ -723,7 +728,7 @@ def task_forces(
     return forces
 
 
-@_jit
+@_inline
 def expected_wrench(
     k_tasks: np.ndarray,
     forces: np.ndarray,
@@ -764,7 +769,7 @@ def expected_wrench(
     return fc, f1, balancing
 
 
-@_jit
+@_inline
 def whole_body_torques(
     dynamics: WbcDynamics,
     frames: WbcFrames,
